@@ -1,0 +1,66 @@
+"""The ``motionrep`` command line: one click group; commands live in ``motionrep/_cli_*.py``.
+
+Library errors (:class:`~motionrep.errors.MotionrepError`) are turned into one-line messages and exit code 1
+here, in one place; ``--debug`` shows the traceback instead.  Bad flags exit with code 2 (click's usage errors).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from . import __version__
+from .errors import MotionrepError
+
+__all__ = ["cli", "main"]
+
+
+class _Group(click.Group):
+    """Turns motionrep's errors into clean one-line messages (exit 1) unless ``--debug`` is given."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except MotionrepError as exc:
+            if ctx.obj and ctx.obj.get("debug"):
+                raise
+            raise click.ClickException(str(exc)) from None
+        except OSError as exc:  # disk full, permission denied... on a path the library did not name
+            if ctx.obj and ctx.obj.get("debug"):
+                raise
+            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+            raise click.ClickException(f"{where}{exc.strerror or exc}") from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="motionrep")
+@click.option("--debug", is_flag=True, help="Show full tracebacks instead of one-line errors.")
+@click.pass_context
+def cli(ctx: click.Context, debug: bool) -> None:
+    """motionrep: convert, compress and evaluate skeletal motion capture.
+
+    \b
+    Examples:
+      motionrep info walk.bvh
+      motionrep convert walk.bvh walk.npz
+      motionrep convert clips/ database.h5
+      motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier --max-error 2%
+      motionrep decompress walk.mrc -o walk2.bvh
+      motionrep evaluate walk.bvh walk2.bvh
+      motionrep plugins
+    """
+    ctx.ensure_object(dict)
+    ctx.obj["debug"] = debug
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    cli.main(args=argv, prog_name="motionrep")
+
+
+# Commands register themselves on `cli` when imported.
+from . import _cli_io  # noqa: E402,F401
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

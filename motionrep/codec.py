@@ -1,0 +1,211 @@
+"""The motion-codec interface.
+
+A codec compresses a ``(F, D)`` feature matrix (from a :class:`~motionrep.representation.Representation`) into a
+:class:`Payload` of arrays, and decodes a payload back to features at any normalised times ``t`` in [0, 1]
+(frame ``i`` of ``F`` is at ``t = i / (F - 1)``; a one-frame clip is at ``t = 0``).
+
+Codecs never measure their own error or compression ratio: the :class:`EncodeContext` they are given asks the
+shared evaluator (FK-based L-infinity over all joints and end sites, ``motionrep.evaluate``) for the error of
+candidate features or payloads, and the core measures the final payload again, decoded from the bytes written.
+
+Plugins subclass :class:`Codec` and register an instance through the ``register_codecs`` hook.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Mapping, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import ParameterError
+
+__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "parse_params", "params_help"]
+
+
+@dataclass(frozen=True)
+class Payload:
+    """What a codec stores: named arrays plus a few facts about the outcome.
+
+    Attributes:
+        arrays: the stored arrays (dtype is the codec's choice, e.g. float32 or float16).  The number of stored
+            parameters is the total number of array elements; it is what the paper's compression ratio divides by.
+        info: small JSON-serialisable facts about the outcome, shown to users and kept in the container
+            (``{"K": 4, "omega": [3, 7, 1, 12]}`` or ``{"rank": 9}``); never needed to decode.
+    """
+
+    arrays: Mapping[str, NDArray[Any]]
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def num_parameters(self) -> int:
+        """Total number of stored numbers (every array element)."""
+        return int(sum(int(np.asarray(a).size) for a in self.arrays.values()))
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of array data (without container overhead)."""
+        return int(sum(int(np.asarray(a).nbytes) for a in self.arrays.values()))
+
+
+class EncodeContext(Protocol):
+    """What the core gives a codec's ``encode``.
+
+    Attributes:
+        params: the codec's validated ``Params`` instance.
+        bound: the L-infinity joint-position error to meet, in file units, or ``None`` when no bound applies (a
+            fixed-size encoding, e.g. ``rank`` or ``k`` given for a sweep).
+        seed: random seed; the same input and seed must give the same payload, byte for byte.
+        times: ``(F,)`` normalised times of the frames (see :func:`frame_times`).
+    """
+
+    params: Any
+    bound: float | None
+    seed: int
+    times: NDArray[np.float64]
+
+    def evaluate(self, features: ArrayLike) -> "ErrorReportLike":
+        """L-infinity error (and where it is) of candidate ``(F, D)`` features, decoded through the
+        representation and FK and compared with the reference motion."""
+
+    def evaluate_payload(self, payload: Payload) -> "ErrorReportLike":
+        """The same for a candidate payload, decoded with the codec at the frame times: use it so that what is
+        evaluated is what would be stored (after float32 / float16 rounding)."""
+
+    def progress(self, stage: str, **fields: Any) -> None:
+        """Report progress (``stage`` like ``"train"``; fields like ``K=3, loss=..., error=...``)."""
+
+
+class ErrorReportLike(Protocol):
+    max_error: float
+    max_error_percent: float
+
+
+class Codec(ABC):
+    """A motion compressor.
+
+    Class attributes:
+        name: unique name on the command line and in ``.mrc`` files (``"adaptive-fourier"``).
+        format_version: integer >= 1 written into every payload; bump it whenever the payload layout or its
+            meaning changes, and never reuse a number.  ``decode`` must keep reading every version listed in
+            ``readable_versions``.
+        readable_versions: payload versions ``decode`` accepts (default: only ``format_version``).
+        description: one line for ``motionrep plugins``.
+        Params: a frozen dataclass of the codec's parameters with documented defaults (each field's
+            ``metadata["help"]``); its ``__post_init__`` raises :class:`~motionrep.errors.ParameterError`
+            for invalid values, before any work is done.
+    """
+
+    name: ClassVar[str]
+    format_version: ClassVar[int]
+    readable_versions: ClassVar[tuple[int, ...]] = ()
+    description: ClassVar[str] = ""
+    Params: ClassVar[type]
+
+    @abstractmethod
+    def encode(self, features: NDArray[np.float64], weights: NDArray[np.float64],
+               context: EncodeContext) -> Payload:
+        """Compress ``(F, D)`` features with per-feature weights ``(D,)``.
+
+        Must meet ``context.bound`` when it is not None, measured with ``context.evaluate_payload``, or raise
+        :class:`~motionrep.errors.BoundNotMetError` with the best error reached.
+        """
+
+    @abstractmethod
+    def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+        """Features ``(T, D)`` float64 at normalised ``times`` ``(T,)`` in [0, 1].  Must not import torch."""
+
+    def parse_params(self, raw: Mapping[str, Any]) -> Any:
+        """Validated ``Params`` from ``raw`` (values may be strings from the command line)."""
+        return parse_params(self.Params, raw, self.name)
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name!r} v{self.format_version}>"
+
+
+def frame_times(num_frames: int) -> NDArray[np.float64]:
+    """``(F,)`` normalised times of ``num_frames`` frames: ``i / (F - 1)``, or ``[0.0]`` for one frame."""
+    if num_frames < 1:
+        raise ParameterError(f"num_frames must be >= 1, got {num_frames}")
+    if num_frames == 1:
+        return np.zeros(1)
+    return np.arange(num_frames) / (num_frames - 1)
+
+
+def _convert(value: Any, annotation: Any, key: str, codec: str) -> Any:
+    """Convert a (possibly string) value to the annotated type."""
+    if isinstance(annotation, str):
+        annotation = {"int": int, "float": float, "str": str, "bool": bool}.get(annotation.split("|")[0].strip(),
+                                                                                annotation)
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if value is None or (isinstance(value, str) and value.lower() in ("none", "")):
+            return None
+        annotation = args[0]
+    if origin is typing.Literal:
+        allowed = typing.get_args(annotation)
+        if value not in allowed:
+            raise ParameterError(f"{codec}: parameter {key} must be one of {', '.join(map(str, allowed))}, "
+                                 f"got {value!r}")
+        return value
+    try:
+        if annotation is bool:
+            if isinstance(value, str):
+                low = value.lower()
+                if low in ("1", "true", "yes", "on"):
+                    return True
+                if low in ("0", "false", "no", "off"):
+                    return False
+                raise ValueError(value)
+            return bool(value)
+        if annotation is int:
+            if isinstance(value, float) and not value.is_integer():
+                raise ValueError(value)
+            return int(value)
+        if annotation is float:
+            return float(value)
+        if annotation is str:
+            return str(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{codec}: parameter {key} must be {annotation.__name__}, got {value!r}") from None
+    return value
+
+
+def parse_params(params_cls: type, raw: Mapping[str, Any], codec: str) -> Any:
+    """Build and validate a ``Params`` dataclass from ``raw``.
+
+    Raises:
+        ParameterError: for an unknown key (listing the known ones), a value of the wrong type, or a value the
+            dataclass's ``__post_init__`` rejects.
+    """
+    fields = {f.name: f for f in dataclasses.fields(params_cls)}
+    unknown = sorted(set(raw) - set(fields))
+    if unknown:
+        known = ", ".join(fields) or "(none)"
+        raise ParameterError(f"{codec}: unknown parameter {unknown[0]!r}; known parameters: {known}")
+    hints = typing.get_type_hints(params_cls)
+    kwargs = {k: _convert(v, hints.get(k, fields[k].type), k, codec) for k, v in raw.items()}
+    try:
+        return params_cls(**kwargs)
+    except ParameterError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{codec}: {exc}") from None
+
+
+def params_help(params_cls: type) -> list[dict[str, Any]]:
+    """``[{name, type, default, help}]`` for each parameter, for ``motionrep plugins`` and documentation."""
+    out = []
+    hints = typing.get_type_hints(params_cls)
+    for f in dataclasses.fields(params_cls):
+        default = f.default if f.default is not dataclasses.MISSING else None
+        t = hints.get(f.name, f.type)
+        out.append({"name": f.name, "type": getattr(t, "__name__", str(t)), "default": default,
+                    "help": f.metadata.get("help", "")})
+    return out

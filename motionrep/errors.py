@@ -1,0 +1,133 @@
+"""Exceptions raised by motionrep.
+
+Every error motionrep raises on purpose is a :class:`MotionrepError`.  The command line turns these into a
+one-line message and exit code 1 in a single place (``motionrep.cli``); anything else is a bug and shows a
+traceback.
+
+Hierarchy::
+
+    MotionrepError
+    ├── ValidationError          (also a ValueError) a Skeleton, Motion or array did not validate
+    ├── FormatError              a file could not be read or written; names the file (and line)
+    │   ├── BVHFormatError
+    │   ├── NPZFormatError
+    │   ├── HDF5FormatError
+    │   └── ContainerError       a .mrc file is truncated, altered or of an unknown version
+    ├── PluginError              plugin loading or registration went wrong
+    │   ├── DuplicateNameError   two plugins registered the same name
+    │   └── UnknownPluginError   no plugin provides the representation or codec asked for
+    └── CodecError               a codec failed
+        ├── ParameterError       (also a ValueError) a codec parameter is invalid
+        └── BoundNotMetError     the requested error bound could not be reached
+"""
+
+from __future__ import annotations
+
+from os import PathLike
+
+__all__ = [
+    "MotionrepError",
+    "ValidationError",
+    "FormatError",
+    "BVHFormatError",
+    "NPZFormatError",
+    "HDF5FormatError",
+    "ContainerError",
+    "PluginError",
+    "DuplicateNameError",
+    "UnknownPluginError",
+    "CodecError",
+    "ParameterError",
+    "BoundNotMetError",
+]
+
+
+class MotionrepError(Exception):
+    """Base class of every error motionrep raises on purpose."""
+
+
+class ValidationError(MotionrepError, ValueError):
+    """A Skeleton, Motion, feature array or setting did not validate; the message quotes what was wrong."""
+
+
+class FormatError(MotionrepError):
+    """A file could not be read or written.
+
+    Args:
+        message: what is wrong, without the file name.
+        path: the file concerned (None when reading from memory).
+        line: 1-based line number for text formats, when known.
+
+    ``str(err)`` is ``"<path>:<line>: <message>"`` (or ``"<path>: <message>"`` without a line), on one line.
+    """
+
+    def __init__(self, message: str, path: str | PathLike[str] | None = None, line: int | None = None):
+        self.message = " ".join(str(message).split())  # always a single line
+        self.path = None if path is None else str(path)
+        self.line = line
+        super().__init__(self._format())
+
+    def _format(self) -> str:
+        where = self.path if self.path is not None else "<memory>"
+        if self.line is not None:
+            where = f"{where}:{self.line}"
+        return f"{where}: {self.message}"
+
+    def __reduce__(self):  # keep the attributes when pickled across worker processes
+        return (type(self), (self.message, self.path, self.line))
+
+
+class BVHFormatError(FormatError):
+    """A BVH file is malformed; the message names the file and the line."""
+
+
+class NPZFormatError(FormatError):
+    """An NPZ motion file is malformed or of an unsupported format version."""
+
+
+class HDF5FormatError(FormatError):
+    """An HDF5 motion file or database is malformed, of an unsupported version, or lacks the clip asked for."""
+
+
+class ContainerError(FormatError):
+    """A ``.mrc`` compressed-motion container is truncated, altered, or of an unknown version."""
+
+
+class PluginError(MotionrepError):
+    """Loading or registering a plugin went wrong."""
+
+
+class DuplicateNameError(PluginError):
+    """Two plugins registered a representation or codec under the same name."""
+
+
+class UnknownPluginError(PluginError, KeyError):
+    """No loaded plugin provides the representation or codec asked for."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class CodecError(MotionrepError):
+    """A codec could not encode or decode."""
+
+
+class ParameterError(CodecError, ValueError):
+    """A codec or representation parameter is invalid; raised before any work is done."""
+
+
+class BoundNotMetError(CodecError):
+    """The codec could not meet the requested error bound.
+
+    Attributes:
+        best_error: the smallest L-infinity error reached, in file units (None if nothing was tried).
+        bound: the requested bound, in file units.
+    """
+
+    def __init__(self, message: str, best_error: float | None = None, bound: float | None = None):
+        self.best_error = best_error
+        self.bound = bound
+        super().__init__(message)
+
+    def __reduce__(self):
+        return (type(self), (self.args[0] if self.args else "", self.best_error, self.bound))

@@ -1,0 +1,550 @@
+"""BVH (Biovision hierarchy) reader and writer.
+
+The format, and the conventions motionrep applies where BVH files disagree, are in ``specs/formats/bvh.md``.
+In short: rotation channels are intrinsic Euler angles in degrees in the order listed; a position channel
+replaces that axis of the joint's OFFSET; CRLF, CR, tabs, scientific notation, namespaced names
+(``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk with numpy.
+Every problem raises :class:`~motionrep.errors.BVHFormatError` naming the file and the line.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._model import CHANNEL_NAMES, Motion, Skeleton
+from ..errors import BVHFormatError, ValidationError
+from ..rotations import euler_branch, euler_to_quat, quat_to_euler_continuous
+from ._atomic import atomic_path
+from ._numbers import parse_decimal_tokens, scan_tokens
+
+__all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
+
+_CHANNEL_LOOKUP = {c.lower(): c for c in CHANNEL_NAMES}
+_MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE)
+_FRAMES_RE = re.compile(r"^\s*Frames\s*:\s*(\S*)\s*(.*)$")
+_FRAME_TIME_RE = re.compile(r"^\s*Frame\s+Time\s*:\s*(\S*)\s*(.*)$")
+
+
+def read_bvh(path: str | os.PathLike[str]) -> Motion:
+    """Read a BVH file.
+
+    Args:
+        path: the file.
+
+    Returns:
+        The :class:`~motionrep.Motion`, with the file's channel layout in its skeleton.
+
+    Raises:
+        BVHFormatError: naming the file and line, if the file is missing, unreadable or malformed.
+    """
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise BVHFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
+    return parse_bvh(data, path)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------------------------------------------
+class _Tokens:
+    """Header tokens with their line numbers."""
+
+    def __init__(self, text: str, path):
+        self.path = path
+        self.items: list[tuple[str, int]] = []
+        self.by_line: dict[int, list[str]] = {}
+        for lineno, line in enumerate(text.split("\n"), start=1):
+            words = line.split()
+            if words:
+                self.by_line[lineno] = words
+                self.items.extend((w, lineno) for w in words)
+        self.pos = 0
+        self.last_line = max(1, text.count("\n") + 1)
+
+    def error(self, message: str, line: int | None = None) -> BVHFormatError:
+        return BVHFormatError(message, self.path, line)
+
+    def peek(self) -> tuple[str, int] | None:
+        return self.items[self.pos] if self.pos < len(self.items) else None
+
+    def next(self, what: str) -> tuple[str, int]:
+        if self.pos >= len(self.items):
+            raise self.error(f"unexpected end of HIERARCHY, expected {what}", self.last_line)
+        item = self.items[self.pos]
+        self.pos += 1
+        return item
+
+    def rest_of_line(self, line: int) -> list[str]:
+        """Tokens after the current position that are on ``line``; consumes them."""
+        out = []
+        while self.pos < len(self.items) and self.items[self.pos][1] == line:
+            out.append(self.items[self.pos][0])
+            self.pos += 1
+        return out
+
+    def number(self, what: str) -> float:
+        tok, line = self.next(what)
+        try:
+            value = float(tok)
+        except ValueError:
+            raise self.error(f"expected a number for {what}, found {tok!r}", line) from None
+        if not np.isfinite(value):
+            raise self.error(f"{what} must be finite, found {tok!r}", line)
+        return value
+
+
+class _Header:
+    def __init__(self) -> None:
+        self.names: list[str] = []
+        self.parents: list[int] = []
+        self.offsets: list[tuple[float, float, float]] = []
+        self.channels: list[tuple[str, ...]] = []
+        self.site_parents: list[int] = []
+        self.site_offsets: list[tuple[float, float, float]] = []
+        self.name_lines: dict[str, int] = {}
+
+
+def _parse_offset(tok: _Tokens, owner: str) -> tuple[float, float, float]:
+    return (tok.number(f"OFFSET x of {owner}"), tok.number(f"OFFSET y of {owner}"),
+            tok.number(f"OFFSET z of {owner}"))
+
+
+def _parse_joint(tok: _Tokens, hdr: _Header, parent: int, keyword: str, kw_line: int) -> None:
+    words = tok.rest_of_line(kw_line)
+    brace_on_line = bool(words) and words[-1] == "{"
+    if brace_on_line:
+        words = words[:-1]
+    if not words:
+        raise tok.error(f"{keyword} without a name", kw_line)
+    name = " ".join(words)
+    if "{" in name or "}" in name:
+        raise tok.error(f"unexpected brace in {keyword} name {name!r}", kw_line)
+    if name in hdr.name_lines:
+        raise tok.error(f"duplicate joint name {name!r} (first defined at line {hdr.name_lines[name]})", kw_line)
+    hdr.name_lines[name] = kw_line
+    index = len(hdr.names)
+    hdr.names.append(name)
+    hdr.parents.append(parent)
+    hdr.offsets.append((0.0, 0.0, 0.0))
+    hdr.channels.append(())
+    if not brace_on_line:
+        t, line = tok.next(f"'{{' after {keyword} {name}")
+        if t != "{":
+            raise tok.error(f"expected '{{' after {keyword} {name}, found {t!r}", line)
+    have_offset = have_channels = False
+    while True:
+        item = tok.peek()
+        if item is None:
+            raise tok.error(f"unbalanced braces: {keyword} {name} (line {kw_line}) is never closed "
+                            "before MOTION", tok.last_line)
+        t, line = tok.next("a joint item")
+        if t == "}":
+            break
+        if t == "OFFSET":
+            if have_offset:
+                raise tok.error(f"second OFFSET in {name}", line)
+            hdr.offsets[index] = _parse_offset(tok, name)
+            have_offset = True
+        elif t == "CHANNELS":
+            if have_channels:
+                raise tok.error(f"second CHANNELS line in {name}", line)
+            hdr.channels[index] = _parse_channels(tok, name, line)
+            have_channels = True
+        elif t == "JOINT":
+            if not have_offset:
+                raise tok.error(f"{name} has no OFFSET before its child joints", line)
+            _parse_joint(tok, hdr, index, "JOINT", line)
+        elif t == "End":
+            rest = tok.rest_of_line(line)
+            if not rest or rest[0] != "Site":
+                raise tok.error("expected 'End Site'", line)
+            if rest[1:] and rest[1:] != ["{"]:
+                raise tok.error(f"unexpected {' '.join(rest[1:])!r} after End Site", line)
+            if rest[1:] != ["{"]:
+                t2, l2 = tok.next("'{' after End Site")
+                if t2 != "{":
+                    raise tok.error(f"expected '{{' after End Site, found {t2!r}", l2)
+            t2, l2 = tok.next("OFFSET in End Site")
+            if t2 != "OFFSET":
+                raise tok.error(f"expected OFFSET in End Site of {name}, found {t2!r}", l2)
+            hdr.site_offsets.append(_parse_offset(tok, f"End Site of {name}"))
+            hdr.site_parents.append(index)
+            t2, l2 = tok.next("'}' closing End Site")
+            if t2 != "}":
+                raise tok.error(f"expected '}}' closing End Site of {name}, found {t2!r}", l2)
+        elif t in ("ROOT", "HIERARCHY", "MOTION"):
+            raise tok.error(f"unexpected {t} inside {keyword} {name} (unbalanced braces?)", line)
+        elif t == "{":
+            raise tok.error(f"unbalanced braces: unexpected '{{' in {name}", line)
+        else:
+            raise tok.error(f"unexpected {t!r} in {keyword} {name}; expected OFFSET, CHANNELS, JOINT, "
+                            "End Site or '}'", line)
+    if not have_offset:
+        raise tok.error(f"{keyword} {name} has no OFFSET", kw_line)
+    if not have_channels:
+        raise tok.error(f"{keyword} {name} has no CHANNELS line", kw_line)
+
+
+def _parse_channels(tok: _Tokens, owner: str, line: int) -> tuple[str, ...]:
+    words = tok.rest_of_line(line)
+    if not words:
+        raise tok.error(f"CHANNELS of {owner} has no count", line)
+    try:
+        count = int(words[0])
+    except ValueError:
+        raise tok.error(f"CHANNELS count of {owner} must be an integer, found {words[0]!r}", line) from None
+    names = words[1:]
+    if count != len(names):
+        raise tok.error(f"CHANNELS of {owner} says {count} but lists {len(names)} channel names", line)
+    out = []
+    for n in names:
+        canon = _CHANNEL_LOOKUP.get(n.lower())
+        if canon is None:
+            raise tok.error(f"unknown channel {n!r} in {owner}; expected Xposition, Yposition, Zposition, "
+                            "Xrotation, Yrotation or Zrotation", line)
+        if canon in out:
+            raise tok.error(f"channel {canon} listed twice in {owner}", line)
+        out.append(canon)
+    return tuple(out)
+
+
+def _parse_hierarchy(text: str, path) -> _Header:
+    tok = _Tokens(text, path)
+    first = tok.peek()
+    if first is None:
+        raise tok.error("no HIERARCHY section", 1)
+    t, line = tok.next("HIERARCHY")
+    if t != "HIERARCHY":
+        raise tok.error(f"expected HIERARCHY at the start of the file, found {t!r}", line)
+    hdr = _Header()
+    t, line = tok.next("ROOT")
+    if t != "ROOT":
+        raise tok.error(f"expected ROOT, found {t!r}: the hierarchy must start with a ROOT joint", line)
+    _parse_joint(tok, hdr, -1, "ROOT", line)
+    item = tok.peek()
+    if item is not None:
+        t, line = item
+        if t == "ROOT":
+            raise tok.error("more than one ROOT: motionrep reads one skeleton per file", line)
+        if t == "}":
+            raise tok.error("unbalanced braces: '}' without a matching '{'", line)
+        raise tok.error(f"unexpected {t!r} after the ROOT joint's closing brace", line)
+    return hdr
+
+
+def _decode(data: bytes, path) -> bytes:
+    """Check the bytes are text; return them without a UTF-8 byte-order mark."""
+    if not data.strip():
+        raise BVHFormatError("file is empty", path, 1)
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise BVHFormatError(f"not a text file: invalid UTF-8 byte 0x{data[exc.start]:02x}", path, line) from None
+    u = np.frombuffer(data, np.uint8)
+    bad = np.flatnonzero((u < 32) & (u != 9) & (u != 10) & (u != 13) & (u != 11) & (u != 12))
+    if bad.size:
+        line = data.count(b"\n", 0, int(bad[0])) + 1
+        raise BVHFormatError(f"not a text file: control byte 0x{u[bad[0]]:02x}", path, line)
+    return data
+
+
+def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> Motion:
+    """Parse BVH text (bytes or str) into a Motion; ``path`` is only used in error messages.
+
+    Raises:
+        BVHFormatError: naming ``path`` and the line.
+    """
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    data = _decode(bytes(data), path)
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    m = _MOTION_RE.search(data)
+    if m is None:
+        if not data.lstrip().startswith(b"HIERARCHY"):
+            first = data.split(None, 1)[0][:40].decode("utf-8", "replace")
+            raise BVHFormatError(f"expected HIERARCHY at the start of the file, found {first!r}", path,
+                                 data[: len(data) - len(data.lstrip())].count(b"\n") + 1)
+        raise BVHFormatError("no MOTION section", path, data.count(b"\n") + 1)
+    header_text = data[: m.start()].decode("utf-8")
+    hdr = _parse_hierarchy(header_text, path)
+    motion_line = header_text.count("\n") + 1  # line number of "MOTION"
+    rest = data[m.end():]
+    frames, frame_time, block, block_line = _parse_motion_header(rest, motion_line, path)
+    channels = tuple(hdr.channels)
+    skeleton = Skeleton(
+        names=tuple(hdr.names), parents=np.array(hdr.parents), offsets=np.array(hdr.offsets, dtype=np.float64),
+        channels=channels, end_site_parents=np.array(hdr.site_parents, dtype=np.int64),
+        end_site_offsets=np.array(hdr.site_offsets, dtype=np.float64).reshape(-1, 3))
+    values = _parse_block(block, block_line, frames, skeleton.num_channels, path)
+    return _motion_from_channels(skeleton, values, 1.0 / frame_time)
+
+
+def _parse_motion_header(rest: bytes, motion_line: int, path) -> tuple[int, float, bytes, int]:
+    """Read ``Frames:`` and ``Frame Time:`` after the MOTION line.
+
+    ``rest`` starts at the end of the MOTION line.  Returns the two values, the frame-data block and the line
+    number of the block's first line.
+    """
+    nl = rest.find(b"\n")
+    pos = len(rest) if nl == -1 else nl + 1
+    line_no = motion_line
+    found: dict[str, tuple[str, int]] = {}
+    for key, regex in (("Frames", _FRAMES_RE), ("Frame Time", _FRAME_TIME_RE)):
+        while True:
+            if pos >= len(rest):
+                raise BVHFormatError(f"missing '{key}:' line after MOTION", path, line_no)
+            nl = rest.find(b"\n", pos)
+            end = len(rest) if nl == -1 else nl
+            line = rest[pos:end].decode("utf-8")
+            pos = end + 1
+            line_no += 1
+            if line.strip():
+                break
+        match = regex.match(line)
+        if not match:
+            raise BVHFormatError(f"expected '{key}: <value>', found {line.strip()[:60]!r}", path, line_no)
+        if match.group(2):
+            raise BVHFormatError(f"unexpected {match.group(2)[:40]!r} after {key}", path, line_no)
+        found[key] = (match.group(1), line_no)
+    text, ln = found["Frames"]
+    try:
+        frames = int(text)
+    except ValueError:
+        raise BVHFormatError(f"Frames must be a whole number, found {text!r}", path, ln) from None
+    if frames <= 0:
+        raise BVHFormatError(f"Frames must be at least 1, found {frames}", path, ln)
+    text, ln = found["Frame Time"]
+    try:
+        frame_time = float(text)
+    except ValueError:
+        raise BVHFormatError(f"Frame Time must be a number, found {text!r}", path, ln) from None
+    if not np.isfinite(frame_time) or frame_time <= 0:
+        raise BVHFormatError(f"Frame Time must be a finite number > 0, found {text!r}", path, ln)
+    return frames, frame_time, rest[min(pos, len(rest)):], line_no + 1
+
+
+def _parse_block(block: bytes, first_line: int, frames: int, channels: int, path) -> NDArray[np.float64]:
+    """Parse the frame lines in bulk; ``(frames, channels)`` values.  Errors name the offending line."""
+    u = np.frombuffer(block, np.uint8)
+    tokens = scan_tokens(u)
+    counts = tokens.line_counts
+    data_lines = np.flatnonzero(counts > 0)  # blank lines are skipped
+    if channels == 0:
+        if data_lines.size:
+            raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
+                                 first_line + int(data_lines[0]))
+        return np.zeros((frames, 0))
+    if data_lines.size < frames:
+        last = first_line + counts.shape[0] - 1
+        raise BVHFormatError(f"truncated motion: Frames: {frames} but only {data_lines.size} frame lines",
+                             path, last)
+    if data_lines.size > frames:
+        raise BVHFormatError(f"more frame lines than Frames: {frames} (line {first_line + int(data_lines[frames])}"
+                             f" is frame {frames + 1})", path, first_line + int(data_lines[frames]))
+    wrong = data_lines[counts[data_lines] != channels]
+    if wrong.size:
+        line = int(wrong[0])
+        raise BVHFormatError(f"frame line has {int(counts[line])} values, expected {channels} (one per channel)",
+                             path, first_line + line)
+    values = parse_decimal_tokens(u, tokens)
+    if values is None:
+        values = _parse_slow(block, tokens, first_line, path)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        i = int(bad[0])
+        raise BVHFormatError(f"{_token(block, tokens, i)!r} is not a finite number", path,
+                             first_line + tokens.line_of(i))
+    return values.reshape(frames, channels)
+
+
+def _token(block: bytes, tokens, i: int) -> str:
+    return block[tokens.starts[i]: tokens.ends[i]].decode("utf-8", "replace")[:40]
+
+
+def _parse_slow(block: bytes, tokens, first_line: int, path) -> NDArray[np.float64]:
+    """Exact parsing of any float syntax (exponents, nan...) with numpy.loadtxt; errors name the line."""
+    try:
+        values = np.loadtxt(io.BytesIO(block), dtype=np.float64, comments=None, ndmin=2, encoding="utf-8")
+        return values.reshape(-1)
+    except ValueError:
+        pass
+    for i in range(tokens.starts.shape[0]):  # error path only: find the first token that is not a number
+        text = _token(block, tokens, i)
+        try:
+            float(text)
+        except ValueError:
+            raise BVHFormatError(f"expected a number, found {text!r}", path,
+                                 first_line + tokens.line_of(i)) from None
+    raise BVHFormatError("could not parse the frame values", path, first_line)  # pragma: no cover
+
+
+def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Motion:
+    """Build a Motion from ``(F, C)`` channel values laid out as the skeleton's channels."""
+    F = values.shape[0]
+    J = skeleton.num_joints
+    rotations = np.zeros((F, J, 4))
+    rotations[..., 3] = 1.0
+    translations = np.broadcast_to(skeleton.offsets, (F, J, 3)).copy()
+    by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
+    col = 0
+    for j, chans in enumerate(skeleton.channels):
+        rot_cols = []
+        for c in chans:
+            if c.endswith("position"):
+                translations[:, j, "XYZ".index(c[0])] = values[:, col]
+            else:
+                rot_cols.append(col)
+            col += 1
+        if rot_cols:
+            joints, cols = by_order.setdefault(skeleton.rotation_orders[j], ([], []))
+            joints.append(j)
+            cols.append(rot_cols)
+    branch = np.zeros((F, J), bool)
+    for order, (joints, cols) in by_order.items():
+        angles = values[:, np.array(cols)]  # (F, n, len(order))
+        rotations[:, joints] = euler_to_quat(angles, order, degrees=True)
+        branch[:, joints] = euler_branch(angles, order, degrees=True)
+    return Motion(skeleton, fps, translations[:, 0], rotations, translations[:, skeleton.translated_joints],
+                  euler_branch=branch)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------------------------------
+def _fmt_number(v: float) -> str:
+    s = np.format_float_positional(float(v), trim="-")
+    return "0" if s == "-0" else s
+
+
+def _dfs_order(skeleton: Skeleton) -> list[int]:
+    order: list[int] = []
+    stack = [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(skeleton.children[j]))
+    return order
+
+
+def channel_values(motion: Motion) -> NDArray[np.float64]:
+    """``(F, C)`` BVH channel values of ``motion`` in the skeleton's channel layout and joint order.
+
+    Euler angles are in degrees, of the solution ``motion.euler_branch`` names (when set) and unwrapped over
+    frames (see :func:`~motionrep.rotations.quat_to_euler_continuous`).
+
+    Raises:
+        ValidationError: if the motion moves a joint along an axis, or rotates it about an axis, for which
+            the channel layout has no channel (the data could not be written without loss).
+    """
+    sk = motion.skeleton
+    F = motion.num_frames
+    trans = motion.local_translations()
+    scale = max(1.0, float(np.abs(sk.offsets).max(initial=0.0)))
+    out = np.empty((F, sk.num_channels))
+    by_order: dict[str, list[int]] = {}
+    for j, order in enumerate(sk.rotation_orders):
+        if order:
+            by_order.setdefault(order, []).append(j)
+        else:
+            q = motion.rotations[:, j]
+            if np.any(np.abs(np.abs(q[:, 3]) - 1.0) > 1e-9):
+                raise ValidationError(f"joint {sk.names[j]!r} rotates but has no rotation channels")
+    eulers: dict[int, NDArray] = {}
+    for order, joints in by_order.items():
+        branch = None if motion.euler_branch is None else motion.euler_branch[:, joints]
+        try:
+            e = quat_to_euler_continuous(motion.rotations[:, joints], order, degrees=True, branch=branch)
+        except ValidationError:
+            raise ValidationError(f"a joint with rotation channels {order} rotates about another axis too; "
+                                  "its rotation cannot be written in its channel layout") from None
+        for k, j in enumerate(joints):
+            eulers[j] = e[:, k]
+    col = 0
+    for j, chans in enumerate(sk.channels):
+        axes = sk.position_axes[j]
+        for a in "XYZ":
+            if a not in axes and np.any(np.abs(trans[:, j, "XYZ".index(a)] - sk.offsets[j, "XYZ".index(a)])
+                                        > 1e-9 * scale):
+                raise ValidationError(f"joint {sk.names[j]!r} moves along {a} but has no {a}position channel")
+        r = 0
+        for c in chans:
+            if c.endswith("position"):
+                out[:, col] = trans[:, j, "XYZ".index(c[0])]
+            else:
+                out[:, col] = eulers[j][:, r]
+                r += 1
+            col += 1
+    return out
+
+
+def format_bvh(motion: Motion, decimals: int = 6) -> str:
+    """The BVH text of ``motion`` (LF line endings, tab indentation).
+
+    Joints are written depth first, children in index order, with the skeleton's names, OFFSETs, channel
+    layout and rotation orders; End Sites follow their joint's child joints.  OFFSETs are written in their
+    shortest exact decimal form; frame values with ``decimals`` digits after the point (default 6: an error of
+    at most 5e-7 degree or file unit).
+
+    Raises:
+        ValidationError: if the motion cannot be written in its channel layout without loss.
+
+    BVH lists joints depth first; a skeleton whose joints are in another order (say, breadth first) is written
+    depth first, so reading the file back gives the same joints in depth-first order.
+    """
+    if not isinstance(decimals, (int, np.integer)) or not 0 <= decimals <= 17:
+        raise ValidationError(f"decimals must be an integer from 0 to 17, got {decimals!r}")
+    sk = motion.skeleton
+    values = channel_values(motion)
+    order = _dfs_order(sk)
+    if order != list(range(sk.num_joints)):  # BVH lists joints depth first: reorder the channel columns
+        first = np.concatenate(([0], np.cumsum([len(c) for c in sk.channels])))
+        values = values[:, np.concatenate([np.arange(first[j], first[j + 1]) for j in order]).astype(np.int64)]
+    sites: dict[int, list[int]] = {}
+    for e, p in enumerate(sk.end_site_parents.tolist()):
+        sites.setdefault(p, []).append(e)
+    lines = ["HIERARCHY"]
+
+    def emit(j: int, depth: int) -> None:
+        ind = "\t" * depth
+        lines.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
+        lines.append(f"{ind}{{")
+        lines.append(f"{ind}\tOFFSET " + " ".join(_fmt_number(v) for v in sk.offsets[j]))
+        lines.append(f"{ind}\tCHANNELS {len(sk.channels[j])}" + "".join(" " + c for c in sk.channels[j]))
+        for child in sk.children[j]:
+            emit(child, depth + 1)
+        for e in sites.get(j, []):
+            lines.append(f"{ind}\tEnd Site")
+            lines.append(f"{ind}\t{{")
+            lines.append(f"{ind}\t\tOFFSET " + " ".join(_fmt_number(v) for v in sk.end_site_offsets[e]))
+            lines.append(f"{ind}\t}}")
+        lines.append(f"{ind}}}")
+
+    emit(0, 0)
+    lines.append("MOTION")
+    lines.append(f"Frames: {motion.num_frames}")
+    lines.append(f"Frame Time: {1.0 / motion.fps:.15g}")
+    header = "\n".join(lines) + "\n"
+    if values.shape[1] == 0:
+        return header + "\n" * motion.num_frames
+    rounded = np.round(values, decimals) + 0.0  # + 0.0 turns -0.0 into 0.0
+    buf = io.StringIO()
+    np.savetxt(buf, rounded, fmt=f"%.{decimals}f", delimiter=" ")
+    return header + buf.getvalue()
+
+
+def write_bvh(motion: Motion, path: str | os.PathLike[str], decimals: int = 6) -> None:
+    """Write ``motion`` as BVH to ``path`` atomically (see :func:`format_bvh`)."""
+    text = format_bvh(motion, decimals=decimals)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(text.encode("utf-8"))

@@ -1,0 +1,265 @@
+"""Plugin loading and the registry of representations and codecs.
+
+Plugins are loaded lazily, once per process, the first time a representation or codec is looked up:
+
+1. third-party plugins from the ``motionrep`` entry-point group (all of them, or only those named in the
+   comma-separated environment variable ``MOTIONREP_LOAD_PLUGINS``; empty means none);
+2. the shipped plugins in :data:`DEFAULT_PLUGINS`, imported and registered the same way.
+
+Then every ``register_representations`` and ``register_codecs`` implementation is called with a ``register``
+callback that validates what it is given and remembers which plugin gave it.  A name registered twice raises
+:class:`~motionrep.errors.DuplicateNameError` naming both plugins.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from dataclasses import dataclass, field
+from importlib import metadata
+from typing import Any, Callable
+
+import pluggy
+
+from . import hookspecs
+from .codec import Codec
+from .errors import DuplicateNameError, PluginError, UnknownPluginError
+from .representation import Representation
+
+__all__ = [
+    "pm",
+    "DEFAULT_PLUGINS",
+    "ENV_VAR",
+    "PluginInfo",
+    "load_plugins",
+    "reset_plugins",
+    "get_representation",
+    "get_codec",
+    "representations",
+    "codecs",
+    "plugin_infos",
+    "provider_of",
+]
+
+#: The shipped plugins, registered through the same hooks as third-party ones.
+DEFAULT_PLUGINS: tuple[str, ...] = (
+    "motionrep_rootquat",
+    "motionrep_dualquat",
+    "motionrep_ortho6d",
+    "motionrep_euler",
+    "motionrep_svd",
+    "motionrep_fourier",
+)
+#: Environment variable limiting which third-party plugins load (comma-separated names; empty = none).
+ENV_VAR = "MOTIONREP_LOAD_PLUGINS"
+
+pm = pluggy.PluginManager("motionrep")
+pm.add_hookspecs(hookspecs)
+
+
+@dataclass
+class PluginInfo:
+    """What ``motionrep plugins`` reports about one plugin."""
+
+    name: str
+    version: str | None
+    shipped: bool
+    distribution: str | None = None
+    hooks: list[str] = field(default_factory=list)
+    representations: list[str] = field(default_factory=list)
+    codecs: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "version": self.version, "shipped": self.shipped,
+                "distribution": self.distribution, "hooks": self.hooks,
+                "representations": self.representations, "codecs": self.codecs}
+
+
+class _State:
+    loaded = False
+    infos: dict[str, PluginInfo] = {}
+    reps: dict[str, tuple[Representation, str]] = {}
+    codecs: dict[str, tuple[Codec, str]] = {}
+
+
+def _allowed_names() -> set[str] | None:
+    value = os.environ.get(ENV_VAR)
+    if value is None:
+        return None
+    return {n.strip() for n in value.split(",") if n.strip()}
+
+
+def _load_entry_points() -> None:
+    allowed = _allowed_names()
+    found: set[str] = set()
+    for ep in metadata.entry_points(group="motionrep"):
+        dist = ep.dist.name if ep.dist is not None else None
+        names = {ep.name} | ({dist} if dist else set())
+        if allowed is not None and not names & allowed:
+            continue
+        found |= names
+        if pm.has_plugin(ep.name):
+            continue
+        try:
+            module = ep.load()
+        except Exception as exc:  # a broken third-party plugin must name itself
+            raise PluginError(f"plugin {ep.name!r} ({ep.value}) failed to load: {type(exc).__name__}: {exc}") from exc
+        pm.register(module, name=ep.name)
+        _State.infos[ep.name] = PluginInfo(ep.name, ep.dist.version if ep.dist is not None else None, False, dist)
+    if allowed:
+        missing = sorted(allowed - found)
+        if missing:
+            raise PluginError(f"{ENV_VAR} names {missing[0]!r}, but no installed plugin has that name")
+
+
+def _load_shipped() -> None:
+    from . import __version__
+
+    for name in DEFAULT_PLUGINS:
+        if pm.has_plugin(name):
+            continue
+        try:
+            module = importlib.import_module(name)
+        except ImportError as exc:
+            raise PluginError(f"shipped plugin {name!r} failed to import: {exc}") from exc
+        pm.register(module, name=name)
+        _State.infos[name] = PluginInfo(name, getattr(module, "__version__", __version__), True, "motionrep")
+
+
+def _check_representation(obj: Any, plugin: str) -> None:
+    if not isinstance(obj, Representation):
+        raise PluginError(f"plugin {plugin!r} registered {obj!r}, which is not a motionrep Representation")
+    if not isinstance(getattr(obj, "name", None), str) or not obj.name:
+        raise PluginError(f"plugin {plugin!r} registered a representation without a name")
+    if not isinstance(getattr(obj, "version", None), int) or obj.version < 1:
+        raise PluginError(f"representation {obj.name!r} from plugin {plugin!r} needs an integer version >= 1")
+
+
+def _check_codec(obj: Any, plugin: str) -> None:
+    if not isinstance(obj, Codec):
+        raise PluginError(f"plugin {plugin!r} registered {obj!r}, which is not a motionrep Codec")
+    if not isinstance(getattr(obj, "name", None), str) or not obj.name:
+        raise PluginError(f"plugin {plugin!r} registered a codec without a name")
+    if not isinstance(getattr(obj, "format_version", None), int) or obj.format_version < 1:
+        raise PluginError(f"codec {obj.name!r} from plugin {plugin!r} needs an integer format_version >= 1")
+    import dataclasses
+
+    if not dataclasses.is_dataclass(getattr(obj, "Params", None)):
+        raise PluginError(f"codec {obj.name!r} from plugin {plugin!r} needs a Params dataclass")
+
+
+def _collect(hook_name: str, kind: str, check: Callable[[Any, str], None], into: dict) -> None:
+    hook = getattr(pm.hook, hook_name)
+    for impl in reversed(hook.get_hookimpls()):  # pluggy lists them last-registered first
+        plugin = impl.plugin_name
+
+        def register(obj: Any, _plugin: str = plugin) -> None:
+            check(obj, _plugin)
+            if obj.name in into:
+                other = into[obj.name][1]
+                raise DuplicateNameError(f"{kind} name {obj.name!r} is registered twice: by plugin {other!r} "
+                                         f"and by plugin {_plugin!r}")
+            into[obj.name] = (obj, _plugin)
+            info = _State.infos.get(_plugin)
+            if info is not None:
+                (info.representations if kind == "representation" else info.codecs).append(obj.name)
+
+        impl.function(**{arg: register for arg in impl.argnames})
+        info = _State.infos.get(plugin)
+        if info is not None and hook_name not in info.hooks:
+            info.hooks.append(hook_name)
+
+
+def load_plugins() -> None:
+    """Load and register every plugin, once (later calls do nothing).
+
+    Raises:
+        PluginError: if a plugin fails to import, registers something invalid, or two register one name.
+    """
+    if _State.loaded:
+        return
+    try:
+        _load_entry_points()
+        _load_shipped()
+        pm.check_pending()
+        for name, plugin in pm.list_name_plugin():
+            if name not in _State.infos:  # registered by hand (tests, embedding applications)
+                _State.infos[name] = PluginInfo(name, getattr(plugin, "__version__", None), False, None)
+        _collect("register_representations", "representation", _check_representation, _State.reps)
+        _collect("register_codecs", "codec", _check_codec, _State.codecs)
+    except BaseException:
+        reset_plugins()
+        raise
+    _State.loaded = True
+
+
+def reset_plugins() -> None:
+    """Forget every plugin and registration, so the next lookup loads them again (for tests)."""
+    for name, plugin in list(pm.list_name_plugin()):
+        pm.unregister(plugin, name=name)
+    _State.loaded = False
+    _State.infos = {}
+    _State.reps = {}
+    _State.codecs = {}
+
+
+def representations() -> dict[str, Representation]:
+    """Every registered representation by name."""
+    load_plugins()
+    return {name: obj for name, (obj, _) in sorted(_State.reps.items())}
+
+
+def codecs() -> dict[str, Codec]:
+    """Every registered codec by name."""
+    load_plugins()
+    return {name: obj for name, (obj, _) in sorted(_State.codecs.items())}
+
+
+def provider_of(name: str, kind: str = "codec") -> str | None:
+    """Name of the plugin that registered the codec (or representation) ``name``; None if none did."""
+    load_plugins()
+    table = _State.codecs if kind == "codec" else _State.reps
+    entry = table.get(name)
+    if entry is None:
+        return None
+    info = _State.infos.get(entry[1])
+    return info.distribution if info is not None and info.distribution and not info.shipped else entry[1]
+
+
+def get_representation(name: str) -> Representation:
+    """The representation registered as ``name``.
+
+    Raises:
+        UnknownPluginError: listing the available names.
+    """
+    load_plugins()
+    try:
+        return _State.reps[name][0]
+    except KeyError:
+        raise UnknownPluginError(f"unknown representation {name!r}; available: "
+                                 + ", ".join(sorted(_State.reps))) from None
+
+
+def get_codec(name: str, provided_by: str | None = None) -> Codec:
+    """The codec registered as ``name``.
+
+    Args:
+        name: codec name.
+        provided_by: the plugin a file says provides it, quoted in the error when it is not installed.
+
+    Raises:
+        UnknownPluginError: naming the codec (and its plugin when known) and listing the available codecs.
+    """
+    load_plugins()
+    try:
+        return _State.codecs[name][0]
+    except KeyError:
+        hint = f" (provided by plugin {provided_by!r}, which is not installed or not loaded)" if provided_by else ""
+        raise UnknownPluginError(f"unknown codec {name!r}{hint}; available: "
+                                 + ", ".join(sorted(_State.codecs))) from None
+
+
+def plugin_infos() -> list[PluginInfo]:
+    """One :class:`PluginInfo` per loaded plugin, third-party first, then shipped, each sorted by name."""
+    load_plugins()
+    return sorted(_State.infos.values(), key=lambda i: (i.shipped, i.name))
