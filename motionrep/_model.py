@@ -52,10 +52,14 @@ def _readonly(a: NDArray) -> NDArray:
 
 
 def _as_float_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
-    try:
-        a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValidationError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from None
+    if (isinstance(value, np.ndarray) and value.dtype == np.float64 and value.flags.c_contiguous
+            and value.flags.owndata and not value.flags.writeable):
+        a = value  # already an immutable float64 array (for example another Motion's): no copy needed
+    else:
+        try:
+            a = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValidationError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from None
     if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):
         want = "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")"
         raise ValidationError(f"{name} must have shape {want}, got {a.shape}")
@@ -141,10 +145,17 @@ class Skeleton:
                 if len(set(ch)) != len(ch):
                     raise ValidationError(f"joint {names[j]!r} lists a channel twice: {' '.join(ch)}")
 
-        esp = np.array(self.end_site_parents, dtype=np.int64).reshape(-1)
+        try:
+            esp = np.array(self.end_site_parents, dtype=np.int64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValidationError(f"end_site_parents must be integers, got {self.end_site_parents!r}") from None
         E = esp.shape[0]
-        eso = _as_float_array(np.reshape(self.end_site_offsets, (-1, 3)) if np.size(self.end_site_offsets) or E
-                              else np.zeros((0, 3)), "end_site_offsets", (E, 3))
+        eso = self.end_site_offsets
+        if np.size(eso) == 0 and E == 0:
+            eso = np.zeros((0, 3))
+        elif np.ndim(eso) == 1 and np.size(eso) == 3 * E:  # a flat list of E * 3 values
+            eso = np.reshape(eso, (E, 3))
+        eso = _as_float_array(eso, "end_site_offsets", (E, 3))
         if E and (esp.min() < 0 or esp.max() >= J):
             raise ValidationError(f"end_site_parents must index joints 0..{J - 1}, got {esp.tolist()}")
 
@@ -297,12 +308,14 @@ class Motion:
             raise ValidationError("a Motion needs at least one frame, got rotations of shape "
                                   f"{rot.shape}")
         root = _as_float_array(self.root_translation, "root_translation", (F, 3))
-        norms = np.linalg.norm(rot, axis=-1)
-        bad = np.abs(norms - 1.0) > _UNIT_TOLERANCE
-        if bad.any():
-            f, j = (int(i) for i in np.argwhere(bad)[0])
-            raise ValidationError(f"rotations must be unit quaternions (xyzw); frame {f}, joint "
-                                  f"{self.skeleton.names[j]!r} has norm {norms[f, j]:.9g}")
+        squared = np.einsum("fjc,fjc->fj", rot, rot)  # cheap screen; the exact test runs only if it fails
+        if not (squared.min() >= (1.0 - _UNIT_TOLERANCE) ** 2 and squared.max() <= (1.0 + _UNIT_TOLERANCE) ** 2):
+            norms = np.sqrt(squared)
+            bad = np.argwhere(np.abs(norms - 1.0) > _UNIT_TOLERANCE)
+            if bad.size:
+                f, j = (int(i) for i in bad[0])
+                raise ValidationError(f"rotations must be unit quaternions (xyzw); frame {f}, joint "
+                                      f"{self.skeleton.names[j]!r} has norm {norms[f, j]:.9g}")
         P = self.skeleton.translated_joints.shape[0]
         if self.joint_translations is None:
             jt = np.broadcast_to(self.skeleton.offsets[self.skeleton.translated_joints], (F, P, 3)).copy()

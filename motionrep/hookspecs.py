@@ -36,9 +36,10 @@ def register_representations(register: Callable[..., None]) -> None:
         :class:`motionrep.representation.Representation` subclass.  The core checks it (a non-empty ``name``,
         an integer ``version`` >= 1, the required methods) as it is registered.
 
-    Called once per process, the first time motionrep needs the list of representations (for example when a
-    command names one, or ``motionrep plugins`` runs); never at import time.  A name registered by two plugins
-    raises :class:`motionrep.errors.DuplicateNameError` naming both.
+    Called once per process, when plugins are first loaded: the first time motionrep looks up any
+    representation or codec (a command naming one, reading a features or ``.mrc`` file, ``motionrep plugins``);
+    never at import time.  A name registered by two plugins raises
+    :class:`motionrep.errors.DuplicateNameError` naming both.
     """
 
 
@@ -50,7 +51,8 @@ def register_codecs(register: Callable[..., None]) -> None:
         :class:`motionrep.codec.Codec` subclass.  The core checks it (a non-empty ``name``, an integer
         ``format_version`` >= 1, a ``Params`` dataclass, the required methods) as it is registered.
 
-    Called once per process, the first time motionrep needs the list of codecs (``compress``,
-    ``decompress``, reading a ``.mrc`` file, ``motionrep plugins``); never at import time.  A name
-    registered by two plugins raises :class:`motionrep.errors.DuplicateNameError` naming both.
+    Called once per process, when plugins are first loaded (right after every ``register_representations``):
+    the first time motionrep looks up any representation or codec (``compress``, ``decompress``, reading a
+    ``.mrc`` file, ``motionrep plugins``...); never at import time.  A name registered by two plugins raises
+    :class:`motionrep.errors.DuplicateNameError` naming both.
     """

@@ -4,14 +4,15 @@ Positions are in the file's units; global rotations are matrices ``(..., 3, 3)``
 through :attr:`FKResult.rotations`, ``(..., 4)`` xyzw quaternions.  Points are ordered joints first (``J``), then
 end sites (``E``), so every array over points has ``J + E`` entries.
 
-FK is vectorised over frames and over all joints of one depth of the tree: one matrix product per tree level,
-not per joint or per frame.
+FK composes unit quaternions (normalised first, so the result is exactly the pose the rotations stand for),
+vectorised over frames and over all joints of one depth of the tree: one quaternion product and one vector
+rotation per tree level, on joint-major component arrays, a cache-sized chunk of frames at a time.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,7 +38,7 @@ class FKResult:
 
     @cached_property
     def rotations(self) -> NDArray[np.float64]:
-        """``(F, J + E, 4)`` world rotations as unit xyzw quaternions."""
+        """``(F, J + E, 4)`` world rotations as unit xyzw quaternions (w >= 0)."""
         return matrix_to_quat(self.matrices)
 
 
@@ -63,63 +64,160 @@ def quat_to_matrix_fast(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return m
 
 
-def _levels(parents: NDArray[np.int64]) -> list[NDArray[np.int64]]:
-    depth = np.zeros(parents.shape[0], np.int64)
-    for j in range(1, parents.shape[0]):
-        depth[j] = depth[parents[j]] + 1
-    return [np.nonzero(depth == d)[0] for d in range(1, int(depth.max(initial=0)) + 1)]
+class _Plan:
+    """Joints in tree-level order, so each level is a contiguous slice and FK writes results in place."""
+
+    def __init__(self, parents: NDArray[np.int64], end_site_parents: NDArray[np.int64]):
+        J = parents.shape[0]
+        depth = np.zeros(J, np.int64)
+        for j in range(1, J):
+            depth[j] = depth[parents[j]] + 1
+        self.order = np.argsort(depth, kind="stable")  # new index -> joint
+        new_index = np.empty(J, np.int64)
+        new_index[self.order] = np.arange(J)
+        new_parents = new_index[parents[self.order][1:]]
+        bounds = np.searchsorted(depth[self.order], np.arange(1, int(depth.max(initial=0)) + 2))
+        self.levels = [(int(a), int(b), new_parents[a - 1:b - 1]) for a, b in zip(bounds[:-1], bounds[1:])]
+        self.site_parents = new_index[end_site_parents]
 
 
-def _fk(skeleton: Skeleton, local_rot: NDArray, local_trans: NDArray, want_matrices: bool):
-    """Core FK on joint-major arrays.
+@lru_cache(maxsize=64)
+def _plan(parents: bytes, end_site_parents: bytes) -> _Plan:
+    return _Plan(np.frombuffer(parents, np.int64), np.frombuffer(end_site_parents, np.int64))
+
+
+#: Joint-frames per FK chunk: the temporaries stay in cache and their memory is reused.
+_CHUNK_JOINT_FRAMES = 1 << 16
+
+
+def _quat_mul_into(a, b, out) -> None:
+    """Hamilton product ``a * b`` of xyzw component sequences into ``out`` (4 arrays), broadcasting."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    ox, oy, oz, ow = out
+    np.multiply(aw, bx, out=ox)
+    ox += ax * bw
+    ox += ay * bz
+    ox -= az * by
+    np.multiply(aw, by, out=oy)
+    oy -= ax * bz
+    oy += ay * bw
+    oy += az * bx
+    np.multiply(aw, bz, out=oz)
+    oz += ax * by
+    oz -= ay * bx
+    oz += az * bw
+    np.multiply(aw, bw, out=ow)
+    ow -= ax * bx
+    ow -= ay * by
+    ow -= az * bz
+
+
+def _rotate_add_into(q, v, base, out) -> None:
+    """``out = base + rotate(q, v)`` for unit xyzw quaternion components ``q`` and vector components ``v``."""
+    qx, qy, qz, qw = q
+    vx, vy, vz = v
+    tx = qy * vz  # t = 2 (q_vec x v)
+    tx -= qz * vy
+    tx += tx
+    ty = qz * vx
+    ty -= qx * vz
+    ty += ty
+    tz = qx * vy
+    tz -= qy * vx
+    tz += tz
+    for o, b, vc, tc, c1, t1, c2, t2 in ((out[0], base[0], vx, tx, qy, tz, qz, ty),
+                                         (out[1], base[1], vy, ty, qz, tx, qx, tz),
+                                         (out[2], base[2], vz, tz, qx, ty, qy, tx)):
+        np.add(b, vc, out=o)  # out = base + v + w t + q_vec x t
+        o += qw * tc
+        o += c1 * t1
+        o -= c2 * t2
+
+
+def _fk_chunk(skeleton: Skeleton, plan: _Plan, rot: NDArray, trans: NDArray | None, out_pos: NDArray,
+              out_rot: NDArray | None) -> None:
+    """FK for a few frames, joint-major inside (``(component, J, frame)`` arrays), joints in tree-level order.
 
     Args:
-        local_rot: ``(J, F, 3, 3)`` local rotation matrices.
-        local_trans: ``(J, F, 3)`` local translations.
-
-    Returns:
-        positions ``(F, J + E, 3)`` and, if asked, matrices ``(F, J + E, 3, 3)``.
+        rot: ``(m, J, 4)`` local rotations (xyzw).
+        trans: ``(m, J, 3)`` local translations, or None when only the root moves (then ``out_pos[:, 0]``
+            already holds the root translation and other joints use their OFFSETs).
+        out_pos: ``(m, J + E, 3)`` filled with world positions.
+        out_rot: ``(m, J + E, 4)`` filled with world rotations (xyzw) if given.
     """
-    J, F = local_rot.shape[:2]
-    parents = skeleton.parents
-    g_rot = np.empty_like(local_rot)
-    g_pos = np.empty_like(local_trans)
-    g_rot[0] = local_rot[0]
-    g_pos[0] = local_trans[0]
-    for idx in _levels(parents):
-        par = parents[idx]
-        pr = g_rot[par]
-        g_rot[idx] = pr @ local_rot[idx]
-        g_pos[idx] = g_pos[par] + (pr @ local_trans[idx][..., None])[..., 0]
+    J = skeleton.num_joints
+    order = plan.order
+    m = rot.shape[0]
+    q = np.empty((4, J, m))
+    for c in range(4):
+        q[c] = rot[:, :, c].T
+    q /= np.sqrt(np.einsum("cjm,cjm->jm", q, q))  # exactly unit: FK of the rotation each one stands for
+    g = np.empty_like(q)  # world rotations, in level order
+    p = np.empty((3, J, m))  # world positions, in level order
+    root = order[0]
+    g[:, 0] = q[:, root]
+    if trans is None:
+        p[:, 0] = out_pos[:, 0].T
+        local = skeleton.offsets[order].T[:, :, None]
+    else:
+        local = np.empty((3, J, m))
+        for c in range(3):
+            local[c] = trans[:, :, c].T
+        local = local[:, order]
+        p[:, 0] = local[:, 0]
+    for a, b, par in plan.levels:
+        gp = g[:, par]
+        _rotate_add_into(gp, local[:, a:b], p[:, par], p[:, a:b])
+        _quat_mul_into(gp, q[:, order[a:b]], g[:, a:b])
+    back = np.empty(J, np.int64)
+    back[order] = np.arange(J)
+    pj = p[:, back]
+    for c in range(3):
+        out_pos[:, :J, c] = pj[c].T
     E = skeleton.num_end_sites
-    esp = skeleton.end_site_parents
-    out_pos = np.empty((F, J + E, 3))
-    out_pos[:, :J] = g_pos.transpose(1, 0, 2)
     if E:
-        site = g_pos[esp] + np.einsum("efij,ej->efi", g_rot[esp], skeleton.end_site_offsets)
-        out_pos[:, J:] = site.transpose(1, 0, 2)
-    if not want_matrices:
-        return out_pos, None
-    out_rot = np.empty((F, J + E, 3, 3))
-    out_rot[:, :J] = g_rot.transpose(1, 0, 2, 3)
-    if E:
-        out_rot[:, J:] = g_rot[esp].transpose(1, 0, 2, 3)
-    return out_pos, out_rot
+        sp = plan.site_parents
+        ge = g[:, sp]
+        site = np.empty((3, E, m))
+        _rotate_add_into(ge, skeleton.end_site_offsets.T[:, :, None], p[:, sp], site)
+        for c in range(3):
+            out_pos[:, J:, c] = site[c].T
+    if out_rot is not None:
+        gj = g[:, back]
+        for c in range(4):
+            out_rot[:, :J, c] = gj[c].T
+        if E:
+            out_rot[:, J:] = out_rot[:, skeleton.end_site_parents]
 
 
-def _joint_major_inputs(motion: Motion) -> tuple[NDArray, NDArray]:
+def _fk(motion: Motion, want_rotations: bool) -> tuple[NDArray, NDArray | None]:
+    """World positions ``(F, J + E, 3)`` and, if asked, world rotations ``(F, J + E, 4)`` (xyzw)."""
     sk = motion.skeleton
-    local_rot = quat_to_matrix_fast(np.ascontiguousarray(motion.rotations.transpose(1, 0, 2)))
-    trans = np.empty((sk.num_joints, motion.num_frames, 3))
-    trans[:] = sk.offsets[:, None, :]
-    trans[0] = motion.root_translation
-    if sk.translated_joints.size:
-        trans[sk.translated_joints] = motion.joint_translations.transpose(1, 0, 2)
-    return local_rot, trans
+    F, J, E = motion.num_frames, sk.num_joints, sk.num_end_sites
+    out_pos = np.empty((F, J + E, 3))
+    out_rot = np.empty((F, J + E, 4)) if want_rotations else None
+    moving = sk.translated_joints.size > 0
+    if not moving:
+        out_pos[:, 0] = motion.root_translation
+    plan = _plan(sk.parents.tobytes(), sk.end_site_parents.tobytes())
+    step = max(1, _CHUNK_JOINT_FRAMES // J)
+    trans = None
+    for a in range(0, F, step):
+        b = min(F, a + step)
+        if moving:
+            trans = np.broadcast_to(sk.offsets, (b - a, J, 3)).copy()
+            trans[:, 0] = motion.root_translation[a:b]
+            trans[:, sk.translated_joints] = motion.joint_translations[a:b]
+        _fk_chunk(sk, plan, motion.rotations[a:b], trans, out_pos[a:b], None if out_rot is None else out_rot[a:b])
+    return out_pos, out_rot
 
 
 def forward_kinematics(motion: Motion) -> FKResult:
     """Global positions and rotations of every joint and end site, for every frame.
+
+    Rotations are normalised to unit length first (they are unit to 1e-6 in a valid Motion), so the result is
+    exactly the pose the rotations stand for.
 
     Args:
         motion: the clip.
@@ -127,13 +225,16 @@ def forward_kinematics(motion: Motion) -> FKResult:
     Returns:
         :class:`FKResult` with ``positions (F, J + E, 3)`` and ``matrices (F, J + E, 3, 3)``.
     """
-    pos, rot = _fk(motion.skeleton, *_joint_major_inputs(motion), want_matrices=True)
-    return FKResult(pos, rot)
+    pos, rot = _fk(motion, want_rotations=True)
+    result = FKResult(pos, quat_to_matrix_fast(rot))
+    rot *= np.where(rot[..., 3:] < 0, -1.0, 1.0)  # w >= 0, as matrix_to_quat gives
+    result.__dict__["rotations"] = rot  # fills the cached property: no conversion back from the matrices
+    return result
 
 
 def global_positions(motion: Motion) -> NDArray[np.float64]:
     """``(F, J + E, 3)`` world positions of every joint then every end site (faster than full FK)."""
-    return _fk(motion.skeleton, *_joint_major_inputs(motion), want_matrices=False)[0]
+    return _fk(motion, want_rotations=False)[0]
 
 
 def rest_positions(skeleton: Skeleton) -> NDArray[np.float64]:

@@ -104,7 +104,7 @@ def _load_entry_points() -> None:
             module = ep.load()
         except Exception as exc:  # a broken third-party plugin must name itself
             raise PluginError(f"plugin {ep.name!r} ({ep.value}) failed to load: {type(exc).__name__}: {exc}") from exc
-        pm.register(module, name=ep.name)
+        _register(module, ep.name)
         _State.infos[ep.name] = PluginInfo(ep.name, ep.dist.version if ep.dist is not None else None, False, dist)
     if allowed:
         missing = sorted(allowed - found)
@@ -117,13 +117,24 @@ def _load_shipped() -> None:
 
     for name in DEFAULT_PLUGINS:
         if pm.has_plugin(name):
+            other = _State.infos.get(name)
+            if other is not None and other.distribution:
+                raise DuplicateNameError(f"plugin name {name!r} is used twice: by the shipped plugin and by "
+                                         f"{other.distribution!r}")
             continue
         try:
             module = importlib.import_module(name)
         except ImportError as exc:
             raise PluginError(f"shipped plugin {name!r} failed to import: {exc}") from exc
-        pm.register(module, name=name)
+        _register(module, name)
         _State.infos[name] = PluginInfo(name, getattr(module, "__version__", __version__), True, "motionrep")
+
+
+def _register(module: Any, name: str) -> None:
+    try:
+        pm.register(module, name=name)
+    except pluggy.PluginValidationError as exc:  # a hook implementation whose arguments the spec lacks
+        raise PluginError(f"plugin {name!r} is invalid: " + " ".join(str(exc).split())) from exc
 
 
 def _check_representation(obj: Any, plugin: str) -> None:
@@ -150,7 +161,8 @@ def _check_codec(obj: Any, plugin: str) -> None:
 
 def _collect(hook_name: str, kind: str, check: Callable[[Any, str], None], into: dict) -> None:
     hook = getattr(pm.hook, hook_name)
-    for impl in reversed(hook.get_hookimpls()):  # pluggy lists them last-registered first
+    # get_hookimpls() is in registration order; walk it backwards, the order in which pluggy calls hooks.
+    for impl in reversed(hook.get_hookimpls()):
         plugin = impl.plugin_name
 
         def register(obj: Any, _plugin: str = plugin) -> None:
@@ -181,10 +193,15 @@ def load_plugins() -> None:
     try:
         _load_entry_points()
         _load_shipped()
-        pm.check_pending()
+        try:
+            pm.check_pending()
+        except pluggy.PluginValidationError as exc:  # a misspelt hook name
+            known = ", ".join(n for n in hookspecs.__all__ if n not in ("hookspec", "hookimpl"))
+            raise PluginError(" ".join(str(exc).split()) + f"; known hooks: {known}") from exc
         for name, plugin in pm.list_name_plugin():
             if name not in _State.infos:  # registered by hand (tests, embedding applications)
                 _State.infos[name] = PluginInfo(name, getattr(plugin, "__version__", None), False, None)
+            _State.infos[name].hooks = sorted(caller.name for caller in pm.get_hookcallers(plugin) or ())
         _collect("register_representations", "representation", _check_representation, _State.reps)
         _collect("register_codecs", "codec", _check_codec, _State.codecs)
     except BaseException:

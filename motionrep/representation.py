@@ -10,7 +10,8 @@ Plugins subclass :class:`Representation` and register an instance through the
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Callable, ClassVar, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,7 +20,7 @@ from ._model import Motion, Skeleton
 from .errors import ValidationError
 from .kinematics import forward_kinematics
 
-__all__ = ["Representation", "joint_reach", "check_features"]
+__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout"]
 
 
 class Representation(ABC):
@@ -106,3 +107,120 @@ def check_features(features: ArrayLike, width: int, name: str) -> NDArray[np.flo
     if not np.all(np.isfinite(f)):
         raise ValidationError(f"features for representation {name!r} contain NaN or infinity")
     return f
+
+
+@dataclass(frozen=True, eq=False)
+class FeatureLayout:
+    """Where each joint's columns sit in a ``(F, D)`` feature matrix.
+
+    The shipped representations all use this layout (third-party ones may too): the root translation
+    first (3 columns, ``"<root>/tx"``, ``"<root>/ty"``, ``"<root>/tz"``), then, for every joint in skeleton
+    order, its rotation block (zero or more columns, named ``"<joint>/<suffix>"``) followed, for the joints in
+    ``skeleton.translated_joints``, by its local translation (3 columns ``"<joint>/tx"``...).  Build one with
+    :func:`feature_layout`.
+
+    Attributes:
+        skeleton: the skeleton the layout is for.
+        names: ``D`` column names.
+        rotation_joints: ``(R,)`` indices of the joints that have a rotation block, in skeleton order.
+        rotation_columns: per entry of ``rotation_joints``, the ``(k_j,)`` column indices of its block.
+        translation_columns: ``(P, 3)`` column indices of the local translation of each joint in
+            ``skeleton.translated_joints``.
+    """
+
+    skeleton: Skeleton
+    names: tuple[str, ...]
+    rotation_joints: NDArray[np.int64]
+    rotation_columns: tuple[NDArray[np.int64], ...]
+    translation_columns: NDArray[np.int64]
+
+    @property
+    def width(self) -> int:
+        """Number of feature columns ``D``."""
+        return len(self.names)
+
+    def rotation_block(self, features: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(F, R, k)`` rotation blocks of ``(F, D)`` features, when every block has the same width ``k``.
+
+        Raises:
+            ValidationError: if the blocks differ in width (use ``rotation_columns`` one joint at a time).
+        """
+        return features[:, self._uniform_index()]
+
+    def split(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(F, 3)`` root translation and ``(F, P, 3)`` joint translations of ``(F, D)`` features."""
+        return features[:, :3], features[:, self.translation_columns]
+
+    def assemble(self, root_translation: NDArray[np.float64], rotations: NDArray[np.float64] | Sequence[NDArray],
+                 joint_translations: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Build ``(F, D)`` features from their parts.
+
+        Args:
+            root_translation: ``(F, 3)``.
+            rotations: ``(F, R, k)`` blocks in ``rotation_joints`` order, or a sequence of ``R`` arrays
+                ``(F, k_j)``.
+            joint_translations: ``(F, P, 3)`` local translations of ``skeleton.translated_joints``.
+        """
+        F = root_translation.shape[0]
+        out = np.empty((F, self.width))
+        out[:, :3] = root_translation
+        if isinstance(rotations, np.ndarray):
+            if len(self.rotation_joints):
+                out[:, self._uniform_index()] = rotations
+        else:
+            for cols, block in zip(self.rotation_columns, rotations):
+                out[:, cols] = block
+        if self.translation_columns.size:
+            out[:, self.translation_columns] = joint_translations
+        return out
+
+    def weights(self, rotation_weight: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(D,)`` weights: 1 for every translation column, ``rotation_weight[j]`` for joint ``j``'s block.
+
+        Args:
+            rotation_weight: ``(J,)`` weight of each joint's rotation columns (for example
+                :func:`joint_reach` times a unit factor).
+        """
+        w = np.ones(self.width)
+        for j, cols in zip(self.rotation_joints.tolist(), self.rotation_columns):
+            w[cols] = rotation_weight[j]
+        return w
+
+    def _uniform_index(self) -> NDArray[np.int64]:
+        widths = {c.shape[0] for c in self.rotation_columns}
+        if len(widths) > 1:
+            raise ValidationError(f"rotation blocks have different widths {sorted(widths)}")
+        if not self.rotation_columns:
+            return np.zeros((0, 0), np.int64)
+        return np.stack(self.rotation_columns)
+
+
+def feature_layout(skeleton: Skeleton, rotation_suffixes: Callable[[int], Sequence[str]]) -> FeatureLayout:
+    """The :class:`FeatureLayout` of ``skeleton`` for a representation with the given rotation blocks.
+
+    Args:
+        skeleton: the skeleton.
+        rotation_suffixes: for joint index ``j``, the names of its rotation columns without the joint prefix
+            (``("qx", "qy", "qz", "qw")``), or an empty sequence for a joint without rotation columns.
+
+    Example::
+
+        layout = feature_layout(sk, lambda j: ("r0", "r1", "r2", "r3", "r4", "r5") if sk.rotation_orders[j]
+                                else ())
+    """
+    names = [f"{skeleton.names[0]}/{a}" for a in ("tx", "ty", "tz")]
+    translated = set(skeleton.translated_joints.tolist())
+    rot_joints: list[int] = []
+    rot_cols: list[NDArray[np.int64]] = []
+    trans_cols: list[list[int]] = []
+    for j, joint in enumerate(skeleton.names):
+        suffixes = tuple(rotation_suffixes(j))
+        if suffixes:
+            rot_joints.append(j)
+            rot_cols.append(np.arange(len(names), len(names) + len(suffixes)))
+            names.extend(f"{joint}/{s}" for s in suffixes)
+        if j in translated:
+            trans_cols.append(list(range(len(names), len(names) + 3)))
+            names.extend(f"{joint}/{a}" for a in ("tx", "ty", "tz"))
+    return FeatureLayout(skeleton, tuple(names), np.array(rot_joints, np.int64), tuple(rot_cols),
+                         np.array(trans_cols, np.int64).reshape(-1, 3))

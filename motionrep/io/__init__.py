@@ -10,32 +10,65 @@ suffix             format
 
 Every write is atomic: the file is written under a temporary name in the same directory and renamed at the
 end, so a failure never leaves a partial file behind.
+
+NPZ and HDF5 files hold either a :class:`~motionrep.Motion` or a representation's features
+(:class:`FeatureClip`, written by :func:`write_features`); :func:`read` decodes features through the registered
+representation, :func:`read_features` returns them as stored.  An HDF5 file is a database of named clips
+(:func:`write_database`, :func:`list_clips`, :func:`read_clips`); a file written by :func:`write` is a database
+with one clip, named after the file's stem.  BVH and NPZ files hold one clip, named after the file's stem.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 from .._model import Motion
-from ..errors import FormatError
+from ..errors import BVHFormatError, FormatError, HDF5FormatError, NPZFormatError, ValidationError
 from ._atomic import atomic_path
-from ._bvh import parse_bvh, read_bvh, write_bvh, format_bvh
+from ._bvh import format_bvh, parse_bvh, read_bvh, write_bvh
+from ._features import FeatureClip, features_from_motion, motion_from_features
+from ._hdf5 import (
+    iter_hdf5_clips,
+    list_hdf5_clips,
+    read_hdf5,
+    read_hdf5_clip,
+    write_database,
+    write_hdf5,
+    write_hdf5_features,
+)
+from ._npz import read_npz, read_npz_clip, write_npz, write_npz_features
 
 __all__ = [
     "read",
     "write",
+    "read_features",
+    "write_features",
+    "read_stored",
+    "list_clips",
+    "read_clips",
+    "write_database",
     "format_of",
     "SUFFIXES",
+    "FeatureClip",
+    "features_from_motion",
+    "motion_from_features",
     "read_bvh",
     "write_bvh",
     "parse_bvh",
     "format_bvh",
+    "read_npz",
+    "write_npz",
+    "read_hdf5",
+    "write_hdf5",
     "atomic_path",
 ]
 
 #: Known suffixes and the format each selects.
 SUFFIXES: dict[str, str] = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5"}
+
+_ERRORS: dict[str, type[FormatError]] = {"bvh": BVHFormatError, "npz": NPZFormatError, "hdf5": HDF5FormatError}
 
 
 def format_of(path: str | os.PathLike[str]) -> str:
@@ -52,8 +85,39 @@ def format_of(path: str | os.PathLike[str]) -> str:
                           + ", ".join(SUFFIXES), path) from None
 
 
+def _no_clip(fmt: str, path, clip: str | None) -> None:
+    if clip is not None:
+        raise _ERRORS[fmt](f"a {fmt.upper()} file holds one clip; clip= (--clip) applies to HDF5 databases", path)
+
+
+def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
+    """Read one clip as stored, without decoding features.
+
+    Args:
+        path: a ``.bvh``, ``.npz``, ``.h5`` or ``.hdf5`` file.
+        clip: for an HDF5 database, the clip to read (only that clip is read); may be omitted when the file holds
+            exactly one clip.
+
+    Returns:
+        ``(name, clip)``: the clip's name (for BVH and NPZ, the file's stem) and a :class:`~motionrep.Motion` or,
+        for a features file, a :class:`FeatureClip`.
+
+    Raises:
+        FormatError: (a subclass naming the file, and the line for BVH or the clip for HDF5) if the file is
+            missing or malformed, or the clip is not found.
+    """
+    fmt = format_of(path)
+    if fmt == "hdf5":
+        return read_hdf5_clip(path, clip)
+    _no_clip(fmt, path, clip)
+    return Path(path).stem, (read_bvh(path) if fmt == "bvh" else read_npz_clip(path))
+
+
 def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
     """Read one motion from ``path`` (format from the suffix).
+
+    A features file is decoded through the registered representation it names
+    (``get_representation(name).from_features(features, skeleton, fps)``).
 
     Args:
         path: a ``.bvh``, ``.npz``, ``.h5`` or ``.hdf5`` file.
@@ -61,14 +125,17 @@ def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
             when the file holds exactly one clip.
 
     Raises:
-        FormatError: (a subclass naming the file, and the line for BVH) if the file is missing or malformed.
+        FormatError: (a subclass naming the file, and the line for BVH or the clip for HDF5) if the file is
+            missing or malformed, the clip is not found or not named in a database of several clips (the
+            message lists them), or the features were written by another version of their representation
+            (the message names both versions).
+        UnknownPluginError: if a features file names a representation that is not installed.
     """
     fmt = format_of(path)
-    if fmt == "bvh":
-        if clip is not None:
-            raise FormatError("a BVH file holds one clip; --clip applies to HDF5 databases", path)
-        return read_bvh(path)
-    raise FormatError(f"{fmt} files are not supported yet", path)
+    name, item = read_stored(path, clip)
+    if isinstance(item, FeatureClip):
+        return motion_from_features(item, path, _ERRORS[fmt], clip_name=name if fmt == "hdf5" else None)
+    return item
 
 
 def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
@@ -77,10 +144,83 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
     Args:
         motion: the clip.
         path: target file; an existing file is replaced only once the new one is complete.
-        **options: format options (BVH: ``decimals``).
+        **options: format options: BVH ``decimals`` (default 6); NPZ ``compress`` (default False); HDF5 ``clip``,
+            the clip's name (default: the file's stem).
+
+    Raises:
+        FormatError: for an unknown suffix.
+        ValidationError: if ``motion`` is not a Motion or cannot be written in this format without loss.
     """
+    if not isinstance(motion, Motion):
+        hint = "; use write_features for a FeatureClip" if isinstance(motion, FeatureClip) else ""
+        raise ValidationError(f"write needs a Motion, got {type(motion).__name__}{hint}")
     fmt = format_of(path)
     if fmt == "bvh":
         write_bvh(motion, path, **options)
-        return
-    raise FormatError(f"{fmt} files are not supported yet", path)
+    elif fmt == "npz":
+        write_npz(motion, path, **options)
+    else:
+        write_hdf5(motion, path, **options)
+
+
+def read_features(path: str | os.PathLike[str], clip: str | None = None) -> FeatureClip:
+    """Read a representation's features as stored (NPZ or HDF5), without decoding them.
+
+    Raises:
+        FormatError: (naming the file and clip) if the file is malformed or holds a motion rather than features.
+    """
+    fmt = format_of(path)
+    name, item = read_stored(path, clip)
+    if not isinstance(item, FeatureClip):
+        where = f"clip {name!r} " if fmt == "hdf5" else ""
+        raise _ERRORS[fmt](f"{where}holds a motion, not a representation's features; read it with read()", path)
+    return item
+
+
+def write_features(features: FeatureClip, path: str | os.PathLike[str], **options) -> None:
+    """Write a representation's features to an NPZ or HDF5 file atomically (format from the suffix).
+
+    Args:
+        features: the :class:`FeatureClip`: features with the skeleton, fps and representation name and version.
+        path: a ``.npz``, ``.h5`` or ``.hdf5`` file.
+        **options: NPZ ``compress`` (default False); HDF5 ``clip`` (the clip's name, default the file's stem).
+
+    Raises:
+        FormatError: for a ``.bvh`` or unknown suffix.
+    """
+    fmt = format_of(path)
+    if fmt == "bvh":
+        raise BVHFormatError("BVH files hold motions, not features; write features to .npz or .h5", path)
+    if fmt == "npz":
+        write_npz_features(features, path, **options)
+    else:
+        write_hdf5_features(features, path, **options)
+
+
+def list_clips(path: str | os.PathLike[str]) -> list[str]:
+    """Names of the clips in ``path``: an HDF5 database's clip names in stored order (no clip data is read);
+    for a BVH or NPZ file, the one clip's name, the file's stem (the file is not read).
+
+    Raises:
+        FormatError: for an unknown suffix, or an HDF5 file that is missing or not a motionrep file.
+    """
+    fmt = format_of(path)
+    if fmt == "hdf5":
+        return list_hdf5_clips(path)
+    return [Path(path).stem]
+
+
+def read_clips(path: str | os.PathLike[str]) -> Iterator[tuple[str, Motion]]:
+    """Yield ``(name, motion)`` for every clip in ``path``, lazily, one clip read at a time.
+
+    Features clips are decoded through their representation.  For BVH and NPZ files, one pair named after the
+    file's stem.
+
+    Raises:
+        FormatError: as iteration reaches an invalid file or clip.
+    """
+    fmt = format_of(path)
+    if fmt == "hdf5":
+        yield from iter_hdf5_clips(path, decode=True)
+    else:
+        yield Path(path).stem, read(path)

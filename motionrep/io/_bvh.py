@@ -19,14 +19,15 @@ from numpy.typing import NDArray
 
 from .._model import CHANNEL_NAMES, Motion, Skeleton
 from ..errors import BVHFormatError, ValidationError
-from ..rotations import euler_branch, euler_to_quat, quat_to_euler_continuous
+from ..rotations import _euler_to_quat_into, euler_branch, quat_to_euler_continuous
 from ._atomic import atomic_path
-from ._numbers import parse_decimal_tokens, scan_tokens
+from ._numbers import _python_float, parse_number_tokens, scan_tokens
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
 _CHANNEL_LOOKUP = {c.lower(): c for c in CHANNEL_NAMES}
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE)
+_INT_RE = re.compile(r"[+-]?[0-9]+\Z")  # ASCII digits only (int() would take '1_0' and other scripts' digits)
 _FRAMES_RE = re.compile(r"^\s*Frames\s*:\s*(\S*)\s*(.*)$")
 _FRAME_TIME_RE = re.compile(r"^\s*Frame\s+Time\s*:\s*(\S*)\s*(.*)$")
 
@@ -56,7 +57,7 @@ def read_bvh(path: str | os.PathLike[str]) -> Motion:
 class _Tokens:
     """Header tokens with their line numbers."""
 
-    def __init__(self, text: str, path):
+    def __init__(self, text: str, path, ends_at_motion: bool = True):
         self.path = path
         self.items: list[tuple[str, int]] = []
         self.by_line: dict[int, list[str]] = {}
@@ -66,7 +67,9 @@ class _Tokens:
                 self.by_line[lineno] = words
                 self.items.extend((w, lineno) for w in words)
         self.pos = 0
-        self.last_line = max(1, text.count("\n") + 1)
+        self.ends_at_motion = ends_at_motion
+        # where the hierarchy ends: the MOTION line, or the last line with text when the file has no MOTION
+        self.last_line = max(1, text.count("\n") + 1) if ends_at_motion else max(self.by_line, default=1)
 
     def error(self, message: str, line: int | None = None) -> BVHFormatError:
         return BVHFormatError(message, self.path, line)
@@ -91,10 +94,9 @@ class _Tokens:
 
     def number(self, what: str) -> float:
         tok, line = self.next(what)
-        try:
-            value = float(tok)
-        except ValueError:
-            raise self.error(f"expected a number for {what}, found {tok!r}", line) from None
+        value = _python_float(tok.encode("utf-8"))  # the frame values' rule: ASCII, no '_' (unlike float())
+        if value is None:
+            raise self.error(f"expected a number for {what}, found {tok!r}", line)
         if not np.isfinite(value):
             raise self.error(f"{what} must be finite, found {tok!r}", line)
         return value
@@ -142,8 +144,9 @@ def _parse_joint(tok: _Tokens, hdr: _Header, parent: int, keyword: str, kw_line:
     while True:
         item = tok.peek()
         if item is None:
-            raise tok.error(f"unbalanced braces: {keyword} {name} (line {kw_line}) is never closed "
-                            "before MOTION", tok.last_line)
+            where = "before MOTION" if tok.ends_at_motion else "before the end of the file"
+            raise tok.error(f"unbalanced braces: {keyword} {name} (line {kw_line}) is never closed {where}",
+                            tok.last_line)
         t, line = tok.next("a joint item")
         if t == "}":
             break
@@ -196,10 +199,9 @@ def _parse_channels(tok: _Tokens, owner: str, line: int) -> tuple[str, ...]:
     words = tok.rest_of_line(line)
     if not words:
         raise tok.error(f"CHANNELS of {owner} has no count", line)
-    try:
-        count = int(words[0])
-    except ValueError:
-        raise tok.error(f"CHANNELS count of {owner} must be an integer, found {words[0]!r}", line) from None
+    if not _INT_RE.match(words[0]):
+        raise tok.error(f"CHANNELS count of {owner} must be an integer, found {words[0]!r}", line)
+    count = int(words[0])
     names = words[1:]
     if count != len(names):
         raise tok.error(f"CHANNELS of {owner} says {count} but lists {len(names)} channel names", line)
@@ -215,8 +217,8 @@ def _parse_channels(tok: _Tokens, owner: str, line: int) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _parse_hierarchy(text: str, path) -> _Header:
-    tok = _Tokens(text, path)
+def _parse_hierarchy(text: str, path, ends_at_motion: bool = True) -> _Header:
+    tok = _Tokens(text, path, ends_at_motion)
     first = tok.peek()
     if first is None:
         raise tok.error("no HIERARCHY section", 1)
@@ -227,7 +229,11 @@ def _parse_hierarchy(text: str, path) -> _Header:
     t, line = tok.next("ROOT")
     if t != "ROOT":
         raise tok.error(f"expected ROOT, found {t!r}: the hierarchy must start with a ROOT joint", line)
-    _parse_joint(tok, hdr, -1, "ROOT", line)
+    try:
+        _parse_joint(tok, hdr, -1, "ROOT", line)
+    except RecursionError:
+        raise tok.error(f"joints nested too deeply ({len(hdr.names)} levels or more)",
+                        tok.items[max(tok.pos - 1, 0)][1]) from None
     item = tok.peek()
     if item is not None:
         t, line = item
@@ -241,18 +247,21 @@ def _parse_hierarchy(text: str, path) -> _Header:
 
 def _decode(data: bytes, path) -> bytes:
     """Check the bytes are text; return them without a UTF-8 byte-order mark."""
-    if not data.strip():
+    if not data or data.isspace():
         raise BVHFormatError("file is empty", path, 1)
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        raise BVHFormatError(f"not a text file: invalid UTF-8 byte 0x{data[exc.start]:02x}", path, line) from None
+    if not data.isascii():
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = data.count(b"\n", 0, exc.start) + 1
+            raise BVHFormatError(f"not a text file: invalid UTF-8 byte 0x{data[exc.start]:02x}", path,
+                                 line) from None
     u = np.frombuffer(data, np.uint8)
-    bad = np.flatnonzero((u < 32) & (u != 9) & (u != 10) & (u != 13) & (u != 11) & (u != 12))
-    if bad.size:
+    # control bytes other than tab, LF, VT, FF, CR (9..13): below 9, or 14..31 (u - 14 wraps below 18)
+    if u.min() < 9 or np.any((u - np.uint8(14)) < 18):
+        bad = np.flatnonzero((u < 32) & (u != 9) & (u != 10) & (u != 13) & (u != 11) & (u != 12))
         line = data.count(b"\n", 0, int(bad[0])) + 1
         raise BVHFormatError(f"not a text file: control byte 0x{u[bad[0]]:02x}", path, line)
     return data
@@ -275,28 +284,29 @@ def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> 
             first = data.split(None, 1)[0][:40].decode("utf-8", "replace")
             raise BVHFormatError(f"expected HIERARCHY at the start of the file, found {first!r}", path,
                                  data[: len(data) - len(data.lstrip())].count(b"\n") + 1)
-        raise BVHFormatError("no MOTION section", path, data.count(b"\n") + 1)
+        _parse_hierarchy(data.decode("utf-8"), path, ends_at_motion=False)  # names a fault in it, if any
+        raise BVHFormatError("no MOTION section (the file ends after the hierarchy)", path,
+                             data.rstrip().count(b"\n") + 1)
     header_text = data[: m.start()].decode("utf-8")
     hdr = _parse_hierarchy(header_text, path)
     motion_line = header_text.count("\n") + 1  # line number of "MOTION"
-    rest = data[m.end():]
-    frames, frame_time, block, block_line = _parse_motion_header(rest, motion_line, path)
+    frames, frame_time, block_start, block_line = _parse_motion_header(data, m.end(), motion_line, path)
     channels = tuple(hdr.channels)
     skeleton = Skeleton(
         names=tuple(hdr.names), parents=np.array(hdr.parents), offsets=np.array(hdr.offsets, dtype=np.float64),
         channels=channels, end_site_parents=np.array(hdr.site_parents, dtype=np.int64),
         end_site_offsets=np.array(hdr.site_offsets, dtype=np.float64).reshape(-1, 3))
-    values = _parse_block(block, block_line, frames, skeleton.num_channels, path)
+    values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path)
     return _motion_from_channels(skeleton, values, 1.0 / frame_time)
 
 
-def _parse_motion_header(rest: bytes, motion_line: int, path) -> tuple[int, float, bytes, int]:
+def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tuple[int, float, int, int]:
     """Read ``Frames:`` and ``Frame Time:`` after the MOTION line.
 
-    ``rest`` starts at the end of the MOTION line.  Returns the two values, the frame-data block and the line
-    number of the block's first line.
+    ``rest[start:]`` begins at the end of the MOTION line (the file is not copied).  Returns the two values,
+    the offset in ``rest`` where the frame lines begin and the line number of the first of them.
     """
-    nl = rest.find(b"\n")
+    nl = rest.find(b"\n", start)
     pos = len(rest) if nl == -1 else nl + 1
     line_no = motion_line
     found: dict[str, tuple[str, int]] = {}
@@ -318,25 +328,27 @@ def _parse_motion_header(rest: bytes, motion_line: int, path) -> tuple[int, floa
             raise BVHFormatError(f"unexpected {match.group(2)[:40]!r} after {key}", path, line_no)
         found[key] = (match.group(1), line_no)
     text, ln = found["Frames"]
-    try:
-        frames = int(text)
-    except ValueError:
-        raise BVHFormatError(f"Frames must be a whole number, found {text!r}", path, ln) from None
+    if not _INT_RE.match(text):
+        raise BVHFormatError(f"Frames must be a whole number, found {text!r}", path, ln)
+    frames = int(text)
     if frames <= 0:
         raise BVHFormatError(f"Frames must be at least 1, found {frames}", path, ln)
     text, ln = found["Frame Time"]
-    try:
-        frame_time = float(text)
-    except ValueError:
-        raise BVHFormatError(f"Frame Time must be a number, found {text!r}", path, ln) from None
+    frame_time = _python_float(text.encode("utf-8"))
+    if frame_time is None:
+        raise BVHFormatError(f"Frame Time must be a number, found {text!r}", path, ln)
     if not np.isfinite(frame_time) or frame_time <= 0:
         raise BVHFormatError(f"Frame Time must be a finite number > 0, found {text!r}", path, ln)
-    return frames, frame_time, rest[min(pos, len(rest)):], line_no + 1
+    return frames, frame_time, min(pos, len(rest)), line_no + 1
 
 
-def _parse_block(block: bytes, first_line: int, frames: int, channels: int, path) -> NDArray[np.float64]:
-    """Parse the frame lines in bulk; ``(frames, channels)`` values.  Errors name the offending line."""
-    u = np.frombuffer(block, np.uint8)
+def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels: int,
+                 path) -> NDArray[np.float64]:
+    """Parse the frame lines ``data[start:]`` in bulk; ``(frames, channels)`` values.
+
+    Errors name the offending line.
+    """
+    u = np.frombuffer(data, np.uint8, offset=start)
     tokens = scan_tokens(u)
     counts = tokens.line_counts
     data_lines = np.flatnonzero(counts > 0)  # blank lines are skipped
@@ -345,10 +357,10 @@ def _parse_block(block: bytes, first_line: int, frames: int, channels: int, path
             raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
                                  first_line + int(data_lines[0]))
         return np.zeros((frames, 0))
-    if data_lines.size < frames:
-        last = first_line + counts.shape[0] - 1
+    if data_lines.size < frames:  # named: the line where the first missing frame should be
+        line = first_line + (int(data_lines[-1]) + 1 if data_lines.size else 0)
         raise BVHFormatError(f"truncated motion: Frames: {frames} but only {data_lines.size} frame lines",
-                             path, last)
+                             path, line)
     if data_lines.size > frames:
         raise BVHFormatError(f"more frame lines than Frames: {frames} (line {first_line + int(data_lines[frames])}"
                              f" is frame {frames + 1})", path, first_line + int(data_lines[frames]))
@@ -357,52 +369,39 @@ def _parse_block(block: bytes, first_line: int, frames: int, channels: int, path
         line = int(wrong[0])
         raise BVHFormatError(f"frame line has {int(counts[line])} values, expected {channels} (one per channel)",
                              path, first_line + line)
-    values = parse_decimal_tokens(u, tokens)
-    if values is None:
-        values = _parse_slow(block, tokens, first_line, path)
-    bad = np.flatnonzero(~np.isfinite(values))
-    if bad.size:
-        i = int(bad[0])
-        raise BVHFormatError(f"{_token(block, tokens, i)!r} is not a finite number", path,
+    values, bad = parse_number_tokens(u, tokens)
+    if bad is not None:
+        raise BVHFormatError(f"expected a number, found {_token(u, tokens, bad)!r}", path,
+                             first_line + tokens.line_of(bad))
+    nonfinite = np.flatnonzero(~np.isfinite(values))
+    if nonfinite.size:
+        i = int(nonfinite[0])
+        raise BVHFormatError(f"{_token(u, tokens, i)!r} is not a finite number", path,
                              first_line + tokens.line_of(i))
     return values.reshape(frames, channels)
 
 
-def _token(block: bytes, tokens, i: int) -> str:
-    return block[tokens.starts[i]: tokens.ends[i]].decode("utf-8", "replace")[:40]
-
-
-def _parse_slow(block: bytes, tokens, first_line: int, path) -> NDArray[np.float64]:
-    """Exact parsing of any float syntax (exponents, nan...) with numpy.loadtxt; errors name the line."""
-    try:
-        values = np.loadtxt(io.BytesIO(block), dtype=np.float64, comments=None, ndmin=2, encoding="utf-8")
-        return values.reshape(-1)
-    except ValueError:
-        pass
-    for i in range(tokens.starts.shape[0]):  # error path only: find the first token that is not a number
-        text = _token(block, tokens, i)
-        try:
-            float(text)
-        except ValueError:
-            raise BVHFormatError(f"expected a number, found {text!r}", path,
-                                 first_line + tokens.line_of(i)) from None
-    raise BVHFormatError("could not parse the frame values", path, first_line)  # pragma: no cover
+def _token(u: NDArray[np.uint8], tokens, i: int) -> str:
+    return u[tokens.starts[i]: tokens.ends[i]].tobytes().decode("utf-8", "replace")[:40]
 
 
 def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Motion:
     """Build a Motion from ``(F, C)`` channel values laid out as the skeleton's channels."""
     F = values.shape[0]
     J = skeleton.num_joints
-    rotations = np.zeros((F, J, 4))
-    rotations[..., 3] = 1.0
-    translations = np.broadcast_to(skeleton.offsets, (F, J, 3)).copy()
+    translated = skeleton.translated_joints
+    slot = {0: 0, **{int(j): k + 1 for k, j in enumerate(translated)}}  # joint -> row of `translations`
+    translations = np.empty((F, 1 + translated.shape[0], 3))  # the root, then the translated joints
+    translations[:] = skeleton.offsets[[0, *translated.tolist()]]
+    rotations = np.empty((F, J, 4))
+    branch = np.zeros((F, J), bool)
     by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
     col = 0
     for j, chans in enumerate(skeleton.channels):
         rot_cols = []
         for c in chans:
             if c.endswith("position"):
-                translations[:, j, "XYZ".index(c[0])] = values[:, col]
+                translations[:, slot[j], "XYZ".index(c[0])] = values[:, col]
             else:
                 rot_cols.append(col)
             col += 1
@@ -410,13 +409,21 @@ def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Mo
             joints, cols = by_order.setdefault(skeleton.rotation_orders[j], ([], []))
             joints.append(j)
             cols.append(rot_cols)
-    branch = np.zeros((F, J), bool)
+        else:
+            rotations[:, j] = (0.0, 0.0, 0.0, 1.0)
     for order, (joints, cols) in by_order.items():
         angles = values[:, np.array(cols)]  # (F, n, len(order))
-        rotations[:, joints] = euler_to_quat(angles, order, degrees=True)
+        run = joints == list(range(joints[0], joints[-1] + 1))  # a run of joints: convert in place
+        target = rotations[:, joints[0]:joints[-1] + 1] if run else np.empty(angles.shape[:-1] + (4,))
+        _euler_to_quat_into(angles, order, True, target)
+        if not run:
+            rotations[:, joints] = target
         branch[:, joints] = euler_branch(angles, order, degrees=True)
-    return Motion(skeleton, fps, translations[:, 0], rotations, translations[:, skeleton.translated_joints],
-                  euler_branch=branch)
+    root = np.ascontiguousarray(translations[:, 0])
+    moved = np.ascontiguousarray(translations[:, 1:])
+    for a in (root, rotations, moved):
+        a.flags.writeable = False  # fresh and immutable: Motion keeps them without copying
+    return Motion(skeleton, fps, root, rotations, moved, euler_branch=branch)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -502,6 +509,11 @@ def format_bvh(motion: Motion, decimals: int = 6) -> str:
     BVH lists joints depth first; a skeleton whose joints are in another order (say, breadth first) is written
     depth first, so reading the file back gives the same joints in depth-first order.
     """
+    return _bvh_bytes(motion, decimals).decode("utf-8")
+
+
+def _bvh_bytes(motion: Motion, decimals: int) -> bytes:
+    """The UTF-8 BVH text of ``motion`` (see :func:`format_bvh`)."""
     if not isinstance(decimals, (int, np.integer)) or not 0 <= decimals <= 17:
         raise ValidationError(f"decimals must be an integer from 0 to 17, got {decimals!r}")
     sk = motion.skeleton
@@ -514,37 +526,119 @@ def format_bvh(motion: Motion, decimals: int = 6) -> str:
     for e, p in enumerate(sk.end_site_parents.tolist()):
         sites.setdefault(p, []).append(e)
     lines = ["HIERARCHY"]
-
-    def emit(j: int, depth: int) -> None:
+    stack = [(True, 0, 0)]  # (opening?, joint, depth): an explicit stack, so deep chains do not recurse
+    while stack:
+        opening, j, depth = stack.pop()
         ind = "\t" * depth
-        lines.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
-        lines.append(f"{ind}{{")
-        lines.append(f"{ind}\tOFFSET " + " ".join(_fmt_number(v) for v in sk.offsets[j]))
-        lines.append(f"{ind}\tCHANNELS {len(sk.channels[j])}" + "".join(" " + c for c in sk.channels[j]))
-        for child in sk.children[j]:
-            emit(child, depth + 1)
+        if opening:
+            lines.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
+            lines.append(f"{ind}{{")
+            lines.append(f"{ind}\tOFFSET " + " ".join(_fmt_number(v) for v in sk.offsets[j]))
+            lines.append(f"{ind}\tCHANNELS {len(sk.channels[j])}" + "".join(" " + c for c in sk.channels[j]))
+            stack.append((False, j, depth))
+            stack.extend((True, child, depth + 1) for child in reversed(sk.children[j]))
+            continue
         for e in sites.get(j, []):
             lines.append(f"{ind}\tEnd Site")
             lines.append(f"{ind}\t{{")
             lines.append(f"{ind}\t\tOFFSET " + " ".join(_fmt_number(v) for v in sk.end_site_offsets[e]))
             lines.append(f"{ind}\t}}")
         lines.append(f"{ind}}}")
-
-    emit(0, 0)
     lines.append("MOTION")
     lines.append(f"Frames: {motion.num_frames}")
     lines.append(f"Frame Time: {1.0 / motion.fps:.15g}")
     header = "\n".join(lines) + "\n"
     if values.shape[1] == 0:
-        return header + "\n" * motion.num_frames
+        return (header + "\n" * motion.num_frames).encode("utf-8")
     rounded = np.round(values, decimals) + 0.0  # + 0.0 turns -0.0 into 0.0
+    fast = _format_fixed(rounded, decimals)
+    if fast is not None:
+        return header.encode("utf-8") + fast
     buf = io.StringIO()
     np.savetxt(buf, rounded, fmt=f"%.{decimals}f", delimiter=" ")
-    return header + buf.getvalue()
+    return (header + buf.getvalue()).encode("utf-8")
+
+
+_FORMAT_CHUNK = 8192  # values per chunk in _format_fixed (temporaries stay in cache)
+
+
+def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
+    """``rounded`` ``(F, C)`` as lines of ``%.{decimals}f`` values joined by single spaces: the same bytes as
+    ``numpy.savetxt``, built with whole-array operations (several times faster).  None when a value is too large
+    for exact integer arithmetic in doubles (the caller then uses savetxt).
+
+    ``rounded`` holds values already rounded to ``decimals``, so ``k = rint(|v| * 10**decimals)`` is exactly the
+    integer whose digits ``%f`` prints; its digits come from exact divisions by 10 (all below 2**52).  Each
+    value is written right-aligned into a fixed-width byte row (sign, integer digits, '.', decimals, then a
+    space or the line's newline) and the padding is dropped with one boolean selection.
+    """
+    F, C = rounded.shape
+    scale = 10.0 ** decimals
+    flat = rounded.ravel()
+    T = flat.shape[0]
+    top = float(np.abs(flat).max(initial=0.0))
+    if top * scale >= 2.0 ** 52:
+        return None
+    n_int = 1
+    while 10.0 ** n_int <= np.floor(top + 0.5):
+        n_int += 1
+    dec_part = decimals + 1 if decimals else 0
+    width = 1 + n_int + dec_part + 1
+    text = np.empty((T, width), np.uint8)
+    keep = np.empty((T, width), bool)
+    cols = np.arange(width)
+    unit = 10.0 ** decimals
+    for a in range(0, T, _FORMAT_CHUNK):
+        v = flat[a:a + _FORMAT_CHUNK]
+        m = v.shape[0]
+        k = np.abs(v)
+        k *= scale
+        np.rint(k, out=k)
+        negative = (v < 0) & (k > 0)
+        whole = np.floor(k / unit)
+        chunk = np.empty((width, m), np.uint8)  # column-major inside the chunk: contiguous rows
+        col = width - 1
+        chunk[col] = 32
+        q = np.empty(m)
+        d = np.empty(m)
+        x = k - whole * unit  # the decimals, as an integer
+        for _ in range(decimals):
+            col -= 1
+            np.divide(x, 10.0, out=q)
+            np.floor(q, out=q)
+            np.multiply(q, -10.0, out=d)
+            d += x
+            d += 48.0
+            chunk[col] = d
+            x, q = q, x
+        if decimals:
+            col -= 1
+            chunk[col] = 46
+        x = whole
+        digits = np.ones(m, np.int64)
+        for i in range(n_int):
+            col -= 1
+            if i:
+                digits += x > 0
+            np.divide(x, 10.0, out=q)
+            np.floor(q, out=q)
+            np.multiply(q, -10.0, out=d)
+            d += x
+            d += 48.0
+            chunk[col] = d
+            x, q = q, x
+        start = width - (digits + negative + dec_part + 1)  # first byte of each value
+        chunk[0] = 32
+        neg = np.flatnonzero(negative)
+        chunk[start[neg], neg] = 45
+        text[a:a + m] = chunk.T
+        np.less_equal(start[:, None], cols, out=keep[a:a + m])
+    text[C - 1::C, width - 1] = 10  # the last value of a line ends it
+    return text[keep].tobytes()
 
 
 def write_bvh(motion: Motion, path: str | os.PathLike[str], decimals: int = 6) -> None:
     """Write ``motion`` as BVH to ``path`` atomically (see :func:`format_bvh`)."""
-    text = format_bvh(motion, decimals=decimals)
+    data = _bvh_bytes(motion, decimals)
     with atomic_path(path) as tmp:
-        tmp.write_bytes(text.encode("utf-8"))
+        tmp.write_bytes(data)

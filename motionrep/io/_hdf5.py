@@ -1,0 +1,420 @@
+"""HDF5 reader and writer: one clip, or a database of named clips, each a motion or a representation's features.
+
+The layout is ``specs/formats/hdf5.md``: root attributes ``format = "motionrep-hdf5"`` and ``format_version``
+(1), one group per clip under ``/clips``, metadata as attributes, per-frame data as chunked gzip-compressed
+datasets, strings as variable-length UTF-8.  Quaternions are ``(F, J, 4)`` **xyzw**.  Reading a named clip opens
+only that clip's group.  Every array round-trips bit for bit.  Problems raise
+:class:`~motionrep.errors.HDF5FormatError` naming the file (and the clip).
+
+A file written by :func:`write_hdf5` is a database with one clip, named after the file's stem by default.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from .._model import Motion
+from ..errors import HDF5FormatError, ValidationError
+from ._atomic import atomic_path
+from ._features import FeatureClip, motion_from_features
+from ._stored import (
+    KIND_FEATURES,
+    KIND_MOTION,
+    QUAT_ORDER,
+    ClipSource,
+    check_clip_name,
+    decode_clip,
+    feature_fields,
+    motion_fields,
+    skeleton_fields,
+)
+
+__all__ = [
+    "HDF5_FORMAT",
+    "HDF5_FORMAT_VERSION",
+    "CLIPS_GROUP",
+    "read_hdf5",
+    "read_hdf5_clip",
+    "write_hdf5",
+    "write_hdf5_features",
+    "write_database",
+    "list_hdf5_clips",
+    "iter_hdf5_clips",
+    "clip_summaries",
+    "default_clip_name",
+]
+
+#: Value of the root ``format`` attribute of every motionrep HDF5 file.
+HDF5_FORMAT = "motionrep-hdf5"
+#: Newest HDF5 format version this motionrep writes and reads (older versions stay readable).
+HDF5_FORMAT_VERSION = 1
+#: The group holding one subgroup per clip.
+CLIPS_GROUP = "clips"
+
+_GZIP_LEVEL = 4
+_CHUNK_BYTES = 1 << 18  # aim for chunks of about 256 KiB (h5py advises 10 KiB - 1 MiB)
+_MAX_LISTED = 20
+# Errors h5py raises on damaged or unexpected content.
+_H5_ERRORS = (OSError, ValueError, TypeError, KeyError, RuntimeError)
+
+
+def default_clip_name(path: str | os.PathLike[str]) -> str:
+    """The clip name :func:`write_hdf5` uses when none is given: the file name without its suffix."""
+    return Path(path).stem
+
+
+def _listing(names: list[str]) -> str:
+    shown = ", ".join(names[:_MAX_LISTED])
+    return shown + (f", ... ({len(names) - _MAX_LISTED} more)" if len(names) > _MAX_LISTED else "")
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------------------------------
+def _attr(value: Any) -> Any:
+    if isinstance(value, str):
+        return value  # h5py stores str as a variable-length UTF-8 string
+    if isinstance(value, (int, np.integer)):
+        return np.int64(value)
+    return np.float64(value)
+
+
+def _dataset(group: h5py.Group, name: str, value: Any, compress: bool) -> None:
+    if isinstance(value, list):  # strings
+        group.create_dataset(name, data=np.array(value, dtype=h5py.string_dtype("utf-8")).reshape(-1))
+        return
+    a = np.asarray(value)
+    if a.dtype == np.bool_:
+        a = a.astype(np.uint8)
+    if not compress or a.size == 0 or a.ndim == 0:  # h5py cannot chunk empty datasets
+        group.create_dataset(name, data=a)
+        return
+    row = max(1, a[0].nbytes)
+    rows = int(min(a.shape[0], max(1, _CHUNK_BYTES // row)))
+    group.create_dataset(name, data=a, chunks=(rows,) + a.shape[1:], compression="gzip",
+                         compression_opts=_GZIP_LEVEL, shuffle=True)
+
+
+def _write_clip(clips: h5py.Group, name: str, item: Motion | FeatureClip) -> None:
+    if isinstance(item, Motion):
+        scalars, arrays = motion_fields(item)
+    elif isinstance(item, FeatureClip):
+        scalars, arrays = feature_fields(item)
+    else:
+        raise ValidationError(f"clip {name!r} must be a Motion or a FeatureClip, got {type(item).__name__}")
+    sk_scalars, sk_arrays = skeleton_fields(item.skeleton)
+    group = clips.create_group(name)
+    for key, value in {**scalars, **sk_scalars}.items():
+        group.attrs[key] = _attr(value)
+    skeleton = group.create_group("skeleton")
+    for key, value in sk_arrays.items():
+        _dataset(skeleton, key, value, compress=False)
+    for key, value in arrays.items():
+        _dataset(group, key, value, compress=True)
+
+
+def write_database(clips: Iterable[tuple[str, Motion | FeatureClip]] | Mapping[str, Motion | FeatureClip],
+                   path: str | os.PathLike[str]) -> list[str]:
+    """Write named clips to one HDF5 database, atomically, consuming ``clips`` one at a time.
+
+    Args:
+        clips: ``(name, clip)`` pairs or a mapping; each clip a :class:`~motionrep.Motion` or a
+            :class:`FeatureClip`.  Names must be unique, non-empty, without ``/`` or NUL, and not ``.``/``..``.
+            Clips are stored in the order given.
+        path: the target file; an existing file is replaced only once the new one is complete, and nothing is
+            left behind if writing fails (or ``clips`` raises) midway.
+
+    Returns:
+        The clip names written, in order.
+
+    Raises:
+        HDF5FormatError: naming the file, for an invalid or duplicate clip name or an empty ``clips``.
+        ValidationError: for a value that is neither a Motion nor a FeatureClip, or a string with NUL.
+    """
+    pairs = clips.items() if isinstance(clips, Mapping) else clips
+    written: list[str] = []
+    seen: set[str] = set()
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = HDF5_FORMAT
+            f.attrs["format_version"] = np.int64(HDF5_FORMAT_VERSION)
+            f.attrs["quat_order"] = QUAT_ORDER
+            group = f.create_group(CLIPS_GROUP, track_order=True)
+            for pair in pairs:
+                try:
+                    name, item = pair
+                except (TypeError, ValueError):
+                    raise ValidationError(f"write_database needs (name, clip) pairs, got {pair!r}") from None
+                check_clip_name(name, path, HDF5FormatError)
+                if name in seen:
+                    raise HDF5FormatError(f"clip name {name!r} is given twice; clip names must be unique", path)
+                seen.add(name)
+                _write_clip(group, name, item)
+                written.append(name)
+            if not written:
+                raise HDF5FormatError("no clips to write: a database needs at least one clip", path)
+    return written
+
+
+def write_hdf5(motion: Motion, path: str | os.PathLike[str], clip: str | None = None) -> None:
+    """Write ``motion`` as a one-clip HDF5 file, atomically.
+
+    Args:
+        motion: the clip; rotations are stored ``(F, J, 4)`` xyzw, every array bit for bit.
+        path: the target file.
+        clip: the clip's name (default: the file name without suffix, :func:`default_clip_name`).
+    """
+    if not isinstance(motion, Motion):
+        raise ValidationError(f"write_hdf5 needs a Motion, got {type(motion).__name__}")
+    write_database([(default_clip_name(path) if clip is None else clip, motion)], path)
+
+
+def write_hdf5_features(features: FeatureClip, path: str | os.PathLike[str], clip: str | None = None) -> None:
+    """Write a representation's features as a one-clip HDF5 file, atomically (see :func:`write_hdf5`)."""
+    if not isinstance(features, FeatureClip):
+        raise ValidationError(f"write_hdf5_features needs a FeatureClip, got {type(features).__name__}")
+    write_database([(default_clip_name(path) if clip is None else clip, features)], path)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------------------------------------------
+@contextlib.contextmanager
+def _open(path: str | os.PathLike[str]) -> Iterator[h5py.Group]:
+    """Open a motionrep HDF5 file for reading; yield its ``/clips`` group after checking the header."""
+    try:
+        f = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise HDF5FormatError("no such file", path) from None
+    except OSError as exc:
+        try:
+            with open(path, "rb") as fh:
+                magic = fh.read(8)
+        except OSError as exc2:
+            raise HDF5FormatError(f"cannot read file: {exc2.strerror or exc2}", path) from None
+        if magic != b"\x89HDF\r\n\x1a\n":
+            raise HDF5FormatError("not an HDF5 file (no HDF5 signature)", path) from None
+        raise HDF5FormatError(f"cannot open HDF5 file: {exc}", path) from None
+    with f:
+        attrs = f.attrs
+        if "format" not in attrs:
+            raise HDF5FormatError("not a motionrep HDF5 file: the root group has no 'format' attribute", path)
+        name = _decode_text(attrs["format"])
+        if name != HDF5_FORMAT:
+            raise HDF5FormatError(f"not a motionrep HDF5 file: root attribute 'format' is {name!r}, expected "
+                                  f"{HDF5_FORMAT!r}", path)
+        version = np.asarray(attrs.get("format_version", -1))
+        if version.ndim != 0 or version.dtype.kind not in "iu" or int(version) < 1:
+            raise HDF5FormatError(f"missing or invalid root attribute 'format_version' ({version!r})", path)
+        if int(version) > HDF5_FORMAT_VERSION:
+            raise HDF5FormatError(f"HDF5 format version {int(version)} is newer than the newest this motionrep "
+                                  f"reads ({HDF5_FORMAT_VERSION}); upgrade motionrep to read it", path)
+        clips = f.get(CLIPS_GROUP)
+        if not isinstance(clips, h5py.Group):
+            raise HDF5FormatError(f"missing group '/{CLIPS_GROUP}'", path)
+        yield clips
+
+
+def _decode_text(value: Any) -> str | None:
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bytes, np.bytes_)):
+        try:
+            return bytes(value).decode("utf-8")
+        except UnicodeDecodeError:
+            return None
+    return str(value) if isinstance(value, str) else None
+
+
+class _HDF5Source(ClipSource):
+    _ARRAY_KEYS = ("root_translation", "rotations", "joint_translations", "features", "feature_names",
+                   "euler_branch")
+
+    def __init__(self, group: h5py.Group, path: str | os.PathLike[str], clip: str):
+        super().__init__(path, clip, HDF5FormatError)
+        self.group = group
+
+    def _dataset_path(self, key: str) -> str | None:
+        if key.startswith("skeleton."):
+            return "skeleton/" + key[len("skeleton."):]
+        return key if key in self._ARRAY_KEYS else None
+
+    def where(self, key: str) -> str:
+        p = self._dataset_path(key)
+        return f"dataset {p!r}" if p is not None else f"attribute {key!r}"
+
+    def has(self, key: str) -> bool:
+        p = self._dataset_path(key)
+        try:
+            return (p in self.group) if p is not None else (key in self.group.attrs)
+        except _H5_ERRORS as exc:
+            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+
+    def _dataset(self, key: str) -> h5py.Dataset:
+        try:
+            obj = self.group.get(self._dataset_path(key))
+        except _H5_ERRORS as exc:
+            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        if not isinstance(obj, h5py.Dataset):
+            raise self.fail(f"{self.where(key)} is not a dataset")
+        return obj
+
+    def scalar(self, key: str) -> Any:
+        try:
+            return self.group.attrs[key]
+        except _H5_ERRORS as exc:
+            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+
+    def shape_dtype(self, key: str) -> tuple[tuple[int, ...], np.dtype]:
+        ds = self._dataset(key)
+        return tuple(ds.shape), ds.dtype
+
+    def array(self, key: str) -> NDArray[Any]:
+        ds = self._dataset(key)
+        try:
+            return ds[()]
+        except _H5_ERRORS as exc:
+            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+
+    def strings(self, key: str) -> list[str]:
+        ds = self._dataset(key)
+        if h5py.check_string_dtype(ds.dtype) is None:
+            raise self.fail(f"{self.where(key)} must hold strings, got dtype {ds.dtype}")
+        try:
+            return [str(s) for s in ds.asstr("utf-8")[()].tolist()]
+        except UnicodeDecodeError:
+            raise self.fail(f"{self.where(key)} is not valid UTF-8") from None
+        except _H5_ERRORS as exc:
+            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+
+    def euler_branch(self, frames: int, joints: int) -> NDArray[np.bool_] | None:
+        if not self.has("euler_branch"):
+            return None
+        a = self.checked_array("euler_branch", (frames, joints), "biu", "0/1 flags")
+        if a.size and (a.min() < 0 or a.max() > 1):
+            raise self.fail(f"{self.where('euler_branch')} must hold only 0 and 1")
+        return a.astype(bool)
+
+
+def _clip_group(clips: h5py.Group, path: str | os.PathLike[str], clip: str | None) -> tuple[str, h5py.Group]:
+    if clip is None:
+        names = list(clips)
+        if len(names) == 1:
+            clip = names[0]
+        elif not names:
+            raise HDF5FormatError("the database holds no clips", path)
+        else:
+            raise HDF5FormatError(f"the database holds {len(names)} clips; choose one with clip=NAME (--clip NAME "
+                                  f"on the command line): {_listing(names)}", path)
+    if not isinstance(clip, str) or clip not in clips:
+        raise HDF5FormatError(f"no clip named {clip!r}; clips in this file: {_listing(list(clips))}", path)
+    group = clips[clip]
+    if not isinstance(group, h5py.Group):
+        raise HDF5FormatError(f"clip {clip!r}: '/{CLIPS_GROUP}/{clip}' is not a group", path)
+    return clip, group
+
+
+def read_hdf5_clip(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
+    """Read one clip as stored: its name and a :class:`~motionrep.Motion` or a :class:`FeatureClip`.
+
+    Only the named clip's group is opened; other clips are not read.
+
+    Args:
+        path: the file.
+        clip: the clip's name; may be omitted when the file holds exactly one clip.
+
+    Raises:
+        HDF5FormatError: naming the file and the clip, if the file is missing, not a motionrep HDF5 file, of a
+            newer format version, holds several clips and none was named (the message lists them), has no
+            such clip, or the clip lacks a field or has one of the wrong shape or type.
+    """
+    with _open(path) as clips:
+        name, group = _clip_group(clips, path, clip)
+        return name, decode_clip(_HDF5Source(group, path, name))
+
+
+def _decoded(item: Motion | FeatureClip, path, name: str) -> Motion:
+    if isinstance(item, FeatureClip):
+        return motion_from_features(item, path, HDF5FormatError, clip_name=name)
+    return item
+
+
+def read_hdf5(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
+    """Read one clip's motion; a features clip is decoded through its registered representation.
+
+    Raises:
+        HDF5FormatError: see :func:`read_hdf5_clip`; also if the installed representation's version differs from
+            the one that wrote the features.
+        UnknownPluginError: if the features' representation is not installed.
+    """
+    name, item = read_hdf5_clip(path, clip)
+    return _decoded(item, path, name)
+
+
+def list_hdf5_clips(path: str | os.PathLike[str]) -> list[str]:
+    """Names of the clips in an HDF5 file, in stored order (no clip data is read).
+
+    Raises:
+        HDF5FormatError: if the file is missing or not a motionrep HDF5 file.
+    """
+    with _open(path) as clips:
+        return list(clips)
+
+
+def iter_hdf5_clips(path: str | os.PathLike[str], decode: bool = True
+                    ) -> Iterator[tuple[str, Motion | FeatureClip]]:
+    """Yield ``(name, clip)`` for every clip, reading one clip at a time (the file stays open meanwhile).
+
+    Args:
+        path: the file.
+        decode: decode features clips to motions through their representation (otherwise yield
+            :class:`FeatureClip` as stored).
+
+    Raises:
+        HDF5FormatError: when the file, or the clip being read, is invalid (raised lazily, as iteration reaches
+            it).
+    """
+    with _open(path) as clips:
+        for name in list(clips):
+            _, group = _clip_group(clips, path, name)
+            item = decode_clip(_HDF5Source(group, path, name))
+            yield name, (_decoded(item, path, name) if decode else item)
+
+
+def clip_summaries(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """One summary per clip from attributes and dataset shapes only (no frame data is read).
+
+    Each summary has ``name``, ``kind`` (``"motion"`` or ``"features"``), ``frames``, ``fps``, ``duration``,
+    ``joints``, and for features ``representation``, ``representation_version`` and ``width``.
+
+    Raises:
+        HDF5FormatError: naming the file and the clip, when a clip lacks what the summary needs.
+    """
+    out = []
+    with _open(path) as clips:
+        for name in list(clips):
+            _, group = _clip_group(clips, path, name)
+            src = _HDF5Source(group, path, name)
+            kind = src.text("kind")
+            fps = src.number("fps", integer=False)
+            joints = src.shape_dtype("skeleton.names")[0]
+            key = "features" if kind == KIND_FEATURES else "rotations"
+            shape = src.shape_dtype(key)[0]
+            if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or fps <= 0:
+                raise src.fail("malformed clip (kind, fps, skeleton/names or frame data)")
+            entry: dict[str, Any] = {"name": name, "kind": kind, "frames": int(shape[0]), "fps": fps,
+                                     "duration": shape[0] / fps, "joints": int(joints[0])}
+            if kind == KIND_FEATURES:
+                entry["representation"] = src.text("representation")
+                entry["representation_version"] = src.number("representation_version", integer=True)
+                entry["width"] = int(shape[1])
+            out.append(entry)
+    return out

@@ -1,0 +1,211 @@
+"""NPZ (numpy archive) reader and writer: one clip per file, a motion or a representation's features.
+
+The layout is ``specs/formats/npz.md``: format name ``"motionrep-npz"``, format version 1, quaternions
+``(F, J, 4)`` **xyzw**, the complete skeleton, strings as fixed-width unicode arrays, so files load with
+``numpy.load(path, allow_pickle=False)``.  Every array round-trips bit for bit.  Problems raise
+:class:`~motionrep.errors.NPZFormatError` naming the file.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+import zlib
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._model import Motion
+from ..errors import NPZFormatError, ValidationError
+from ._atomic import atomic_path
+from ._features import FeatureClip, motion_from_features
+from ._stored import (
+    ClipSource,
+    decode_clip,
+    feature_fields,
+    motion_fields,
+    packed_bits_length,
+    skeleton_fields,
+)
+
+__all__ = ["NPZ_FORMAT", "NPZ_FORMAT_VERSION", "read_npz", "read_npz_clip", "write_npz", "write_npz_features"]
+
+#: Value of the ``format`` key of every motionrep NPZ file.
+NPZ_FORMAT = "motionrep-npz"
+#: Newest NPZ format version this motionrep writes and reads (older versions stay readable).
+NPZ_FORMAT_VERSION = 1
+
+# Errors numpy and zipfile raise on files that are not (intact) numpy archives.
+_LOAD_ERRORS = (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, NotImplementedError)
+
+
+def _text_array(values: list[str] | str) -> NDArray[np.str_]:
+    """A fixed-width unicode array (never object dtype, so it loads with ``allow_pickle=False``)."""
+    a = np.array(values, dtype=np.str_)
+    return a if a.size else np.zeros(a.shape, dtype="<U1")
+
+
+def _archive(scalars: dict[str, Any], skeleton: tuple[dict, dict], arrays: dict[str, Any]) -> dict[str, NDArray]:
+    out: dict[str, NDArray] = {"format": _text_array(NPZ_FORMAT),
+                               "format_version": np.array(NPZ_FORMAT_VERSION, dtype=np.int64)}
+    sk_scalars, sk_arrays = skeleton
+    for key, value in {**scalars, **sk_scalars}.items():
+        if isinstance(value, str):
+            out[key] = _text_array(value)
+        elif isinstance(value, int):
+            out[key] = np.array(value, dtype=np.int64)
+        else:
+            out[key] = np.array(value, dtype=np.float64)
+    for key, value in sk_arrays.items():
+        out[f"skeleton_{key}"] = _text_array(value) if isinstance(value, list) else np.asarray(value)
+    for key, value in arrays.items():
+        if key == "euler_branch":
+            out["euler_branch_bits"] = np.packbits(np.asarray(value, dtype=bool).reshape(-1))
+        elif isinstance(value, list):
+            out[key] = _text_array(value)
+        else:
+            out[key] = np.asarray(value)
+    return out
+
+
+def _save(archive: dict[str, NDArray], path: str | os.PathLike[str], compress: bool) -> None:
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            (np.savez_compressed if compress else np.savez)(fh, **archive)
+
+
+def write_npz(motion: Motion, path: str | os.PathLike[str], compress: bool = False) -> None:
+    """Write ``motion`` to an NPZ file, atomically.
+
+    Args:
+        motion: the clip; rotations are stored ``(F, J, 4)`` xyzw, every array bit for bit.
+        path: the target; an existing file is replaced only once the new one is complete.
+        compress: deflate the archive members (``numpy.savez_compressed``).  Off by default: float64 motion
+            data deflates by only about a quarter, at several times the writing time.  Readers handle both.
+
+    Raises:
+        ValidationError: if a joint name or the units contain a NUL character (not storable).
+    """
+    if not isinstance(motion, Motion):
+        raise ValidationError(f"write_npz needs a Motion, got {type(motion).__name__}")
+    scalars, arrays = motion_fields(motion)
+    _save(_archive(scalars, skeleton_fields(motion.skeleton), arrays), path, compress)
+
+
+def write_npz_features(clip: FeatureClip, path: str | os.PathLike[str], compress: bool = False) -> None:
+    """Write a representation's features (``clip``) to an NPZ file, atomically (see :func:`write_npz`)."""
+    if not isinstance(clip, FeatureClip):
+        raise ValidationError(f"write_npz_features needs a FeatureClip, got {type(clip).__name__}")
+    scalars, arrays = feature_fields(clip)
+    _save(_archive(scalars, skeleton_fields(clip.skeleton), arrays), path, compress)
+
+
+class _NPZSource(ClipSource):
+    def __init__(self, archive: Any, path: str | os.PathLike[str]):
+        super().__init__(path, None, NPZFormatError)
+        self.archive = archive
+        self.keys = set(archive.files)
+        self.cache: dict[str, NDArray] = {}
+
+    @staticmethod
+    def key(name: str) -> str:
+        return name.replace("skeleton.", "skeleton_")
+
+    def where(self, key: str) -> str:
+        return f"key {self.key(key)!r}"
+
+    def has(self, key: str) -> bool:
+        return self.key(key) in self.keys
+
+    def array(self, key: str) -> NDArray[Any]:
+        k = self.key(key)
+        if k not in self.cache:
+            try:
+                self.cache[k] = self.archive[k]
+            except _LOAD_ERRORS as exc:
+                raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        return self.cache[k]
+
+    def scalar(self, key: str) -> Any:
+        return self.array(key)
+
+    def shape_dtype(self, key: str) -> tuple[tuple[int, ...], np.dtype]:
+        a = self.array(key)
+        return a.shape, a.dtype
+
+    def strings(self, key: str) -> list[str]:
+        a = self.array(key)
+        if a.dtype.kind == "U":
+            return [str(s) for s in a.tolist()]
+        if a.dtype.kind == "S":
+            try:
+                return [bytes(s).decode("utf-8") for s in a.tolist()]
+            except UnicodeDecodeError:
+                raise self.fail(f"{self.where(key)} is not valid UTF-8") from None
+        raise self.fail(f"{self.where(key)} must hold strings, got dtype {a.dtype}")
+
+    def euler_branch(self, frames: int, joints: int) -> NDArray[np.bool_] | None:
+        if not self.has("euler_branch_bits"):
+            return None
+        n = packed_bits_length(frames, joints)
+        bits = self.checked_array("euler_branch_bits", (n,), "u", "packed bits (uint8)")
+        if bits.dtype != np.uint8:
+            raise self.fail(f"{self.where('euler_branch_bits')} must be uint8, got {bits.dtype}")
+        return np.unpackbits(bits, count=frames * joints).reshape(frames, joints).astype(bool)
+
+
+def _check_header(src: _NPZSource) -> None:
+    if "format" not in src.keys:
+        listed = ", ".join(sorted(src.keys)[:8]) or "none"
+        raise src.fail(f"not a motionrep NPZ file: it has no 'format' key (keys: {listed})")
+    name = src.text("format")
+    if name != NPZ_FORMAT:
+        raise src.fail(f"not a motionrep NPZ file: 'format' is {name!r}, expected {NPZ_FORMAT!r}")
+    version = src.number("format_version", integer=True)
+    if version > NPZ_FORMAT_VERSION:
+        raise src.fail(f"NPZ format version {version} is newer than the newest this motionrep reads "
+                       f"({NPZ_FORMAT_VERSION}); upgrade motionrep to read it")
+    if version < 1:
+        raise src.fail(f"invalid NPZ format version {version}")
+
+
+def read_npz_clip(path: str | os.PathLike[str]) -> Motion | FeatureClip:
+    """Read an NPZ file as stored: a :class:`~motionrep.Motion`, or a :class:`FeatureClip` for a features file.
+
+    Raises:
+        NPZFormatError: naming the file, if it is missing, not a motionrep NPZ file, of a newer format version,
+            or lacks a key or has one of the wrong shape or dtype.
+    """
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(4)
+    except OSError as exc:
+        raise NPZFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
+    if magic not in (b"PK\x03\x04", b"PK\x05\x06"):
+        raise NPZFormatError("not an NPZ archive (no zip signature)", path)
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except _LOAD_ERRORS as exc:
+        raise NPZFormatError(f"not an NPZ archive ({exc})", path) from None
+    if not isinstance(archive, np.lib.npyio.NpzFile):
+        raise NPZFormatError("not an NPZ archive (a single .npy array)", path)
+    with archive:
+        src = _NPZSource(archive, path)
+        _check_header(src)
+        return decode_clip(src)
+
+
+def read_npz(path: str | os.PathLike[str]) -> Motion:
+    """Read the motion in an NPZ file; a features file is decoded through its registered representation.
+
+    Raises:
+        NPZFormatError: see :func:`read_npz_clip`; also if the installed representation's version differs from
+            the one that wrote the features.
+        UnknownPluginError: if the features' representation is not installed.
+    """
+    item = read_npz_clip(path)
+    if isinstance(item, FeatureClip):
+        return motion_from_features(item, path, NPZFormatError)
+    return item
+
