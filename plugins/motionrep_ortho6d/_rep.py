@@ -1,0 +1,59 @@
+"""The ``ortho6d`` representation: the 6D rotation encoding of Zhou et al. (2019) per joint."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from motionrep import Motion, Skeleton
+from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, joint_reach
+from motionrep.rotations import ortho6d_to_quat, quat_to_ortho6d
+
+__all__ = ["Ortho6D"]
+
+# The first two columns of the local rotation matrix, column by column.
+_SIX = ("m00", "m10", "m20", "m01", "m11", "m21")
+
+
+def _layout(skeleton: Skeleton) -> FeatureLayout:
+    return feature_layout(skeleton, lambda j: _SIX if skeleton.rotation_orders[j] else ())
+
+
+class Ortho6D(Representation):
+    """Root translation and the 6D encoding of every joint's local rotation.
+
+    Columns (see :class:`~motionrep.representation.FeatureLayout`): root translation (3, file units); for every
+    joint with rotation channels (the root included), the first two columns of its local rotation matrix
+    (6, ``[R00, R10, R20, R01, R11, R21]``, dimensionless); for joints with position channels, their local
+    translation (3, file units).  The encoding is continuous by construction (no sign or wrap choice).
+
+    Decoding orthonormalises the two columns by Gram-Schmidt and takes their cross product as the third.
+    """
+
+    name = "ortho6d"
+    version = 1
+    description = "Zhou et al. 2019 (NeMF): root translation, 6D rotation per joint"
+
+    def width(self, skeleton: Skeleton) -> int:
+        return _layout(skeleton).width
+
+    def feature_names(self, skeleton: Skeleton) -> list[str]:
+        return list(_layout(skeleton).names)
+
+    def to_features(self, motion: Motion) -> NDArray[np.float64]:
+        lay = _layout(motion.skeleton)
+        six = quat_to_ortho6d(motion.rotations[:, lay.rotation_joints])
+        return lay.assemble(motion.root_translation, six, motion.joint_translations)
+
+    def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
+        lay = _layout(skeleton)
+        f = check_features(features, lay.width, self.name)
+        rotations = np.zeros((f.shape[0], skeleton.num_joints, 4))
+        rotations[..., 3] = 1.0
+        if lay.rotation_joints.size:
+            rotations[:, lay.rotation_joints] = ortho6d_to_quat(lay.rotation_block(f))
+        root_t, joint_t = lay.split(f)
+        return Motion(skeleton, fps, root_t, rotations, joint_t)
+
+    def weights(self, motion: Motion) -> NDArray[np.float64]:
+        return _layout(motion.skeleton).weights(joint_reach(motion))
