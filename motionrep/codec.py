@@ -59,7 +59,8 @@ class EncodeContext(Protocol):
     Attributes:
         params: the codec's validated ``Params`` instance.
         bound: the L-infinity joint-position error to meet, in file units, or ``None`` when no bound applies (a
-            fixed-size encoding, e.g. ``rank`` or ``k`` given for a sweep).
+            fixed-size encoding, e.g. ``rank`` or ``k`` given for a sweep).  ``motionrep.compress`` passes the
+            requested bound times ``1 - BOUND_MARGIN`` (1e-6) and enforces the requested bound itself.
         seed: random seed; the same input and seed must give the same payload, byte for byte.
         times: ``(F,)`` normalised times of the frames (see :func:`frame_times`).
     """

@@ -1,0 +1,244 @@
+"""The shared evaluation: one FK-based L-infinity joint-position error and the compression figures.
+
+Every codec, shipped or third-party, is judged by these functions and by nothing else: codecs never measure
+their own error or compression ratio.
+
+Error
+    Both motions are run through forward kinematics (:func:`motionrep.kinematics.global_positions`); the error
+    of a point in a frame is the Euclidean distance between its two positions, over every joint **and every end
+    site**.  The reported error is the largest over all points and frames (the L-infinity norm of Tojo et al.
+    2022), in file units and in percent of the reference's character height
+    (:func:`motionrep.kinematics.character_height`), together with the mean over points and frames and where the
+    worst error is (frame index, point name).
+
+Compression figures (:func:`compression_figures`), always reported together:
+
+(a) ``paper_ratio``: ``frames x feature width`` of the representation divided by the number of stored
+    parameters (every stored number, frequencies and normalisation included) -- the ratio of Tojo et al. 2022.
+(b) ``float32_ratio``: bytes of the source's channel data stored as float32 (``frames x channels x 4``) divided
+    by the bytes of the compressed file.
+(c) ``bits_per_joint_frame``: compressed file bits divided by ``frames x joints`` (end sites excluded).
+(d) ``file_ratio``: source file bytes divided by compressed file bytes (None when the motion did not come from
+    a file).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._model import Motion, Skeleton
+from .errors import ValidationError
+from .kinematics import character_height, global_positions, point_names
+
+__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "CompressionFigures", "compression_figures"]
+
+
+@dataclass(frozen=True)
+class ErrorReport:
+    """The shared L-infinity measure between a reference and a candidate motion.
+
+    Attributes:
+        max_error: largest joint or end-site position error over all frames, in file units.
+        max_error_percent: ``max_error`` in percent of the character height (``inf`` if the height is 0 and the
+            error is not).
+        mean_error: mean position error over all points and frames, in file units.
+        mean_error_percent: ``mean_error`` in percent of the character height.
+        frame: index of the frame with the largest error.
+        joint: name of the point with the largest error (a joint name, or ``"<joint>/End Site"``).
+        height: character height of the reference (file units).
+        units: length unit of the reference skeleton when known, else None.
+        num_frames: frames compared.
+        num_points: points compared per frame (joints + end sites).
+    """
+
+    max_error: float
+    max_error_percent: float
+    mean_error: float
+    mean_error_percent: float
+    frame: int
+    joint: str
+    height: float
+    units: str | None
+    num_frames: int
+    num_points: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-serialisable dict of every field."""
+        return asdict(self)
+
+    def summary(self) -> str:
+        """One line: ``L-inf 0.49 (1.89% of height 26.2), mean 0.08 (0.31%), worst at frame 0, LeftHand``."""
+        unit = f" {self.units}" if self.units else ""
+        return (f"L-inf error {self.max_error:.4g}{unit} ({self.max_error_percent:.3g}% of height "
+                f"{self.height:.4g}{unit}), mean {self.mean_error:.3g}{unit} ({self.mean_error_percent:.3g}%), "
+                f"worst at frame {self.frame}, {self.joint}")
+
+
+def _percent(value: float, height: float) -> float:
+    if height > 0:
+        return 100.0 * value / height
+    return 0.0 if value == 0 else math.inf
+
+
+class Evaluator:
+    """Measures candidates against one reference motion; FK of the reference is computed once.
+
+    Args:
+        reference: the motion every candidate is compared with.
+
+    Use it when many candidates are compared with the same reference (a codec's search); for a single
+    comparison :func:`max_joint_error` is simpler.
+    """
+
+    def __init__(self, reference: Motion):
+        self.reference = reference
+        self.skeleton: Skeleton = reference.skeleton
+        self.height = character_height(reference.skeleton)
+        self.names = point_names(reference.skeleton)
+        self._positions = global_positions(reference)
+
+    @property
+    def reference_positions(self) -> NDArray[np.float64]:
+        """``(F, J + E, 3)`` FK positions of the reference (read-only view)."""
+        view = self._positions.view()
+        view.flags.writeable = False
+        return view
+
+    def __call__(self, candidate: Motion) -> ErrorReport:
+        """Compare ``candidate`` with the reference.
+
+        Raises:
+            ValidationError: if the skeletons differ in joints, parents or end sites, or the frame counts or
+                frame rates differ.
+        """
+        ref = self.reference
+        if not candidate.skeleton.same_structure(self.skeleton):
+            raise ValidationError("cannot compare motions of different skeletons (joint names, parents or end "
+                                  f"sites differ): {self.skeleton!r} vs {candidate.skeleton!r}")
+        if candidate.num_frames != ref.num_frames:
+            raise ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
+                                  f"{candidate.num_frames}")
+        if not math.isclose(candidate.fps, ref.fps, rel_tol=1e-6):
+            raise ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
+                                  f"{candidate.fps:g} fps (resample one first)")
+        return self.positions_error(global_positions(candidate))
+
+    def positions_error(self, positions: NDArray[np.float64]) -> ErrorReport:
+        """Compare ``(F, J + E, 3)`` candidate FK positions with the reference's."""
+        positions = np.asarray(positions, dtype=np.float64)
+        if positions.shape != self._positions.shape:
+            raise ValidationError(f"candidate positions must have shape {self._positions.shape}, got "
+                                  f"{positions.shape}")
+        dist = np.sqrt(np.sum((positions - self._positions) ** 2, axis=-1))  # (F, P)
+        if not np.all(np.isfinite(dist)):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        flat = int(np.argmax(dist))
+        frame, point = divmod(flat, dist.shape[1])
+        max_error = float(dist.reshape(-1)[flat])
+        mean_error = float(dist.mean())
+        return ErrorReport(
+            max_error=max_error,
+            max_error_percent=_percent(max_error, self.height),
+            mean_error=mean_error,
+            mean_error_percent=_percent(mean_error, self.height),
+            frame=frame,
+            joint=self.names[point],
+            height=self.height,
+            units=self.skeleton.units,
+            num_frames=int(dist.shape[0]),
+            num_points=int(dist.shape[1]),
+        )
+
+
+def max_joint_error(reference: Motion, candidate: Motion) -> ErrorReport:
+    """The shared L-infinity joint-position error of ``candidate`` against ``reference``.
+
+    Args:
+        reference: the original motion.
+        candidate: a motion of the same skeleton (same joints, parents and end sites; offsets may differ), with
+            the same number of frames and frame rate.
+
+    Returns:
+        An :class:`ErrorReport` (file units and percent of the reference's character height).
+
+    Raises:
+        ValidationError: if the motions cannot be compared.
+    """
+    return Evaluator(reference)(candidate)
+
+
+@dataclass(frozen=True)
+class CompressionFigures:
+    """The four compression figures, reported together (see the module docstring).
+
+    Attributes:
+        paper_ratio: (a) ``num_frames * feature_width / num_parameters``.
+        float32_ratio: (b) ``num_frames * num_channels * 4 / compressed_bytes``.
+        bits_per_joint_frame: (c) ``8 * compressed_bytes / (num_frames * num_joints)``.
+        file_ratio: (d) ``source_bytes / compressed_bytes``, or None without a source file.
+        num_frames, feature_width, num_parameters, num_channels, num_joints, compressed_bytes, source_bytes:
+            the inputs.
+    """
+
+    paper_ratio: float
+    float32_ratio: float
+    bits_per_joint_frame: float
+    file_ratio: float | None
+    num_frames: int
+    feature_width: int
+    num_parameters: int
+    num_channels: int
+    num_joints: int
+    compressed_bytes: int
+    source_bytes: int | None
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-serialisable dict of every field."""
+        return asdict(self)
+
+    def summary(self) -> str:
+        """One line with the four figures."""
+        d = "n/a" if self.file_ratio is None else f"{self.file_ratio:.1f}x"
+        return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} parameters), "
+                f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} bits/joint/frame, "
+                f"vs source file {d}")
+
+
+def compression_figures(*, num_frames: int, feature_width: int, num_parameters: int, num_channels: int,
+                        num_joints: int, compressed_bytes: int, source_bytes: int | None = None
+                        ) -> CompressionFigures:
+    """Compute the four compression figures.
+
+    Args:
+        num_frames: frames of the clip ``F``.
+        feature_width: columns ``D`` of the representation the codec compressed.
+        num_parameters: every number the codec stored (all payload array elements).
+        num_channels: BVH channel values per frame of the source skeleton.
+        num_joints: joints ``J`` (end sites excluded).
+        compressed_bytes: size of the compressed file.
+        source_bytes: size of the source file, or None.
+
+    Raises:
+        ValidationError: for non-positive sizes.
+    """
+    if num_frames < 1 or num_joints < 1 or compressed_bytes < 1:
+        raise ValidationError("compression figures need at least one frame, one joint and one compressed byte")
+    params = max(int(num_parameters), 1)
+    return CompressionFigures(
+        paper_ratio=num_frames * feature_width / params,
+        float32_ratio=num_frames * num_channels * 4 / compressed_bytes,
+        bits_per_joint_frame=8.0 * compressed_bytes / (num_frames * num_joints),
+        file_ratio=None if source_bytes is None else source_bytes / compressed_bytes,
+        num_frames=int(num_frames),
+        feature_width=int(feature_width),
+        num_parameters=int(num_parameters),
+        num_channels=int(num_channels),
+        num_joints=int(num_joints),
+        compressed_bytes=int(compressed_bytes),
+        source_bytes=None if source_bytes is None else int(source_bytes),
+    )

@@ -1,0 +1,129 @@
+"""The ``svd`` codec: rank-r truncated SVD of the mean-centred, weighted feature matrix.
+
+Encoding: ``Y`` ``(F, D)`` features, ``m`` their column means, ``s`` the loss weights of Tojo et al. eq. 3
+(floored at 1e-3 of the largest, so no column is dropped).  ``(Y - m) * s = U S V^T``; the rank-r approximation
+is stored as ``coefficients = U_r S_r`` ``(F, r)`` and ``basis = V_r^T / s`` ``(r, D)``, so
+``Y ~ mean + coefficients @ basis``.  Weighting makes the truncation minimise the same weighted L2 error as the
+Fourier codecs' loss.
+
+Decoding at normalised times ``t``: the coefficient rows are interpolated linearly between frames
+(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``.  Pure numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from motionrep.codec import Codec, EncodeContext, Payload
+from motionrep.errors import BoundNotMetError, ParameterError
+
+__all__ = ["SVDCodec", "SVDParams", "interpolate_rows"]
+
+_DTYPES = {"float32": np.float32, "float16": np.float16}
+
+
+@dataclass(frozen=True)
+class SVDParams:
+    """Parameters of the ``svd`` codec."""
+
+    rank: int | None = field(default=None, metadata={
+        "help": "number of singular vectors kept (>= 0; 0 stores only the mean); default: the smallest rank that "
+                "meets --max-error, found by bisection"})
+    dtype: Literal["float32", "float16"] = field(default="float32", metadata={
+        "help": "storage type of coefficients and basis (the mean is always float32)"})
+
+    def __post_init__(self) -> None:
+        if self.rank is not None and (not isinstance(self.rank, int) or self.rank < 0):
+            raise ParameterError(f"svd: rank must be an integer >= 0, got {self.rank!r}")
+        if self.dtype not in _DTYPES:
+            raise ParameterError(f"svd: dtype must be one of {', '.join(_DTYPES)}, got {self.dtype!r}")
+
+
+def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike) -> NDArray[np.float64]:
+    """Rows ``(F, k)`` sampled at ``t = i / (F - 1)``, linearly interpolated at ``times`` ``(T,)`` in [0, 1]."""
+    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
+    F = rows.shape[0]
+    if F == 1:
+        return np.repeat(rows, t.size, axis=0)
+    pos = t * (F - 1)
+    i = np.minimum(np.floor(pos).astype(np.int64), F - 2)
+    a = (pos - i)[:, None]
+    return rows[i] * (1.0 - a) + rows[i + 1] * a
+
+
+class SVDCodec(Codec):
+    """Truncated SVD baseline of Tojo et al. (2022), section 4.1.
+
+    Payload (format version 1): ``mean (D,)`` float32, ``coefficients (F, r)`` and ``basis (r, D)`` in
+    ``dtype``.  Info: ``{"rank": r}``.
+    """
+
+    name = "svd"
+    format_version = 1
+    description = "rank-r truncated SVD of the weighted, mean-centred features (Tojo et al. 2022 baseline)"
+    Params = SVDParams
+
+    def encode(self, features: NDArray[np.float64], weights: NDArray[np.float64],
+               context: EncodeContext) -> Payload:
+        params: SVDParams = context.params
+        Y = np.asarray(features, dtype=np.float64)
+        F, D = Y.shape
+        max_rank = min(F, D)
+        if params.rank is not None and params.rank > max_rank:
+            raise ParameterError(f"svd: rank {params.rank} exceeds min(frames, features) = {max_rank}")
+        if params.rank is None and context.bound is None:
+            raise ParameterError("svd: give rank=R when there is no error bound (--max-error none)")
+        w = np.asarray(weights, dtype=np.float64)
+        top = float(w.max()) if w.size else 0.0
+        s = np.maximum(w, 1e-3 * top) if top > 0 else np.ones(D)
+        mean = Y.mean(axis=0)
+        U, S, Vt = np.linalg.svd((Y - mean) * s, full_matrices=False)
+        coeff_all = U * S
+        basis_all = Vt / s
+        dtype = _DTYPES[params.dtype]
+
+        def payload(r: int) -> Payload:
+            return Payload({"mean": mean.astype(np.float32), "coefficients": coeff_all[:, :r].astype(dtype),
+                            "basis": basis_all[:r].astype(dtype)}, {"rank": int(r)})
+
+        def error(r: int) -> float:
+            e = context.evaluate_payload(payload(r)).max_error
+            context.progress("search", rank=r, error=e)
+            return e
+
+        if params.rank is not None:
+            candidate = payload(params.rank)
+            if context.bound is not None:
+                e = error(params.rank)
+                if e > context.bound:
+                    raise BoundNotMetError(f"svd: rank {params.rank} reaches an L-inf error of {e:.4g}, above the "
+                                           f"bound {context.bound:.4g}; raise rank or leave it unset", e, context.bound)
+            return candidate
+        bound = context.bound
+        errors: dict[int, float] = {max_rank: error(max_rank)}
+        if errors[max_rank] > bound:
+            raise BoundNotMetError(f"svd: even the full rank {max_rank} ({params.dtype}) reaches an L-inf error of "
+                                   f"{errors[max_rank]:.4g}, above the bound {bound:.4g}", errors[max_rank], bound)
+        lo, hi = -1, max_rank  # invariant: hi meets the bound; lo is known not to (or is -1)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            errors[mid] = error(mid)
+            if errors[mid] <= bound:
+                hi = mid
+            else:
+                lo = mid
+        return payload(hi)
+
+    def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+        mean = np.asarray(payload.arrays["mean"], dtype=np.float64)
+        coeff = np.asarray(payload.arrays["coefficients"], dtype=np.float64)
+        basis = np.asarray(payload.arrays["basis"], dtype=np.float64)
+        if mean.ndim != 1 or coeff.ndim != 2 or basis.shape != (coeff.shape[1], mean.shape[0]) or coeff.shape[0] < 1:
+            raise ValueError(f"inconsistent svd payload shapes: mean {mean.shape}, coefficients {coeff.shape}, "
+                             f"basis {basis.shape}")
+        t = np.asarray(times, dtype=np.float64).reshape(-1)
+        return mean + interpolate_rows(coeff, t) @ basis

@@ -1,0 +1,181 @@
+"""``motionrep compress / decompress / evaluate / example`` from the command line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from motionrep._demo import demo_path, demo_walk
+from motionrep.cli import cli
+from motionrep.compress import is_archive, read_archive
+from motionrep.io import read, write, write_database
+from motionrep.testing import chain_skeleton, synthetic_motion
+
+
+def run(*args: str):
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+@pytest.fixture
+def clip(tmp_path) -> Path:
+    path = tmp_path / "clip.bvh"
+    write(synthetic_motion(chain_skeleton(4), frames=40, fps=30, seed=3), path)
+    return path
+
+
+def _one_line_error(result, *needles: str) -> None:
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert len(lines) == 1, result.output
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+
+
+def test_shipped_demo_clip_is_what_the_generator_makes(tmp_path):
+    out = tmp_path / "walk.bvh"
+    assert run("example", out).exit_code == 0
+    assert out.read_bytes() == demo_path().read_bytes()
+    regenerated = tmp_path / "regen.bvh"
+    write(demo_walk(), regenerated)
+    assert regenerated.read_bytes() == out.read_bytes()
+    m = read(out)
+    assert (m.num_frames, m.num_joints) == (450, 15) and m.fps == pytest.approx(30.0)
+
+
+def test_compress_decompress_evaluate_round_trip(clip, tmp_path):
+    mrc, back = tmp_path / "clip.mrc", tmp_path / "back.bvh"
+    r = run("compress", clip, "-o", mrc, "--codec", "svd")
+    assert r.exit_code == 0, r.output
+    for needle in ("40 frames", "4 joints", "root-quat-axis-angle", "rank=", "L-inf error", "paper ratio",
+                   "vs float32 channels", "bits/joint/frame", "vs source file", "bytes in"):
+        assert needle in r.output
+    assert run("decompress", mrc, "-o", back).exit_code == 0
+    r = run("evaluate", clip, back, "--json")
+    report = json.loads(r.output)
+    assert report["max_error_percent"] <= 2.0 and report["num_frames"] == 40
+    r = run("evaluate", clip, mrc)  # a .mrc is decoded first
+    assert r.exit_code == 0 and "L-inf error" in r.output
+
+
+def test_compress_json_and_bound_in_file_units(clip, tmp_path):
+    mrc = tmp_path / "c.mrc"
+    r = run("compress", clip, "-o", mrc, "--codec", "svd", "--max-error", "0.5", "--json")
+    data = json.loads(r.output)
+    assert data["bound"] == 0.5 and data["evaluation"]["max_error"] <= 0.5
+    assert set(data["figures"]) >= {"paper_ratio", "float32_ratio", "bits_per_joint_frame", "file_ratio"}
+    assert data["bytes"] == mrc.stat().st_size
+
+
+def test_same_seed_same_bytes_from_the_cli(clip, tmp_path):
+    a, b = tmp_path / "a.mrc", tmp_path / "b.mrc"
+    args = ("--codec", "naive-fourier", "-p", "k=1", "-p", "iters=50", "--max-error", "none", "--seed", "3")
+    assert run("compress", clip, "-o", a, *args).exit_code == 0
+    assert run("compress", clip, "-o", b, *args).exit_code == 0
+    assert a.read_bytes() == b.read_bytes()
+
+
+def test_decompress_resamples(clip, tmp_path):
+    mrc, out = tmp_path / "c.mrc", tmp_path / "c60.npz"
+    run("compress", clip, "-o", mrc, "--codec", "svd")
+    r = run("decompress", mrc, "-o", out, "--fps", "60")
+    assert r.exit_code == 0, r.output
+    m = read(out)
+    assert m.fps == 60.0 and m.num_frames == 79  # 39 frame intervals at 30 fps = 1.3 s = 78 intervals at 60 fps
+
+
+@pytest.mark.parametrize("args, needles", [
+    (("--codec", "haar"), ("unknown codec 'haar'", "svd")),
+    (("--codec", "svd", "--representation", "bones"), ("unknown representation 'bones'",)),
+    (("--codec", "svd", "-p", "rank=-2"), ("rank must be",)),
+    (("--codec", "svd", "-p", "colour=red"), ("unknown parameter 'colour'",)),
+    (("--codec", "svd", "-p", "rank=1"), ("did not meet", "above the bound") ),
+    (("--codec", "svd", "--max-error", "-3%"), ("--max-error",)),
+    (("--codec", "adaptive-fourier", "-p", "max_k=0", "--max-error", "0.01%"), ("max_k=0", "best L-inf")),
+])
+def test_errors_are_one_line_exit_1_and_leave_no_file(clip, tmp_path, args, needles):
+    out = tmp_path / "x.mrc"
+    r = run("compress", clip, "-o", out, *args)
+    if "rank=1" in args:
+        needles = ("svd: rank 1 reaches",)
+    _one_line_error(r, *needles)
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clip.bvh"]
+
+
+def test_altered_file_gives_a_clear_error(clip, tmp_path):
+    mrc, out = tmp_path / "c.mrc", tmp_path / "d.bvh"
+    run("compress", clip, "-o", mrc, "--codec", "svd")
+    data = bytearray(mrc.read_bytes())
+    data[len(data) // 2] ^= 0x10
+    mrc.write_bytes(bytes(data))
+    _one_line_error(run("decompress", mrc, "-o", out), "c.mrc", "checksum")
+    mrc.write_bytes(bytes(data[:100]))
+    _one_line_error(run("decompress", mrc, "-o", out), "truncated")
+    assert not out.exists()
+
+
+def test_evaluate_refuses_different_skeletons(clip, tmp_path):
+    other = tmp_path / "other.bvh"
+    write(synthetic_motion(chain_skeleton(5), frames=40, fps=30), other)
+    _one_line_error(run("evaluate", clip, other), "different skeletons")
+
+
+@pytest.mark.slow  # two spawned worker processes import motionrep and torch
+def test_directory_to_archive_with_two_jobs(tmp_path):
+    src = tmp_path / "clips"
+    (src / "sub").mkdir(parents=True)
+    write(synthetic_motion(chain_skeleton(3), frames=20, seed=1), src / "a.bvh")
+    write(synthetic_motion(chain_skeleton(4), frames=25, seed=2), src / "sub" / "b.bvh")
+    archive = tmp_path / "out.h5"
+    r = run("compress", src, "-o", archive, "--codec", "svd", "--jobs", "2")
+    assert r.exit_code == 0, r.output
+    assert is_archive(archive)
+    containers = read_archive(archive)
+    assert sorted(containers) == ["a", "sub__b"] and containers["sub__b"].num_frames == 25
+    db = tmp_path / "db.h5"
+    r = run("decompress", archive, "-o", db)
+    assert r.exit_code == 0, r.output
+    one = tmp_path / "b.bvh"
+    assert run("decompress", archive, "--clip", "sub__b", "-o", one).exit_code == 0
+    assert read(one).num_frames == 25
+
+
+def test_database_to_directory_of_mrc_files(tmp_path):
+    db = tmp_path / "db.h5"
+    write_database({"x": synthetic_motion(chain_skeleton(3), frames=20, seed=1),
+                    "y": synthetic_motion(chain_skeleton(3), frames=22, seed=2)}, db)
+    out = tmp_path / "mrc"
+    r = run("compress", db, "-o", out, "--codec", "svd", "--json")
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    assert sorted(summary["clips"]) == ["x", "y"]
+    assert sorted(p.name for p in out.iterdir()) == ["x.mrc", "y.mrc"]
+    back = tmp_path / "y.bvh"
+    assert run("decompress", out / "y.mrc", "-o", back).exit_code == 0
+    assert read(back).num_frames == 22
+
+
+def test_batch_reports_failed_clips_and_exits_1(tmp_path):
+    src = tmp_path / "clips"
+    src.mkdir()
+    write(synthetic_motion(chain_skeleton(3), frames=20, seed=1), src / "a.bvh")
+    out = tmp_path / "out"
+    r = run("compress", src, "-o", out, "--codec", "svd", "-p", "rank=0")
+    assert r.exit_code == 1
+    assert "a: FAILED" in r.output and "1 of 1 clips failed" in r.output
+    assert not any(out.iterdir())
+
+
+def test_readme_quick_start(tmp_path):
+    """The README's main job: compress the shipped clip with adaptive-fourier within 2 %."""
+    walk, mrc, back = tmp_path / "walk.bvh", tmp_path / "walk.mrc", tmp_path / "walk2.bvh"
+    assert run("example", walk).exit_code == 0
+    r = run("compress", walk, "-o", mrc, "--codec", "adaptive-fourier")
+    assert r.exit_code == 0, r.output
+    assert "K=" in r.output and "omega=" in r.output
+    assert run("decompress", mrc, "-o", back).exit_code == 0
+    report = json.loads(run("evaluate", walk, back, "--json").output)
+    assert report["max_error_percent"] <= 2.0

@@ -1,0 +1,89 @@
+"""The shared evaluation: FK-based L-infinity over joints and end sites, and the four compression figures."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from motionrep import Motion
+from motionrep.errors import ValidationError
+from motionrep.evaluate import Evaluator, compression_figures, max_joint_error
+from motionrep.kinematics import character_height
+from motionrep.rotations import euler_to_quat
+from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+
+
+def _still(skeleton, frames=10, fps=30.0):
+    rot = np.zeros((frames, skeleton.num_joints, 4))
+    rot[..., 3] = 1.0
+    root = np.broadcast_to(skeleton.offsets[0], (frames, 3)).copy()
+    return Motion(skeleton, fps, root, rot)
+
+
+def test_identical_motions_have_zero_error():
+    m = synthetic_motion(frames=20)
+    r = max_joint_error(m, m)
+    assert r.max_error == 0.0 and r.mean_error == 0.0 and r.max_error_percent == 0.0
+    assert r.num_frames == 20 and r.num_points == m.skeleton.num_joints + m.skeleton.num_end_sites
+
+
+def test_root_shift_in_one_frame_is_found_with_exact_value_mean_and_location():
+    sk = chain_skeleton(4, bone=10.0)
+    ref = _still(sk)
+    root = ref.root_translation.copy()
+    root[6] += (3.0, 4.0, 0.0)  # every point of frame 6 moves by 5
+    r = max_joint_error(ref, ref.replace(root_translation=root))
+    assert r.max_error == pytest.approx(5.0)
+    assert r.frame == 6
+    assert r.mean_error == pytest.approx(5.0 / 10)  # one frame of ten moved, every point by 5
+    assert r.height == pytest.approx(character_height(sk)) and r.height == pytest.approx(40.0)
+    assert r.max_error_percent == pytest.approx(100 * 5.0 / 40.0)
+
+
+def test_end_sites_count_and_are_named():
+    """Rotating the last joint by 90 degrees moves only its end site: by 10 * sqrt(2)."""
+    sk = chain_skeleton(4, orders=("XYZ",) * 4, bone=10.0)
+    ref = _still(sk, frames=3)
+    rot = ref.rotations.copy()
+    rot[2, 3] = euler_to_quat(np.array([0.0, 0.0, 90.0]), "XYZ", degrees=True)
+    r = max_joint_error(ref, ref.replace(rotations=rot))
+    assert r.max_error == pytest.approx(10.0 * math.sqrt(2.0))
+    assert (r.frame, r.joint) == (2, "j3/End Site")
+
+
+def test_evaluator_reuses_reference_and_checks_positions_shape():
+    m = synthetic_motion(humanoid_skeleton(), frames=12, seed=3)
+    ev = Evaluator(m)
+    other = synthetic_motion(humanoid_skeleton(), frames=12, seed=4)
+    assert ev(other) == max_joint_error(m, other)
+    with pytest.raises(ValidationError):
+        ev.positions_error(np.zeros((3, 2, 3)))
+
+
+@pytest.mark.parametrize("change", ["frames", "fps", "skeleton"])
+def test_incomparable_motions_raise(change):
+    m = synthetic_motion(chain_skeleton(4), frames=10)
+    if change == "frames":
+        other = m.frames(slice(0, 9))
+    elif change == "fps":
+        other = m.replace(fps=m.fps * 2)
+    else:
+        other = synthetic_motion(chain_skeleton(5), frames=10)
+    with pytest.raises(ValidationError):
+        max_joint_error(m, other)
+
+
+def test_compression_figures_follow_their_definitions():
+    f = compression_figures(num_frames=900, feature_width=97, num_parameters=5205, num_channels=96, num_joints=31,
+                            compressed_bytes=21932, source_bytes=700000)
+    assert f.paper_ratio == pytest.approx(900 * 97 / 5205)
+    assert f.float32_ratio == pytest.approx(900 * 96 * 4 / 21932)
+    assert f.bits_per_joint_frame == pytest.approx(21932 * 8 / (900 * 31))
+    assert f.file_ratio == pytest.approx(700000 / 21932)
+    assert compression_figures(num_frames=1, feature_width=1, num_parameters=1, num_channels=1, num_joints=1,
+                               compressed_bytes=1).file_ratio is None
+    with pytest.raises(ValidationError):
+        compression_figures(num_frames=0, feature_width=1, num_parameters=1, num_channels=1, num_joints=1,
+                            compressed_bytes=1)
