@@ -1,0 +1,129 @@
+"""The ``render`` command: stick-figure pictures of a clip and its decoded copy (registered on the CLI group).
+
+Exit codes: 0 on success; 1 when the pictures cannot be made (unreadable input, skeletons that differ, clips
+of different length, a frame selection that selects nothing, ``.mp4`` without ffmpeg, matplotlib missing), with
+one line on stderr and no output file left behind; 2 for a usage error (unknown output suffix, malformed
+``--frames`` or ``--size``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ._model import Motion
+from .cli import cli
+from .errors import ContainerError, ValidationError
+
+__all__ = ["render"]
+
+
+def _read_any(path: Path, clip: str | None = None) -> Motion:
+    """Any motion motionrep reads: ``.bvh``/``.npz``/``.h5`` files, ``.mrc`` containers (decoded at their own
+    frame rate) and HDF5 archives of ``.mrc`` containers (one clip, chosen with ``clip`` if there are several)."""
+    from .compress import decode_container, decompress_file, is_archive, read_archive
+    from .io import read
+
+    suffix = path.suffix.lower()
+    if suffix == ".mrc":
+        return decompress_file(path)
+    if suffix in (".h5", ".hdf5") and is_archive(path):
+        containers = read_archive(path, clip)
+        if len(containers) != 1:
+            raise ContainerError(f"the archive holds {len(containers)} clips; pick one with --clip: "
+                                 + ", ".join(sorted(containers)), path)
+        ((_, container),) = containers.items()
+        return decode_container(container, path=path)
+    return read(path, clip)
+
+
+def _frames_option(ctx: click.Context, param: click.Parameter, value: str | None) -> slice | None:
+    from .render import parse_frames
+
+    if value is None:
+        return None
+    try:
+        return parse_frames(value)
+    except ValidationError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def _size_option(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[int, int] | None:
+    from .render import parse_size
+
+    if value is None:
+        return None
+    try:
+        return parse_size(value)
+    except ValidationError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
+    if candidate is None:
+        return reference.name, ""
+    if reference.name != candidate.name:
+        return reference.name, candidate.name
+    return str(reference), str(candidate)
+
+
+@cli.command("render")
+@click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("candidate", metavar="[CAND]", required=False,
+                type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="OUT.gif (animation), OUT.png (filmstrip) or OUT.mp4 (animation; needs ffmpeg).")
+@click.option("--frames", metavar="A:B[:STEP]", callback=_frames_option,
+              help="Reference frames to show, a Python slice (0:120, 200:, -60:, 0:300:10). With a step, exactly "
+                   "those frames are shown; without one, frames are picked by time (animation) or --count are "
+                   "spread evenly (filmstrip).  Default: the whole clip.")
+@click.option("--fps", type=float, default=None,
+              help="Playback rate of an animation.  Default: the clip's rate, at most 25 (GIF) or 30 (MP4); "
+                   "frames are skipped to play in real time.")
+@click.option("--count", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Pictures in a filmstrip (when --frames has no step).")
+@click.option("--max-frames", type=click.IntRange(min=1), default=150, show_default=True,
+              help="Most frames in an animation or pictures in a filmstrip; a longer animation is shown at a "
+                   "lower rate, still in real time.")
+@click.option("--size", metavar="WxH", callback=_size_option,
+              help="Output size in pixels (the whole filmstrip for PNG).  Default: fitted to the motion.")
+@click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
+              help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
+@click.option("--clip", metavar="NAME", help="The clip to read from HDF5 databases or archives (both files).")
+def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
+           count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None) -> None:
+    """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, the worst joint circled.
+
+    REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton.  A CAND at
+    another frame rate is resampled at REF's frame times when both span the same time.
+
+    \b
+    Examples:
+      motionrep render walk.bvh walk.mrc -o walk.gif
+      motionrep render walk.bvh walk.mrc -o walk.png --count 12
+      motionrep render walk.bvh walk.mrc -o detail.png --frames 180:230:10
+      motionrep render walk.bvh -o walk.gif --frames 0:240 --fps 20
+    """
+    from .render import OUTPUT_SUFFIXES, check_output
+    from .render import render as draw
+
+    if output.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise click.UsageError(f"output {output}: cannot draw to {output.suffix or '(no suffix)'!r} files; use one "
+                               "of " + ", ".join(OUTPUT_SUFFIXES))
+    check_output(output)  # fail before reading anything (e.g. .mp4 without ffmpeg)
+    ref = _read_any(reference, clip)
+    cand = None if candidate is None else _read_any(candidate, clip)
+    result = draw(output, ref, cand, names=_labels(reference, candidate), frames=frames, fps=fps, count=count,
+                  max_frames=max_frames, size=size, up=up)
+    for note in result.notes:
+        click.echo(f"note: {note}", err=True)
+    n = len(result.frames)
+    what = (f"{n} frame{'s' if n != 1 else ''} at {result.fps:.3g} fps" if result.fps is not None
+            else f"{n} picture{'s' if n != 1 else ''}")
+    line = f"wrote {output}: {what}, {result.size[0]}x{result.size[1]} pixels"
+    if result.error is not None:
+        from .render import describe_error
+
+        line += f"; worst joint {describe_error(result.error)}"
+    click.echo(line)

@@ -1,0 +1,322 @@
+"""``motionrep render`` and :mod:`motionrep.render`: stick-figure GIFs and PNG filmstrips.
+
+Everything is drawn on matplotlib's Agg canvas (no window, no pyplot).  Pictures are kept small and short so
+the whole file runs in a few seconds.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+pytest.importorskip("matplotlib")
+Image = pytest.importorskip("PIL.Image")
+
+from motionrep import render as rmod  # noqa: E402
+from motionrep.cli import cli  # noqa: E402
+from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
+from motionrep.evaluate import max_joint_error  # noqa: E402
+from motionrep.io import read, write  # noqa: E402
+from motionrep.kinematics import global_positions  # noqa: E402
+from motionrep.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
+from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
+
+from conftest import SHARED_DATA, requires_shared  # noqa: E402
+
+FRAMES, FPS, BUMP_FRAME, JOINT = 40, 30.0, 23, "LeftForeArm"
+SMALL = (240, 200)
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+
+def _perturbed(motion, joint: str, frame: int, radians: float = 0.5):
+    """``motion`` with one joint turned about its local Z, most at ``frame`` (a smooth bump)."""
+    j = motion.skeleton.index(joint)
+    t = np.arange(motion.num_frames)
+    angle = radians * np.exp(-0.5 * ((t - frame) / 3.0) ** 2)
+    turn = axis_angle_to_quat(np.stack([np.zeros_like(angle), np.zeros_like(angle), angle], axis=-1))
+    rot = motion.rotations.copy()
+    rot[:, j] = quat_multiply(rot[:, j], turn)
+    return motion.replace(rotations=rot, euler_branch=None)
+
+
+@pytest.fixture(scope="module")
+def pair():
+    ref = synthetic_motion(humanoid_skeleton(), frames=FRAMES, fps=FPS, seed=5)
+    return ref, _perturbed(ref, JOINT, BUMP_FRAME)
+
+
+@pytest.fixture
+def files(tmp_path, pair):
+    ref_path, cand_path = tmp_path / "ref.bvh", tmp_path / "cand.bvh"
+    write(pair[0], ref_path)
+    write(pair[1], cand_path)
+    return ref_path, cand_path
+
+
+def _colour_pixels(path: Path) -> dict[str, int]:
+    """How many pixels are clearly red, clearly blue, and near black."""
+    rgb = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return {
+        "red": int(np.sum((r > 180) & (g < 120) & (b < 120))),
+        "blue": int(np.sum((b > 160) & (r < 90) & (g < 130))),
+        "black": int(np.sum((r < 60) & (g < 60) & (b < 60))),
+    }
+
+
+def _one_line_error(result, code: int, *needles: str) -> str:
+    assert result.exit_code == code, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert len(lines) == 1, result.output
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+def _no_output_left(directory: Path, name: str) -> None:
+    assert not (directory / name).exists()
+    assert not [p for p in directory.iterdir() if p.name.startswith(f".{name}.")], list(directory.iterdir())
+
+
+# ---- the pictures -----------------------------------------------------------------------------------------------
+
+def test_gif_has_the_expected_frames_rate_and_size(tmp_path, files):
+    out = tmp_path / "cmp.gif"
+    result = run("render", *files, "-o", out, "--size", "240x200")
+    assert result.exit_code == 0, result.output
+    assert f"wrote {out}" in result.output and f"{JOINT}/End Site" in result.output
+    with Image.open(out) as im:
+        assert im.format == "GIF"
+        assert im.size == SMALL
+        # 40 frames at 30 fps played in real time at 25 fps: frames at t = k / 25 s for t <= 39 / 30 s
+        assert im.n_frames == int(np.floor(39 * 25 / 30)) + 1 == 33
+        assert im.info["duration"] == 40  # ms: 25 fps
+        im.seek(BUMP_FRAME * 25 // 30)
+        middle = out.with_name("middle.png")
+        im.convert("RGB").save(middle)
+    pixels = _colour_pixels(middle)
+    assert pixels["red"] > 50 and pixels["blue"] > 50 and pixels["black"] > 30, pixels
+
+
+def test_gif_frames_follow_an_explicit_step_and_fps(tmp_path, pair):
+    ref, cand = pair
+    result = rmod.render(tmp_path / "s.gif", ref, cand, frames="4:30:3", fps=10, size=SMALL)
+    assert result.frames == tuple(range(4, 30, 3))
+    assert result.fps == 10
+    with Image.open(result.path) as im:
+        assert im.n_frames == len(result.frames)
+        assert im.info["duration"] == 100
+
+
+def test_png_filmstrip_size_colours_and_worst_frame(tmp_path, files):
+    out = tmp_path / "strip.png"
+    result = run("render", *files, "-o", out, "--count", "4", "--size", "640x400")
+    assert result.exit_code == 0, result.output
+    with Image.open(out) as im:
+        assert im.format == "PNG"
+        assert im.size == (640, 400)
+    pixels = _colour_pixels(out)
+    assert pixels["red"] > 200 and pixels["blue"] > 200 and pixels["black"] > 100, pixels
+    assert "4 pictures" in result.output
+
+
+def test_filmstrip_default_size_and_panels(tmp_path, pair):
+    ref, cand = pair
+    result = rmod.render(tmp_path / "d.png", ref, cand, count=6)
+    assert len(result.frames) == 6
+    assert BUMP_FRAME in result.frames  # the worst frame replaces the nearest evenly spaced one
+    assert result.frames[0] == 0 and result.frames[-1] == FRAMES - 1
+    with Image.open(result.path) as im:
+        assert im.size == result.size
+        assert 300 <= im.size[0] <= 2000 and 300 <= im.size[1] <= 2000
+
+
+def test_worst_joint_is_the_perturbed_one_and_matches_the_shared_measure(tmp_path, pair):
+    ref, cand = pair
+    result = rmod.render(tmp_path / "w.png", ref, cand, count=2, size=(320, 200))
+    report = result.error
+    assert report.joint == f"{JOINT}/End Site"  # the forearm turned: its end site moved furthest
+    assert report.frame == BUMP_FRAME
+    shared = max_joint_error(ref, cand)
+    assert (report.max_error, report.frame, report.joint) == (shared.max_error, shared.frame, shared.joint)
+    assert "% of height" in rmod.describe_error(report) and JOINT in rmod.describe_error(report)
+
+
+def test_reference_alone(tmp_path, pair):
+    result = rmod.render(tmp_path / "one.png", pair[0], count=3, size=(400, 240))
+    assert result.error is None and len(result.frames) == 3
+    pixels = _colour_pixels(result.path)
+    assert pixels["red"] > 100 and pixels["blue"] == 0
+
+
+def test_candidate_at_another_rate_is_resampled_by_time(tmp_path, pair):
+    ref = synthetic_motion(humanoid_skeleton(), frames=61, fps=60.0, seed=2, cycles=1.0)
+    half = ref.frames(slice(0, None, 2)).replace(fps=30.0)  # same clip, every other frame, same last frame
+    result = rmod.render(tmp_path / "h.png", ref, half, count=2, size=(320, 200))
+    assert any("resampled" in note for note in result.notes)
+    assert result.error.frame % 2 == 1  # the frames both clips share are exact
+    held = half.frames(np.arange(61) // 2).replace(fps=60.0)  # each frame held twice instead
+    assert result.error.max_error < 0.5 * max_joint_error(ref, held).max_error
+    assert result.error.max_error_percent < 2
+    short = ref.frames(slice(0, 20, 2)).replace(fps=FPS / 2)
+    with pytest.raises(ValidationError, match="same time"):
+        rmod.render(tmp_path / "x.png", ref, short)
+    _no_output_left(tmp_path, "x.png")
+
+
+def test_mrc_input(tmp_path, files):
+    from motionrep.compress import compress_file
+
+    ref_path, _ = files
+    mrc = tmp_path / "ref.mrc"
+    compress_file(ref_path, mrc, "svd", max_error="5%")
+    out = tmp_path / "mrc.png"
+    result = run("render", ref_path, mrc, "-o", out, "--count", "2", "--size", "320x200")
+    assert result.exit_code == 0, result.output
+    assert Image.open(out).size == (320, 200)
+    assert "worst joint" in result.output
+
+
+# ---- errors: one line, exit code, nothing written ----------------------------------------------------------------
+
+@pytest.mark.parametrize("bad", ["abc", "1:2:0", "1:5:-1", "1:2:3:4", "a:b"])
+def test_malformed_frames_is_a_usage_error(tmp_path, files, bad):
+    result = run("render", *files, "-o", tmp_path / "x.gif", "--frames", bad)
+    assert result.exit_code == 2, result.output
+    assert "--frames" in result.output
+    _no_output_left(tmp_path, "x.gif")
+
+
+@pytest.mark.parametrize("empty", ["100:", "10:5", "-1:-3"])
+def test_frames_selecting_nothing(tmp_path, files, empty):
+    result = run("render", *files, "-o", tmp_path / "x.png", "--frames", empty)
+    _one_line_error(result, 1, "selects no frames", f"{FRAMES}", "ref.bvh")
+    _no_output_left(tmp_path, "x.png")
+
+
+def test_parse_frames_is_python_slicing():
+    assert rmod.parse_frames("3:9") == slice(3, 9, None)
+    assert rmod.parse_frames(":9:2") == slice(None, 9, 2)
+    assert rmod.parse_frames("-5:") == slice(-5, None, None)
+    assert rmod.parse_frames("7") == slice(7, 8)
+    assert rmod.parse_frames("-1") == slice(-1, None)
+    idx, exact = rmod._select("-5:", 40, "clip")
+    assert idx.tolist() == [35, 36, 37, 38, 39] and not exact
+
+
+def test_mismatched_skeletons(tmp_path, files):
+    other = tmp_path / "chain.bvh"
+    write(synthetic_motion(chain_skeleton(4), frames=FRAMES, fps=FPS), other)
+    result = run("render", files[0], other, "-o", tmp_path / "x.gif")
+    _one_line_error(result, 1, "do not share a skeleton", "ref.bvh", "chain.bvh")
+    _no_output_left(tmp_path, "x.gif")
+
+
+def test_same_rate_different_length_is_refused(pair):
+    ref, cand = pair
+    with pytest.raises(ValidationError, match="40 frames .* 30"):
+        rmod.align_candidate(ref, cand.frames(slice(0, 30)), "a", "b")
+
+
+def test_mp4_without_ffmpeg(tmp_path, files, monkeypatch):
+    from matplotlib import animation
+
+    monkeypatch.setattr(animation.writers, "is_available", lambda name: False)
+    result = run("render", *files, "-o", tmp_path / "x.mp4")
+    _one_line_error(result, 1, "ffmpeg", ".gif", "x.mp4")
+    _no_output_left(tmp_path, "x.mp4")
+
+
+def test_unknown_output_suffix(tmp_path, files):
+    result = run("render", *files, "-o", tmp_path / "x.jpg")
+    assert result.exit_code == 2 and ".gif" in result.output
+    with pytest.raises(FormatError, match="x.jpg"):
+        rmod.check_output(tmp_path / "x.jpg")
+
+
+def test_bad_rate_and_size(tmp_path, files, pair):
+    result = run("render", *files, "-o", tmp_path / "x.gif", "--fps", "60")
+    _one_line_error(result, 1, "50 fps")
+    result = run("render", *files, "-o", tmp_path / "x.gif", "--size", "12x12")
+    assert result.exit_code == 2 and "--size" in result.output
+    with pytest.raises(ValidationError):
+        rmod.render(tmp_path / "x.gif", *pair, fps=0)
+    _no_output_left(tmp_path, "x.gif")
+
+
+def test_missing_matplotlib_is_one_clear_error(tmp_path, pair, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib.backends.backend_agg", None)  # import fails
+    with pytest.raises(MotionrepError, match=r"matplotlib.*pip install 'motionrep\[plot\]'"):
+        rmod.render(tmp_path / "x.png", *pair)
+    _no_output_left(tmp_path, "x.png")
+
+
+def test_failure_while_drawing_leaves_no_file(tmp_path, pair, monkeypatch):
+    def boom(self, frame):
+        raise RuntimeError("drawing failed")
+
+    monkeypatch.setattr(rmod._Panel, "show", boom)
+    with pytest.raises(RuntimeError):
+        rmod.render(tmp_path / "x.gif", *pair, size=SMALL)
+    _no_output_left(tmp_path, "x.gif")
+
+
+# ---- frame choice, camera and up axis -------------------------------------------------------------------------
+
+def test_long_clip_stays_within_max_frames_in_real_time():
+    selected = np.arange(2242)
+    shown, rate, notes = rmod._animation_frames(selected, False, 120.0, None, 150, ".gif")
+    assert shown.size <= 150 and notes
+    assert 100 / rate == round(100 / rate)  # a whole number of centiseconds per frame
+    assert abs(shown.size / rate - 2242 / 120) < 2 / rate  # plays as long as the clip
+    assert np.all(np.diff(shown) > 0)
+    shown, rate, notes = rmod._animation_frames(np.arange(344), False, 120.0, None, 150, ".gif")
+    assert rate == 25 and shown.size == 72 and not notes
+    with pytest.raises(ValidationError, match="max-frames"):
+        rmod._animation_frames(np.arange(0, 400, 2), True, 120.0, None, 150, ".gif")
+
+
+def test_up_axis_detection(pair):
+    pos = global_positions(pair[0])
+    assert rmod.detect_up_axis(pos) == "y"
+    z_up = np.stack([pos[..., 0], -pos[..., 2], pos[..., 1]], axis=-1)  # the same clip turned Z-up
+    assert rmod.detect_up_axis(z_up) == "z"
+    assert rmod.detect_up_axis(z_up[:1]) == "z"  # one frame: decided by the body's extent
+
+
+def test_equal_scale_in_screen_space(pair):
+    """The fixed orthographic camera draws every bone at most its length, the same scale in every frame."""
+    ref = pair[0]
+    pos = global_positions(ref)
+    bones = rmod._bones(ref.skeleton)
+    scene = rmod._scene(pos, None, bones, "y", np.arange(ref.num_frames), 170.0)
+    true = np.linalg.norm(pos[:, bones[:, 0]] - pos[:, bones[:, 1]], axis=-1)
+    drawn = np.linalg.norm(scene.ref[:, bones[:, 0]] - scene.ref[:, bones[:, 1]], axis=-1)
+    assert np.all(drawn <= true + 1e-9)
+    # some bone in some frame lies almost in the picture plane and keeps its whole length
+    assert np.max(drawn / true) > 0.98
+    assert scene.aspect > 0
+
+
+# ---- real data ----------------------------------------------------------------------------------------------------
+
+@requires_shared
+@pytest.mark.realdata
+def test_real_walk_filmstrip(tmp_path):
+    walk = SHARED_DATA / "cmu" / "bvh-matlab" / "walk.bvh"
+    ref = read(walk)
+    cand = _perturbed(ref, "RightForeArm", 200, radians=0.6)
+    result = rmod.render(tmp_path / "walk.png", ref, cand, names=("walk.bvh", "noisy.bvh"), count=4,
+                         size=(800, 420))
+    assert result.up == "y"
+    assert result.error.joint.startswith("RightHand") or result.error.joint.startswith("RightFore")
+    assert abs(result.error.frame - 200) <= 3 and result.error.frame in result.frames
+    pixels = _colour_pixels(result.path)
+    assert pixels["red"] > 100 and pixels["blue"] > 100, pixels
