@@ -115,6 +115,77 @@ def test_manual_gradient_matches_autograd():
     assert np.allclose(grad, theta.grad.numpy(), atol=1e-6)
 
 
+def _two_loop_direction(g, pairs):
+    """The classic L-BFGS two-loop recursion (Nocedal and Wright, algorithm 7.4), the reference for the compact
+    form: ``-H g`` with ``H0 = (s.y / y.y) I`` from the newest pair."""
+    q, alphas = -g.copy(), []
+    for s, y in reversed(pairs):
+        a = (s @ q) / (s @ y)
+        q -= a * y
+        alphas.append(a)
+    s, y = pairs[-1]
+    q *= (s @ y) / (y @ y)
+    for (s, y), a in zip(pairs, reversed(alphas)):
+        q += (a - (y @ q) / (s @ y)) * s
+    return q
+
+
+def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
+    from motionrep_fourier._train import _LBFGS
+
+    rng = np.random.default_rng(0)
+    n = 40
+    A = rng.normal(size=(n, n))
+    H = A @ A.T + 0.1 * np.eye(n)  # condition number ~ 1e3
+    optimizer = _LBFGS(lambda x: (0.5 * x @ H @ x, H @ x), rng.normal(size=n), history=5)
+    optimizer.run(12)  # the memory is full and has wrapped around
+    m = optimizer.m
+    pairs = [(optimizer._SY[i].astype(np.float64), optimizer._SY[m + i].astype(np.float64))
+             for i in optimizer._o]
+    assert len(pairs) == 5
+    reference = _two_loop_direction(optimizer.g, pairs)
+    assert np.allclose(optimizer._direction(), reference, rtol=1e-5, atol=1e-6 * np.abs(reference).max())
+    f0 = optimizer.f
+    optimizer.run(500)
+    assert optimizer.f < 1e-12 * f0
+    assert optimizer.evaluations < 1.3 * 512  # step 1 is accepted almost always: about one evaluation per step
+
+
+def test_line_search_steps_through_the_float32_noise_of_the_loss():
+    """Near a minimum the loss values carry rounding noise larger than the possible decrease; the line search
+    must still move to where the slope flattens instead of declaring convergence (the gradient is accurate)."""
+    from motionrep_fourier._train import _LBFGS
+
+    rng = np.random.default_rng(1)
+    scales = np.geomspace(1.0, 1e4, 20)  # very uneven curvature
+
+    def noisy(x):
+        value = 1.0 + 0.5 * np.sum(scales * x ** 2)
+        return value * (1.0 + 3e-6 * rng.uniform(-1, 1)), scales * x  # float32-like noise on the value only
+
+    x0 = 1e-3 / np.sqrt(scales)  # every term of the loss is already below its noise
+    optimizer = _LBFGS(noisy, x0)
+    optimizer.run(60)
+    assert not optimizer.converged  # a line search that trusts the values alone stops at once, about 0.5 here
+    assert np.linalg.norm(scales * optimizer.x) < 0.1 * np.linalg.norm(scales * x0)
+
+
+def test_training_needs_no_deterministic_algorithms_mode(chain_motion):
+    """Bit-for-bit determinism on the CPU comes from a fixed thread count, not from
+    torch.use_deterministic_algorithms (which imports torch._dynamo: seconds per process)."""
+    import torch
+
+    before = torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()
+    compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 1, "iters": 25})
+    assert (torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()) == before
+    code = ("import sys; from motionrep.testing import chain_skeleton, synthetic_motion; "
+            "from motionrep.compress import compress_motion; "
+            "m = synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20); "
+            "compress_motion(m, 'adaptive-fourier', max_error=None, params={'k': 1, 'iters': 25}); "
+            "assert 'torch._dynamo' not in sys.modules, 'torch._dynamo imported'")
+    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+
+
 def test_adaptive_frequency_is_the_dct_peak_of_the_first_component():
     from motionrep_fourier._train import next_adaptive_frequency
 
@@ -202,6 +273,23 @@ def test_same_seed_gives_identical_bytes(chain_motion):
     b = compress_motion(chain_motion, "adaptive-fourier", seed=7, **opts).data
     c = compress_motion(chain_motion, "adaptive-fourier", seed=8, **opts).data
     assert a == b and a != c
+
+
+_COMPRESS_TO_STDOUT = (
+    "import sys; from motionrep.testing import chain_skeleton, synthetic_motion; "
+    "from motionrep.compress import compress_motion; "
+    "m = synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20); "
+    "sys.stdout.buffer.write(compress_motion(m, 'adaptive-fourier', max_error='4%', seed=5, "
+    "params={'iters': 100}).data)")
+
+
+def test_same_seed_gives_identical_bytes_across_processes(chain_motion):
+    """Two fresh processes (own torch import, own thread pool) write the same bytes, equal to this process's;
+    the bound is on, so the measured errors steer the run (evaluation schedule, early stop) as in real use."""
+    here = compress_motion(chain_motion, "adaptive-fourier", max_error="4%", seed=5, params={"iters": 100}).data
+    runs = [subprocess.run([sys.executable, "-c", _COMPRESS_TO_STDOUT], capture_output=True, check=True).stdout
+            for _ in range(2)]
+    assert runs[0] == runs[1] == here
 
 
 def test_float16_weights(chain_motion):

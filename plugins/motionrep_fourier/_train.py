@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import contextlib
 import math
-import warnings
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 import scipy.fft
-import scipy.optimize
 import torch
+from scipy.linalg.lapack import dtrtrs
 from numpy.typing import NDArray
 
 from motionrep.codec import EncodeContext, Payload
@@ -32,46 +31,63 @@ from motionrep.errors import BoundNotMetError, CodecError
 
 from ._network import fourier_features, network_forward
 
-__all__ = ["fit", "next_adaptive_frequency", "CHUNK", "WINDOW"]
+__all__ = ["fit", "next_adaptive_frequency", "CHUNK", "WINDOW", "EVAL_EVERY", "NEAR"]
 
-#: L-BFGS iterations between two checks of the loss and of the stored payload's error.
+#: L-BFGS iterations between two looks at the loss (and, when the bound applies, maybe at the error).
 CHUNK = 25
-#: Chunks over which the loss must improve by ``tol`` for a stage to go on.
+#: Chunks over which the loss must improve by ``tol`` for a stage to go on (100 iterations).
 WINDOW = 4
+#: Chunks after which the stored payload is measured even when the loss predicts an error far from the bound.
+EVAL_EVERY = 4
+#: The payload is measured after every chunk while the predicted error is below ``NEAR`` times the bound.
+NEAR = 1.5
 _HISTORY = 10
 _DTYPES = {"float32": np.float32, "float16": np.float16}
 
+LossAndGrad = Callable[[NDArray[np.float64]], "tuple[float, NDArray[np.float64]]"]
+
 
 @contextlib.contextmanager
-def _torch_settings() -> Iterator[None]:
-    """One intra-op thread and deterministic algorithms while training; restored afterwards."""
-    threads = torch.get_num_threads()
-    deterministic = torch.are_deterministic_algorithms_enabled()
-    torch.set_num_threads(1)
-    torch.use_deterministic_algorithms(True)
+def _torch_settings(threads: int = 1) -> Iterator[None]:
+    """A fixed number of intra-op threads while training (the result must not depend on the machine's load);
+    restored afterwards.
+
+    ``torch.use_deterministic_algorithms`` is not needed: on the CPU, with a fixed thread count, the dense
+    products and reductions used here give the same bits on every run (and enabling it imports
+    ``torch._dynamo``, seconds per process).
+    """
+    old = torch.get_num_threads()
+    torch.set_num_threads(threads)
     try:
         yield
     finally:
-        torch.set_num_threads(threads)
-        torch.use_deterministic_algorithms(deterministic)
+        torch.set_num_threads(old)
 
 
 class _Net:
-    """The network's parameters as one flat float32 vector (one L-BFGS variable) with shaped views."""
+    """The network's parameters as one flat float32 vector (one L-BFGS variable) with shaped views.
+
+    Each layer is stored as one matrix with its bias as the last column (``A0 = [W0 | b0]`` ``(h, i + 1)``,
+    ``A1 = [W1 | b1]`` ``(h, h + 1)``, ``A2 = [W2 | b2]`` ``(d, h + 1)``), so that a layer and its gradient are
+    one matrix product each; :meth:`views` gives the six arrays of eq. 2.
+    """
 
     def __init__(self, inputs: int, hidden: int, width: int, theta: torch.Tensor):
         self.inputs, self.hidden, self.width = inputs, hidden, width
         self.theta = theta
         self._x = torch.empty_like(theta)  # evaluation point and gradient buffers with fixed views
         self._g = torch.empty_like(theta)
-        self._x_views = self.views(self._x)
-        self._g_views = self.views(self._g)
+        self._x_layers = self.layers(self._x)
+        self._g_layers = self.layers(self._g)
+        self._batch: tuple | None = None
 
     @staticmethod
-    def shapes(i: int, h: int, d: int) -> list[tuple[int, ...]]:
-        return [(h, i), (h,), (h, h), (h,), (d, h), (d,)]
+    def shapes(i: int, h: int, d: int) -> list[tuple[int, int]]:
+        """Shapes of the three layer matrices ``[W | b]``."""
+        return [(h, i + 1), (h, h + 1), (d, h + 1)]
 
-    def views(self, theta: torch.Tensor | None = None) -> list[torch.Tensor]:
+    def layers(self, theta: torch.Tensor | None = None) -> list[torch.Tensor]:
+        """The layer matrices ``A0, A1, A2`` (views of ``theta``)."""
         theta = self.theta if theta is None else theta
         out, off = [], 0
         for shape in self.shapes(self.inputs, self.hidden, self.width):
@@ -80,36 +96,54 @@ class _Net:
             off += n
         return out
 
+    def views(self, theta: torch.Tensor | None = None) -> list[torch.Tensor]:
+        """``W0 (h, i), b0 (h,), W1 (h, h), b1 (h,), W2 (d, h), b2 (d,)`` (views of ``theta``)."""
+        out = []
+        for A in self.layers(theta):
+            out += [A[:, :-1], A[:, -1]]
+        return out
+
+    def _buffers(self, x: torch.Tensor, target: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """Feature-major inputs and activations with a last row of ones (the bias input), and ``-target^T``;
+        made once per ``(x, target)`` pair (once per stage)."""
+        if self._batch is None or self._batch[0] is not x or self._batch[1] is not target:
+            N = x.shape[0]
+            xT = torch.ones(self.inputs + 1, N)
+            xT[:-1] = x.T
+            a0T = torch.ones(self.hidden + 1, N)
+            a1T = torch.ones(self.hidden + 1, N)
+            self._batch = (x, target, xT, a0T, a1T, -target.T.contiguous())
+        return self._batch[2:]
+
     def loss_and_grad(self, x: torch.Tensor, target: torch.Tensor,
                       theta: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
-        """Mean squared error of the network on ``(x, target)`` and its gradient with respect to ``theta``.
+        """Mean squared error of the network on ``(x (N, i), target (N, d))`` and its gradient with respect to
+        ``theta``.
 
         Backpropagation written out for this fixed three-layer network (autograd's per-call overhead is larger than
-        the whole computation at these sizes); ``tests/test_codecs.py`` checks it against autograd.
+        the whole computation at these sizes), on feature-major activations ``(h + 1, N)`` whose last row is ones
+        so that each layer's product includes its bias: 13 torch calls in all.  ``tests/test_codecs.py`` checks it
+        against autograd.
         """
-        with torch.no_grad():
-            self._x.copy_(torch.from_numpy(theta))
-            W0, b0, W1, b1, W2, b2 = self._x_views
-            z0 = torch.addmm(b0, x, W0.T)
-            a0, d0 = _elu_and_slope(z0)
-            z1 = torch.addmm(b1, a0, W1.T)
-            a1, d1 = _elu_and_slope(z1)
-            r = torch.addmm(b2, a1, W2.T)
-            r -= target
-            count = r.numel()
-            loss = float(torch.dot(r.reshape(-1), r.reshape(-1))) / count
-            r *= 2.0 / count
-            gW0, gb0, gW1, gb1, gW2, gb2 = self._g_views
-            torch.mm(r.T, a1, out=gW2)
-            torch.sum(r, 0, out=gb2)
-            g1 = torch.mm(r, W2)
-            g1 *= d1
-            torch.mm(g1.T, a0, out=gW1)
-            torch.sum(g1, 0, out=gb1)
-            g0 = torch.mm(g1, W1)
-            g0 *= d0
-            torch.mm(g0.T, x, out=gW0)
-            torch.sum(g0, 0, out=gb0)
+        xT, a0T, a1T, minus_targetT = self._buffers(x, target)
+        h = self.hidden
+        # no tensor here requires grad, so torch records nothing for autograd (no torch.no_grad() needed)
+        self._x.copy_(torch.from_numpy(theta))
+        A0, A1, A2 = self._x_layers
+        gA0, gA1, gA2 = self._g_layers
+        a0 = torch.nn.functional.elu_(torch.mm(A0, xT, out=a0T[:h]))
+        a1 = torch.nn.functional.elu_(torch.mm(A1, a0T, out=a1T[:h]))
+        rT = torch.addmm(minus_targetT, A2, a1T)  # (d, N): network minus target
+        count = rT.numel()
+        flat = rT.view(-1)
+        loss = torch.vdot(flat, flat).item() / count
+        rT *= 2.0 / count
+        torch.mm(rT, a1T.T, out=gA2)
+        # elu_backward with is_result=True: the gradient times ELU's slope, computed from ELU's output
+        g1 = torch.ops.aten.elu_backward(torch.mm(A2[:, :h].T, rT), 1.0, 1, 1, True, a1)
+        torch.mm(g1, a0T.T, out=gA1)
+        g0 = torch.ops.aten.elu_backward(torch.mm(A1[:, :h].T, g1), 1.0, 1, 1, True, a0)
+        torch.mm(g0, xT.T, out=gA0)
         return loss, self._g.numpy().astype(np.float64)
 
     def forward(self, x: torch.Tensor, theta: torch.Tensor | None = None) -> torch.Tensor:
@@ -119,117 +153,194 @@ class _Net:
         return torch.addmm(b2, a, W2.T)
 
 
-class _LBFGS:
-    """Limited-memory BFGS with a strong-Wolfe line search (``scipy.optimize.line_search``; Armijo backtracking if
-    it fails), on a float64 numpy vector.
+# -----------------------------------------------------------------------------------------------------------------
+# L-BFGS
+# -----------------------------------------------------------------------------------------------------------------
+_C1, _C2 = 1e-4, 0.9  # sufficient decrease and (strong) curvature constants of the Wolfe conditions
+_MAX_EVALS = 25  # most loss evaluations in one line search
+_NOISE = 1e-5  # relative rounding noise allowed for in float32 loss values
+_UPPER = np.triu(np.ones((64, 64)))
 
-    ``fg(x)`` returns the loss and its gradient (the network itself runs in torch, float32).  torch's
-    ``torch.optim.LBFGS`` works on torch tensors with a strong-Wolfe search, but its per-iteration Python and
-    small-tensor work costs more than the tiny network's forward and backward pass; here the two-loop recursion
-    is a few numpy dot products.  Curvature pairs with ``s.y <= 1e-10 |s| |y|`` are skipped, which keeps the
-    inverse-Hessian approximation positive definite.
+
+def _cubic_min(t1: float, f1: float, d1: float, t2: float, f2: float, d2: float, lo: float, hi: float) -> float:
+    """Minimiser in ``[lo, hi]`` of the cubic through two points with values and slopes (bisection if none)."""
+    e = d1 + d2 - 3.0 * (f1 - f2) / (t1 - t2)
+    disc = e * e - d1 * d2
+    if disc >= 0.0:
+        root = math.sqrt(disc) * (1.0 if t2 >= t1 else -1.0)
+        denom = d2 - d1 + 2.0 * root
+        if denom != 0.0:
+            t = t2 - (t2 - t1) * (d2 + root - e) / denom
+            if math.isfinite(t):
+                return min(max(t, lo), hi)
+    return 0.5 * (lo + hi)
+
+
+class _LBFGS:
+    """Limited-memory BFGS with a strong-Wolfe line search, on a float64 numpy vector.
+
+    ``fg(x)`` returns the loss and its gradient (the network itself runs in torch, float32).  The direction uses
+    the compact representation of the inverse-Hessian approximation (Byrd, Nocedal and Schnabel 1994): the
+    memory is one ``(2 m, n)`` array of the last ``m`` steps ``s`` and gradient changes ``y``, so a direction
+    costs two matrix-vector products and a few ``m x m`` solves instead of ``4 m`` vector operations.  It is the
+    same matrix as the classic two-loop recursion, with ``H0 = (s.y / y.y) I`` from the newest pair.  Pairs with
+    ``s.y <= 1e-10 |s| |y|`` are skipped, which keeps the approximation positive definite.
+
+    The line search (Nocedal and Wright, algorithms 3.5 and 3.6, with cubic interpolation) tries step 1 first
+    (after the first iteration), which L-BFGS accepts most of the time: one loss evaluation per iteration.
+    When it finds no decrease, the optimiser restarts once from steepest descent; if that fails too, the loss is
+    at float32 precision and :attr:`converged` is set.
     """
 
-    def __init__(self, fg, x: NDArray[np.float64], history: int = _HISTORY):
+    def __init__(self, fg: LossAndGrad, x: NDArray[np.float64], history: int | None = None):
+        history = _HISTORY if history is None else history
         self.fg = fg
-        self.x = x
-        self.f, self.g = fg(x)
-        self.s: list[NDArray[np.float64]] = []
-        self.y: list[NDArray[np.float64]] = []
-        self.rho: list[float] = []
-        self.history = history
+        self.x = np.array(x, dtype=np.float64)
+        self.f, self.g = fg(self.x)
+        self.evaluations = 1
+        self.iterations = 0
+        n = self.x.size
+        if not 1 <= history <= _UPPER.shape[0]:
+            raise ValueError(f"history must be in [1, {_UPPER.shape[0]}], got {history}")
+        self.m = history
+        # rows [0, m): s slots, [m, 2m): y slots; float32 halves the memory traffic of the products (the
+        # small m x m matrices and the curvature tests are float64)
+        self._SY = np.zeros((2 * history, n), dtype=np.float32)
+        self._StY = np.zeros((history, history))  # slot-indexed s_i . y_j
+        self._YtY = np.zeros((history, history))
+        self._reset()
         self.first = True
-        self._cache: list = []
+        self.converged = False
+
+    def _reset(self) -> None:
+        self._k = self._next = 0
+        self._o = np.zeros(0, np.int64)
+        self._SY[:] = 0.0
 
     def _direction(self) -> NDArray[np.float64]:
-        q = -self.g
-        alphas = []
-        for s, y, rho in zip(reversed(self.s), reversed(self.y), reversed(self.rho)):
-            a = rho * float(s @ q)
-            q = q - a * y
-            alphas.append(a)
-        if self.s:
-            s, y = self.s[-1], self.y[-1]
-            q = q * (float(s @ y) / float(y @ y))
-        for s, y, rho, a in zip(self.s, self.y, self.rho, reversed(alphas)):
-            b = rho * float(y @ q)
-            q = q + (a - b) * s
-        return q
+        """``-H g`` in the compact form: ``H g = gamma g + S p - gamma Y u`` with ``R u = S^T g`` and
+        ``R^T p = (D + gamma Y^T Y) u - gamma Y^T g`` (``R`` the upper triangle of ``S^T Y``, ``D`` its diagonal,
+        pairs oldest first)."""
+        g = self.g
+        if not self._k:
+            return -g
+        o, m, gamma = self._o, self.m, self._gamma
+        ab = (self._SY @ g.astype(np.float32)).astype(np.float64)  # [S^T g; Y^T g], slot order
+        u = dtrtrs(self._R, ab[o])[0]
+        p = dtrtrs(self._R, self._middle @ u - gamma * ab[m + o], trans=1)[0]
+        coef = np.zeros(2 * m, dtype=np.float32)
+        coef[o] = p
+        coef[m + o] = -gamma * u
+        d = (coef @ self._SY).astype(np.float64)
+        d += gamma * g
+        return np.negative(d, out=d)
 
-    def _evaluate(self, x: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
-        """``fg(x)``, remembering the last few points (the line search asks for f and f' separately)."""
-        for cx, cf, cg in self._cache:
-            if np.array_equal(cx, x):
-                return cf, cg
-        f, g = self.fg(x)
-        self._cache = [(x.copy(), f, g)] + self._cache[:2]
-        return f, g
+    def _remember(self, s: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """Add the pair ``(s, y)`` (replacing the oldest when the memory is full) and prepare the small matrices
+        of the compact form: ``R``, ``D + gamma Y^T Y`` and ``gamma = s.y / y.y`` of the newest pair."""
+        sy, yy = float(s @ y), float(y @ y)
+        if not (yy > 0 and sy > 1e-10 * math.sqrt(float(s @ s) * yy)):
+            return  # skipped: the approximation stays positive definite
+        m, slot = self.m, self._next
+        self._SY[slot] = s
+        self._SY[m + slot] = y
+        vy = (self._SY @ y.astype(np.float32)).astype(np.float64)  # [S^T y; Y^T y]
+        vs = (self._SY[m:] @ s.astype(np.float32)).astype(np.float64)  # Y^T s
+        self._StY[:, slot] = vy[:m]
+        self._StY[slot, :] = vs
+        self._YtY[:, slot] = vy[m:]
+        self._YtY[slot, :] = vy[m:]
+        k = self._k = min(self._k + 1, m)
+        self._next = (slot + 1) % m
+        o = self._o = (np.arange(k) + (self._next if k == m else 0)) % m  # slots, oldest first
+        sty = self._StY[o[:, None], o]
+        self._R = sty * _UPPER[:k, :k]
+        self._gamma = sy / yy
+        self._middle = self._gamma * self._YtY[o[:, None], o]
+        self._middle.flat[::k + 1] += sty.flat[::k + 1]
 
-    def _wolfe(self, d: NDArray[np.float64], step0: float):
-        """Strong-Wolfe step along ``step0 * d`` (``scipy.optimize.line_search``, first trial step 1); None if it
-        fails."""
-        d = d * step0
-        self._cache = [(self.x, self.f, self.g)]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # scipy warns when the search fails; we fall back to backtracking
-            alpha = scipy.optimize.line_search(lambda z: self._evaluate(z)[0], lambda z: self._evaluate(z)[1],
-                                               self.x, d, gfk=self.g, old_fval=self.f, c1=1e-4, c2=0.9,
-                                               maxiter=20)[0]
-        if alpha is None or not np.isfinite(alpha) or alpha <= 0:
-            return None
-        x_new = self.x + alpha * d
-        f_new, g_new = self._evaluate(x_new)
-        if not (math.isfinite(f_new) and f_new < self.f):
-            return None
-        return x_new, f_new, g_new
+    def _line_search(self, d: NDArray[np.float64], step: float):
+        """A strong-Wolfe step along ``d``, trying ``step`` first: ``(x, f, g)`` of the accepted point, or of the
+        best point with sufficient decrease and a descending slope when the curvature condition is not met within
+        :data:`_MAX_EVALS` evaluations; None when no such point was found.
 
-    def _backtrack(self, d: NDArray[np.float64], slope: float, step: float):
-        """Armijo backtracking along ``d``; None if no decrease is found."""
-        for _ in range(30):
-            x_new = self.x + step * d
-            f_new, g_new = self.fg(x_new)
-            if math.isfinite(f_new) and f_new <= self.f + 1e-4 * step * slope:
-                return x_new, f_new, g_new
-            step *= 0.5
-        return None
+        The loss is computed in float32, so its values carry rounding noise of about 1e-6 of the loss (the
+        gradient is accurate to its own scale).  Sufficient decrease is therefore tested with the noise allowed
+        for (``f <= f0 + c1 t f'(0) + noise``, the "approximate Wolfe" idea of Hager and Zhang), and the bracket
+        is narrowed with the slopes where the values cannot tell: near a minimum, where the possible decrease is
+        below the float32 resolution of the loss, the search still finds the step where the slope has flattened.
+        """
+        f0, dg0 = self.f, float(self.g @ d)
+        noise = _NOISE * abs(f0)
+        lo_t, lo_f, lo_dg, lo = 0.0, f0, dg0, None  # before a minimiser: slope < 0 (None: the start point)
+        hi_t = hi_f = hi_dg = None  # beyond a minimiser (value too high or slope >= 0), once there is one
+        t = step
+        for _ in range(_MAX_EVALS):
+            x = self.x + t * d
+            f, g = self.fg(x)
+            self.evaluations += 1
+            if not math.isfinite(f) or f > f0 + _C1 * t * dg0 + noise or f > lo_f + noise:
+                hi_t, hi_f, hi_dg = t, f, float(g @ d) if math.isfinite(f) else math.nan
+            else:
+                dg = float(g @ d)
+                if abs(dg) <= -_C2 * dg0:
+                    return x, f, g
+                if dg > 0:
+                    hi_t, hi_f, hi_dg = t, f, dg
+                else:
+                    lo_t, lo_f, lo_dg, lo = t, f, dg, (x, f, g)
+            if hi_t is None:  # still going down: extrapolate
+                t = 4.0 * lo_t
+                continue
+            width = hi_t - lo_t
+            if abs(width) * float(np.max(np.abs(d))) < 1e-9:  # the bracket is below float32 resolution
+                break
+            a, b = lo_t + 0.1 * width, hi_t - 0.1 * width
+            a, b = min(a, b), max(a, b)
+            if not (math.isfinite(hi_f) and math.isfinite(hi_dg)):
+                t = lo_t + 0.25 * width
+            elif abs(hi_f - lo_f) > 10.0 * noise:
+                t = _cubic_min(lo_t, lo_f, lo_dg, hi_t, hi_f, hi_dg, a, b)
+            elif hi_dg > lo_dg:  # values within noise: secant on the slopes
+                t = min(max(lo_t - lo_dg * width / (hi_dg - lo_dg), a), b)
+            else:
+                t = 0.5 * (a + b)
+        return lo
 
     def run(self, iterations: int) -> float:
-        """Take up to ``iterations`` steps; return the loss at the current point."""
+        """Take up to ``iterations`` steps (fewer if :attr:`converged`); return the loss at the current point."""
         for _ in range(iterations):
+            if self.converged:
+                break
             d = self._direction()
             slope = float(self.g @ d)
             if not slope < 0:  # not a descent direction: restart from steepest descent
-                self.s, self.y, self.rho = [], [], []
+                self._reset()
                 d = -self.g
                 slope = float(self.g @ d)
-                if slope == 0:
-                    return self.f
-            step0 = min(1.0, 1.0 / float(np.abs(self.g).sum())) if self.first else 1.0
-            found = self._wolfe(d, step0)
+                if not slope < 0:
+                    self.converged = True
+                    break
+            step = min(1.0, 1.0 / float(np.abs(self.g).sum())) if self.first else 1.0
+            found = self._line_search(d, step)
+            if found is None and self._k:  # no decrease along the quasi-Newton direction: steepest descent
+                self._reset()
+                d = -self.g
+                found = self._line_search(d, min(1.0, 1.0 / float(np.abs(self.g).sum())))
             if found is None:
-                found = self._backtrack(d, slope, step0)
-            if found is None:
-                return self.f  # no decrease found: converged to float32 precision
+                self.converged = True  # no decrease found: converged to float32 precision
+                break
             x_new, f_new, g_new = found
-            s_vec, y_vec = x_new - self.x, g_new - self.g
-            sy = float(s_vec @ y_vec)
-            if sy > 1e-10 * float(np.linalg.norm(s_vec)) * float(np.linalg.norm(y_vec)):
-                self.s.append(s_vec)
-                self.y.append(y_vec)
-                self.rho.append(1.0 / sy)
-                if len(self.s) > self.history:
-                    del self.s[0], self.y[0], self.rho[0]
+            self._remember(x_new - self.x, g_new - self.g)
             self.x, self.f, self.g = x_new, f_new, g_new
             self.first = False
+            self.iterations += 1
         return self.f
 
 
-def _elu_and_slope(z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """ELU of ``z`` and its derivative (1 where ``z > 0``, ``exp(z) = ELU(z) + 1`` elsewhere)."""
-    a = torch.nn.functional.elu(z)
-    return a, torch.where(z > 0, 1.0, a + 1.0)
-
-
+# -----------------------------------------------------------------------------------------------------------------
+# network construction and growth
+# -----------------------------------------------------------------------------------------------------------------
 def _uniform(gen: torch.Generator, shape: tuple[int, ...], fan_in: int) -> torch.Tensor:
     bound = 1.0 / math.sqrt(fan_in)
     return (torch.rand(shape, generator=gen, dtype=torch.float32) * 2.0 - 1.0) * bound
@@ -237,9 +348,17 @@ def _uniform(gen: torch.Generator, shape: tuple[int, ...], fan_in: int) -> torch
 
 def _initial(gen: torch.Generator, i: int, h: int, d: int) -> _Net:
     """A fresh network with torch's default Linear initialisation (uniform in +-1/sqrt(fan_in))."""
-    parts = [_uniform(gen, (h, i), i), _uniform(gen, (h,), i), _uniform(gen, (h, h), h), _uniform(gen, (h,), h),
-             _uniform(gen, (d, h), h), _uniform(gen, (d,), h)]
-    return _Net(i, h, d, torch.cat([p.reshape(-1) for p in parts]))
+    W0, b0 = _uniform(gen, (h, i), i), _uniform(gen, (h,), i)
+    W1, b1 = _uniform(gen, (h, h), h), _uniform(gen, (h,), h)
+    W2, b2 = _uniform(gen, (d, h), h), _uniform(gen, (d,), h)
+    return _net_of(W0, b0, W1, b1, W2, b2)
+
+
+def _net_of(W0: torch.Tensor, b0: torch.Tensor, W1: torch.Tensor, b1: torch.Tensor, W2: torch.Tensor,
+            b2: torch.Tensor) -> _Net:
+    """The network with these weights (copied into one parameter vector)."""
+    layers = [torch.cat([W, b[:, None]], dim=1).reshape(-1) for W, b in ((W0, b0), (W1, b1), (W2, b2))]
+    return _Net(W0.shape[1], W0.shape[0], W2.shape[0], torch.cat(layers))
 
 
 def _grow(net: _Net, gen: torch.Generator) -> _Net:
@@ -264,7 +383,7 @@ def _grow(net: _Net, gen: torch.Generator) -> _Net:
     nW2.zero_()
     nW2[:, :h0] = W2
     nb2.copy_(b2)
-    return _Net(i1, h1, d, torch.cat([p.reshape(-1) for p in (nW0, nb0, nW1, nb1, nW2, nb2)]))
+    return _net_of(nW0, nb0, nW1, nb1, nW2, nb2)
 
 
 def next_adaptive_frequency(residual: NDArray[np.float64], weights: NDArray[np.float64],
@@ -296,6 +415,9 @@ def next_adaptive_frequency(residual: NDArray[np.float64], weights: NDArray[np.f
     return k / 2.0
 
 
+# -----------------------------------------------------------------------------------------------------------------
+# Algorithm 1
+# -----------------------------------------------------------------------------------------------------------------
 def fit(features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext, *,
         schedule: str, name: str) -> Payload:
     """Train the network for the codec ``name`` with the frequency ``schedule`` (``"adaptive"``/``"naive"``)."""
@@ -341,6 +463,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
         return Payload(arrays, info)
 
     payload = payload_of(net)
+    ratio = math.nan  # measured error / sqrt(loss) at the last measurement: predicts the error from the loss
     for K in range(0, target_k + 1):
         if K > 0:
             if schedule == "naive":
@@ -360,30 +483,39 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
             return net.loss_and_grad(x, target, theta)
 
         optimizer = _LBFGS(loss_and_grad, net.theta.numpy().astype(np.float64))
-
-        losses: list[float] = []
-        stage = 0
-        while stage < params.iters:
-            loss = optimizer.run(CHUNK)
+        losses = [optimizer.f]  # the loss after each chunk (and at the start)
+        stage = unmeasured = 0
+        while True:
+            done = optimizer.iterations
+            loss = optimizer.run(min(CHUNK, params.iters - stage))
             net.theta = torch.from_numpy(optimizer.x.astype(np.float32))
-            stage += CHUNK
-            total_iters += CHUNK
+            stage += optimizer.iterations - done
+            total_iters += optimizer.iterations - done
             losses.append(loss)
-            payload = payload_of(net)
+            unmeasured += 1
+            if not math.isfinite(loss):
+                raise CodecError(f"{name}: training diverged (loss {loss}) at K={K}")
+            plateau = len(losses) > WINDOW and loss > losses[-1 - WINDOW] * (1.0 - params.tol)
+            last = stage >= params.iters or optimizer.converged or plateau
             fields = {"K": K, "omega": list(omega), "iteration": stage, "loss": loss}
-            if check:
+            # measure the stored payload at the end of the stage, and during it when the loss predicts an error
+            # near the bound or after EVAL_EVERY unmeasured chunks; the decision is always the measured error
+            predicted = ratio * math.sqrt(max(loss, 0.0))
+            if check and (last or unmeasured >= EVAL_EVERY or not predicted > NEAR * bound):
+                payload = payload_of(net)
                 report = context.evaluate_payload(payload)
+                unmeasured = 0
                 best = min(best, report.max_error)
+                ratio = report.max_error / math.sqrt(loss) if loss > 0 else math.nan
                 fields.update(error=report.max_error, error_percent=report.max_error_percent)
                 context.progress("train", **fields)
                 if report.max_error <= bound:
                     return payload
             else:
                 context.progress("train", **fields)
-            if not math.isfinite(loss):
-                raise CodecError(f"{name}: training diverged (loss {loss}) at K={K}")
-            if len(losses) > WINDOW and loss > losses[-1 - WINDOW] * (1.0 - params.tol):
+            if last:
                 break
+        payload = payload_of(net)
     if bound is None:
         return payload
     reached = f"K={len(omega)}" if params.k is not None else f"max_k={params.max_k} (K={len(omega)})"
