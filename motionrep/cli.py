@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> None:
 
 
 # Commands register themselves on `cli` when imported.
-from . import _cli_codec, _cli_io, _cli_plugins, _cli_render  # noqa: E402,F401
+from . import _cli_bench, _cli_codec, _cli_io, _cli_plugins, _cli_render  # noqa: E402,F401
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
