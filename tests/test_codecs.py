@@ -219,6 +219,37 @@ def test_network_decodes_at_any_time_continuously():
         network_forward(dict(arrays, W1=np.zeros((3, 3))), t)
 
 
+def test_network_in_blocks_is_eq_2_and_elu_is_exact():
+    """The blocked, in-place evaluation is the plain formula of eq. 2 (up to BLAS rounding), for any count of
+    times around the block size, and ELU is x for x >= 0 and expm1(x) below."""
+    from motionrep_fourier._network import ROWS, elu, fourier_features, network_forward
+
+    z = np.array([-3.0, -1e-300, -0.0, 0.0, 1e-300, 2.5])
+    e = elu(z)
+    assert np.array_equal(e, np.where(z >= 0, z, np.expm1(z)))
+    inplace = z.copy()
+    assert elu(inplace, out=inplace) is inplace and np.array_equal(inplace, e)
+    rng = np.random.default_rng(3)
+    arrays = {"omega": np.array([0.5, 2.0, 7.5], np.float32), "W0": rng.normal(size=(14, 7)),
+              "b0": rng.normal(size=14), "W1": rng.normal(size=(14, 14)), "b1": rng.normal(size=14),
+              "W2": rng.normal(size=(5, 14)).astype(np.float16), "b2": rng.normal(size=5).astype(np.float32)}
+    a = {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
+
+    def plain(t):
+        h = fourier_features(t, a["omega"]) @ a["W0"].T + a["b0"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        h = h @ a["W1"].T + a["b1"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        return h @ a["W2"].T + a["b2"]
+
+    for count in (1, 2, ROWS - 1, ROWS, ROWS + 1, 2 * ROWS + 7):
+        t = rng.uniform(size=count)
+        y = network_forward(arrays, t)
+        assert y.shape == (count, 5) and y.dtype == np.float64
+        assert np.allclose(y, plain(t), rtol=0, atol=1e-12)
+        assert np.array_equal(network_forward(arrays, t), y)  # deterministic
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # Fourier codecs: the bound, determinism, decoding without torch
 # ---------------------------------------------------------------------------------------------------------------

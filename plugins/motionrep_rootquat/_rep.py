@@ -69,18 +69,27 @@ class RootQuatAxisAngle(Representation):
         lay = _layout(skeleton)
         f = check_features(features, lay.width, self.name)
         F = f.shape[0]
-        rotations = np.zeros((F, skeleton.num_joints, 4))
-        rotations[..., 3] = 1.0
+        rotations = np.empty((F, skeleton.num_joints, 4))
         joints = lay.rotation_joints
-        for j, cols in zip(joints.tolist(), lay.rotation_columns):
-            if j == 0:
-                rotations[:, 0] = quat_normalize(f[:, cols])
+        if joints.size < skeleton.num_joints:  # joints without rotation channels: identity
+            rotations[...] = (0.0, 0.0, 0.0, 1.0)
         others = [(j, cols) for j, cols in zip(joints.tolist(), lay.rotation_columns) if j > 0]
+        if joints.size and joints[0] == 0:
+            rotations[:, 0] = quat_normalize(f[:, lay.rotation_columns[0]])
         if others:
             idx = np.array([j for j, _ in others])
             cols = np.stack([c for _, c in others])
-            rotations[:, idx] = axis_angle_to_quat(f[:, cols])
+            first = int(cols[0, 0])
+            if np.array_equal(cols.ravel(), np.arange(first, first + cols.size)):
+                vectors = f[:, first:first + cols.size].reshape(F, len(others), 3)  # a view, no gather
+            else:
+                vectors = f[:, cols]
+            if np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size)):
+                rotations[:, idx[0]:idx[0] + idx.size] = axis_angle_to_quat(vectors)
+            else:
+                rotations[:, idx] = axis_angle_to_quat(vectors)
         root_t, joint_t = lay.split(f)
+        rotations.flags.writeable = False  # handed to the Motion without a copy
         return Motion(skeleton, fps, root_t, rotations, joint_t)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
