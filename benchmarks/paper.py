@@ -237,19 +237,23 @@ def _finite(obj):
 # report
 # ---------------------------------------------------------------------------------------------------------------
 def rows_of(stage: str, clips) -> list:
-    """The latest row of every run of ``stage``, in the order of the stage's grid."""
+    """The latest row of every run in the grid of ``stage``, in the grid's order. A run is shared between stages
+    (``run`` does not repeat a run another stage already made with the same code), so the latest row with the
+    same key is taken whichever stage wrote it."""
     from motionrep.bench import BenchRow
 
     latest: dict[tuple, dict] = {}
     codes: dict[tuple, str] = {}
+    bounds: set = set()
     for r in load_runs():
+        latest[run_key(r["row"])] = r["row"]
+        codes[run_key(r["row"])] = r["code"]
         if r["stage"] == stage:
-            latest[run_key(r["row"])] = r["row"]
-            codes[run_key(r["row"])] = r["code"]
-    _STAGE_CODES[stage] = sorted(set(codes.values()))
-    order = {(t.clip.source, t.codec, t.representation, t.max_error, " ".join(f"{k}={v}" for k, v in t.params),
-              t.seed): i for i, t in enumerate(stage_grid(stage, clips, _bounds_of(latest.values())))}
-    keys = sorted(latest, key=lambda k: order.get(k, len(order)))
+            bounds.add(r["row"]["max_error"])
+    grid = [(t.clip.source, t.codec, t.representation, t.max_error, " ".join(f"{k}={v}" for k, v in t.params),
+             t.seed) for t in stage_grid(stage, clips, _bounds_of([{"max_error": b} for b in bounds]))]
+    keys = [k for k in dict.fromkeys(grid) if k in latest]
+    _STAGE_CODES[stage] = sorted({codes[k] for k in keys})
     return [BenchRow(**latest[k]) for k in keys]
 
 
@@ -479,6 +483,8 @@ def _fig2_plot(rows, path: Path) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from motionrep.bench import plain_log_ticks
+
     ad = [r for r in rows if r.codec == "adaptive-fourier"]
     bounds = list(dict.fromkeys(r.max_error for r in ad))
     fig = Figure(figsize=(13, 5.6), dpi=110)
@@ -508,6 +514,7 @@ def _fig2_plot(rows, path: Path) -> None:
     ax1.set_ylabel("L-inf error (% of height)")
     ax1.set_title("adaptive-fourier: each clip", fontsize=10)
     ax1.set_yscale("log")
+    plain_log_ticks(ax1.yaxis)
     handles, labels = ax1.get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=7.5, frameon=False)
     ax1.grid(alpha=0.3)

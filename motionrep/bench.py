@@ -73,6 +73,7 @@ __all__ = [
     "warm_up",
     "summarize",
     "format_table",
+    "plain_log_ticks",
     "csv_text",
     "write_csv",
     "read_csv",
@@ -873,6 +874,23 @@ def plot_series(rows: Sequence[BenchRow], ratio: str = "paper_ratio") -> dict[st
     return out
 
 
+def plain_log_ticks(axis) -> None:
+    """Label a log-scaled matplotlib ``axis`` with plain numbers (``2``, ``5``, ``10``, ``20`` ...) rather than
+    ``2 x 10^0``: powers of ten and the 2x and 5x minor ticks are labelled, the other minor ticks are not."""
+    from matplotlib.ticker import FuncFormatter
+
+    def label(v, _pos, minor=False):
+        if v <= 0:
+            return ""
+        lead = round(v / 10 ** math.floor(math.log10(v) + 1e-9), 6)
+        if minor and lead not in (2.0, 5.0):
+            return ""
+        return f"{v:g}"
+
+    axis.set_major_formatter(FuncFormatter(label))
+    axis.set_minor_formatter(FuncFormatter(lambda v, pos: label(v, pos, minor=True)))
+
+
 def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str], *, title: str | None = None,
                          log_error: bool | None = None, ratio: str = "paper_ratio"
                          ) -> dict[str, list[tuple[float, float]]]:
@@ -946,9 +964,11 @@ def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str],
         log_error = bool(positive) and max(positive) / min(positive) > 20
     if log_error and positive:
         ax.set_yscale("log")
+        plain_log_ticks(ax.yaxis)
     ratios = [x for pts in series.values() for x, _ in pts if x > 0]
     if ratios and max(ratios) / min(ratios) > 20:
         ax.set_xscale("log")
+        plain_log_ticks(ax.xaxis)
     ax.set_xlabel(_RATIOS[ratio])
     ax.set_ylabel("L-inf joint position error (% of character height)")
     clips = list(dict.fromkeys(r.clip for r in rows))

@@ -468,3 +468,18 @@ def test_cli_on_real_clips_and_a_database_of_them(tmp_path):
     for a, b in zip(rows, again):
         assert (a["outcome"], a["error"], a["paper_ratio"], a["bytes"]) == \
             (b["outcome"], b["error"], b["paper_ratio"], b["bytes"])
+
+
+def test_log_axes_are_labelled_with_plain_numbers():
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from motionrep.bench import plain_log_ticks
+
+    ax = Figure().add_subplot()
+    ax.set_xscale("log")
+    plain_log_ticks(ax.xaxis)
+    major, minor = ax.xaxis.get_major_formatter(), ax.xaxis.get_minor_formatter()
+    assert [major(v, 0) for v in (0.1, 1.0, 10.0, 100.0)] == ["0.1", "1", "10", "100"]
+    assert [minor(v, 0) for v in (0.2, 0.3, 2.0, 3.0, 5.0, 7.0, 20.0, 50.0, 60.0)] == \
+        ["0.2", "", "2", "", "5", "", "20", "50", ""]
