@@ -42,9 +42,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 DATA = Path(os.environ.get("MOTIONREP_SHARED_DATA", REPO.parent / "shared" / "data"))
 RESULTS = REPO / "benchmarks" / "results"
-#: The 31-joint CMU clips (cgspeed rig, 120 fps), shortest first.
 #: Repeats of each decode throughput measurement (the best is kept).
 REPEATS = 3
+#: The 31-joint CMU clips (cgspeed rig, 120 fps), shortest first.
 CLIPS = ("RGBDAcquisition/102_01cc", "InverseKinematics/02_01", "BvhToDeepMimic/02_01", "bvh-matlab/walk",
          "pybvh/cmu_12_01_walk", "bvh11/131_01", "bvh11/131_03", "fairmotion/01_01")
 
