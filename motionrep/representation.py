@@ -9,9 +9,10 @@ Plugins subclass :class:`Representation` and register an instance through the
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Callable, ClassVar, Sequence
+from typing import Callable, ClassVar, Sequence, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -20,7 +21,7 @@ from ._model import Motion, Skeleton
 from .errors import ValidationError
 from .kinematics import forward_kinematics
 
-__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout"]
+__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton"]
 
 
 class Representation(ABC):
@@ -224,3 +225,35 @@ def feature_layout(skeleton: Skeleton, rotation_suffixes: Callable[[int], Sequen
             names.extend(f"{joint}/{a}" for a in ("tx", "ty", "tz"))
     return FeatureLayout(skeleton, tuple(names), np.array(rot_joints, np.int64), tuple(rot_cols),
                          np.array(trans_cols, np.int64).reshape(-1, 3))
+
+
+_T = TypeVar("_T")
+
+
+def per_skeleton(build: Callable[[Skeleton], _T]) -> Callable[[Skeleton], _T]:
+    """Decorator: remember ``build(skeleton)`` for the most recent skeleton object.
+
+    A representation's layout (and anything else derived from the skeleton alone) is the same for every call
+    with one clip, and decoding one pose at a time would otherwise rebuild it for every pose. The cache holds
+    one entry, keyed by the skeleton's identity (a :class:`Skeleton` is immutable), and is safe to use from
+    several threads (the entry is replaced as a whole).
+
+    Example::
+
+        @per_skeleton
+        def _layout(skeleton):
+            return feature_layout(skeleton, lambda j: ("qx", "qy", "qz", "qw"))
+    """
+    last: tuple[Skeleton, _T] | None = None
+
+    @functools.wraps(build)
+    def cached(skeleton: Skeleton) -> _T:
+        nonlocal last
+        entry = last
+        if entry is not None and entry[0] is skeleton:
+            return entry[1]
+        value = build(skeleton)
+        last = (skeleton, value)
+        return value
+
+    return cached

@@ -606,3 +606,38 @@ def test_features_of_the_wrong_width_are_a_one_line_error(reps, tmp_path, suffix
     assert not out.exists()
     with pytest.raises(ValidationError, match=r"expects features of shape \(frames, \d+\)"):
         rep.from_features(f[:, :-1], m.skeleton, m.fps)
+
+
+def test_per_skeleton_remembers_the_last_skeleton_by_identity():
+    from motionrep.representation import per_skeleton
+
+    calls = []
+
+    @per_skeleton
+    def build(skeleton):
+        calls.append(skeleton)
+        return len(calls)
+
+    a, b = humanoid_skeleton(), humanoid_skeleton()
+    assert a == b and a is not b
+    assert [build(a), build(a), build(b), build(b), build(a)] == [1, 1, 2, 2, 3]
+    assert calls == [a, b, a]
+    assert build.__name__ == "build"
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+@pytest.mark.parametrize("make_skeleton", [humanoid_skeleton, odd_skeleton])
+def test_decoding_one_pose_at_a_time_matches_decoding_the_clip(name, make_skeleton):
+    # the per-skeleton decode plan is built on the first call and reused, also for another skeleton in between
+    rep = plugins.get_representation(name)
+    sk = make_skeleton()
+    motion = synthetic_motion(sk, frames=12, seed=3)
+    f = rep.to_features(motion)
+    whole = rep.from_features(f, sk, motion.fps)
+    other = chain_skeleton()
+    for i in (0, 5, 11):
+        one = rep.from_features(f[i:i + 1], sk, motion.fps)
+        rep.from_features(rep.to_features(synthetic_motion(other, frames=2)), other, 30.0)
+        np.testing.assert_allclose(one.rotations[0], whole.rotations[i], atol=1e-15)
+        np.testing.assert_array_equal(one.root_translation[0], whole.root_translation[i])
+        np.testing.assert_array_equal(one.joint_translations[0], whole.joint_translations[i])

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
 from motionrep.kinematics import global_positions
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout
+from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, per_skeleton
 from motionrep.rotations import quat_conjugate, quat_multiply
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
@@ -21,6 +21,7 @@ _DQ = ("real_x", "real_y", "real_z", "real_w", "dual_x", "dual_y", "dual_z", "du
 _NAME = "dual-quaternion"
 
 
+@per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: _DQ)
 

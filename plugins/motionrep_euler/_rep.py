@@ -6,12 +6,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, joint_reach
+from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
+                                      per_skeleton)
 from motionrep.rotations import euler_branch, euler_to_quat, quat_to_euler_continuous
 
 __all__ = ["Euler"]
 
 
+@per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: tuple(f"{a}rotation" for a in skeleton.rotation_orders[j]))
 

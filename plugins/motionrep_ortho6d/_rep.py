@@ -6,7 +6,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, joint_reach
+from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
+                                      per_skeleton)
 from motionrep.rotations import ortho6d_to_quat, quat_to_ortho6d
 
 __all__ = ["Ortho6D"]
@@ -15,6 +16,7 @@ __all__ = ["Ortho6D"]
 _SIX = ("m00", "m10", "m20", "m01", "m11", "m21")
 
 
+@per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: _SIX if skeleton.rotation_orders[j] else ())
 

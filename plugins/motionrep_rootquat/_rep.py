@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, joint_reach
+from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
+                                      per_skeleton)
 from motionrep.rotations import (axis_angle_make_continuous, axis_angle_to_quat, quat_make_continuous,
                                  quat_normalize, quat_to_axis_angle)
 
@@ -16,6 +19,7 @@ _QUAT = ("qx", "qy", "qz", "qw")
 _AXIS_ANGLE = ("aa_x", "aa_y", "aa_z")
 
 
+@per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     def suffixes(j: int) -> tuple[str, ...]:
         if not skeleton.rotation_orders[j]:
@@ -23,6 +27,35 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
         return _QUAT if j == 0 else _AXIS_ANGLE
 
     return feature_layout(skeleton, suffixes)
+
+
+
+@dataclass(frozen=True)
+class _DecodePlan:
+    """Where ``from_features`` reads and writes, worked out once per skeleton."""
+
+    identity_fill: bool  # some joints have no rotation channels
+    root_columns: NDArray[np.int64] | None  # the root quaternion's 4 columns
+    joints: slice | NDArray[np.int64] | None  # the non-root joints with axis-angle columns
+    columns: slice | NDArray[np.int64] | None  # their columns: a slice when contiguous, else (R, 3) indices
+
+
+@per_skeleton
+def _decode_plan(skeleton: Skeleton) -> _DecodePlan:
+    lay = _layout(skeleton)
+    joints = lay.rotation_joints
+    root = lay.rotation_columns[0] if joints.size and joints[0] == 0 else None
+    others = [(j, cols) for j, cols in zip(joints.tolist(), lay.rotation_columns) if j > 0]
+    if not others:
+        return _DecodePlan(joints.size < skeleton.num_joints, root, None, None)
+    idx = np.array([j for j, _ in others])
+    cols = np.stack([c for _, c in others])
+    first = int(cols[0, 0])
+    columns = (slice(first, first + cols.size) if np.array_equal(cols.ravel(), np.arange(first, first + cols.size))
+               else cols)
+    target = (slice(int(idx[0]), int(idx[0]) + idx.size) if np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size))
+              else idx)
+    return _DecodePlan(joints.size < skeleton.num_joints, root, target, columns)
 
 
 class RootQuatAxisAngle(Representation):
@@ -70,24 +103,17 @@ class RootQuatAxisAngle(Representation):
         f = check_features(features, lay.width, self.name)
         F = f.shape[0]
         rotations = np.empty((F, skeleton.num_joints, 4))
-        joints = lay.rotation_joints
-        if joints.size < skeleton.num_joints:  # joints without rotation channels: identity
+        plan = _decode_plan(skeleton)
+        if plan.identity_fill:  # joints without rotation channels: identity
             rotations[...] = (0.0, 0.0, 0.0, 1.0)
-        others = [(j, cols) for j, cols in zip(joints.tolist(), lay.rotation_columns) if j > 0]
-        if joints.size and joints[0] == 0:
-            rotations[:, 0] = quat_normalize(f[:, lay.rotation_columns[0]])
-        if others:
-            idx = np.array([j for j, _ in others])
-            cols = np.stack([c for _, c in others])
-            first = int(cols[0, 0])
-            if np.array_equal(cols.ravel(), np.arange(first, first + cols.size)):
-                vectors = f[:, first:first + cols.size].reshape(F, len(others), 3)  # a view, no gather
+        if plan.root_columns is not None:
+            rotations[:, 0] = quat_normalize(f[:, plan.root_columns])
+        if plan.joints is not None:
+            if isinstance(plan.columns, slice):
+                vectors = f[:, plan.columns].reshape(F, -1, 3)  # a view, no gather
             else:
-                vectors = f[:, cols]
-            if np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size)):
-                rotations[:, idx[0]:idx[0] + idx.size] = axis_angle_to_quat(vectors)
-            else:
-                rotations[:, idx] = axis_angle_to_quat(vectors)
+                vectors = f[:, plan.columns]
+            rotations[:, plan.joints] = axis_angle_to_quat(vectors)
         root_t, joint_t = lay.split(f)
         rotations.flags.writeable = False  # handed to the Motion without a copy
         return Motion(skeleton, fps, root_t, rotations, joint_t)
