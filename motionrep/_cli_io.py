@@ -356,8 +356,26 @@ def info_dict(path: str | Path, clip: str | None = None) -> dict[str, Any]:
         FormatError: naming the file (and clip) if it cannot be read.
     """
     path = Path(path)
+    if path.suffix.lower() == ".mrc":
+        from .container import read_container
+
+        if clip is not None:
+            raise FormatError("--clip applies to HDF5 databases and archives; a .mrc file holds one clip", path)
+        base = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": "mrc"}
+        return {**base, **_compressed_info(read_container(path), path.stem, path.stat().st_size)}
     fmt = format_of(path)
     base: dict[str, Any] = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": fmt}
+    if fmt == "hdf5":
+        from .compress import archive_sizes, is_archive, read_archive
+
+        if is_archive(path):
+            sizes = archive_sizes(path)
+            if clip is None and len(sizes) != 1:
+                containers = read_archive(path)
+                return {**base, "kind": "archive", "clips": [_archive_row(name, c, sizes[name])
+                                                             for name, c in containers.items()]}
+            name, container = next(iter(read_archive(path, clip).items()))
+            return {**base, **_compressed_info(container, name, sizes[name])}
     if fmt == "hdf5" and clip is None:
         summaries = clip_summaries(path)
         if len(summaries) != 1:
@@ -371,12 +389,64 @@ def info_dict(path: str | Path, clip: str | None = None) -> dict[str, Any]:
     return out
 
 
+def _compressed_info(c, name: str, size: int) -> dict[str, Any]:
+    """``info`` of one compressed clip (a ``.mrc`` file or a clip of an archive)."""
+    from .evaluate import compression_figures
+    from .plugins import get_representation
+
+    sk = c.skeleton
+    try:
+        width: int | None = get_representation(c.representation).width(sk)
+    except MotionrepError:  # the representation's plugin is not installed: no figures that need its width
+        width = None
+    figures = None
+    if width is not None:
+        figures = compression_figures(num_frames=c.num_frames, feature_width=width, num_parameters=c.num_parameters,
+                                      num_channels=sk.num_channels, num_joints=sk.num_joints,
+                                      compressed_bytes=size).as_dict()
+    return {"kind": "compressed", "clip": name, "frames": c.num_frames, "fps": c.fps,
+            "duration": c.num_frames / c.fps, **_skeleton_info(c),
+            "codec": {"name": c.codec, "version": c.codec_version, "plugin": c.codec_plugin,
+                      "params": dict(c.params), "outcome": dict(c.info)},
+            "representation": {"name": c.representation, "version": c.representation_version,
+                               "plugin": c.representation_plugin, "width": width},
+            "bytes": size, "parameters": c.num_parameters,
+            "arrays": [{"name": k, "dtype": a.dtype.str[1:], "shape": list(a.shape)} for k, a in c.arrays.items()],
+            "evaluation": None if c.evaluation is None else dict(c.evaluation),
+            "figures": figures,
+            "motionrep_version": c.extra.get("motionrep_version"), "seed": c.extra.get("seed"),
+            "max_error": c.extra.get("max_error")}
+
+
+def _archive_row(name: str, c, size: int) -> dict[str, Any]:
+    ev = c.evaluation or {}
+    return {"name": name, "codec": c.codec, "representation": c.representation, "outcome": _outcome(c.info),
+            "frames": c.num_frames, "fps": c.fps, "duration": c.num_frames / c.fps,
+            "joints": c.skeleton.num_joints, "bytes": size, "max_error": ev.get("max_error"),
+            "max_error_percent": ev.get("max_error_percent")}
+
+
+def _outcome(info: dict[str, Any]) -> str:
+    """``K=5`` / ``rank=9``: the codec's outcome without long lists."""
+    return ", ".join(f"{k}={v}" for k, v in info.items() if not isinstance(v, (list, dict))) or "-"
+
+
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
 def _info_text(d: dict[str, Any]) -> str:
     lines = [f"file:       {d['file']}"]
+    if d["kind"] == "archive":
+        lines.append(f"format:     archive of compressed clips (.mrc), {len(d['clips'])} clips")
+        width = max([4] + [len(c["name"]) for c in d["clips"]])
+        lines.append(f"  {'clip':<{width}}  {'codec':<16}  {'outcome':<10}  {'frames':>7}  {'fps':>7}  "
+                     f"{'joints':>6}  {'bytes':>9}  L-inf")
+        for c in d["clips"]:
+            err = "-" if c["max_error"] is None else f"{_fmt(c['max_error'])} ({c['max_error_percent']:.3g}%)"
+            lines.append(f"  {c['name']:<{width}}  {c['codec']:<16}  {c['outcome']:<10}  {c['frames']:>7}  "
+                         f"{_fmt(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  {err}")
+        return "\n".join(lines)
     if d["kind"] == "database":
         lines.append(f"format:     {d['format']} database, {len(d['clips'])} clips")
         width = max([4] + [len(c["name"]) for c in d["clips"]])
@@ -394,6 +464,28 @@ def _info_text(d: dict[str, Any]) -> str:
     if d["kind"] == "features":
         r = d["representation"]
         lines.append(f"features:   {r['name']} version {r['version']}, width {r['width']}")
+    if d["kind"] == "compressed":
+        c, r = d["codec"], d["representation"]
+        lines.append(f"codec:      {c['name']} (payload version {c['version']}), {_outcome(c['outcome'])}"
+                     + (f", parameters {json.dumps(c['params'])}" if c["params"] else ""))
+        omega = c["outcome"].get("omega")
+        if omega:
+            lines.append(f"            frequencies (cycles over the clip): {', '.join(_fmt(w) for w in omega)}")
+        lines.append(f"features:   {r['name']} version {r['version']}"
+                     + (f", width {r['width']}" if r["width"] is not None else ""))
+        lines.append(f"size:       {d['bytes']} bytes, {d['parameters']} stored numbers")
+        f = d["figures"]
+        if f is not None:
+            lines.append(f"ratios:     paper {f['paper_ratio']:.2f}x, vs float32 channels {f['float32_ratio']:.2f}x, "
+                         f"{f['bits_per_joint_frame']:.2f} bits/joint/frame")
+        e = d["evaluation"]
+        if e is not None:
+            bound = "none" if e.get("bound") is None else _fmt(e["bound"])
+            if e.get("bound") is not None and d.get("max_error"):
+                bound += f" (--max-error {d['max_error']})"
+            lines.append(f"L-inf:      {_fmt(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
+                         f"{e['frame']}, {e['joint']}; mean {_fmt(e['mean_error'])}; bound {bound} "
+                         "(measured on the stored payload when written)")
     lines += [
         f"joints:     {d['joints']}",
         f"end sites:  {d['end_sites']}",
@@ -418,7 +510,7 @@ def _info_text(d: dict[str, Any]) -> str:
 
 @cli.command("info")
 @click.argument("file", metavar="FILE")
-@click.option("--clip", metavar="NAME", help="The clip to describe in an HDF5 database.")
+@click.option("--clip", metavar="NAME", help="The clip to describe in an HDF5 database or archive.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (keys: specs/formats/info-json.md).")
 def info(file: str, clip: str | None, as_json: bool) -> None:
     """Describe a motion file: skeleton, frames, fps, duration, height, channel layout.
@@ -426,22 +518,29 @@ def info(file: str, clip: str | None, as_json: bool) -> None:
     \b
     For an HDF5 database of several clips (without --clip): each clip's name,
     kind, frames, fps, duration and joints. For a features file: the
-    representation, its version and the feature width.
+    representation, its version and the feature width. For a compressed
+    .mrc file (or a clip of an archive made by compress): the codec, its
+    outcome (K and frequencies, or rank), size, compression ratios and the
+    error measured when it was written; an archive without --clip lists its
+    clips with codec, size and error.
 
     \b
     --json prints one object; the keys are documented in
     specs/formats/info-json.md. Always present: info_version (1), file,
-    format ("bvh" | "npz" | "hdf5"), kind ("motion" | "features" | "database").
+    format ("bvh" | "npz" | "hdf5" | "mrc"), kind ("motion" | "features" |
+    "database" | "compressed" | "archive").
     Database: clips (list of {name, kind, frames, fps, duration, joints, and for
     features representation, representation_version, width}). Motion/features:
     clip, frames, fps, duration (s), joints, end_sites, channels, height,
     units (null when unknown), layout (per joint: name, parent, channels,
     rotation_order, position_axes, end_sites); features also representation
-    {name, version, width}.
+    {name, version, width}; compressed also codec, representation, bytes,
+    parameters, arrays, evaluation, figures.
     """
     path = Path(file)
-    _format_or_usage(path, "file")
-    if clip is not None and format_of(path) != "hdf5":
-        raise click.UsageError("--clip applies to HDF5 databases")
+    if path.suffix.lower() != ".mrc":
+        _format_or_usage(path, "file")
+    if clip is not None and (path.suffix.lower() == ".mrc" or format_of(path) != "hdf5"):
+        raise click.UsageError("--clip applies to HDF5 databases and archives")
     d = info_dict(path, clip)
     click.echo(json.dumps(d, indent=2) if as_json else _info_text(d))

@@ -60,6 +60,11 @@ __all__ = [
     "write_decoded",
     "BOUND_MARGIN",
     "ProgressCallback",
+    "ARCHIVE_FORMAT",
+    "write_archive",
+    "is_archive",
+    "read_archive",
+    "archive_sizes",
 ]
 
 #: Codec used when none is named.
@@ -577,6 +582,24 @@ def is_archive(path: str | os.PathLike[str]) -> bool:
             return f.attrs.get("format") == ARCHIVE_FORMAT
     except OSError:
         return False
+
+
+def archive_sizes(path: str | os.PathLike[str]) -> dict[str, int]:
+    """``{clip name: bytes of its .mrc container}`` of an HDF5 archive, in name order, without reading them.
+
+    Raises:
+        ContainerError: naming the file if it is not an archive.
+    """
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != ARCHIVE_FORMAT or "clips" not in f:
+                raise ContainerError("not a motionrep archive of .mrc containers", path)
+            group = f["clips"]
+            return {name: int(group[name].shape[0]) for name in sorted(group)}
+    except OSError as exc:
+        raise ContainerError(f"cannot read archive: {exc}", path) from None
 
 
 def read_archive(path: str | os.PathLike[str], clip: str | None = None) -> dict[str, Container]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -179,3 +180,61 @@ def test_readme_quick_start(tmp_path):
     assert run("decompress", mrc, "-o", back).exit_code == 0
     report = json.loads(run("evaluate", walk, back, "--json").output)
     assert report["max_error_percent"] <= 2.0
+
+
+def test_info_on_a_compressed_file(clip, tmp_path):
+    mrc = tmp_path / "clip.mrc"
+    r = run("compress", clip, "-o", mrc, "--codec", "naive-fourier", "-p", "k=2", "--max-error", "none")
+    assert r.exit_code == 0, r.output
+    r = run("info", mrc)
+    assert r.exit_code == 0, r.output
+    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 1), K=2",
+                   "frequencies (cycles over the clip): 1, 2", "features:   root-quat-axis-angle version 1",
+                   f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
+                   "frames:     40", "channel layout"):
+        assert needle in r.output, r.output
+    d = json.loads(run("info", mrc, "--json").output)
+    assert (d["kind"], d["format"], d["frames"], d["joints"], d["bytes"]) == (
+        "compressed", "mrc", 40, 4, mrc.stat().st_size)
+    assert d["codec"]["name"] == "naive-fourier" and d["codec"]["outcome"]["K"] == 2
+    assert d["codec"]["params"]["k"] == 2
+    assert d["parameters"] == sum(int(np.prod(a["shape"])) for a in d["arrays"])
+    assert d["figures"]["compressed_bytes"] == d["bytes"]
+    assert d["figures"]["paper_ratio"] == pytest.approx(40 * d["representation"]["width"] / d["parameters"])
+    # the stored evaluation is what evaluate measures on the decoded file
+    measured = json.loads(run("evaluate", clip, mrc, "--json").output)
+    assert d["evaluation"]["max_error"] == pytest.approx(measured["max_error"], rel=1e-12)
+    r = run("info", mrc, "--clip", "x")  # a usage error, as for a BVH file
+    assert r.exit_code == 2 and "--clip applies to HDF5 databases and archives" in r.output
+
+
+def test_info_on_an_archive(tmp_path):
+    src = tmp_path / "clips"
+    src.mkdir()
+    for i in range(2):
+        write(synthetic_motion(chain_skeleton(3 + i), frames=30, fps=30, seed=i), src / f"c{i}.bvh")
+    archive = tmp_path / "out.h5"
+    assert run("compress", src, "-o", archive, "--codec", "svd").exit_code == 0
+    r = run("info", archive)
+    assert r.exit_code == 0, r.output
+    assert "archive of compressed clips (.mrc), 2 clips" in r.output and "rank=" in r.output
+    d = json.loads(run("info", archive, "--json").output)
+    assert d["kind"] == "archive" and [c["name"] for c in d["clips"]] == ["c0", "c1"]
+    assert [c["joints"] for c in d["clips"]] == [3, 4]
+    stored = read_archive(archive)
+    for row in d["clips"]:
+        assert row["max_error"] == stored[row["name"]].evaluation["max_error"]
+        assert row["bytes"] > 0
+    one = json.loads(run("info", archive, "--clip", "c1", "--json").output)
+    assert (one["kind"], one["clip"], one["joints"]) == ("compressed", "c1", 4)
+    assert one["bytes"] == d["clips"][1]["bytes"]
+    _one_line_error(run("info", archive, "--clip", "nope"), "nope", "c0, c1")
+
+
+def test_info_on_a_corrupt_compressed_file(clip, tmp_path):
+    mrc = tmp_path / "clip.mrc"
+    assert run("compress", clip, "-o", mrc, "--codec", "svd").exit_code == 0
+    data = bytearray(mrc.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    mrc.write_bytes(bytes(data))
+    _one_line_error(run("info", mrc), "clip.mrc")
