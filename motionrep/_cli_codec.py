@@ -15,7 +15,9 @@ from typing import Any, Mapping
 
 import click
 
+from ._cli_io import _listing
 from .cli import cli
+from .errors import FormatError
 from .compress import (DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION, ClipJob, CompressResult,
                        batch_jobs, compress_batch, compress_file, decode_container, decompress_file, is_archive,
                        parse_max_error, read_archive, write_archive, write_decoded)
@@ -236,29 +238,111 @@ def decompress(source: Path, output: Path, fps: float | None, clip: str | None) 
 @cli.command("evaluate")
 @click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument("candidate", metavar="CAND", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--clip", metavar="NAME", help="Compare only this clip of a database or archive.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def evaluate(reference: Path, candidate: Path, as_json: bool) -> None:
+def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) -> None:
     """Compare two motion files of one skeleton with the shared L-inf joint-position error.
 
-    Either file may be a .mrc, which is decoded first.
+    Either file may be a .mrc, which is decoded first. REF and CAND may also
+    be HDF5 databases or archives of compressed clips (as written by
+    convert and compress): their clips are compared by name, one report per
+    clip and the worst of them; --clip NAME compares one clip.
+
+    \b
+    --json: one clip gives the report's keys (max_error, max_error_percent,
+    mean_error, mean_error_percent, frame, joint, height, units, num_frames,
+    num_points) plus reference and candidate; several clips give
+    {reference, candidate, clips: [report + clip], worst: report + clip}.
+
+    \b
+    Examples:
+      motionrep evaluate walk.bvh walk.mrc
+      motionrep evaluate db.h5 db_compressed.h5 --json
     """
     from .evaluate import max_joint_error
 
-    ref, cand = _read_any(reference), _read_any(candidate)
-    report = max_joint_error(ref, cand)
-    if as_json:
-        click.echo(json.dumps(dict(report.as_dict(), reference=str(reference), candidate=str(candidate)), indent=2))
+    if clip is not None and not any(p.suffix.lower() in (".h5", ".hdf5") for p in (reference, candidate)):
+        raise click.UsageError("--clip applies to HDF5 databases and archives")
+    ref_names, cand_names = _clip_names(reference, clip), _clip_names(candidate, clip)
+    if len(ref_names) == 1 and len(cand_names) == 1:
+        pairs = [(ref_names[0], ref_names[0], cand_names[0])]
+    elif len(ref_names) > 1 and len(cand_names) > 1:
+        missing = [n for n in ref_names if n not in cand_names]
+        extra = [n for n in cand_names if n not in ref_names]
+        if missing or extra:
+            where = "; ".join(part for part in (
+                f"only in {reference}: {_listing(missing)}" if missing else "",
+                f"only in {candidate}: {_listing(extra)}" if extra else "") if part)
+            raise FormatError(f"the two files hold different clips ({where}); use --clip NAME to compare one")
+        pairs = [(n, n, n) for n in ref_names]
     else:
-        click.echo(f"{candidate} vs {reference}: {report.num_frames} frames, {report.num_points} points")
-        click.echo(report.summary())
+        many, names = (reference, ref_names) if len(ref_names) > 1 else (candidate, cand_names)
+        raise click.UsageError(f"{many} holds {len(names)} clips ({_listing(names)}) and the other file one; "
+                               "use --clip NAME")
+    reports = []
+    for name, ref_clip, cand_clip in pairs:
+        report = max_joint_error(_read_clip(reference, ref_clip), _read_clip(candidate, cand_clip))
+        reports.append((name, report))
+    if len(reports) == 1:
+        report = reports[0][1]
+        if as_json:
+            click.echo(json.dumps(dict(report.as_dict(), reference=str(reference), candidate=str(candidate)),
+                                  indent=2))
+        else:
+            which = f" (clip {clip})" if clip is not None else ""
+            click.echo(f"{candidate} vs {reference}{which}: {report.num_frames} frames, {report.num_points} points")
+            click.echo(report.summary())
+        return
+    worst_name, worst = max(reports, key=lambda item: item[1].max_error_percent)
+    if as_json:
+        click.echo(json.dumps({"reference": str(reference), "candidate": str(candidate),
+                               "clips": [dict(r.as_dict(), clip=n) for n, r in reports],
+                               "worst": dict(worst.as_dict(), clip=worst_name)}, indent=2))
+        return
+    click.echo(f"{candidate} vs {reference}: {len(reports)} clips")
+    width = max(4, *(len(n) for n, _ in reports))
+    click.echo(f"  {'clip':<{width}}  {'frames':>7}  {'L-inf':>10}  {'% height':>8}  {'mean':>10}  worst at")
+    for n, r in reports:
+        click.echo(f"  {n:<{width}}  {r.num_frames:>7}  {r.max_error:>10.4g}  {r.max_error_percent:>8.3f}  "
+                   f"{r.mean_error:>10.4g}  frame {r.frame}, {r.joint}")
+    click.echo(f"worst: {worst_name}: {worst.summary()}")
 
 
-def _read_any(path: Path):
-    if path.suffix.lower() == ".mrc":
+def _clip_names(path: Path, clip: str | None) -> list[str]:
+    """The clips ``path`` holds (one for BVH, NPZ and .mrc files); only ``clip`` of a database or archive when
+    given (a one-clip file is taken as it is: ``--clip`` then applies to the other file)."""
+    suffix = path.suffix.lower()
+    if suffix == ".mrc":
+        return [path.stem]
+    if suffix not in (".h5", ".hdf5"):
+        from .io import list_clips
+
+        return list_clips(path)
+    if is_archive(path):
+        from .compress import archive_sizes
+
+        names = list(archive_sizes(path))
+    else:
+        from .io import list_clips
+
+        names = list_clips(path)
+    if clip is None:
+        return names
+    if clip not in names:
+        raise FormatError(f"no clip {clip!r}; clips: {_listing(names)}", path)
+    return [clip]
+
+
+def _read_clip(path: Path, name: str):
+    suffix = path.suffix.lower()
+    if suffix == ".mrc":
         return decompress_file(path)
+    if suffix in (".h5", ".hdf5") and is_archive(path):
+        (container,) = read_archive(path, name).values()
+        return decode_container(container, path=path)
     from .io import read
 
-    return read(path)
+    return read(path, clip=name) if suffix in (".h5", ".hdf5") else read(path)
 
 
 @cli.command("example")

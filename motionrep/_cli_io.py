@@ -53,6 +53,11 @@ _MAX_LISTED = 10
 # ---------------------------------------------------------------------------------------------------------------
 def _format_or_usage(path: Path, what: str) -> str:
     """The format selected by ``path``'s suffix; an unknown suffix is a usage error (exit 2)."""
+    if path.suffix.lower() == ".mrc" and what == "input":
+        raise click.UsageError(f"input {path} is a compressed clip: decode it with "
+                               f"'motionrep decompress {path} -o OUT.bvh'")
+    if path.suffix.lower() == ".mrc" and what == "output":
+        raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
     try:
         return format_of(path)
     except FormatError:

@@ -238,3 +238,43 @@ def test_info_on_a_corrupt_compressed_file(clip, tmp_path):
     data[len(data) // 2] ^= 0xFF
     mrc.write_bytes(bytes(data))
     _one_line_error(run("info", mrc), "clip.mrc")
+
+
+def test_evaluate_databases_and_archives_clip_by_clip(tmp_path):
+    src = tmp_path / "clips"
+    src.mkdir()
+    for i in range(3):
+        write(synthetic_motion(chain_skeleton(3 + i), frames=30, fps=30, seed=i), src / f"c{i}.bvh")
+    db, archive, one = tmp_path / "db.h5", tmp_path / "out.h5", tmp_path / "c1.mrc"
+    assert run("convert", src, db).exit_code == 0
+    assert run("compress", db, "-o", archive, "--codec", "svd").exit_code == 0
+    r = run("evaluate", db, archive)
+    assert r.exit_code == 0, r.output
+    assert "3 clips" in r.output and all(f"c{i} " in r.output for i in range(3)) and "worst: c" in r.output
+    d = json.loads(run("evaluate", db, archive, "--json").output)
+    assert [c["clip"] for c in d["clips"]] == ["c0", "c1", "c2"]
+    stored = read_archive(archive)
+    for c in d["clips"]:  # the same number compress measured and stored
+        assert c["max_error"] == pytest.approx(stored[c["clip"]].evaluation["max_error"], rel=1e-12)
+    assert d["worst"]["max_error_percent"] == max(c["max_error_percent"] for c in d["clips"])
+    # one clip: --clip on the database side, a .mrc on the other
+    assert run("compress", src / "c1.bvh", "-o", one, "--codec", "svd").exit_code == 0
+    r = run("evaluate", db, one, "--clip", "c1", "--json")
+    assert json.loads(r.output)["max_error"] == pytest.approx(stored["c1"].evaluation["max_error"], rel=1e-12)
+    r = run("evaluate", db, one)
+    assert r.exit_code == 2 and "holds 3 clips" in r.output and "--clip" in r.output
+    _one_line_error(run("evaluate", db, archive, "--clip", "c9"), "no clip 'c9'", "c0, c1, c2")
+    assert run("evaluate", src / "c1.bvh", one, "--clip", "c1").exit_code == 2  # no database involved
+    # different clips on the two sides: one line naming them, nothing compared
+    partial = tmp_path / "partial.h5"
+    write_database([(n, read(src / f"{n}.bvh")) for n in ("c0", "c2")], partial)
+    _one_line_error(run("evaluate", db, partial), "only in", "c1")
+
+
+def test_convert_points_to_compress_and_decompress_for_mrc(clip, tmp_path):
+    mrc = tmp_path / "clip.mrc"
+    assert run("compress", clip, "-o", mrc, "--codec", "svd").exit_code == 0
+    r = run("convert", mrc, tmp_path / "x.bvh")
+    assert r.exit_code == 2 and "motionrep decompress" in r.output and not (tmp_path / "x.bvh").exists()
+    r = run("convert", clip, tmp_path / "y.mrc")
+    assert r.exit_code == 2 and "motionrep compress" in r.output and not (tmp_path / "y.mrc").exists()
