@@ -121,8 +121,10 @@ class Evaluator:
             raise ValidationError("cannot compare motions of different skeletons (joint names, parents or end "
                                   f"sites differ): {self.skeleton!r} vs {candidate.skeleton!r}")
         if candidate.num_frames != ref.num_frames:
+            rates = ("" if math.isclose(candidate.fps, ref.fps, rel_tol=1e-6) else
+                     f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: --fps {ref.fps:g})")
             raise ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
-                                  f"{candidate.num_frames}")
+                                  f"{candidate.num_frames}{rates}")
         if not math.isclose(candidate.fps, ref.fps, rel_tol=1e-6):
             raise ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
                                   f"{candidate.fps:g} fps (resample one first)")

@@ -87,3 +87,12 @@ def test_compression_figures_follow_their_definitions():
     with pytest.raises(ValidationError):
         compression_figures(num_frames=0, feature_width=1, num_parameters=1, num_channels=1, num_joints=1,
                             compressed_bytes=1)
+
+
+def test_frame_count_mismatch_says_the_rates():
+    sk = chain_skeleton(3)
+    ref = synthetic_motion(sk, frames=20, fps=30)
+    with pytest.raises(ValidationError, match=r"20 vs 40 at 30 vs 60 fps .*--fps 30"):
+        max_joint_error(ref, synthetic_motion(sk, frames=40, fps=60))
+    with pytest.raises(ValidationError, match=r"different frame counts: 20 vs 21$"):
+        max_joint_error(ref, synthetic_motion(sk, frames=21, fps=30))
