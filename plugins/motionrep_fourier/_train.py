@@ -446,6 +446,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
     omega: list[float] = []
     net = _initial(gen, 1, 2, D)
     best = math.inf
+    percent_per_unit = math.nan  # % of the character height per file unit, from the measurements
     total_iters = 0
 
     def payload_of(net: _Net) -> Payload:
@@ -506,6 +507,8 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 report = context.evaluate_payload(payload)
                 unmeasured = 0
                 best = min(best, report.max_error)
+                if report.max_error > 0:
+                    percent_per_unit = report.max_error_percent / report.max_error
                 ratio = report.max_error / math.sqrt(loss) if loss > 0 else math.nan
                 fields.update(error=report.max_error, error_percent=report.max_error_percent)
                 context.progress("train", **fields)
@@ -519,6 +522,10 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
     if bound is None:
         return payload
     reached = f"K={len(omega)}" if params.k is not None else f"max_k={params.max_k} (K={len(omega)})"
-    raise BoundNotMetError(f"{name}: the bound {bound:.4g} was not met with {reached}; best L-inf error reached "
-                           f"{best:.4g}" + ("" if params.k is not None else "; raise max_k or the bound"),
+    def pct(value: float) -> str:
+        return f" ({value * percent_per_unit:.3g}% of height)" if math.isfinite(value * percent_per_unit) else ""
+
+    raise BoundNotMetError(f"{name}: the bound {bound:.4g}{pct(bound)} was not met with {reached}; best L-inf error "
+                           f"reached {best:.4g}{pct(best)}"
+                           + ("" if params.k is not None else "; raise max_k or the bound (svd meets any bound)"),
                            best if math.isfinite(best) else None, bound)
