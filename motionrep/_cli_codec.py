@@ -40,6 +40,8 @@ def _fmt(v: Any) -> str:
 
 
 def _outcome(info: Mapping[str, Any]) -> str:
+    if "windows" in info and isinstance(info.get("K"), list):
+        return f"{info['windows']} windows, K per window [{', '.join(map(str, info['K']))}]"
     if "omega" in info:
         return f"K={info.get('K')}, omega=[{', '.join(_fmt(o) for o in info['omega'])}] cycles/clip, " \
                f"hidden {info.get('hidden')}"
@@ -55,12 +57,12 @@ class _Progress:
 
     def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
         now = time.monotonic()
-        key = (stage, fields.get("K"), fields.get("rank"))
+        key = (stage, fields.get("window"), fields.get("K"), fields.get("rank"))
         if key == self.key and now - self.last < 0.5:
             return
         self.last, self.key = now, key
         parts = [stage]
-        for name in ("K", "rank", "iteration"):
+        for name in ("window", "K", "rank", "iteration"):
             if name in fields:
                 parts.append(f"{name}={fields[name]}")
         if "loss" in fields:

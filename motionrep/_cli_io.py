@@ -474,7 +474,9 @@ def _info_text(d: dict[str, Any]) -> str:
         lines.append(f"codec:      {c['name']} (payload version {c['version']}), {_outcome(c['outcome'])}"
                      + (f", parameters {json.dumps(c['params'])}" if c["params"] else ""))
         omega = c["outcome"].get("omega")
-        if omega:
+        if omega and isinstance(c["outcome"].get("K"), list):  # one network per window
+            lines.append(f"            K per window: {', '.join(str(k) for k in c['outcome']['K'])}")
+        elif omega:
             lines.append(f"            frequencies (cycles over the clip): {', '.join(_fmt(w) for w in omega)}")
         lines.append(f"features:   {r['name']} version {r['version']}"
                      + (f", width {r['width']}" if r["width"] is not None else ""))

@@ -388,6 +388,8 @@ def _fmt_num(v: Any) -> str:
 
 def outcome_of(info: Mapping[str, Any]) -> str:
     """``K=5`` for the Fourier codecs, ``rank=9`` for svd, ``key=value, ...`` for other codecs."""
+    if "windows" in info and isinstance(info.get("K"), list):
+        return f"{info['windows']} windows, K={min(info['K'])}-{max(info['K'])}"
     if "K" in info:
         return f"K={info['K']}"
     if "rank" in info:

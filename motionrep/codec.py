@@ -78,6 +78,11 @@ class EncodeContext(Protocol):
         """The same for a candidate payload, decoded with the codec at the frame times: use it so that what is
         evaluated is what would be stored (after float32 / float16 rounding)."""
 
+    def evaluate_frames(self, features: ArrayLike, first: int) -> "ErrorReportLike":
+        """The same for candidate ``(n, D)`` features of the frames ``first .. first + n - 1`` only (a codec
+        that codes a clip in pieces); frames are measured independently, so this is the error those frames
+        would have in the whole clip."""
+
     def progress(self, stage: str, **fields: Any) -> None:
         """Report progress (``stage`` like ``"train"``; fields like ``K=3, loss=..., error=...``)."""
 

@@ -40,7 +40,7 @@ from .container import Container, pack, read_container, unpack
 from .errors import (BoundNotMetError, CodecError, ContainerError, FormatError, MotionrepError, ParameterError,
                      UnknownPluginError)
 from .evaluate import CompressionFigures, ErrorReport, Evaluator, compression_figures
-from .kinematics import character_height
+from .kinematics import character_height, global_positions
 from .representation import Representation
 
 __all__ = [
@@ -192,6 +192,12 @@ class _Context:
 
     def evaluate_payload(self, payload: Payload) -> ErrorReport:
         return self.evaluate(self._codec.decode(payload, self.times))
+
+    def evaluate_frames(self, features: ArrayLike, first: int) -> ErrorReport:
+        ref = self._evaluator.reference
+        motion = fixed_axes_restored(self._rep.from_features(features, ref.skeleton, ref.fps))
+        self.evaluations += 1
+        return self._evaluator.positions_error(global_positions(motion), first=int(first))
 
     def progress(self, stage: str, **fields: Any) -> None:
         if self._progress is not None:

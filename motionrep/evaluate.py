@@ -130,17 +130,26 @@ class Evaluator:
                                   f"{candidate.fps:g} fps (resample one first)")
         return self.positions_error(global_positions(candidate))
 
-    def positions_error(self, positions: NDArray[np.float64]) -> ErrorReport:
-        """Compare ``(F, J + E, 3)`` candidate FK positions with the reference's."""
+    def positions_error(self, positions: NDArray[np.float64], first: int | None = None) -> ErrorReport:
+        """Compare ``(F, J + E, 3)`` candidate FK positions with the reference's; with ``first``, ``(n, J + E, 3)``
+        positions of the reference frames ``first .. first + n - 1`` only (the report's frame is then a frame of
+        the clip, its mean and ``num_frames`` those of these frames)."""
         positions = np.asarray(positions, dtype=np.float64)
-        if positions.shape != self._positions.shape:
-            raise ValidationError(f"candidate positions must have shape {self._positions.shape}, got "
-                                  f"{positions.shape}")
-        dist = np.sqrt(np.sum((positions - self._positions) ** 2, axis=-1))  # (F, P)
+        reference = self._positions
+        if first is not None:
+            n = positions.shape[0] if positions.ndim == 3 else -1
+            if not 0 <= first or n < 1 or first + n > reference.shape[0]:
+                raise ValidationError(f"frames {first}..{first + n - 1} are not frames of the reference "
+                                      f"(0..{reference.shape[0] - 1})")
+            reference = reference[first:first + n]
+        if positions.shape != reference.shape:
+            raise ValidationError(f"candidate positions must have shape {reference.shape}, got {positions.shape}")
+        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))  # (F, P)
         if not np.all(np.isfinite(dist)):
             raise ValidationError("candidate positions contain NaN or infinity")
         flat = int(np.argmax(dist))
         frame, point = divmod(flat, dist.shape[1])
+        frame += first or 0
         max_error = float(dist.reshape(-1)[flat])
         mean_error = float(dist.mean())
         return ErrorReport(

@@ -475,6 +475,14 @@ class ConformanceContext:
         """Error of a candidate payload, decoded at the frame times."""
         return self.evaluate(self.codec.decode(payload, self.times))
 
+    def evaluate_frames(self, features: _Any, first: int) -> ConformanceErrorReport:
+        """Error of candidate ``(n, D)`` features of the frames ``first .. first + n - 1``."""
+        m = self.representation.from_features(features, self.motion.skeleton, self.motion.fps)
+        err = np.linalg.norm(_global_positions(m) - self._reference[first:first + m.num_frames], axis=-1)
+        f, p = np.unravel_index(int(err.argmax()), err.shape)
+        worst = float(err.max())
+        return ConformanceErrorReport(worst, 100.0 * worst / _scale(self.motion), int(f) + first, int(p))
+
     def progress(self, stage: str, **fields: _Any) -> None:
         """Record a progress report."""
         self.progress_log.append((stage, dict(fields)))

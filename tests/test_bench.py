@@ -483,3 +483,12 @@ def test_log_axes_are_labelled_with_plain_numbers():
     assert [major(v, 0) for v in (0.1, 1.0, 10.0, 100.0)] == ["0.1", "1", "10", "100"]
     assert [minor(v, 0) for v in (0.2, 0.3, 2.0, 3.0, 5.0, 7.0, 20.0, 50.0, 60.0)] == \
         ["0.2", "", "2", "", "5", "", "20", "50", ""]
+
+
+def test_outcome_of_each_codec_layout():
+    from motionrep.bench import outcome_of
+
+    assert outcome_of({"K": 5, "omega": [1.0], "hidden": 22}) == "K=5"
+    assert outcome_of({"rank": 9}) == "rank=9"
+    assert outcome_of({"windows": 3, "K": [4, 2, 7], "omega": [[1.0]], "hidden": [18]}) == "3 windows, K=2-7"
+    assert outcome_of({"keyframes": 12, "name": "x", "flag": True}) == "keyframes=12, name=x"

@@ -188,7 +188,7 @@ def test_info_on_a_compressed_file(clip, tmp_path):
     assert r.exit_code == 0, r.output
     r = run("info", mrc)
     assert r.exit_code == 0, r.output
-    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 1), K=2",
+    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 2), K=2",
                    "frequencies (cycles over the clip): 1, 2", "features:   root-quat-axis-angle version 1",
                    f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
                    "frames:     40", "channel layout"):

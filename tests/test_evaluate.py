@@ -96,3 +96,21 @@ def test_frame_count_mismatch_says_the_rates():
         max_joint_error(ref, synthetic_motion(sk, frames=40, fps=60))
     with pytest.raises(ValidationError, match=r"different frame counts: 20 vs 21$"):
         max_joint_error(ref, synthetic_motion(sk, frames=21, fps=30))
+
+
+def test_positions_error_of_some_frames_reports_clip_frames():
+    sk = humanoid_skeleton()
+    ref = synthetic_motion(sk, frames=30, fps=30, seed=1)
+    cand = synthetic_motion(sk, frames=30, fps=30, seed=2)
+    ev = Evaluator(ref)
+    from motionrep.kinematics import global_positions
+
+    pos = global_positions(cand)
+    whole = ev.positions_error(pos)
+    dist = np.linalg.norm(pos - ev.reference_positions, axis=-1)
+    part = ev.positions_error(pos[10:20], first=10)
+    assert part.max_error == dist[10:20].max() and part.num_frames == 10
+    assert 10 <= part.frame < 20 and dist[part.frame].max() == part.max_error
+    assert part.max_error <= whole.max_error
+    with pytest.raises(ValidationError, match="not frames of the reference"):
+        ev.positions_error(pos[:5], first=27)

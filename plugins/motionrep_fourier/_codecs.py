@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -12,6 +12,7 @@ from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import ParameterError
 
 from ._network import network_forward
+from ._windows import join_windows, local_times, window_edges, windows_forward
 
 __all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec"]
 
@@ -30,6 +31,10 @@ class FourierParams:
         "help": "most L-BFGS iterations per stage (per K)"})
     tol: float = field(default=0.01, metadata={
         "help": "a stage ends when the loss improved by less than this fraction over the last 100 iterations"})
+    window: int = field(default=0, metadata={
+        "help": "0: one network for the whole clip (the paper's Algorithm 1); N >= 8: the clip is cut into "
+                "windows of about N frames (neighbours share a frame), each coded by its own network and "
+                "frequencies within the same bound (payload version 2)"})
 
     def __post_init__(self) -> None:
         if self.k is not None and (not isinstance(self.k, int) or self.k < 0):
@@ -42,12 +47,15 @@ class FourierParams:
             raise ParameterError(f"fourier: iters must be an integer >= 25, got {self.iters!r}")
         if not (0.0 <= self.tol < 1.0):
             raise ParameterError(f"fourier: tol must be in [0, 1), got {self.tol!r}")
+        if not isinstance(self.window, int) or not (self.window == 0 or self.window >= 8):
+            raise ParameterError(f"fourier: window must be 0 (whole clip) or an integer >= 8, got {self.window!r}")
 
 
 class _FourierCodec(Codec):
     """Common encode/decode; subclasses choose the frequency schedule."""
 
-    format_version = 1
+    format_version = 2
+    readable_versions = (1, 2)
     Params = FourierParams
     schedule: str
 
@@ -58,10 +66,51 @@ class _FourierCodec(Codec):
             raise ParameterError(f"{self.name}: give k=K when there is no error bound (--max-error none)")
         from ._train import fit  # torch is imported here, never when decoding
 
-        return fit(features, weights, context, schedule=self.schedule, name=self.name)
+        edges = window_edges(features.shape[0], params.window)
+        if edges.size <= 2:
+            return fit(features, weights, context, schedule=self.schedule, name=self.name)
+        payloads = []
+        for index in range(edges.size - 1):
+            first, last = int(edges[index]), int(edges[index + 1])
+            where = f"{self.name} (window {index + 1} of {edges.size - 1}, frames {first}-{last})"
+            sub = _WindowContext(context, features, edges, index)
+            payloads.append(fit(features[first:last + 1], weights, sub, schedule=self.schedule, name=where))
+        return join_windows(payloads, edges)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+        if "edges" in payload.arrays:
+            return windows_forward(payload.arrays, times)
         return network_forward(payload.arrays, times)
+
+
+class _WindowContext:
+    """The :class:`~motionrep.codec.EncodeContext` of one window: its frames' local times, and the shared
+    evaluation of a candidate on the window's frames (``context.evaluate_frames``; frames are measured
+    independently, so this is the error they have in the whole clip), or, from a context without it, on the
+    whole clip with every other frame exact."""
+
+    def __init__(self, context: EncodeContext, features: NDArray[np.float64], edges: NDArray[np.int64],
+                 index: int):
+        self._context, self._features, self._index = context, features, index
+        self._first, self._last = int(edges[index]), int(edges[index + 1])
+        self.params, self.bound, self.seed = context.params, context.bound, context.seed
+        times = np.asarray(context.times, np.float64)[self._first:self._last + 1]
+        self.times = local_times(times, edges, features.shape[0], np.full(times.size, index))
+        self._count = edges.size - 1
+
+    def evaluate(self, features: ArrayLike) -> Any:
+        measure = getattr(self._context, "evaluate_frames", None)
+        if measure is not None:  # only this window's frames
+            return measure(np.asarray(features, np.float64), self._first)
+        full = self._features.copy()
+        full[self._first:self._last + 1] = features
+        return self._context.evaluate(full)
+
+    def evaluate_payload(self, payload: Payload) -> Any:
+        return self.evaluate(network_forward(payload.arrays, self.times))
+
+    def progress(self, stage: str, **fields: Any) -> None:
+        self._context.progress(stage, window=f"{self._index + 1}/{self._count}", **fields)
 
 
 class AdaptiveFourierCodec(_FourierCodec):
@@ -72,8 +121,10 @@ class AdaptiveFourierCodec(_FourierCodec):
     component of the ``w``-weighted residual, among those not yet used; the network grows to
     ``h = 2 (2K + 1)`` with the old weights copied so that its function is unchanged (warm start).
 
-    Payload (format version 1): ``omega (K,)`` float32 (cycles over the clip, multiples of 1/2), ``W0 (h, 2K+1)``,
-    ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)`` float32.
+    Payload (format version 2; version 1 is read too): ``omega (K,)`` float32 (cycles over the clip, multiples
+    of 1/2), ``W0 (h, 2K+1)``, ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)``
+    float32; with ``window=N``, one such network per window of about ``N`` frames, in the layout of
+    :func:`motionrep_fourier._windows.join_windows` (``specs/codecs.md``).
     """
 
     name = "adaptive-fourier"
