@@ -95,7 +95,8 @@ def _report_lines(name: str, result: CompressResult, out: str | None) -> list[st
               help="Representation the codec compresses.")
 @click.option("--max-error", default=DEFAULT_MAX_ERROR, show_default=True,
               help="Bound on the L-inf joint error: '2%' of character height, a distance in file units, or 'none'.")
-@click.option("-p", "--param", "params", multiple=True, metavar="KEY=VALUE", help="Codec parameter (repeatable).")
+@click.option("-p", "--param", "params", multiple=True, metavar="KEY=VALUE",
+              help="Codec parameter (repeatable); 'motionrep plugins --describe CODEC' lists them.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed (same seed, same bytes).")
 @click.option("--clip", metavar="NAME", help="Compress only this clip of an HDF5 database.")
 @click.option("--jobs", "-j", default=1, show_default=True, type=click.IntRange(1, 256),

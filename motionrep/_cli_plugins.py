@@ -34,7 +34,9 @@ def _registers(info) -> str:
 @click.option("--hook", type=click.Choice(_HOOKS), default=None,
               help="Only the plugins that implement this hook.")
 @click.option("--third-party", is_flag=True, help="Only the plugins that are not shipped with motionrep.")
-def plugins_command(as_json: bool, hook: str | None, third_party: bool) -> None:
+@click.option("--describe", "describe", metavar="NAME", default=None,
+              help="Describe one codec or representation: its plugin, versions and (codecs) parameters.")
+def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe: str | None) -> None:
     """List every loaded plugin: name, version, where it comes from and what it registers.
 
     Shipped plugins (the representations and codecs motionrep comes with) are listed too, marked "shipped";
@@ -43,17 +45,23 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool) -> None:
     none) limits which of them load.
 
     \b
-    JSON: a list of {name, version, shipped, distribution, hooks, representations, codecs}.
+    JSON: a list of {name, version, shipped, distribution, hooks, representations, codecs};
+    with --describe, one object {name, kind, plugin, description, version,
+    readable_versions, params: [{name, type, default, help}]}.
 
     \b
     Examples:
       motionrep plugins
       motionrep plugins --json
       motionrep plugins --hook register_codecs
+      motionrep plugins --describe adaptive-fourier   # its -p parameters
       MOTIONREP_LOAD_PLUGINS= motionrep plugins      # shipped plugins only
     """
     from .plugins import plugin_infos
 
+    if describe is not None:
+        _describe(describe, as_json)
+        return
     infos = [i for i in plugin_infos() if (hook is None or hook in i.hooks) and not (third_party and i.shipped)]
     if as_json:
         click.echo(json.dumps([i.as_dict() for i in infos], indent=2))
@@ -66,3 +74,36 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool) -> None:
     widths = [max(len(r[k]) for r in rows) for k in range(3)]
     for r in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(r[:3], widths)) + "  " + r[3])
+
+
+def _describe(name: str, as_json: bool) -> None:
+    from .codec import params_help
+    from .errors import UnknownPluginError
+    from .plugins import codecs, get_codec, get_representation, provider_of, representations
+
+    if name in codecs():
+        codec = get_codec(name)
+        d = {"name": name, "kind": "codec", "plugin": provider_of(name, "codec"), "description": codec.description,
+             "version": codec.format_version,
+             "readable_versions": list(codec.readable_versions or (codec.format_version,)),
+             "params": params_help(codec.Params)}
+    elif name in representations():
+        rep = get_representation(name)
+        d = {"name": name, "kind": "representation", "plugin": provider_of(name, "representation"),
+             "description": rep.description, "version": rep.version, "readable_versions": [rep.version],
+             "params": []}
+    else:
+        raise UnknownPluginError(f"no codec or representation named {name!r}; codecs: {', '.join(sorted(codecs()))}"
+                                 f"; representations: {', '.join(sorted(representations()))}")
+    if as_json:
+        click.echo(json.dumps(d, indent=2, default=str))
+        return
+    click.echo(f"{d['kind']} {name} (plugin {d['plugin']}), format version {d['version']}"
+               + (f", reads {', '.join(map(str, d['readable_versions']))}" if len(d["readable_versions"]) > 1 else ""))
+    if d["description"]:
+        click.echo(f"  {d['description']}")
+    if d["params"]:
+        click.echo("parameters (-p KEY=VALUE):")
+        width = max(len(p["name"]) for p in d["params"])
+        for p in d["params"]:
+            click.echo(f"  {p['name']:<{width}}  {p['type']}, default {p['default']}: {p['help']}")

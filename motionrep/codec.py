@@ -212,6 +212,10 @@ def params_help(params_cls: type) -> list[dict[str, Any]]:
     for f in dataclasses.fields(params_cls):
         default = f.default if f.default is not dataclasses.MISSING else None
         t = hints.get(f.name, f.type)
-        out.append({"name": f.name, "type": getattr(t, "__name__", str(t)), "default": default,
+        if typing.get_origin(t) is typing.Literal:
+            shown = " | ".join(str(a) for a in typing.get_args(t))
+        else:
+            shown = getattr(t, "__name__", str(t))
+        out.append({"name": f.name, "type": shown, "default": default,
                     "help": f.metadata.get("help", "")})
     return out

@@ -368,3 +368,21 @@ def test_shipped_codecs_conform(name):
     results = check_codec(plugins.get_codec(name), [synthetic_motion(frames=32, seed=7)], params=params,
                           bound_params=bound_params, bound_fraction=bound)
     assert results[0]["num_parameters"] > 0
+
+
+def test_plugins_describe_lists_a_codecs_parameters():
+    from motionrep.cli import cli
+
+    r = CliRunner().invoke(cli, ["plugins", "--describe", "adaptive-fourier"])
+    assert r.exit_code == 0, r.output
+    assert "codec adaptive-fourier (plugin motionrep_fourier), format version 2, reads 1, 2" in r.output
+    for line in ("  window  int, default 0:", "  dtype   float32 | float16, default float32:",
+                 "  k       int | None, default None:"):
+        assert line in r.output, r.output
+    d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "svd", "--json"]).output)
+    assert (d["kind"], d["plugin"], d["version"]) == ("codec", "motionrep_svd", 1)
+    assert [p["name"] for p in d["params"]] == ["rank", "dtype"]
+    d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "dual-quaternion", "--json"]).output)
+    assert (d["kind"], d["plugin"], d["params"]) == ("representation", "motionrep_dualquat", [])
+    r = CliRunner().invoke(cli, ["plugins", "--describe", "nope"])
+    assert r.exit_code == 1 and r.output.count("\n") == 1 and "'nope'" in r.output and "svd" in r.output
