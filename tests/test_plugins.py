@@ -386,3 +386,13 @@ def test_plugins_describe_lists_a_codecs_parameters():
     assert (d["kind"], d["plugin"], d["params"]) == ("representation", "motionrep_dualquat", [])
     r = CliRunner().invoke(cli, ["plugins", "--describe", "nope"])
     assert r.exit_code == 1 and r.output.count("\n") == 1 and "'nope'" in r.output and "svd" in r.output
+
+
+@pytest.mark.slow
+def test_windowed_fourier_codec_conforms():
+    from motionrep.testing import check_codec, synthetic_motion
+
+    results = check_codec(plugins.get_codec("adaptive-fourier"), [synthetic_motion(frames=32, seed=7)],
+                          params={"k": 1, "iters": 50, "window": 10},
+                          bound_params={"max_k": 4, "iters": 100, "window": 10}, bound_fraction=0.25)
+    assert results[0]["num_parameters"] > 0
