@@ -474,10 +474,34 @@ def test_window_parameter_is_validated(window, chain_motion):
         compress_motion(chain_motion, "adaptive-fourier", params={"window": window})
 
 
-def test_a_window_that_misses_the_bound_is_named(chain_motion):
-    with pytest.raises(BoundNotMetError, match=r"window 1 of 3, frames 0-16.*max_k=0"):
+def test_a_window_that_misses_the_bound_is_split_then_named(chain_motion):
+    # 0-16 misses, so do its halves 0-8 and 8-16; 0-8 spans fewer than 2 x MIN_SPLIT steps: its error is final
+    with pytest.raises(BoundNotMetError, match=r"\(window of frames 0-8\).*max_k=0"):
         compress_motion(chain_motion, "naive-fourier", max_error="0.01%",
                         params={"window": 16, "max_k": 0, "iters": 50})
+
+
+def test_windows_that_miss_the_bound_are_split_until_they_meet_it(chain_motion, monkeypatch):
+    import motionrep_fourier._train as train
+    from motionrep_fourier._codecs import MIN_SPLIT
+
+    real_fit, tried = train.fit, []
+
+    def fit(features, weights, context, **kw):  # a network "cannot" cover more than 12 frame steps
+        tried.append(features.shape[0] - 1)
+        if features.shape[0] - 1 > 12:
+            raise BoundNotMetError("too long", 1.0, 0.5)
+        return real_fit(features, weights, context, **kw)
+
+    monkeypatch.setattr(train, "fit", fit)
+    events = []
+    r = compress_motion(chain_motion, "naive-fourier", max_error="50%", params={"window": 24, "iters": 50},
+                        progress=lambda stage, fields: events.append((stage, fields.get("window"))))
+    # 47 steps: windows 0-24 and 24-47; each misses, and is split at its middle frame
+    assert r.container.arrays["edges"].tolist() == [0, 12, 24, 35, 47]
+    assert tried == [24, 12, 12, 23, 11, 12] and MIN_SPLIT == 8
+    assert [w for stage, w in events if stage == "split"] == ["0-24", "24-47"]
+    assert max_joint_error(chain_motion, decompress(r.data)).max_error <= r.bound
 
 
 # ---------------------------------------------------------------------------------------------------------------

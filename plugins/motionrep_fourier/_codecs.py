@@ -9,12 +9,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Codec, EncodeContext, Payload
-from motionrep.errors import ParameterError
+from motionrep.errors import BoundNotMetError, ParameterError
 
 from ._network import network_forward
 from ._windows import join_windows, local_times, window_edges, windows_forward
 
-__all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec"]
+__all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec", "MIN_SPLIT"]
+
+#: A window that misses the bound is split in two while it spans at least twice this many frame steps.
+MIN_SPLIT = 8
 
 
 @dataclass(frozen=True)
@@ -34,7 +37,7 @@ class FourierParams:
     window: int = field(default=0, metadata={
         "help": "0: one network for the whole clip (the paper's Algorithm 1); N >= 8: the clip is cut into "
                 "windows of about N frames (neighbours share a frame), each coded by its own network and "
-                "frequencies within the same bound (payload version 2)"})
+                "frequencies within the same bound; a window that misses it is split in two (payload version 2)"})
 
     def __post_init__(self) -> None:
         if self.k is not None and (not isinstance(self.k, int) or self.k < 0):
@@ -69,13 +72,28 @@ class _FourierCodec(Codec):
         edges = window_edges(features.shape[0], params.window)
         if edges.size <= 2:
             return fit(features, weights, context, schedule=self.schedule, name=self.name)
-        payloads = []
-        for index in range(edges.size - 1):
-            first, last = int(edges[index]), int(edges[index + 1])
-            where = f"{self.name} (window {index + 1} of {edges.size - 1}, frames {first}-{last})"
-            sub = _WindowContext(context, features, edges, index)
-            payloads.append(fit(features[first:last + 1], weights, sub, schedule=self.schedule, name=where))
-        return join_windows(payloads, edges)
+        return self._encode_windows(features, weights, context, edges, fit)
+
+    def _encode_windows(self, features, weights, context, edges, fit) -> Payload:
+        """Each window in turn; a window that cannot meet the bound is split at its middle frame and its halves
+        are coded instead, down to :data:`MIN_SPLIT` frame steps (below that its error is final)."""
+        todo = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+        done: list[tuple[int, int, Payload]] = []
+        while todo:
+            first, last = todo.pop(0)
+            where = f"{self.name} (window of frames {first}-{last})"
+            sub = _WindowContext(context, features, first, last)
+            try:
+                done.append((first, last, fit(features[first:last + 1], weights, sub, schedule=self.schedule,
+                                              name=where)))
+            except BoundNotMetError as exc:
+                if last - first < 2 * MIN_SPLIT:
+                    raise
+                middle = (first + last) // 2
+                context.progress("split", window=f"{first}-{last}", best_error=exc.best_error)
+                todo[0:0] = [(first, middle), (middle, last)]
+        joined = np.array([first for first, _, _ in done] + [done[-1][1]], dtype=np.int64)
+        return join_windows([payload for _, _, payload in done], joined)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         if "edges" in payload.arrays:
@@ -89,14 +107,12 @@ class _WindowContext:
     independently, so this is the error they have in the whole clip), or, from a context without it, on the
     whole clip with every other frame exact."""
 
-    def __init__(self, context: EncodeContext, features: NDArray[np.float64], edges: NDArray[np.int64],
-                 index: int):
-        self._context, self._features, self._index = context, features, index
-        self._first, self._last = int(edges[index]), int(edges[index + 1])
+    def __init__(self, context: EncodeContext, features: NDArray[np.float64], first: int, last: int):
+        self._context, self._features, self._first, self._last = context, features, first, last
         self.params, self.bound, self.seed = context.params, context.bound, context.seed
-        times = np.asarray(context.times, np.float64)[self._first:self._last + 1]
-        self.times = local_times(times, edges, features.shape[0], np.full(times.size, index))
-        self._count = edges.size - 1
+        times = np.asarray(context.times, np.float64)[first:last + 1]
+        edges = np.array([first, last], dtype=np.int64)
+        self.times = local_times(times, edges, features.shape[0], np.zeros(times.size, dtype=np.int64))
 
     def evaluate(self, features: ArrayLike) -> Any:
         measure = getattr(self._context, "evaluate_frames", None)
@@ -110,7 +126,7 @@ class _WindowContext:
         return self.evaluate(network_forward(payload.arrays, self.times))
 
     def progress(self, stage: str, **fields: Any) -> None:
-        self._context.progress(stage, window=f"{self._index + 1}/{self._count}", **fields)
+        self._context.progress(stage, window=f"{self._first}-{self._last}", **fields)
 
 
 class AdaptiveFourierCodec(_FourierCodec):
