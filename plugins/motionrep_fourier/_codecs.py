@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Callable, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,7 +74,8 @@ class _FourierCodec(Codec):
             return fit(features, weights, context, schedule=self.schedule, name=self.name)
         return self._encode_windows(features, weights, context, edges, fit)
 
-    def _encode_windows(self, features, weights, context, edges, fit) -> Payload:
+    def _encode_windows(self, features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext,
+                        edges: NDArray[np.int64], fit: Callable[..., Payload]) -> Payload:
         """Each window in turn; a window that cannot meet the bound is split at its middle frame and its halves
         are coded instead, down to :data:`MIN_SPLIT` frame steps (below that its error is final)."""
         todo = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
