@@ -17,10 +17,10 @@ import click
 
 from ._cli_io import _listing
 from .cli import cli
-from .errors import FormatError
 from .compress import (DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION, ClipJob, CompressResult,
                        batch_jobs, compress_batch, compress_file, decode_container, decompress_file, is_archive,
                        parse_max_error, read_archive, write_archive, write_decoded)
+from .errors import FormatError
 
 __all__ = ["compress", "decompress", "evaluate", "example"]
 
@@ -314,22 +314,15 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
 def _clip_names(path: Path, clip: str | None) -> list[str]:
     """The clips ``path`` holds (one for BVH, NPZ and .mrc files); only ``clip`` of a database or archive when
     given (a one-clip file is taken as it is: ``--clip`` then applies to the other file)."""
+    from .compress import archive_sizes
+    from .io import list_clips
+
     suffix = path.suffix.lower()
     if suffix == ".mrc":
         return [path.stem]
-    if suffix not in (".h5", ".hdf5"):
-        from .io import list_clips
-
-        return list_clips(path)
-    if is_archive(path):
-        from .compress import archive_sizes
-
-        names = list(archive_sizes(path))
-    else:
-        from .io import list_clips
-
-        names = list_clips(path)
-    if clip is None:
+    database = suffix in (".h5", ".hdf5")
+    names = list(archive_sizes(path)) if database and is_archive(path) else list_clips(path)
+    if clip is None or not database:
         return names
     if clip not in names:
         raise FormatError(f"no clip {clip!r}; clips: {_listing(names)}", path)

@@ -185,19 +185,19 @@ class _Context:
         self.times.flags.writeable = False
 
     def evaluate(self, features: ArrayLike) -> ErrorReport:
-        ref = self._evaluator.reference
-        motion = fixed_axes_restored(self._rep.from_features(features, ref.skeleton, ref.fps))
-        self.evaluations += 1
-        return self._evaluator(motion)
+        return self._evaluator(self._decoded(features))
 
     def evaluate_payload(self, payload: Payload) -> ErrorReport:
         return self.evaluate(self._codec.decode(payload, self.times))
 
     def evaluate_frames(self, features: ArrayLike, first: int) -> ErrorReport:
+        return self._evaluator.positions_error(global_positions(self._decoded(features)), first=int(first))
+
+    def _decoded(self, features: ArrayLike) -> Motion:
+        """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""
         ref = self._evaluator.reference
-        motion = fixed_axes_restored(self._rep.from_features(features, ref.skeleton, ref.fps))
         self.evaluations += 1
-        return self._evaluator.positions_error(global_positions(motion), first=int(first))
+        return fixed_axes_restored(self._rep.from_features(features, ref.skeleton, ref.fps))
 
     def progress(self, stage: str, **fields: Any) -> None:
         if self._progress is not None:

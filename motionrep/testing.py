@@ -465,11 +465,7 @@ class ConformanceContext:
 
     def evaluate(self, features: _Any) -> ConformanceErrorReport:
         """Error of candidate ``(F, D)`` features."""
-        m = self.representation.from_features(features, self.motion.skeleton, self.motion.fps)
-        err = np.linalg.norm(_global_positions(m) - self._reference, axis=-1)
-        f, p = np.unravel_index(int(err.argmax()), err.shape)
-        worst = float(err.max())
-        return ConformanceErrorReport(worst, 100.0 * worst / _scale(self.motion), int(f), int(p))
+        return self._measure(features, self._reference, 0)
 
     def evaluate_payload(self, payload: _Payload) -> ConformanceErrorReport:
         """Error of a candidate payload, decoded at the frame times."""
@@ -477,8 +473,11 @@ class ConformanceContext:
 
     def evaluate_frames(self, features: _Any, first: int) -> ConformanceErrorReport:
         """Error of candidate ``(n, D)`` features of the frames ``first .. first + n - 1``."""
+        return self._measure(features, self._reference[first:first + np.shape(features)[0]], first)
+
+    def _measure(self, features: _Any, reference: NDArray[np.float64], first: int) -> ConformanceErrorReport:
         m = self.representation.from_features(features, self.motion.skeleton, self.motion.fps)
-        err = np.linalg.norm(_global_positions(m) - self._reference[first:first + m.num_frames], axis=-1)
+        err = np.linalg.norm(_global_positions(m) - reference, axis=-1)
         f, p = np.unravel_index(int(err.argmax()), err.shape)
         worst = float(err.max())
         return ConformanceErrorReport(worst, 100.0 * worst / _scale(self.motion), int(f) + first, int(p))

@@ -112,8 +112,7 @@ class _WindowContext:
         self._context, self._features, self._first, self._last = context, features, first, last
         self.params, self.bound, self.seed = context.params, context.bound, context.seed
         times = np.asarray(context.times, np.float64)[first:last + 1]
-        edges = np.array([first, last], dtype=np.int64)
-        self.times = local_times(times, edges, features.shape[0], np.zeros(times.size, dtype=np.int64))
+        self.times = local_times(times, features.shape[0], first, last)
 
     def evaluate(self, features: ArrayLike) -> Any:
         measure = getattr(self._context, "evaluate_frames", None)

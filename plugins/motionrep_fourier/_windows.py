@@ -36,12 +36,12 @@ def window_of(times: NDArray[np.float64], edges: NDArray[np.int64], num_frames: 
     return np.searchsorted(edges[1:-1], x, side="right").astype(np.int64)
 
 
-def local_times(times: NDArray[np.float64], edges: NDArray[np.int64], num_frames: int,
-                index: NDArray[np.int64]) -> NDArray[np.float64]:
-    """``(T,)`` local times ``tau`` of clip ``times`` in the windows ``index``."""
-    x = times * (num_frames - 1)
-    first = edges[index].astype(np.float64)
-    return (x - first) / (edges[index + 1] - edges[index])
+def local_times(times: NDArray[np.float64], num_frames: int, first: ArrayLike, last: ArrayLike
+                ) -> NDArray[np.float64]:
+    """``(T,)`` local times ``tau`` of clip ``times`` in windows of frames ``first .. last`` (scalars, or one
+    window per time)."""
+    first, last = np.asarray(first, np.float64), np.asarray(last, np.float64)
+    return (times * (num_frames - 1) - first) / (last - first)
 
 
 def join_windows(payloads: Sequence[Payload], edges: NDArray[np.int64]) -> Payload:
@@ -107,7 +107,7 @@ def windows_forward(arrays: Mapping[str, ArrayLike], times: ArrayLike) -> NDArra
     t = np.asarray(times, dtype=np.float64).reshape(-1)
     frames = int(edges[-1]) + 1
     index = window_of(t, edges, frames)
-    tau = local_times(t, edges, frames, index)
+    tau = local_times(t, frames, edges[index], edges[index + 1])
     out = np.empty((t.size, windows[0]["b2"].size))
     for s in np.unique(index).tolist():
         rows = index == s

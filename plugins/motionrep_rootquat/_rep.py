@@ -29,7 +29,6 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, suffixes)
 
 
-
 @dataclass(frozen=True)
 class _DecodePlan:
     """Where ``from_features`` reads and writes, worked out once per skeleton."""
