@@ -18,6 +18,7 @@ Hierarchy::
     │   └── UnknownPluginError   no plugin provides the representation or codec asked for
     └── CodecError               a codec failed
         ├── ParameterError       (also a ValueError) a codec parameter is invalid
+        ├── PayloadError         (also a ValueError) a codec payload is damaged or inconsistent
         └── BoundNotMetError     the requested error bound could not be reached
 """
 
@@ -39,6 +40,7 @@ __all__ = [
     "CodecError",
     "ParameterError",
     "BoundNotMetError",
+    "PayloadError",
 ]
 
 
@@ -114,6 +116,10 @@ class CodecError(MotionrepError):
 
 class ParameterError(CodecError, ValueError):
     """A codec or representation parameter is invalid; raised before any work is done."""
+
+
+class PayloadError(CodecError, ValueError):
+    """A codec payload is damaged or inconsistent (a length, count or value out of range); never a wrong motion."""
 
 
 class BoundNotMetError(CodecError):
