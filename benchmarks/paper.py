@@ -113,8 +113,8 @@ def leading_transition(motion) -> int:
 def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
     """The clips without their leading transition, from (or written to) the database :data:`TRIMMED`; and the
     number of frames dropped per clip name."""
-    from motionrep.bench import BenchClip, read_clip
     from motionrep.io import list_clips, read, write_database
+    from motionrep.sources import ClipRef
 
     dropped: dict[str, int] = {}
     names = {c.name: c.name.replace("/", "__") for c in clips}
@@ -125,13 +125,13 @@ def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
         TRIMMED.parent.mkdir(parents=True, exist_ok=True)
         items = []
         for c in clips:
-            m = read_clip(c)
+            m = c.read()
             n = leading_transition(m)
             dropped[c.name] = n
             items.append((names[c.name], m.frames(slice(n, None)) if n else m))
         write_database(items, TRIMMED)
         TRIMMED.with_suffix(".json").write_text(json.dumps({"dropped": dropped}, indent=1))
-    out = [BenchClip(c.name, str(TRIMMED), names[c.name], None) for c in clips]
+    out = [ClipRef(c.name, str(TRIMMED), names[c.name], None) for c in clips]
     return out, dropped
 
 
@@ -179,15 +179,14 @@ def _frames(clip) -> int:
 
 def _info(clip) -> tuple[int, int]:
     if clip.name not in _INFO:
-        from motionrep.bench import read_clip
-
-        m = read_clip(clip)
+        m = clip.read()
         _INFO[clip.name] = (m.num_joints, m.num_frames)
     return _INFO[clip.name]
 
 
 def run(stages: list[str], jobs: int, bounds: list[str], fresh: bool, rerun_stale: bool = True) -> None:
-    from motionrep.bench import collect_clips, machine_info, run_bench
+    from motionrep.bench import machine_info, run_bench
+    from motionrep.sources import collect_clips
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     if fresh and RUNS.exists():
@@ -292,7 +291,8 @@ def _interp_error(curve: list[tuple[float, float]], ratio: float) -> float | Non
 
 
 def report() -> None:
-    from motionrep.bench import collect_clips, format_table, machine_info, plot_rate_distortion, write_csv, write_json
+    from motionrep.bench import format_table, machine_info, plot_rate_distortion, write_csv, write_json
+    from motionrep.sources import collect_clips
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     clips = collect_clips([CMU])

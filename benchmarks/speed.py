@@ -9,7 +9,7 @@ Measurements (each clip in a fresh process, so that memory peaks and first-call 
    L-BFGS iterations, with K and the error of the stored payload when it is checked): seconds and iterations
    per stage (per K), and the time after the last event (packing, decoding and measuring the payload twice).
    Peak resident memory (``ru_maxrss``) before and after.  torch is imported and warmed up first
-   (``motionrep.bench.warm_up``); that one-time cost is reported separately.
+   (``Codec.warm_up`` of the Fourier codecs); that one-time cost is reported separately.
 2. ``profile``: the same on one clip under ``cProfile``, with the time grouped by what it is spent on (network
    forward/backward, the L-BFGS direction, line-search bookkeeping, the shared evaluation and its parts,
    frequency selection, the pipeline's own checks), and ``tracemalloc``'s peak of numpy/Python allocations.
@@ -114,9 +114,9 @@ def _read(name: str, trim: bool):
 # ---------------------------------------------------------------------------------------------------------------
 def encode_one(name: str, bound: str, trim: bool = True) -> dict:
     t = time.perf_counter()
-    from motionrep.bench import warm_up
+    from motionrep.plugins import get_codec
 
-    warm_up()
+    get_codec("adaptive-fourier").warm_up()
     warm = time.perf_counter() - t
     from motionrep.compress import compress_motion
     from motionrep.errors import BoundNotMetError
@@ -194,9 +194,9 @@ def profile_one(name: str, bound: str, trim: bool = True) -> dict:
     import pstats
     import tracemalloc
 
-    from motionrep.bench import warm_up
+    from motionrep.plugins import get_codec
 
-    warm_up()
+    get_codec("adaptive-fourier").warm_up()
     from motionrep.compress import compress_motion
     from motionrep.errors import BoundNotMetError
 
@@ -244,12 +244,12 @@ def profile_one(name: str, bound: str, trim: bool = True) -> dict:
 def decode_speed(name: str, poses: int) -> dict:
     import numpy as np
 
-    from motionrep.bench import warm_up
     from motionrep.codec import Payload
-    from motionrep.compress import compress_motion, fixed_axes_restored
+    from motionrep.compress import compress_motion
+    from motionrep.ops import fixed_axes_restored
     from motionrep.plugins import get_codec, get_representation
 
-    warm_up()
+    get_codec("adaptive-fourier").warm_up()
     motion, _ = _read(name, True)
     out = {"clip": name, "code": _code(), "frames": motion.num_frames, "joints": motion.num_joints, "poses": poses,
            "codecs": []}

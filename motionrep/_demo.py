@@ -1,7 +1,7 @@
 """The demo clip shipped with motionrep (``motionrep/data/walk.bvh``) and the code that generates it.
 
 The clip is synthetic, not captured: a 450-frame (15 s at 30 fps) walk on
-:func:`motionrep.testing.humanoid_skeleton`: twelve and a half strides of about 1.2 s, a few harmonics of the
+:func:`motionrep.synthetic.humanoid_skeleton`: twelve and a half strides of about 1.2 s, a few harmonics of the
 stride per joint, a vertical bob and a side sway, and forward travel of 110 cm/s.  Regenerate the shipped file
 with ``python -m motionrep._demo`` (the test suite checks that it matches).
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 from ._model import Motion
 from .rotations import euler_to_quat
-from .testing import humanoid_skeleton
+from .synthetic import humanoid_skeleton
 
 __all__ = ["demo_walk", "DEMO_FILE", "demo_path"]
 
@@ -48,7 +48,7 @@ def demo_walk(frames: int = 450, fps: float = 30.0, strides: float = 12.5) -> Mo
     travelling along +Z.
 
     Returns:
-        A :class:`~motionrep.Motion` on :func:`motionrep.testing.humanoid_skeleton` (ZXY channels, cm).
+        A :class:`~motionrep.Motion` on :func:`motionrep.synthetic.humanoid_skeleton` (ZXY channels, cm).
     """
     sk = humanoid_skeleton("ZXY")
     t = np.arange(frames) / fps

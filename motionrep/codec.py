@@ -25,7 +25,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import ParameterError
 
-__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "parse_params", "params_help"]
+__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "parse_params", "params_help", "describe_info",
+           "describe_progress", "codec_problems"]
 
 
 @dataclass(frozen=True)
@@ -130,8 +131,97 @@ class Codec(ABC):
         """Validated ``Params`` from ``raw`` (values may be strings from the command line)."""
         return parse_params(self.Params, raw, self.name)
 
+    def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
+        """One line describing an outcome (a payload's ``info``) to people: ``K=5``, ``rank=9``.
+
+        Every command shows an outcome through this method: the short form (``detail=False``) in tables and
+        lists (``bench``, ``compress`` of many clips, ``info`` of an archive), the detailed form where one clip is
+        shown (``compress`` of one clip, ``info``), which may add what is too long for a table row (every
+        frequency, a value per window).  Default: :func:`describe_info`.
+        """
+        return describe_info(info, detail)
+
+    def describe_progress(self, stage: str, fields: Mapping[str, Any]) -> str:
+        """One line for a progress report ``context.progress(stage, **fields)``.  Default:
+        :func:`describe_progress`."""
+        return describe_progress(stage, fields)
+
+    def warm_up(self) -> None:
+        """Pay one-time costs (imports, caches) now: called before encodes are timed (``motionrep bench``) and
+        once in each worker process of a batch, before its first clip.  Default: nothing."""
+
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r} v{self.format_version}>"
+
+
+def codec_problems(codec: Any, *, complete: bool = False) -> list[str]:
+    """What is wrong with ``codec`` as a plugin object, one phrase each (empty: nothing).
+
+    Checked when a codec is registered (:mod:`motionrep.plugins`, which raises ``PluginError``): an instance of
+    :class:`Codec`; a non-empty ``name`` without surrounding spaces; an integer ``format_version`` >= 1 that
+    ``readable_versions`` includes; a ``Params`` dataclass.  With ``complete`` (the conformance suite,
+    :func:`motionrep.testing.check_codec`), also: every parameter has a default and a help text.
+    """
+    if not isinstance(codec, Codec):
+        return ["is not a motionrep.codec.Codec"]
+    out = []
+    name = getattr(codec, "name", None)
+    if not isinstance(name, str) or not name or name != name.strip():
+        out.append("name must be a non-empty string without surrounding spaces")
+    fv = getattr(codec, "format_version", None)
+    if isinstance(fv, bool) or not isinstance(fv, int) or fv < 1:
+        out.append(f"format_version must be an integer >= 1, got {fv!r}")
+    elif codec.readable_versions and fv not in codec.readable_versions:
+        out.append(f"readable_versions {tuple(codec.readable_versions)} must include format_version {fv}")
+    params = getattr(codec, "Params", None)
+    if not (isinstance(params, type) and dataclasses.is_dataclass(params)):
+        out.append("Params must be a dataclass")
+    elif complete:
+        for f in dataclasses.fields(params):
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                out.append(f"parameter {f.name!r} has no default")
+            if not f.metadata.get("help"):
+                out.append(f"parameter {f.name!r} has no help text (field metadata['help'])")
+    return out
+
+
+def _number(v: Any) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def describe_info(info: Mapping[str, Any], detail: bool = False) -> str:
+    """The generic description of a codec's outcome: ``key=value`` for every number and string; lists and
+    mappings only with ``detail`` (lists as ``key=[a, b, c]``).  ``"-"`` when there is nothing to show."""
+    parts = []
+    for key, value in info.items():
+        if isinstance(value, (list, tuple)):
+            if detail:
+                parts.append(f"{key}=[{', '.join(_number(v) for v in value)}]")
+        elif isinstance(value, Mapping):
+            if detail:
+                parts.append(f"{key}={dict(value)}")
+        elif not isinstance(value, bool):
+            parts.append(f"{key}={_number(value)}")
+    return ", ".join(parts) or "-"
+
+
+def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
+    """The generic progress line: the stage, then ``key=value`` per field (lists left out); ``loss`` in
+    scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``."""
+    parts = [stage]
+    for key, value in fields.items():
+        if key == "error_percent" or isinstance(value, (list, tuple, Mapping)):
+            continue
+        if key == "error" and isinstance(value, (int, float)):
+            pct = fields.get("error_percent")
+            parts.append(f"L-inf={value:.4g}" + (f" ({pct:.2f}%)" if isinstance(pct, (int, float)) else ""))
+        elif key == "loss" and isinstance(value, float):
+            parts.append(f"loss={value:.3e}")
+        elif isinstance(value, float):
+            parts.append(f"{key}={value:.4g}")
+        else:
+            parts.append(f"{key}={value}")
+    return " ".join(parts)
 
 
 def frame_times(num_frames: int) -> NDArray[np.float64]:

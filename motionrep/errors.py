@@ -12,7 +12,9 @@ Hierarchy::
     │   ├── BVHFormatError
     │   ├── NPZFormatError
     │   ├── HDF5FormatError
-    │   └── ContainerError       a .mrc file is truncated, altered or of an unknown version
+    │   ├── ContainerError       a .mrc file is truncated, altered or of an unknown version
+    │   └── PluginVersionError   (also a PluginError) a file was written by a version of a representation or
+    │                            codec that the installed plugin cannot read
     ├── PluginError              plugin loading or registration went wrong
     │   ├── DuplicateNameError   two plugins registered the same name
     │   └── UnknownPluginError   no plugin provides the representation or codec asked for
@@ -37,6 +39,7 @@ __all__ = [
     "PluginError",
     "DuplicateNameError",
     "UnknownPluginError",
+    "PluginVersionError",
     "CodecError",
     "ParameterError",
     "BoundNotMetError",
@@ -108,6 +111,11 @@ class UnknownPluginError(PluginError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+class PluginVersionError(FormatError, PluginError):
+    """A file holds a payload or features written by a version of a codec or representation that the installed
+    plugin cannot read; names the file."""
 
 
 class CodecError(MotionrepError):

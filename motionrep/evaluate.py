@@ -11,6 +11,9 @@ Error
     (:func:`motionrep.kinematics.character_height`), together with the mean over points and frames and where the
     worst error is (frame index, point name).
 
+Codecs ask for this error while they search, through the :class:`MotionContext` they are given (the
+:class:`~motionrep.codec.EncodeContext` of ``motionrep compress`` and of the conformance suite alike).
+
 Compression figures (:func:`compression_figures`), always reported together:
 
 (a) ``paper_ratio``: ``frames x feature width`` of the representation divided by the number of stored
@@ -26,16 +29,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ._model import Motion, Skeleton
+from .codec import Payload, frame_times
 from .errors import ValidationError
 from .kinematics import character_height, global_positions, point_names
+from .ops import fixed_axes_restored
 
-__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "CompressionFigures", "compression_figures"]
+if TYPE_CHECKING:
+    from .codec import Codec
+    from .representation import Representation
+
+__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "MotionContext", "ProgressCallback", "CompressionFigures",
+           "compression_figures"]
 
 
 @dataclass(frozen=True)
@@ -164,6 +174,72 @@ class Evaluator:
             num_frames=int(dist.shape[0]),
             num_points=int(dist.shape[1]),
         )
+
+
+#: ``progress(stage, fields)``: what :meth:`MotionContext.progress` calls.
+ProgressCallback = Callable[[str, Mapping[str, Any]], None]
+
+
+class MotionContext:
+    """The :class:`~motionrep.codec.EncodeContext` that measures candidates against one reference motion: decode
+    the features through the representation, restore fixed translation axes, run FK and take the shared
+    L-infinity error over every joint and end site (:class:`~motionrep.evaluate.Evaluator`).
+
+    :meth:`motionrep.compress.Pipeline.compress` hands one to ``codec.encode``; the conformance suite
+    (:class:`motionrep.testing.ConformanceContext`) is this class too.
+
+    Args:
+        motion: the reference clip.
+        representation: the representation the features come from.
+        codec: the codec being encoded with (used by :meth:`evaluate_payload`).
+        params: the codec's validated ``Params``.
+        bound: the bound handed to the codec, in file units, or None.
+        seed: random seed.
+        progress: called as ``progress(stage, fields)`` by :meth:`progress`.
+        evaluator: the shared evaluator of ``motion`` (default: a new one).
+
+    Attributes:
+        times: ``(F,)`` normalised frame times (read-only).
+        evaluations: how many candidates were measured.
+    """
+
+    def __init__(self, motion: Motion, representation: Representation, codec: Codec, params: Any,
+                 bound: float | None = None, seed: int = 0, progress: ProgressCallback | None = None,
+                 evaluator: Evaluator | None = None):
+        self.motion = motion
+        self.representation = representation
+        self.codec = codec
+        self.params = params
+        self.bound = bound
+        self.seed = int(seed)
+        self.times = frame_times(motion.num_frames)
+        self.times.flags.writeable = False
+        self.evaluations = 0
+        self.evaluator = evaluator if evaluator is not None else Evaluator(motion)
+        self._progress = progress
+
+    def evaluate(self, features: ArrayLike) -> ErrorReport:
+        """The error of candidate ``(F, D)`` features."""
+        return self.evaluator(self._decoded(features))
+
+    def evaluate_payload(self, payload: Payload) -> ErrorReport:
+        """The error of a candidate payload, decoded at the frame times."""
+        return self.evaluate(self.codec.decode(payload, self.times))
+
+    def evaluate_frames(self, features: ArrayLike, first: int) -> ErrorReport:
+        """The error of candidate ``(n, D)`` features of the frames ``first .. first + n - 1`` only."""
+        return self.evaluator.positions_error(global_positions(self._decoded(features)), first=int(first))
+
+    def _decoded(self, features: ArrayLike) -> Motion:
+        """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""
+        self.evaluations += 1
+        return fixed_axes_restored(self.representation.from_features(features, self.motion.skeleton,
+                                                                     self.motion.fps))
+
+    def progress(self, stage: str, **fields: Any) -> None:
+        """Report progress to the callback, if any."""
+        if self._progress is not None:
+            self._progress(stage, fields)
 
 
 def max_joint_error(reference: Motion, candidate: Motion) -> ErrorReport:

@@ -23,7 +23,7 @@ import pluggy
 
 from . import hookspecs
 from .codec import Codec
-from .errors import DuplicateNameError, PluginError, UnknownPluginError
+from .errors import DuplicateNameError, PluginError, PluginVersionError, UnknownPluginError
 from .representation import Representation
 
 __all__ = [
@@ -138,25 +138,21 @@ def _register(module: Any, name: str) -> None:
 
 
 def _check_representation(obj: Any, plugin: str) -> None:
-    if not isinstance(obj, Representation):
-        raise PluginError(f"plugin {plugin!r} registered {obj!r}, which is not a motionrep Representation")
-    if not isinstance(getattr(obj, "name", None), str) or not obj.name:
-        raise PluginError(f"plugin {plugin!r} registered a representation without a name")
-    if not isinstance(getattr(obj, "version", None), int) or obj.version < 1:
-        raise PluginError(f"representation {obj.name!r} from plugin {plugin!r} needs an integer version >= 1")
+    from .representation import representation_problems
+
+    problems = representation_problems(obj)
+    if problems:
+        raise PluginError(f"plugin {plugin!r} registered representation {getattr(obj, 'name', obj)!r}, which is "
+                          f"invalid: {'; '.join(problems)}")
 
 
 def _check_codec(obj: Any, plugin: str) -> None:
-    if not isinstance(obj, Codec):
-        raise PluginError(f"plugin {plugin!r} registered {obj!r}, which is not a motionrep Codec")
-    if not isinstance(getattr(obj, "name", None), str) or not obj.name:
-        raise PluginError(f"plugin {plugin!r} registered a codec without a name")
-    if not isinstance(getattr(obj, "format_version", None), int) or obj.format_version < 1:
-        raise PluginError(f"codec {obj.name!r} from plugin {plugin!r} needs an integer format_version >= 1")
-    import dataclasses
+    from .codec import codec_problems
 
-    if not dataclasses.is_dataclass(getattr(obj, "Params", None)):
-        raise PluginError(f"codec {obj.name!r} from plugin {plugin!r} needs a Params dataclass")
+    problems = codec_problems(obj)
+    if problems:
+        raise PluginError(f"plugin {plugin!r} registered codec {getattr(obj, 'name', obj)!r}, which is invalid: "
+                          f"{'; '.join(problems)}")
 
 
 def _collect(hook_name: str, kind: str, check: Callable[[Any, str], None], into: dict) -> None:
@@ -243,37 +239,68 @@ def provider_of(name: str, kind: str = "codec") -> str | None:
     return info.distribution if info is not None and info.distribution and not info.shipped else entry[1]
 
 
-def get_representation(name: str) -> Representation:
-    """The representation registered as ``name``.
+def _where(path: Any, clip: str | None) -> str:
+    return ("" if path is None else f"{path}: ") + ("" if clip is None else f"clip {clip!r}: ")
+
+
+def _unknown(kind: str, name: str, table: dict, provided_by: str | None, path: Any, clip: str | None) -> Exception:
+    hint = f" (provided by plugin {provided_by!r}, which is not installed or not loaded)" if provided_by else ""
+    return UnknownPluginError(f"{_where(path, clip)}unknown {kind} {name!r}{hint}; available: "
+                              + ", ".join(sorted(table)))
+
+
+def get_representation(name: str, *, version: int | None = None, provided_by: str | None = None,
+                       path: Any = None, clip: str | None = None) -> Representation:
+    """The representation registered as ``name``; with ``version``, only if it is that version.
+
+    Args:
+        name: representation name.
+        version: the version a file was written by (features, or a ``.mrc`` container); None: any.
+        provided_by: the plugin the file says provides it, quoted when it is not installed.
+        path, clip: the file (and clip of a database) the name comes from, quoted in errors.
 
     Raises:
-        UnknownPluginError: listing the available names.
+        UnknownPluginError: naming the representation (and its plugin) and listing the available names.
+        PluginVersionError: naming the file, when the installed representation is another version (features
+            are only decoded by the version that wrote them).
     """
     load_plugins()
-    try:
-        return _State.reps[name][0]
-    except KeyError:
-        raise UnknownPluginError(f"unknown representation {name!r}; available: "
-                                 + ", ".join(sorted(_State.reps))) from None
+    entry = _State.reps.get(name)
+    if entry is None:
+        raise _unknown("representation", name, _State.reps, provided_by, path, clip)
+    rep = entry[0]
+    if version is not None and version != rep.version:
+        raise PluginVersionError(f"{_where(None, clip)}written by representation {name!r} version {version}, but "
+                                 f"the installed {name!r} (plugin {provider_of(name, 'representation')!r}) is "
+                                 f"version {rep.version}, which cannot decode another version", path)
+    return rep
 
 
-def get_codec(name: str, provided_by: str | None = None) -> Codec:
-    """The codec registered as ``name``.
+def get_codec(name: str, *, version: int | None = None, provided_by: str | None = None, path: Any = None,
+              clip: str | None = None) -> Codec:
+    """The codec registered as ``name``; with ``version``, only if it reads that payload version.
 
     Args:
         name: codec name.
+        version: the payload format version a file holds; None: any.
         provided_by: the plugin a file says provides it, quoted in the error when it is not installed.
+        path, clip: the file (and clip of an archive) the name comes from, quoted in errors.
 
     Raises:
         UnknownPluginError: naming the codec (and its plugin when known) and listing the available codecs.
+        PluginVersionError: naming the file, when the installed codec does not read that payload version.
     """
     load_plugins()
-    try:
-        return _State.codecs[name][0]
-    except KeyError:
-        hint = f" (provided by plugin {provided_by!r}, which is not installed or not loaded)" if provided_by else ""
-        raise UnknownPluginError(f"unknown codec {name!r}{hint}; available: "
-                                 + ", ".join(sorted(_State.codecs))) from None
+    entry = _State.codecs.get(name)
+    if entry is None:
+        raise _unknown("codec", name, _State.codecs, provided_by, path, clip)
+    codec = entry[0]
+    readable = tuple(codec.readable_versions) or (codec.format_version,)
+    if version is not None and version not in readable:
+        raise PluginVersionError(f"{_where(None, clip)}codec {name!r} payload version {version} is not readable by "
+                                 f"the installed codec (plugin {provider_of(name, 'codec')!r}), which reads "
+                                 f"versions {', '.join(map(str, readable))}", path)
+    return codec
 
 
 def plugin_infos() -> list[PluginInfo]:

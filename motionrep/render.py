@@ -20,7 +20,7 @@ drawn, always on the non-interactive Agg canvas (no window, no ``pyplot`` state)
 Time alignment: a candidate with the same frame rate must have the same number of frames.  A candidate at
 another frame rate (decoded at other times, ``motionrep decompress --fps``) must span the same time from its
 first to its last frame, within one frame time of the coarser clip; it is then resampled at the reference's
-frame times (slerp of rotations, linear translations), and the error is measured on that resampled motion.
+frame times (:func:`motionrep.ops.resample`), and the error is measured on that resampled motion.
 
 Frame choice: without a step in ``frames``, an animation picks frames by time so that it plays in real time
 (at most ``max_frames`` of them: a long clip is shown at a lower rate), and a filmstrip shows ``count`` evenly
@@ -46,7 +46,7 @@ from .errors import FormatError, MotionrepError, ValidationError
 from .io import atomic_path
 from .evaluate import ErrorReport, Evaluator
 from .kinematics import character_height, global_positions, point_names
-from .rotations import quat_slerp
+from .ops import resample
 
 __all__ = [
     "render",
@@ -193,21 +193,6 @@ def _to_plot(positions: NDArray[np.float64], up: str) -> NDArray[np.float64]:
     raise ValidationError(f"up axis must be 'y', 'z' or 'auto', got {up!r}")
 
 
-def _resample(motion: Motion, fps: float, num_frames: int) -> Motion:
-    """``motion`` evaluated at times ``i / fps`` (clamped to its last frame): slerp rotations, lerp translations."""
-    pos = np.clip(np.arange(num_frames) * (motion.fps / fps), 0, motion.num_frames - 1)
-    lo = np.floor(pos).astype(np.int64)
-    hi = np.minimum(lo + 1, motion.num_frames - 1)
-    t = pos - lo
-    rot = quat_slerp(motion.rotations[lo], motion.rotations[hi], t[:, None])
-
-    def lerp(a: NDArray) -> NDArray:
-        w = t.reshape((-1,) + (1,) * (a.ndim - 1))
-        return (1 - w) * a[lo] + w * a[hi]
-
-    return Motion(motion.skeleton, fps, lerp(motion.root_translation), rot, lerp(motion.joint_translations))
-
-
 def align_candidate(reference: Motion, candidate: Motion, ref_name: str = "REF",
                     cand_name: str = "CAND") -> tuple[Motion, str | None]:
     """Check that ``candidate`` can be compared with ``reference`` and put it on the reference's frames.
@@ -252,7 +237,7 @@ def align_candidate(reference: Motion, candidate: Motion, ref_name: str = "REF",
             "they must cover the same time")
     note = (f"{cand_name} ({candidate.num_frames} frames at {candidate.fps:g} fps) resampled at {ref_name}'s "
             f"{reference.num_frames} frame times ({reference.fps:g} fps)")
-    return _resample(candidate, reference.fps, reference.num_frames), note
+    return resample(candidate, reference.fps, reference.num_frames), note
 
 
 # ---- frame choice ------------------------------------------------------------------------------------------------

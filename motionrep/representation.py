@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Callable, ClassVar, Sequence, TypeVar
+from typing import Any, Callable, ClassVar, Sequence, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,7 +21,8 @@ from ._model import Motion, Skeleton
 from .errors import ValidationError
 from .kinematics import forward_kinematics
 
-__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton"]
+__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
+           "representation_problems"]
 
 
 class Representation(ABC):
@@ -38,13 +39,24 @@ class Representation(ABC):
     version: ClassVar[int]
     description: ClassVar[str] = ""
 
-    @abstractmethod
-    def width(self, skeleton: Skeleton) -> int:
-        """Number of feature columns ``D`` for ``skeleton``."""
+    def layout(self, skeleton: Skeleton) -> "FeatureLayout":
+        """The :class:`FeatureLayout` of ``skeleton``'s feature columns (optional).
 
-    @abstractmethod
+        A representation whose columns follow :func:`feature_layout` returns it here (decorate the function that
+        builds it with :func:`per_skeleton`), and :meth:`width` and :meth:`feature_names` follow from it; one that
+        does not overrides those two instead.
+        """
+        raise NotImplementedError(f"representation {self.name!r} defines neither layout() nor width() and "
+                                  "feature_names()")
+
+    def width(self, skeleton: Skeleton) -> int:
+        """Number of feature columns ``D`` for ``skeleton`` (default: ``layout(skeleton).width``)."""
+        return self.layout(skeleton).width
+
     def feature_names(self, skeleton: Skeleton) -> list[str]:
-        """A name for each of the ``D`` feature columns (e.g. ``"Hips/tx"``, ``"LeftKnee/aa_x"``)."""
+        """A name for each of the ``D`` feature columns (e.g. ``"Hips/tx"``, ``"LeftKnee/aa_x"``; default:
+        ``layout(skeleton).names``)."""
+        return list(self.layout(skeleton).names)
 
     @abstractmethod
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
@@ -69,6 +81,32 @@ class Representation(ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r} v{self.version}>"
+
+
+def representation_problems(rep: Any) -> list[str]:
+    """What is wrong with ``rep`` as a plugin object, one phrase each (empty: nothing).
+
+    Checked when a representation is registered (:mod:`motionrep.plugins`, which raises ``PluginError``) and by
+    the conformance suite (:func:`motionrep.testing.check_representation`): an instance of
+    :class:`Representation`; a non-empty ``name`` without surrounding spaces; an integer ``version`` >= 1; a
+    string ``description``; ``layout`` overridden, or both ``width`` and ``feature_names``.
+    """
+    if not isinstance(rep, Representation):
+        return ["is not a motionrep.representation.Representation"]
+    out = []
+    name = getattr(rep, "name", None)
+    if not isinstance(name, str) or not name or name != name.strip():
+        out.append("name must be a non-empty string without surrounding spaces")
+    version = getattr(rep, "version", None)
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        out.append(f"version must be an integer >= 1, got {version!r}")
+    if not isinstance(rep.description, str):
+        out.append("description must be a string")
+    cls = type(rep)
+    own = {m: getattr(cls, m) is not getattr(Representation, m) for m in ("layout", "width", "feature_names")}
+    if not own["layout"] and not (own["width"] and own["feature_names"]):
+        out.append("must define layout(skeleton), or width(skeleton) and feature_names(skeleton)")
+    return out
 
 
 def joint_reach(motion: Motion) -> NDArray[np.float64]:

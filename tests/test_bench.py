@@ -12,18 +12,19 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from motionrep.bench import (COLUMNS, BenchClip, BenchRow, BenchTask, bench_tasks, collect_clips, csv_text,
-                             format_table, is_sweep, parse_sweep, plot_series, read_csv, run_bench, run_task,
-                             summarize, write_csv, write_json)
+from motionrep.bench import (COLUMNS, BenchRow, BenchTask, bench_tasks, csv_text, format_table, is_sweep,
+                             parse_sweep, plot_series, read_csv, run_bench, run_task, summarize, write_csv,
+                             write_json)
 from motionrep.cli import cli
 from motionrep.compress import compress_motion, decompress
 from motionrep.errors import FormatError, ParameterError, UnknownPluginError
 from motionrep.evaluate import max_joint_error
 from motionrep.io import read, write, write_database
 from motionrep.kinematics import character_height
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.sources import ClipRef, collect_clips
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
-from conftest import SHARED_DATA, requires_shared
+from helpers import SHARED_DATA, requires_shared
 
 
 def run(*args):
@@ -89,7 +90,7 @@ def test_parse_sweep_rejects_a_key_given_twice():
 
 
 def test_grid_applies_each_parameter_to_the_codecs_that_have_it(tmp_path):
-    clips = [BenchClip("a", str(tmp_path / "a.bvh")), BenchClip("b", str(tmp_path / "b.bvh"))]
+    clips = [ClipRef("a", str(tmp_path / "a.bvh")), ClipRef("b", str(tmp_path / "b.bvh"))]
     tasks = bench_tasks(clips, ["svd", "adaptive-fourier"], ["root-quat-axis-angle"], [None, "2%"],
                         parse_sweep(["rank=1..3", "k=0,2", "dtype=float32,float16"]))
     # per clip: svd 3 ranks x 2 dtypes, fourier 2 k x 2 dtypes; times 2 bounds
@@ -102,7 +103,7 @@ def test_grid_applies_each_parameter_to_the_codecs_that_have_it(tmp_path):
 
 
 def test_grid_validates_before_any_work(tmp_path):
-    clips = [BenchClip("a", str(tmp_path / "missing.bvh"))]  # never read: validation comes first
+    clips = [ClipRef("a", str(tmp_path / "missing.bvh"))]  # never read: validation comes first
     with pytest.raises(ParameterError, match="'nope' is not a parameter"):
         bench_tasks(clips, ["svd"], ["root-quat-axis-angle"], ["2%"], {"nope": ["1"]})
     with pytest.raises(ParameterError, match="rank"):
@@ -113,27 +114,6 @@ def test_grid_validates_before_any_work(tmp_path):
         bench_tasks(clips, ["zip"], ["root-quat-axis-angle"], ["2%"])
     with pytest.raises(UnknownPluginError):
         bench_tasks(clips, ["svd"], ["quaternions"], ["2%"])
-
-
-# ---- inputs ----------------------------------------------------------------------------------------------------
-def test_collect_clips_names(clip_dir, database, tmp_path):
-    clips = collect_clips([clip_dir])
-    assert [c.name for c in clips] == ["sub/arm", "sub/short", "walk"]
-    assert all(c.source_bytes == Path(c.path).stat().st_size for c in clips)
-    assert [c.name for c in collect_clips([database])] == ["one", "two"]
-    both = collect_clips([clip_dir / "walk.bvh", database])
-    assert [c.name for c in both] == ["walk", "db/one", "db/two"]
-    assert both[1].source == f"{database}[one]" and both[1].source_bytes is None
-    other = tmp_path / "other"
-    other.mkdir()
-    write(read(clip_dir / "walk.bvh"), other / "walk.bvh")
-    clash = collect_clips([clip_dir / "walk.bvh", other / "walk.bvh"])
-    assert [c.name for c in clash] == [str(clip_dir / "walk.bvh"), str(other / "walk.bvh")]
-    with pytest.raises(FormatError, match="given more than once"):
-        collect_clips([clip_dir / "walk.bvh", clip_dir / "walk.bvh"])
-    (tmp_path / "empty").mkdir()
-    with pytest.raises(FormatError, match="no motion clips"):
-        collect_clips([tmp_path / "empty"])
 
 
 # ---- one run: the table's arithmetic -----------------------------------------------------------------------------
@@ -294,7 +274,7 @@ def test_cli_on_a_directory(clip_dir, tmp_path):
             "--decode-poses", "300")
     assert r.exit_code == 0, r.output
     rows = _check_agreement(out, r.stdout)
-    assert [(x["clip"], x["max_error"]) for x in rows] == [(c, b) for c in ("sub/arm", "sub/short", "walk")
+    assert [(x["clip"], x["max_error"]) for x in rows] == [(c, b) for c in ("sub__arm", "sub__short", "walk")
                                                            for b in ("1%", "5%")]
     assert all(x["status"] == "ok" and x["error_percent"] <= float(x["max_error"][:-1]) for x in rows)
     assert all(x["outcome"] == f"rank={x['info']['rank']}" for x in rows)
@@ -485,10 +465,19 @@ def test_log_axes_are_labelled_with_plain_numbers():
         ["0.2", "", "2", "", "5", "", "20", "50", ""]
 
 
-def test_outcome_of_each_codec_layout():
-    from motionrep.bench import outcome_of
+def test_codecs_describe_their_own_outcomes():
+    from motionrep.codec import describe_info
+    from motionrep.plugins import get_codec
 
-    assert outcome_of({"K": 5, "omega": [1.0], "hidden": 22}) == "K=5"
-    assert outcome_of({"rank": 9}) == "rank=9"
-    assert outcome_of({"windows": 3, "K": [4, 2, 7], "omega": [[1.0]], "hidden": [18]}) == "3 windows, K=2-7"
-    assert outcome_of({"keyframes": 12, "name": "x", "flag": True}) == "keyframes=12, name=x"
+    fourier, svd = get_codec("adaptive-fourier"), get_codec("svd")
+    assert fourier.describe({"K": 5, "omega": [1.0, 2.5], "hidden": 22}) == "K=5"
+    assert fourier.describe({"K": 5, "omega": [1.0, 2.5], "hidden": 22}, detail=True) == \
+        "K=5, omega=[1, 2.5] cycles/clip, hidden 22"
+    windows = {"windows": 3, "K": [4, 2, 7], "omega": [[1.0]], "hidden": [18]}
+    assert fourier.describe(windows) == "3 windows, K=2-7"
+    assert fourier.describe(windows, detail=True) == "3 windows, K per window [4, 2, 7]"
+    assert svd.describe({"rank": 9}) == svd.describe({"rank": 9}, detail=True) == "rank=9"
+    # the generic description, for codecs that do not describe themselves
+    assert describe_info({"keyframes": 12, "name": "x", "flag": True, "steps": [1, 2]}) == "keyframes=12, name=x"
+    assert describe_info({"keyframes": 12, "steps": [1, 2.5]}, detail=True) == "keyframes=12, steps=[1, 2.5]"
+    assert describe_info({}) == "-"

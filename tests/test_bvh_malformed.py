@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from motionrep.errors import BVHFormatError, MotionrepError
 from motionrep.io import parse_bvh, read_bvh
 
-from conftest import SHARED_DATA, requires_shared
+from helpers import SHARED_DATA, requires_shared
 
 # line numbers of VALID, for reading the cases below
 VALID = """HIERARCHY

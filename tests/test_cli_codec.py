@@ -11,9 +11,9 @@ from click.testing import CliRunner
 
 from motionrep._demo import demo_path, demo_walk
 from motionrep.cli import cli
-from motionrep.compress import is_archive, read_archive
+from motionrep.archive import is_archive, read_archive
 from motionrep.io import read, write, write_database
-from motionrep.testing import chain_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, synthetic_motion
 
 
 def run(*args: str):
@@ -188,8 +188,8 @@ def test_info_on_a_compressed_file(clip, tmp_path):
     assert r.exit_code == 0, r.output
     r = run("info", mrc)
     assert r.exit_code == 0, r.output
-    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 2), K=2",
-                   "frequencies (cycles over the clip): 1, 2", "features:   root-quat-axis-angle version 1",
+    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 2), parameters",
+                   "outcome:    K=2, omega=[1, 2] cycles/clip, hidden 10", "features:   root-quat-axis-angle version 1",
                    f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
                    "frames:     40", "channel layout"):
         assert needle in r.output, r.output
@@ -263,7 +263,7 @@ def test_evaluate_databases_and_archives_clip_by_clip(tmp_path):
     assert json.loads(r.output)["max_error"] == pytest.approx(stored["c1"].evaluation["max_error"], rel=1e-12)
     r = run("evaluate", db, one)
     assert r.exit_code == 2 and "holds 3 clips" in r.output and "--clip" in r.output
-    _one_line_error(run("evaluate", db, archive, "--clip", "c9"), "no clip 'c9'", "c0, c1, c2")
+    _one_line_error(run("evaluate", db, archive, "--clip", "c9"), "no clip named 'c9'", "c0, c1, c2")
     assert run("evaluate", src / "c1.bvh", one, "--clip", "c1").exit_code == 2  # no database involved
     # different clips on the two sides: one line naming them, nothing compared
     partial = tmp_path / "partial.h5"
@@ -278,3 +278,31 @@ def test_convert_points_to_compress_and_decompress_for_mrc(clip, tmp_path):
     assert r.exit_code == 2 and "motionrep decompress" in r.output and not (tmp_path / "x.bvh").exists()
     r = run("convert", clip, tmp_path / "y.mrc")
     assert r.exit_code == 2 and "motionrep compress" in r.output and not (tmp_path / "y.mrc").exists()
+
+
+def test_a_codec_outcome_reads_the_same_in_every_command(tmp_path):
+    """The codec describes its own outcome (Codec.describe): the short form in every table (bench, compress of
+    many clips, info of an archive), the detailed form where one clip is shown (compress, info)."""
+    src = tmp_path / "clips"
+    src.mkdir()
+    for i in range(2):
+        write(synthetic_motion(chain_skeleton(3), frames=30, fps=30, seed=i), src / f"c{i}.bvh")
+    fourier = ["--codec", "naive-fourier", "-p", "k=1", "-p", "window=10", "-p", "iters=25", "--max-error", "none"]
+    short, detail = "3 windows, K=1", "3 windows, K per window [1, 1, 1]"
+    mrc = tmp_path / "c0.mrc"
+    r = run("compress", src / "c0.bvh", "-o", mrc, *fourier)
+    assert r.exit_code == 0, r.output
+    assert f"codec naive-fourier: {detail}" in r.stdout
+    assert "  train window=0-10 K=" in r.stderr  # progress, in the codec's words
+    assert f"outcome:    {detail}" in run("info", mrc).output
+    assert json.loads(run("info", mrc, "--json").output)["codec"]["description"] == detail
+    archive = tmp_path / "all.h5"
+    r = run("compress", src, "-o", archive, *fourier)
+    assert r.exit_code == 0, r.output
+    assert r.stdout.count(f"paper ratio") == 2 and all(line.endswith(short) for line in r.stdout.splitlines()[:2])
+    assert [c["outcome"] for c in json.loads(run("info", archive, "--json").output)["clips"]] == [short, short]
+    out = tmp_path / "bench"
+    r = run("bench", src, "-c", "naive-fourier", "-p", "k=1", "-p", "window=10", "-p", "iters=25", "--max-error",
+            "none", "--decode-poses", "0", "-q", "--out", out)
+    assert r.exit_code == 0, r.output
+    assert [row["outcome"] for row in json.loads((out / "bench.json").read_text())["rows"]] == [short, short]

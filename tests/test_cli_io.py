@@ -20,9 +20,9 @@ from motionrep.io import list_clips, read, read_bvh, read_features, read_stored,
 from motionrep.io._bvh import channel_values, format_bvh
 from motionrep.kinematics import character_height
 from motionrep.representation import Representation
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
-from conftest import HAVE_SHARED, SHARED_DATA, requires_shared
+from helpers import HAVE_SHARED, SHARED_DATA, requires_shared
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -13,9 +13,9 @@ import pytest
 
 from motionrep.compress import compress_motion, decompress, decompress_file
 from motionrep.container import CONTAINER_VERSION, MAGIC, pack, read_container, unpack, write_container
-from motionrep.errors import ContainerError, UnknownPluginError
+from motionrep.errors import ContainerError, FormatError, PluginVersionError, UnknownPluginError
 from motionrep.evaluate import max_joint_error
-from motionrep.testing import chain_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, synthetic_motion
 
 SPEC = Path(__file__).resolve().parent.parent / "specs" / "container.md"
 
@@ -109,9 +109,20 @@ def test_unknown_representation_names_it_and_plugin(small):
         decompress(pack(c))
 
 
-def test_newer_codec_payload_version_is_refused(small):
+def test_newer_codec_payload_version_is_refused(small, tmp_path):
     c = dataclasses.replace(unpack(small[1].data), codec_version=99)
-    with pytest.raises(ContainerError, match="payload version 99"):
+    with pytest.raises(PluginVersionError, match="payload version 99"):
+        decompress(pack(c))
+    path = tmp_path / "new.mrc"
+    write_container(c, path)
+    with pytest.raises(FormatError) as info:  # a file problem, naming the file and its plugin
+        decompress_file(path)
+    assert str(info.value).startswith(f"{path}: codec 'svd' payload version 99") and "motionrep_svd" in str(info.value)
+
+
+def test_newer_representation_version_is_refused(small):
+    c = dataclasses.replace(unpack(small[1].data), representation_version=7)
+    with pytest.raises(PluginVersionError, match="representation 'root-quat-axis-angle' version 7"):
         decompress(pack(c))
 
 
@@ -147,7 +158,7 @@ def test_spec_describes_the_bytes(small):
 
 def test_metadata_is_small_next_to_the_payload_of_a_long_clip():
     """A 900-frame clip's file is dominated by its payload (here a 15-joint humanoid, svd rank 8)."""
-    from motionrep.testing import humanoid_skeleton
+    from motionrep.synthetic import humanoid_skeleton
 
     motion = synthetic_motion(humanoid_skeleton(), frames=900, seed=1)
     data = compress_motion(motion, "svd", params={"rank": 8}, max_error=None).data

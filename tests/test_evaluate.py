@@ -12,7 +12,7 @@ from motionrep.errors import ValidationError
 from motionrep.evaluate import Evaluator, compression_figures, max_joint_error
 from motionrep.kinematics import character_height
 from motionrep.rotations import euler_to_quat
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def _still(skeleton, frames=10, fps=30.0):

@@ -15,6 +15,7 @@ import importlib.metadata
 import importlib.util
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -29,7 +30,8 @@ from motionrep import plugins
 from motionrep.cli import cli
 from motionrep.codec import frame_times
 from motionrep.errors import DuplicateNameError, ParameterError, PluginError
-from motionrep.testing import ConformanceContext, check_codec, check_representation, synthetic_motion
+from motionrep.synthetic import synthetic_motion
+from motionrep.testing import ConformanceContext, check_codec, check_representation
 
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
@@ -198,6 +200,7 @@ def test_keyframe_codec_stores_keyframes_and_interpolates(on_path):
     np.testing.assert_array_equal(payload.arrays["keys"], f[keys].astype(np.float32))
     np.testing.assert_array_equal(payload.arrays["times"], frame_times(23)[keys])
     assert payload.info == {"step": 5, "keyframes": 6}
+    assert codec.describe(payload.info) == "6 keyframes, step 5"  # as every command shows the outcome
     out = codec.decode(payload, frame_times(23))
     np.testing.assert_allclose(out[keys], f[keys], rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(out[7], 0.6 * out[5] + 0.4 * out[10], atol=1e-12)  # linear in between
@@ -223,6 +226,7 @@ def test_example_is_usable_from_every_command(on_path, tmp_path, monkeypatch):
     result = runner.invoke(cli, ["compress", str(src), "-o", str(mrc), "--codec", "keyframe", "-r",
                                  "local-quaternion", "--max-error", "2%", "-p", "step=4"])
     assert result.exit_code == 0, result.output
+    assert re.search(r"codec keyframe: \d+ keyframes, step \d", result.output)  # the outcome in its own words
     result = runner.invoke(cli, ["decompress", str(mrc), "-o", str(back)])
     assert result.exit_code == 0, result.output
     original = read(src)

@@ -20,9 +20,9 @@ from motionrep.io._bvh import _format_fixed, channel_values
 from motionrep.io._numbers import parse_number_tokens, scan_tokens
 from motionrep.kinematics import character_height, global_positions
 from motionrep.rotations import euler_to_quat
-from motionrep.testing import humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import humanoid_skeleton, synthetic_motion
 
-from conftest import real_params
+from helpers import real_params
 
 
 # ---- helpers ---------------------------------------------------------------------------------------------------

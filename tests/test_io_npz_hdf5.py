@@ -37,9 +37,9 @@ from motionrep.io import (
 from motionrep.io._bvh import channel_values, format_bvh
 from motionrep.io._hdf5 import clip_summaries
 from motionrep.representation import Representation
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
-from conftest import real_params
+from helpers import real_params
 
 SUFFIXES = (".npz", ".h5")
 MOTION_ARRAYS = ("root_translation", "rotations", "joint_translations", "euler_branch")

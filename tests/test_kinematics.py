@@ -20,9 +20,9 @@ from motionrep.kinematics import (
     rest_positions,
 )
 from motionrep.rotations import euler_to_quat, matrix_to_quat
-from motionrep.testing import chain_skeleton, humanoid_skeleton, random_unit_quaternions, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, random_unit_quaternions, synthetic_motion
 
-from conftest import SHARED_DATA, real_params, requires_shared
+from helpers import SHARED_DATA, real_params, requires_shared
 
 
 def reference_fk(motion: Motion):

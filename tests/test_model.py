@@ -9,7 +9,7 @@ from motionrep import Motion, Skeleton
 from motionrep._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS
 from motionrep.errors import MotionrepError, ValidationError
 from motionrep.rotations import euler_to_quat
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def three_joints(**changes) -> Skeleton:

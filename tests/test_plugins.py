@@ -19,6 +19,7 @@ from motionrep import plugins
 from motionrep.cli import cli
 from motionrep.codec import Codec, Payload
 from motionrep.errors import DuplicateNameError, PluginError, UnknownPluginError
+from motionrep.representation import Representation
 from motionrep.hookspecs import hookimpl
 
 from motionrep_ortho6d import Ortho6D
@@ -226,10 +227,17 @@ def test_plugin_reusing_a_shipped_plugin_name(installed):
         plugins.load_plugins()
 
 
+class _NoLayout(Ortho6D):
+    name = "no-layout"
+    layout = Representation.layout
+    width = Representation.width
+
+
 @pytest.mark.parametrize("obj, message", [
-    (object(), "which is not a motionrep Representation"),
-    (type("NoVersion", (Ortho6D,), {"name": "v0", "version": 0})(), "needs an integer version >= 1"),
-    (type("NoName", (Ortho6D,), {"name": ""})(), "without a name"),
+    (object(), "which is invalid: is not a motionrep.representation.Representation"),
+    (type("NoVersion", (Ortho6D,), {"name": "v0", "version": 0})(), "version must be an integer >= 1, got 0"),
+    (type("NoName", (Ortho6D,), {"name": ""})(), "name must be a non-empty string"),
+    (_NoLayout(), "must define layout\\(skeleton\\), or width\\(skeleton\\) and feature_names"),
 ])
 def test_invalid_representation_is_refused_naming_the_plugin(installed, obj, message):
     installed.append(_EntryPoint("broken", _module("broken", reps=[obj]), "broken-dist"))
@@ -241,7 +249,8 @@ def test_invalid_representation_is_refused_naming_the_plugin(installed, obj, mes
 def test_invalid_codec_is_refused_naming_the_plugin(installed):
     bad = type("NoParams", (_RawCodec,), {"name": "np", "Params": dict})()
     installed.append(_EntryPoint("broken", _module("broken", codecs=[bad]), "broken-dist"))
-    with pytest.raises(PluginError, match="codec 'np' from plugin 'broken' needs a Params dataclass"):
+    with pytest.raises(PluginError, match="plugin 'broken' registered codec 'np', which is invalid: Params must be a "
+                                          "dataclass"):
         plugins.load_plugins()
 
 
@@ -362,7 +371,8 @@ def test_every_shipped_codec_has_conformance_settings():
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if "fourier" in n else [])
                                   for n in sorted(_CODEC_SETTINGS)])
 def test_shipped_codecs_conform(name):
-    from motionrep.testing import check_codec, synthetic_motion
+    from motionrep.synthetic import synthetic_motion
+    from motionrep.testing import check_codec
 
     params, bound_params, bound = _CODEC_SETTINGS.get(name, ({}, None, 0.05))
     results = check_codec(plugins.get_codec(name), [synthetic_motion(frames=32, seed=7)], params=params,
@@ -390,7 +400,8 @@ def test_plugins_describe_lists_a_codecs_parameters():
 
 @pytest.mark.slow
 def test_windowed_fourier_codec_conforms():
-    from motionrep.testing import check_codec, synthetic_motion
+    from motionrep.synthetic import synthetic_motion
+    from motionrep.testing import check_codec
 
     results = check_codec(plugins.get_codec("adaptive-fourier"), [synthetic_motion(frames=32, seed=7)],
                           params={"k": 1, "iters": 50, "window": 10},

@@ -23,9 +23,9 @@ from motionrep.evaluate import max_joint_error  # noqa: E402
 from motionrep.io import read, write  # noqa: E402
 from motionrep.kinematics import global_positions  # noqa: E402
 from motionrep.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
 
-from conftest import SHARED_DATA, requires_shared  # noqa: E402
+from helpers import SHARED_DATA, requires_shared  # noqa: E402
 
 FRAMES, FPS, BUMP_FRAME, JOINT = 40, 30.0, 23, "LeftForeArm"
 SMALL = (240, 200)

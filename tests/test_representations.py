@@ -17,10 +17,11 @@ from motionrep.kinematics import character_height, forward_kinematics, global_po
 from motionrep.representation import joint_reach
 from motionrep.rotations import (axis_angle_to_quat, euler_to_quat, quat_conjugate, quat_multiply,
                                  quat_to_axis_angle, quat_to_matrix)
-from motionrep.testing import (chain_skeleton, check_representation, humanoid_skeleton, odd_skeleton,
-                               random_unit_quaternions, spinning_motion, synthetic_motion)
+from motionrep.synthetic import (chain_skeleton, humanoid_skeleton, odd_skeleton, random_unit_quaternions,
+                                 spinning_motion, synthetic_motion)
+from motionrep.testing import check_representation
 
-from conftest import real_params
+from helpers import real_params
 
 #: Every shipped representation and the plugin module that registers it.
 SHIPPED = {

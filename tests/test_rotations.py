@@ -34,7 +34,7 @@ from motionrep.rotations import (
     quat_wxyz_to_xyzw,
     quat_xyzw_to_wxyz,
 )
-from motionrep.testing import random_unit_quaternions
+from motionrep.synthetic import random_unit_quaternions
 
 TAIT_BRYAN = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 PROPER = ("XYX", "XZX", "YXY", "YZY", "ZXZ", "ZYZ")

@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from motionrep import hookspecs, plugins
-from motionrep._cli_plugins import plugins_command
+from motionrep.cli.plugins import plugins_command
 from motionrep.codec import Codec
 from motionrep.representation import Representation
-from motionrep.testing import humanoid_skeleton, odd_skeleton
+from motionrep.synthetic import humanoid_skeleton, odd_skeleton
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
 PLUGINS_MD = (SPECS / "plugins.md").read_text()

@@ -134,7 +134,7 @@ def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
     fmt = format_of(path)
     name, item = read_stored(path, clip)
     if isinstance(item, FeatureClip):
-        return motion_from_features(item, path, _ERRORS[fmt], clip_name=name if fmt == "hdf5" else None)
+        return motion_from_features(item, path, clip_name=name if fmt == "hdf5" else None)
     return item
 
 

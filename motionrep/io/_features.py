@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion, Skeleton, _readonly
-from ..errors import FormatError, ValidationError
+from ..errors import ValidationError
 
 __all__ = ["FeatureClip", "features_from_motion", "motion_from_features"]
 
@@ -111,25 +111,20 @@ def features_from_motion(motion: Motion, representation: str) -> FeatureClip:
 
 
 def motion_from_features(clip: FeatureClip, path: str | os.PathLike[str] | None = None,
-                         error: type[FormatError] = FormatError, clip_name: str | None = None) -> Motion:
-    """Decode ``clip`` through the installed representation of the same name.
+                         clip_name: str | None = None) -> Motion:
+    """Decode ``clip`` through the installed representation of the same name and version.
 
     Args:
         clip: the features.
         path: the file they came from, named in errors.
         clip_name: the clip's name in a database, named in errors.
-        error: the :class:`~motionrep.errors.FormatError` subclass to raise for a version mismatch.
 
     Raises:
         UnknownPluginError: if no installed plugin provides the representation.
-        FormatError: (``error``) if the installed representation's version differs from the stored one.
+        PluginVersionError: (a :class:`~motionrep.errors.FormatError`) if the installed representation's version
+            differs from the stored one.
     """
     from ..plugins import get_representation
 
-    rep = get_representation(clip.representation)
-    if rep.version != clip.representation_version:
-        where = f"clip {clip_name!r}: " if clip_name is not None else ""
-        raise error(f"{where}features were written by representation {clip.representation!r} version "
-                    f"{clip.representation_version}, but the installed {rep.name!r} is version {rep.version}; "
-                    "they cannot be decoded with another version", path)
+    rep = get_representation(clip.representation, version=clip.representation_version, path=path, clip=clip_name)
     return rep.from_features(clip.features, clip.skeleton, clip.fps)

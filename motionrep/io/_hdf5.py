@@ -11,7 +11,6 @@ A file written by :func:`write_hdf5` is a database with one clip, named after th
 
 from __future__ import annotations
 
-import contextlib
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -22,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion
-from ..errors import HDF5FormatError, ValidationError
+from ..errors import FormatError, HDF5FormatError, ValidationError
 from ._atomic import atomic_path
 from ._features import FeatureClip, motion_from_features
 from ._stored import (
@@ -50,6 +49,9 @@ __all__ = [
     "iter_hdf5_clips",
     "clip_summaries",
     "default_clip_name",
+    "HDF5Database",
+    "open_hdf5_file",
+    "root_format",
 ]
 
 #: Value of the root ``format`` attribute of every motionrep HDF5 file.
@@ -187,40 +189,51 @@ def write_hdf5_features(features: FeatureClip, path: str | os.PathLike[str], cli
 # ---------------------------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _open(path: str | os.PathLike[str]) -> Iterator[h5py.Group]:
-    """Open a motionrep HDF5 file for reading; yield its ``/clips`` group after checking the header."""
+def open_hdf5_file(path: str | os.PathLike[str], error: type[FormatError] = HDF5FormatError) -> h5py.File:
+    """``path`` opened read-only with h5py; a missing, unreadable or non-HDF5 file raises ``error`` naming it."""
     try:
-        f = h5py.File(path, "r")
+        return h5py.File(path, "r")
     except FileNotFoundError:
-        raise HDF5FormatError("no such file", path) from None
+        raise error("no such file", path) from None
     except OSError as exc:
         try:
             with open(path, "rb") as fh:
                 magic = fh.read(8)
         except OSError as exc2:
-            raise HDF5FormatError(f"cannot read file: {exc2.strerror or exc2}", path) from None
+            raise error(f"cannot read file: {exc2.strerror or exc2}", path) from None
         if magic != b"\x89HDF\r\n\x1a\n":
-            raise HDF5FormatError("not an HDF5 file (no HDF5 signature)", path) from None
-        raise HDF5FormatError(f"cannot open HDF5 file: {exc}", path) from None
-    with f:
-        attrs = f.attrs
-        if "format" not in attrs:
-            raise HDF5FormatError("not a motionrep HDF5 file: the root group has no 'format' attribute", path)
-        name = _decode_text(attrs["format"])
-        if name != HDF5_FORMAT:
-            raise HDF5FormatError(f"not a motionrep HDF5 file: root attribute 'format' is {name!r}, expected "
-                                  f"{HDF5_FORMAT!r}", path)
-        version = np.asarray(attrs.get("format_version", -1))
-        if version.ndim != 0 or version.dtype.kind not in "iu" or int(version) < 1:
-            raise HDF5FormatError(f"missing or invalid root attribute 'format_version' ({version!r})", path)
-        if int(version) > HDF5_FORMAT_VERSION:
-            raise HDF5FormatError(f"HDF5 format version {int(version)} is newer than the newest this motionrep "
-                                  f"reads ({HDF5_FORMAT_VERSION}); upgrade motionrep to read it", path)
-        clips = f.get(CLIPS_GROUP)
-        if not isinstance(clips, h5py.Group):
-            raise HDF5FormatError(f"missing group '/{CLIPS_GROUP}'", path)
-        yield clips
+            raise error("not an HDF5 file (no HDF5 signature)", path) from None
+        raise error(f"cannot open HDF5 file: {exc}", path) from None
+
+
+def root_format(f: h5py.File) -> str | None:
+    """The root ``format`` attribute of an open HDF5 file (``"motionrep-hdf5"``, ``"motionrep-mrc-archive"``), or
+    None when it has none or it is not text."""
+    try:
+        return _decode_text(f.attrs["format"]) if "format" in f.attrs else None
+    except _H5_ERRORS:
+        return None
+
+
+def _clips_group(f: h5py.File, path: str | os.PathLike[str]) -> h5py.Group:
+    """The ``/clips`` group of an open motionrep HDF5 file, after checking its header."""
+    attrs = f.attrs
+    if "format" not in attrs:
+        raise HDF5FormatError("not a motionrep HDF5 file: the root group has no 'format' attribute", path)
+    name = _decode_text(attrs["format"])
+    if name != HDF5_FORMAT:
+        raise HDF5FormatError(f"not a motionrep HDF5 file: root attribute 'format' is {name!r}, expected "
+                              f"{HDF5_FORMAT!r}", path)
+    version = np.asarray(attrs.get("format_version", -1))
+    if version.ndim != 0 or version.dtype.kind not in "iu" or int(version) < 1:
+        raise HDF5FormatError(f"missing or invalid root attribute 'format_version' ({version!r})", path)
+    if int(version) > HDF5_FORMAT_VERSION:
+        raise HDF5FormatError(f"HDF5 format version {int(version)} is newer than the newest this motionrep "
+                              f"reads ({HDF5_FORMAT_VERSION}); upgrade motionrep to read it", path)
+    clips = f.get(CLIPS_GROUP)
+    if not isinstance(clips, h5py.Group):
+        raise HDF5FormatError(f"missing group '/{CLIPS_GROUP}'", path)
+    return clips
 
 
 def _decode_text(value: Any) -> str | None:
@@ -322,6 +335,88 @@ def _clip_group(clips: h5py.Group, path: str | os.PathLike[str], clip: str | Non
     return clip, group
 
 
+class HDF5Database:
+    """A motionrep HDF5 file open for reading: its clip names, and any clip read on demand, one at a time, with
+    the file opened once for all of them (``with HDF5Database(path) as db: ...``).
+
+    Args:
+        path: the file (named in errors).
+        file: the file already open (:func:`open_hdf5_file`); it is then owned, and closed, by this object.
+
+    Raises:
+        HDF5FormatError: naming the file if it is missing, not a motionrep HDF5 file or of a newer format version.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], file: h5py.File | None = None):
+        self.path = path
+        self._file = open_hdf5_file(path) if file is None else file
+        try:
+            self._clips = _clips_group(self._file, path)
+        except BaseException:
+            self._file.close()
+            raise
+
+    @property
+    def names(self) -> list[str]:
+        """The clip names, in stored order (no clip data is read)."""
+        return list(self._clips)
+
+    def read_stored(self, clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
+        """One clip as stored: its name and a :class:`~motionrep.Motion` or a :class:`FeatureClip`; ``clip`` may be
+        omitted when the file holds exactly one clip.  Only that clip's group is read.
+
+        Raises:
+            HDF5FormatError: naming the file and the clip, if it holds several clips and none was named (the
+                message lists them), has no such clip, or the clip lacks a field or has one of the wrong shape
+                or type.
+        """
+        name, group = _clip_group(self._clips, self.path, clip)
+        return name, decode_clip(_HDF5Source(group, self.path, name))
+
+    def read(self, clip: str | None = None) -> Motion:
+        """One clip's motion; a features clip is decoded through its registered representation.
+
+        Raises:
+            HDF5FormatError: see :meth:`read_stored`; also if the installed representation's version differs
+                from the one that wrote the features.
+            UnknownPluginError: if the features' representation is not installed.
+        """
+        name, item = self.read_stored(clip)
+        return _decoded(item, self.path, name)
+
+    def summaries(self) -> list[dict[str, Any]]:
+        """One summary per clip from attributes and dataset shapes only (see :func:`clip_summaries`)."""
+        out = []
+        for name in self.names:
+            _, group = _clip_group(self._clips, self.path, name)
+            src = _HDF5Source(group, self.path, name)
+            kind = src.text("kind")
+            fps = src.number("fps", integer=False)
+            joints = src.shape_dtype("skeleton.names")[0]
+            key = "features" if kind == KIND_FEATURES else "rotations"
+            shape = src.shape_dtype(key)[0]
+            if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or fps <= 0:
+                raise src.fail("malformed clip (kind, fps, skeleton/names or frame data)")
+            entry: dict[str, Any] = {"name": name, "kind": kind, "frames": int(shape[0]), "fps": fps,
+                                     "duration": shape[0] / fps, "joints": int(joints[0])}
+            if kind == KIND_FEATURES:
+                entry["representation"] = src.text("representation")
+                entry["representation_version"] = src.number("representation_version", integer=True)
+                entry["width"] = int(shape[1])
+            out.append(entry)
+        return out
+
+    def close(self) -> None:
+        """Close the file."""
+        self._file.close()
+
+    def __enter__(self) -> "HDF5Database":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
 def read_hdf5_clip(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
     """Read one clip as stored: its name and a :class:`~motionrep.Motion` or a :class:`FeatureClip`.
 
@@ -336,14 +431,13 @@ def read_hdf5_clip(path: str | os.PathLike[str], clip: str | None = None) -> tup
             newer format version, holds several clips and none was named (the message lists them), has no
             such clip, or the clip lacks a field or has one of the wrong shape or type.
     """
-    with _open(path) as clips:
-        name, group = _clip_group(clips, path, clip)
-        return name, decode_clip(_HDF5Source(group, path, name))
+    with HDF5Database(path) as db:
+        return db.read_stored(clip)
 
 
 def _decoded(item: Motion | FeatureClip, path, name: str) -> Motion:
     if isinstance(item, FeatureClip):
-        return motion_from_features(item, path, HDF5FormatError, clip_name=name)
+        return motion_from_features(item, path, clip_name=name)
     return item
 
 
@@ -355,8 +449,8 @@ def read_hdf5(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
             the one that wrote the features.
         UnknownPluginError: if the features' representation is not installed.
     """
-    name, item = read_hdf5_clip(path, clip)
-    return _decoded(item, path, name)
+    with HDF5Database(path) as db:
+        return db.read(clip)
 
 
 def list_hdf5_clips(path: str | os.PathLike[str]) -> list[str]:
@@ -365,8 +459,8 @@ def list_hdf5_clips(path: str | os.PathLike[str]) -> list[str]:
     Raises:
         HDF5FormatError: if the file is missing or not a motionrep HDF5 file.
     """
-    with _open(path) as clips:
-        return list(clips)
+    with HDF5Database(path) as db:
+        return db.names
 
 
 def iter_hdf5_clips(path: str | os.PathLike[str], decode: bool = True
@@ -382,11 +476,9 @@ def iter_hdf5_clips(path: str | os.PathLike[str], decode: bool = True
         HDF5FormatError: when the file, or the clip being read, is invalid (raised lazily, as iteration reaches
             it).
     """
-    with _open(path) as clips:
-        for name in list(clips):
-            _, group = _clip_group(clips, path, name)
-            item = decode_clip(_HDF5Source(group, path, name))
-            yield name, (_decoded(item, path, name) if decode else item)
+    with HDF5Database(path) as db:
+        for name in db.names:
+            yield name, (db.read(name) if decode else db.read_stored(name)[1])
 
 
 def clip_summaries(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
@@ -398,23 +490,5 @@ def clip_summaries(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
     Raises:
         HDF5FormatError: naming the file and the clip, when a clip lacks what the summary needs.
     """
-    out = []
-    with _open(path) as clips:
-        for name in list(clips):
-            _, group = _clip_group(clips, path, name)
-            src = _HDF5Source(group, path, name)
-            kind = src.text("kind")
-            fps = src.number("fps", integer=False)
-            joints = src.shape_dtype("skeleton.names")[0]
-            key = "features" if kind == KIND_FEATURES else "rotations"
-            shape = src.shape_dtype(key)[0]
-            if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or fps <= 0:
-                raise src.fail("malformed clip (kind, fps, skeleton/names or frame data)")
-            entry: dict[str, Any] = {"name": name, "kind": kind, "frames": int(shape[0]), "fps": fps,
-                                     "duration": shape[0] / fps, "joints": int(joints[0])}
-            if kind == KIND_FEATURES:
-                entry["representation"] = src.text("representation")
-                entry["representation_version"] = src.number("representation_version", integer=True)
-                entry["width"] = int(shape[1])
-            out.append(entry)
-    return out
+    with HDF5Database(path) as db:
+        return db.summaries()

@@ -206,6 +206,6 @@ def read_npz(path: str | os.PathLike[str]) -> Motion:
     """
     item = read_npz_clip(path)
     if isinstance(item, FeatureClip):
-        return motion_from_features(item, path, NPZFormatError)
+        return motion_from_features(item, path)
     return item
 

@@ -68,11 +68,8 @@ class DualQuaternion(Representation):
     version = 1
     description = "Andreou et al. 2022: root translation, one dual quaternion per joint in current coordinates"
 
-    def width(self, skeleton: Skeleton) -> int:
-        return _layout(skeleton).width
-
-    def feature_names(self, skeleton: Skeleton) -> list[str]:
-        return list(_layout(skeleton).names)
+    def layout(self, skeleton: Skeleton) -> FeatureLayout:
+        return _layout(skeleton)
 
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
         sk = motion.skeleton

@@ -45,11 +45,8 @@ class Euler(Representation):
     version = 1
     description = "the file's own Euler rotation channels in degrees, continuous over frames"
 
-    def width(self, skeleton: Skeleton) -> int:
-        return _layout(skeleton).width
-
-    def feature_names(self, skeleton: Skeleton) -> list[str]:
-        return list(_layout(skeleton).names)
+    def layout(self, skeleton: Skeleton) -> FeatureLayout:
+        return _layout(skeleton)
 
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
         sk = motion.skeleton

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal
+from typing import Any, Callable, Literal, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -95,6 +95,32 @@ class _FourierCodec(Codec):
                 todo[0:0] = [(first, middle), (middle, last)]
         joined = np.array([first for first, _, _ in done] + [done[-1][1]], dtype=np.int64)
         return join_windows([payload for _, _, payload in done], joined)
+
+    def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
+        """``K=5`` (with ``detail``: the frequencies and hidden width); in windows ``3 windows, K=4-6`` (with
+        ``detail``: K per window)."""
+        K = info.get("K")
+        if isinstance(K, list):
+            if not K:
+                return f"{info.get('windows', 0)} windows"
+            if detail:
+                return f"{info.get('windows', len(K))} windows, K per window [{', '.join(map(str, K))}]"
+            span = f"{min(K)}" if min(K) == max(K) else f"{min(K)}-{max(K)}"
+            return f"{info.get('windows', len(K))} windows, K={span}"
+        if K is None:
+            return super().describe(info, detail)
+        if not detail:
+            return f"K={K}"
+        omega = ", ".join(f"{o:g}" for o in info.get("omega", []))
+        return f"K={K}, omega=[{omega}] cycles/clip, hidden {info.get('hidden')}"
+
+    def warm_up(self) -> None:
+        """Import torch and the adaptive codec's scipy modules: 3-6 s on the first encode of a process, which
+        would otherwise be counted in the encode time of whichever clip comes first."""
+        import scipy.fft  # noqa: F401  (the adaptive codec's DCT and line search)
+        import scipy.optimize  # noqa: F401
+
+        from . import _train  # noqa: F401  (imports torch)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         if "edges" in payload.arrays:

@@ -36,11 +36,8 @@ class Ortho6D(Representation):
     version = 1
     description = "Zhou et al. 2019 (NeMF): root translation, 6D rotation per joint"
 
-    def width(self, skeleton: Skeleton) -> int:
-        return _layout(skeleton).width
-
-    def feature_names(self, skeleton: Skeleton) -> list[str]:
-        return list(_layout(skeleton).names)
+    def layout(self, skeleton: Skeleton) -> FeatureLayout:
+        return _layout(skeleton)
 
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
         lay = _layout(motion.skeleton)

@@ -75,11 +75,8 @@ class RootQuatAxisAngle(Representation):
     version = 1
     description = "Tojo et al. 2022: root translation, root quaternion, axis-angle per joint"
 
-    def width(self, skeleton: Skeleton) -> int:
-        return _layout(skeleton).width
-
-    def feature_names(self, skeleton: Skeleton) -> list[str]:
-        return list(_layout(skeleton).names)
+    def layout(self, skeleton: Skeleton) -> FeatureLayout:
+        return _layout(skeleton)
 
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
         sk = motion.skeleton

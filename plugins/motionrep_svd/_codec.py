@@ -13,7 +13,7 @@ Decoding at normalised times ``t``: the coefficient rows are interpolated linear
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -117,6 +117,10 @@ class SVDCodec(Codec):
             else:
                 lo = mid
         return payload(hi)
+
+    def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
+        """``rank=9``."""
+        return f"rank={info['rank']}" if "rank" in info else super().describe(info, detail)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         mean = np.asarray(payload.arrays["mean"], dtype=np.float64)

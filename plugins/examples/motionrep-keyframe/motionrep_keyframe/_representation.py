@@ -6,12 +6,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, joint_reach
+from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
+                                      per_skeleton)
 from motionrep.rotations import quat_make_continuous, quat_normalize
 
 __all__ = ["LocalQuaternion"]
 
 
+@per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: ("qx", "qy", "qz", "qw") if skeleton.rotation_orders[j] else ())
 
@@ -25,11 +27,8 @@ class LocalQuaternion(Representation):
     version = 1
     description = "example plugin: raw local quaternions, sign-continuous"
 
-    def width(self, skeleton: Skeleton) -> int:
-        return _layout(skeleton).width
-
-    def feature_names(self, skeleton: Skeleton) -> list[str]:
-        return list(_layout(skeleton).names)
+    def layout(self, skeleton: Skeleton) -> FeatureLayout:
+        return _layout(skeleton)
 
     def to_features(self, motion: Motion) -> NDArray[np.float64]:
         lay = _layout(motion.skeleton)

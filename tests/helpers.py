@@ -1,4 +1,6 @@
-"""Shared fixtures: isolation from installed third-party plugins, paths to the real clips in ../shared/data."""
+"""Helpers the tests import (``from helpers import ...``; ``tests/`` is on pytest's ``pythonpath``): where the
+real clips are, and pytest parameters over them.  The real-data tests skip cleanly when ``../shared/data`` is
+absent."""
 
 from __future__ import annotations
 
@@ -6,10 +8,6 @@ import os
 from pathlib import Path
 
 import pytest
-
-# Third-party plugins installed in the environment must not change what the tests see; tests that need one
-# load it explicitly (see tests/test_plugins.py).
-os.environ["MOTIONREP_LOAD_PLUGINS"] = ""
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED_DATA = Path(os.environ.get("MOTIONREP_SHARED_DATA", REPO.parent / "shared" / "data"))
@@ -23,8 +21,7 @@ def real_bvh_files(*subdirs: str) -> list[Path]:
     if not HAVE_SHARED:
         return []
     roots = [SHARED_DATA / s for s in subdirs] if subdirs else [SHARED_DATA]
-    files = sorted(p for r in roots for p in r.rglob("*.bvh") if "malformed" not in p.parts)
-    return files
+    return sorted(p for r in roots for p in r.rglob("*.bvh") if "malformed" not in p.parts)
 
 
 def real_params(*subdirs: str):
@@ -33,13 +30,3 @@ def real_params(*subdirs: str):
     if not files:
         return [pytest.param(None, marks=[requires_shared, pytest.mark.realdata], id="no-shared-data")]
     return [pytest.param(p, marks=pytest.mark.realdata, id=str(p.relative_to(SHARED_DATA))) for p in files]
-
-
-@pytest.fixture(autouse=True)
-def _fresh_plugins():
-    """Each test starts with the plugin registry unloaded, so environment changes take effect."""
-    from motionrep.plugins import reset_plugins
-
-    reset_plugins()
-    yield
-    reset_plugins()

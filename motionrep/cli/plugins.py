@@ -1,17 +1,16 @@
-"""``motionrep plugins``: list the loaded plugins, their versions and what each registers."""
+"""``motionrep plugins``: the loaded plugins, their versions and what each registers; ``--describe`` one codec or
+representation."""
 
 from __future__ import annotations
 
-import json
-
 import click
 
-from . import hookspecs
-from .cli import cli
+from ._common import echo_json
 
 __all__ = ["plugins_command"]
 
-_HOOKS = sorted(name for name in hookspecs.__all__ if name not in ("hookspec", "hookimpl"))
+#: The hooks of motionrep.hookspecs (written out to keep this module light; a test checks they agree).
+HOOKS = ("register_codecs", "register_representations")
 
 
 def _source(info) -> str:
@@ -29,9 +28,9 @@ def _registers(info) -> str:
     return "; ".join(parts) or "-"
 
 
-@cli.command("plugins")
+@click.command("plugins")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list instead of a table.")
-@click.option("--hook", type=click.Choice(_HOOKS), default=None,
+@click.option("--hook", type=click.Choice(HOOKS), default=None,
               help="Only the plugins that implement this hook.")
 @click.option("--third-party", is_flag=True, help="Only the plugins that are not shipped with motionrep.")
 @click.option("--describe", "describe", metavar="NAME", default=None,
@@ -57,14 +56,14 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe
       motionrep plugins --describe adaptive-fourier   # its -p parameters
       MOTIONREP_LOAD_PLUGINS= motionrep plugins      # shipped plugins only
     """
-    from .plugins import plugin_infos
+    from ..plugins import plugin_infos
 
     if describe is not None:
         _describe(describe, as_json)
         return
     infos = [i for i in plugin_infos() if (hook is None or hook in i.hooks) and not (third_party and i.shipped)]
     if as_json:
-        click.echo(json.dumps([i.as_dict() for i in infos], indent=2))
+        echo_json([i.as_dict() for i in infos])
         return
     if not infos:
         click.echo("No loaded plugin matches." if hook or third_party else "No plugins loaded.")
@@ -77,9 +76,9 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe
 
 
 def _describe(name: str, as_json: bool) -> None:
-    from .codec import params_help
-    from .errors import UnknownPluginError
-    from .plugins import codecs, get_codec, get_representation, provider_of, representations
+    from ..codec import params_help
+    from ..errors import UnknownPluginError
+    from ..plugins import codecs, get_codec, get_representation, provider_of, representations
 
     if name in codecs():
         codec = get_codec(name)
@@ -96,7 +95,7 @@ def _describe(name: str, as_json: bool) -> None:
         raise UnknownPluginError(f"no codec or representation named {name!r}; codecs: {', '.join(sorted(codecs()))}"
                                  f"; representations: {', '.join(sorted(representations()))}")
     if as_json:
-        click.echo(json.dumps(d, indent=2, default=str))
+        echo_json(d)
         return
     click.echo(f"{d['kind']} {name} (plugin {d['plugin']}), format version {d['version']}"
                + (f", reads {', '.join(map(str, d['readable_versions']))}" if len(d["readable_versions"]) > 1 else ""))

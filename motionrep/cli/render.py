@@ -1,4 +1,4 @@
-"""The ``render`` command: stick-figure pictures of a clip and its decoded copy (registered on the CLI group).
+"""``motionrep render``: stick-figure pictures of a clip and its decoded copy.
 
 Exit codes: 0 on success; 1 when the pictures cannot be made (unreadable input, skeletons that differ, clips
 of different length, a frame selection that selects nothing, ``.mp4`` without ffmpeg, matplotlib missing), with
@@ -9,37 +9,25 @@ one line on stderr and no output file left behind; 2 for a usage error (unknown 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
-from ._model import Motion
-from .cli import cli
-from .errors import ContainerError, ValidationError
+from ..errors import ValidationError
 
 __all__ = ["render"]
 
 
-def _read_any(path: Path, clip: str | None = None) -> Motion:
-    """Any motion motionrep reads: ``.bvh``/``.npz``/``.h5`` files, ``.mrc`` containers (decoded at their own
-    frame rate) and HDF5 archives of ``.mrc`` containers (one clip, chosen with ``clip`` if there are several)."""
-    from .compress import decode_container, decompress_file, is_archive, read_archive
-    from .io import read
+def _read(path: Path, clip: str | None) -> Any:
+    """The clip of ``path`` (``clip`` of a database or archive; any clip-bearing file, ``.mrc`` decoded)."""
+    from ..sources import open_source
 
-    suffix = path.suffix.lower()
-    if suffix == ".mrc":
-        return decompress_file(path)
-    if suffix in (".h5", ".hdf5") and is_archive(path):
-        containers = read_archive(path, clip)
-        if len(containers) != 1:
-            raise ContainerError(f"the archive holds {len(containers)} clips; pick one with --clip: "
-                                 + ", ".join(sorted(containers)), path)
-        ((_, container),) = containers.items()
-        return decode_container(container, path=path)
-    return read(path, clip)
+    with open_source(path) as src:
+        return src.read(clip if src.kind in ("database", "archive") else None)
 
 
 def _frames_option(ctx: click.Context, param: click.Parameter, value: str | None) -> slice | None:
-    from .render import parse_frames
+    from ..render import parse_frames
 
     if value is None:
         return None
@@ -50,7 +38,7 @@ def _frames_option(ctx: click.Context, param: click.Parameter, value: str | None
 
 
 def _size_option(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[int, int] | None:
-    from .render import parse_size
+    from ..render import parse_size
 
     if value is None:
         return None
@@ -68,7 +56,7 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
     return str(reference), str(candidate)
 
 
-@cli.command("render")
+@click.command("render")
 @click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument("candidate", metavar="[CAND]", required=False,
                 type=click.Path(exists=True, dir_okay=False, path_type=Path))
@@ -105,15 +93,15 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
       motionrep render walk.bvh walk.mrc -o detail.png --frames 180:230:10
       motionrep render walk.bvh -o walk.gif --frames 0:240 --fps 20
     """
-    from .render import OUTPUT_SUFFIXES, check_output
-    from .render import render as draw
+    from ..render import OUTPUT_SUFFIXES, check_output
+    from ..render import render as draw
 
     if output.suffix.lower() not in OUTPUT_SUFFIXES:
         raise click.UsageError(f"output {output}: cannot draw to {output.suffix or '(no suffix)'!r} files; use one "
                                "of " + ", ".join(OUTPUT_SUFFIXES))
     check_output(output)  # fail before reading anything (e.g. .mp4 without ffmpeg)
-    ref = _read_any(reference, clip)
-    cand = None if candidate is None else _read_any(candidate, clip)
+    ref = _read(reference, clip)
+    cand = None if candidate is None else _read(candidate, clip)
     result = draw(output, ref, cand, names=_labels(reference, candidate), frames=frames, fps=fps, count=count,
                   max_frames=max_frames, size=size, up=up)
     for note in result.notes:
@@ -123,7 +111,7 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
             else f"{n} picture{'s' if n != 1 else ''}")
     line = f"wrote {output}: {what}, {result.size[0]}x{result.size[1]} pixels"
     if result.error is not None:
-        from .render import describe_error
+        from ..render import describe_error
 
         line += f"; worst joint {describe_error(result.error)}"
     click.echo(line)

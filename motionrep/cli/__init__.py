@@ -1,7 +1,15 @@
-"""The ``motionrep`` command line: one click group; commands live in ``motionrep/_cli_*.py``.
+"""The ``motionrep`` command line: one click group, one module per command.
 
-Library errors (:class:`~motionrep.errors.MotionrepError`) are turned into one-line messages and exit code 1
-here, in one place; ``--debug`` shows the traceback instead.  Bad flags exit with code 2 (click's usage errors).
+Each command lives in its own module of this package (``convert``, ``info``, ``compress``, ``decompress``,
+``evaluate``, ``bench``, ``render``, ``plugins``, ``example``) and is added to the group here with
+``add_command``; command modules never import this one (no import circle), and share only
+:mod:`motionrep.cli._common`.  Commands parse each option once and pass the resulting objects (a
+:class:`~motionrep.compress.Pipeline`, open :class:`~motionrep.sources.Source` s) to the library; heavy
+imports happen inside the commands.
+
+Library errors (:class:`~motionrep.errors.MotionrepError`) and operating-system errors are turned into one-line
+messages and exit code 1 here, in one place; ``--debug`` shows the traceback instead.  Bad flags exit with code
+2 (click's usage errors).
 """
 
 from __future__ import annotations
@@ -10,8 +18,9 @@ import sys
 
 import click
 
-from . import __version__
-from .errors import MotionrepError
+from .. import __version__
+from ..errors import MotionrepError
+from . import bench, compress, convert, decompress, evaluate, example, info, plugins, render
 
 __all__ = ["cli", "main"]
 
@@ -54,13 +63,15 @@ def cli(ctx: click.Context, debug: bool) -> None:
     ctx.obj["debug"] = debug
 
 
+for _command in (convert.convert, info.info, compress.compress, decompress.decompress, evaluate.evaluate,
+                 bench.bench, render.render, plugins.plugins_command, example.example):
+    cli.add_command(_command)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point."""
     cli.main(args=argv, prog_name="motionrep")
 
-
-# Commands register themselves on `cli` when imported.
-from . import _cli_bench, _cli_codec, _cli_io, _cli_plugins, _cli_render  # noqa: E402,F401
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -1,4 +1,4 @@
-"""The ``bench`` command: every codec x bound (or fixed-size sweep) x clip through the shared evaluator.
+"""``motionrep bench``: every codec x bound (or fixed-size sweep) x clip through the shared evaluator.
 
 Exit codes: 0 when every run finished (a bound that a codec could not meet is an outcome, a ``failed`` row, not
 an error); 1 for a library error before any work (unknown codec or representation, a parameter no codec has or
@@ -9,19 +9,17 @@ ended with an error (for example ``svd`` without ``rank`` and without a bound); 
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
 import click
 
-from .cli import cli
-from .errors import ParameterError
+from ._common import BatchProgress, collect
 
 __all__ = ["bench"]
 
 
-@cli.command("bench")
+@click.command("bench")
 @click.argument("inputs", metavar="FILES_OR_DIRS...", nargs=-1, required=True,
                 type=click.Path(exists=True, path_type=Path))
 @click.option("--codec", "-c", "codecs", multiple=True,
@@ -63,10 +61,12 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
       motionrep bench walk.bvh -c svd -p rank=1..30 --out results/
       motionrep bench database.h5 --jobs 2 --out results/ --plot results/rd.png
     """
-    from .bench import (DEFAULT_DECODE_POSES, bench_tasks, collect_clips, format_table, is_sweep, parse_sweep,
-                        plot_rate_distortion, read_clip, run_bench, summarize, write_csv, write_json)
-    from .compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
-    from .plugins import codecs as installed_codecs
+    from ..bench import (DEFAULT_DECODE_POSES, bench_tasks, format_table, is_sweep, parse_sweep,
+                         plot_rate_distortion, run_bench, summarize, write_csv, write_json)
+    from ..compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
+    from ..errors import ParameterError
+    from ..plugins import codecs as installed_codecs
+    from ..sources import read_refs
 
     try:
         sweep = parse_sweep(params)
@@ -75,28 +75,27 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     if plot is not None and plot.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise click.BadParameter(f"{plot}: use a .png, .svg or .pdf file", param_hint="--plot")
     if plot is not None:
-        from .bench import _matplotlib
+        from ..bench import require_matplotlib
 
-        _matplotlib()  # fail before any work when matplotlib is missing
+        require_matplotlib()  # fail before any work when matplotlib is missing
     swept = any(is_sweep(p.partition("=")[2]) for p in params)
     bounds: list[str | None] = list(max_errors) or [None if swept else DEFAULT_MAX_ERROR]
     chosen = list(codecs)
     if not chosen:
         chosen = list(installed_codecs())
         if sweep:
-            from .bench import codec_parameter_names
+            from ..bench import codec_parameter_names
 
             chosen = [c for c in chosen if set(sweep) & set(codec_parameter_names(c))] or chosen
     reps = list(representations) or [DEFAULT_REPRESENTATION]
-    clips = collect_clips(inputs)
+    clips = collect(inputs)
     poses = DEFAULT_DECODE_POSES if decode_poses is None else decode_poses
     tasks = bench_tasks(clips, chosen, reps, bounds, sweep, seed=seed, decode_poses=poses)
-    motions = {c.name: read_clip(c) for c in clips}  # every input is read, and checked, before any work
+    motions = {ref.name: motion for ref, motion in read_refs(clips)}  # every input read, and checked, first
     if jobs > 1:
         motions = {}  # workers read the clips themselves
-    progress = _Progress(len(tasks), quiet)
-    rows = run_bench(tasks, jobs=jobs, motions=motions, on_done=progress)
-    progress.close()
+    with BatchProgress(len(tasks), f"benchmarking {len(tasks)} runs", _describe_row, quiet) as bar:
+        rows = run_bench(tasks, jobs=jobs, motions=motions, on_done=bar.done)
     summaries = summarize(rows)
     click.echo(format_table(rows, summaries), nl=False)
     settings: dict[str, Any] = {
@@ -118,39 +117,17 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
 
 
 def _write_text(path: Path, text: str) -> None:
-    from .io import atomic_path
+    from ..io import atomic_path
 
     with atomic_path(path) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
 
 
-class _Progress:
-    """A progress bar on stderr when it is a terminal, else one line per finished run."""
-
-    def __init__(self, total: int, quiet: bool):
-        self.total, self.done, self.quiet = total, 0, quiet
-        self.tty = sys.stderr.isatty()
-        self.bar = None
-        if not quiet and self.tty:
-            self.bar = click.progressbar(length=total, label=f"benchmarking {total} runs", file=sys.stderr,
-                                         show_pos=True, show_eta=True)
-            self.bar.__enter__()
-
-    def __call__(self, row) -> None:
-        self.done += 1
-        if self.quiet:
-            return
-        if self.bar is not None:
-            self.bar.update(1)
-            return
-        err = "" if row.error_percent is None else f", L-inf {row.error_percent:.2f}%"
-        ratio = "" if row.paper_ratio is None else f", ratio {row.paper_ratio:.2f}"
-        secs = "" if row.encode_seconds is None else f", {row.encode_seconds:.1f} s"
-        bound = "none" if row.max_error is None else row.max_error
-        params = f" {row.params}" if row.params else ""
-        click.echo(f"[{self.done}/{self.total}] {row.clip} {row.codec} {bound}{params}: {row.outcome}{err}{ratio}"
-                   f"{secs}", err=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
+def _describe_row(row: Any) -> str:
+    """One finished run, for the progress lines on stderr."""
+    err = "" if row.error_percent is None else f", L-inf {row.error_percent:.2f}%"
+    ratio = "" if row.paper_ratio is None else f", ratio {row.paper_ratio:.2f}"
+    secs = "" if row.encode_seconds is None else f", {row.encode_seconds:.1f} s"
+    bound = "none" if row.max_error is None else row.max_error
+    params = f" {row.params}" if row.params else ""
+    return f"{row.clip} {row.codec} {bound}{params}: {row.outcome}{err}{ratio}{secs}"

@@ -1,0 +1,228 @@
+"""``motionrep convert``: BVH / NPZ / HDF5, one clip or many, motions or a representation's features.
+
+Exit codes: 0 on success; 1 for a file problem (missing, malformed, unknown clip, a clip that cannot be written
+in the target format), with one line on stderr naming the file (and the line for BVH, the clip for HDF5) and no
+output file left behind; 2 for a usage error (unknown suffix, incompatible options, an input given twice,
+``IN`` equal to ``OUT``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import sys
+from pathlib import Path
+from typing import Any, Iterator
+
+import click
+
+from ._common import collect
+
+__all__ = ["convert"]
+
+_OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5"}
+_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5")
+
+
+def _format_or_usage(path: Path, what: str) -> str:
+    """The format selected by ``path``'s suffix; ``.mrc`` and unknown suffixes are usage errors (exit 2)."""
+    suffix = path.suffix.lower()
+    if suffix == ".mrc" and what == "input":
+        raise click.UsageError(f"input {path} is a compressed clip: decode it with "
+                               f"'motionrep decompress {path} -o OUT.bvh'")
+    if suffix == ".mrc":
+        raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
+    if suffix not in _MOTION_SUFFIXES:
+        raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
+                               + ", ".join(_MOTION_SUFFIXES))
+    return {".h5": "hdf5", ".hdf5": "hdf5"}.get(suffix, suffix[1:])
+
+
+def _in_file_error(exc: Exception, path: Path) -> Exception:
+    """A library error as a one-line FormatError naming a file (errors that already name one are kept)."""
+    from ..errors import FormatError
+
+    return exc if isinstance(exc, FormatError) else FormatError(str(exc), path)
+
+
+def _converted(refs: list, representation: Any) -> Iterator[tuple[Any, Any]]:
+    """``(ref, what the output stores)``: the motion, or the features of ``representation`` (features already of
+    that representation and version are copied exactly; other features are decoded first)."""
+    from ..errors import MotionrepError
+    from ..io import FeatureClip, features_from_motion, motion_from_features
+    from ..sources import read_refs
+
+    clips = read_refs(refs, stored=True)
+    for i in range(len(refs)):
+        try:
+            ref, item = next(clips)
+            if isinstance(item, FeatureClip):
+                if representation is not None and (item.representation, item.representation_version) == (
+                        representation.name, representation.version):
+                    yield ref, item
+                    continue
+                item = motion_from_features(item, ref.path, clip_name=ref.clip)
+            item = item if representation is None else features_from_motion(item, representation.name)
+        except MotionrepError as exc:
+            raise _in_file_error(exc, Path(refs[i].path)) from None
+        yield ref, item
+
+
+def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | None = None) -> None:
+    from ..errors import FormatError, MotionrepError
+    from ..io import FeatureClip, format_of, write, write_features
+
+    options: dict[str, Any] = {}
+    fmt = format_of(path)
+    if fmt == "bvh" and decimals is not None:
+        options["decimals"] = decimals
+    if fmt == "hdf5" and clip_name is not None:
+        options["clip"] = clip_name
+    try:
+        if isinstance(item, FeatureClip):
+            write_features(item, path, **options)
+        else:
+            write(item, path, **options)
+    except MotionrepError as exc:
+        if isinstance(exc, FormatError):
+            raise
+        raise FormatError(f"cannot write: {exc}", path) from None
+
+
+def _bar(items: Iterator, total: int, label: str) -> Any:
+    """A progress bar on stderr when converting several clips; a plain pass-through otherwise."""
+    if total > 1:
+        return click.progressbar(items, length=total, label=label, file=sys.stderr,
+                                 item_show_func=lambda x: x[0].name if x is not None else None)
+    return contextlib.nullcontext(items)
+
+
+@click.command("convert")
+@click.argument("paths", nargs=-1, required=True, metavar="IN... OUT")
+@click.option("--clip", metavar="NAME", help="Take only this clip out of the (single) HDF5 database given.")
+@click.option("--format", "out_format", type=click.Choice(sorted(_OUT_FORMATS)), default=None,
+              help="File format written when OUT is a directory (default: bvh).")
+@click.option("--representation", "-r", metavar="NAME",
+              help="Store the features of this registered representation instead of the motion (.npz/.h5).")
+@click.option("--decimals", type=click.IntRange(0, 17), default=None,
+              help="Digits after the decimal point in BVH output (default 6).")
+def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
+            decimals: int | None) -> None:
+    """Convert motion files between BVH, NPZ and HDF5 (format from the suffix).
+
+    \b
+    IN... are files (.bvh, .npz, .h5/.hdf5) or directories (searched recursively
+    for those suffixes, in sorted order; hidden files are skipped). OUT is:
+      - a .bvh or .npz file: exactly one clip goes in (use --clip for a database);
+      - a .h5/.hdf5 file: a database of every clip given, written atomically;
+      - a directory (existing, ending in '/', or without suffix): one file per
+        clip, <clip name>.<--format>, the directory created if needed.
+
+    \b
+    Clip names: from each file's path relative to the directory given (or its
+    stem for a file given directly), without suffix, '/' replaced by '__'; a
+    suffix is kept where two files would share a name. A database given alone
+    keeps its clip names; among several inputs, a database of several clips
+    gives '<file name>__<clip>'. The same rules name clips in compress and bench.
+
+    \b
+    Features: --representation NAME stores that representation's features
+    (.npz/.h5); converting a features file to a motion format decodes it.
+    An archive of compressed clips (written by compress) is decoded.
+
+    \b
+    Errors: a bad input stops the run with one line naming the file (exit 1)
+    and no output file; for directory output the message says which files were
+    already written. An unknown suffix, options that do not apply, an input
+    given twice, or IN equal to OUT are usage errors (exit 2).
+
+    \b
+    Examples:
+      motionrep convert walk.bvh walk.npz
+      motionrep convert clips/ clips.h5
+      motionrep convert clips.h5 out/ --format npz
+      motionrep convert clips.h5 walk.bvh --clip walk --decimals 4
+      motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
+    """
+    if len(paths) < 2:
+        raise click.UsageError("convert needs at least one input and an output: IN... OUT")
+    raw_out = paths[-1]
+    out = Path(raw_out)
+    inputs = [Path(p) for p in paths[:-1]]
+    to_directory = out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == ""
+    if to_directory and out.exists() and not out.is_dir():
+        raise click.UsageError(f"output {out} exists and is not a directory")
+    out_fmt = {"h5": "hdf5"}.get(out_format or "bvh", out_format or "bvh") if to_directory else \
+        _format_or_usage(out, "output")
+    if out_format is not None and not to_directory:
+        raise click.UsageError("--format applies only when OUT is a directory; otherwise the suffix decides")
+    for p in inputs:
+        if p.exists() and out.exists() and p.resolve() == out.resolve():
+            raise click.UsageError(f"input and output are the same: {p}")
+        if not p.is_dir():
+            _format_or_usage(p, "input")
+    if decimals is not None and out_fmt != "bvh":
+        raise click.UsageError("--decimals applies only to BVH output")
+    if representation is not None and out_fmt == "bvh":
+        raise click.UsageError("--representation needs .npz or .h5 output: BVH holds motions, not features")
+    if clip is not None and (len(inputs) != 1 or inputs[0].is_dir() or _format_or_usage(inputs[0], "input")
+                             != "hdf5"):
+        raise click.UsageError("--clip takes one clip out of a single HDF5 database input")
+    rep = None
+    if representation is not None:
+        from ..plugins import get_representation
+
+        rep = get_representation(representation)  # an unknown name fails before any work (exit 1, lists names)
+
+    refs = collect(inputs, clip=clip, exclude=[out])
+    if to_directory:
+        _to_directory(refs, out, _OUT_FORMATS[out_format or "bvh"], rep, decimals)
+    elif out_fmt == "hdf5":
+        _to_database(refs, out, rep)
+    else:
+        if len(refs) != 1:
+            from ..sources import listing
+
+            raise click.UsageError(f"{out} holds one clip but the inputs hold {len(refs)} "
+                                   f"({listing([r.name for r in refs])}); use --clip NAME, an .h5 output or "
+                                   "a directory")
+        _write_one(next(_converted(refs, rep))[1], out, decimals)
+
+
+def _to_database(refs: list, out: Path, representation: Any) -> None:
+    from ..errors import MotionrepError
+    from ..io import write_database
+
+    def clips() -> Iterator[tuple[str, Any]]:
+        with _bar(_converted(refs, representation), len(refs), f"Converting {len(refs)} clips to {out}") as bar:
+            for ref, item in bar:
+                yield ref.name, item
+
+    try:
+        write_database(clips(), out)
+    except MotionrepError as exc:
+        raise _in_file_error(exc, out) from None
+
+
+def _to_directory(refs: list, out: Path, suffix: str, representation: Any, decimals: int | None) -> None:
+    from ..errors import FormatError, MotionrepError
+    from ..sources import listing
+
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[str] = []
+    try:
+        with _bar(_converted(refs, representation), len(refs), f"Converting {len(refs)} clips into {out}") as bar:
+            for ref, item in bar:
+                target = out / (ref.name + suffix)
+                _write_one(item, target, decimals, clip_name=ref.name)
+                written.append(target.name)
+    except MotionrepError as exc:
+        exc = _in_file_error(exc, out)
+        if not written and created:
+            shutil.rmtree(out, ignore_errors=True)  # created by this run and still empty
+            note = "nothing was written"
+        else:
+            note = (f"{len(written)} of {len(refs)} files were written to {out} before this error: "
+                    f"{listing(written)}" if written else "nothing was written")
+        raise FormatError(f"{exc.message}; {note}", exc.path, exc.line) from None

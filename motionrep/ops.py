@@ -1,0 +1,129 @@
+"""Operations on motions: the validity fix every decoded motion gets, and the one resampler in time.
+
+* :func:`fixed_axes_restored`: a decoded (lossy) motion made valid for its skeleton (translation axes without a
+  position channel set back to the joint's OFFSET);
+* :func:`resample`: a motion evaluated at another frame rate (rotations slerped, translations interpolated
+  linearly); :func:`interpolate_frames` is the same at any fractional frame positions;
+* :func:`resample_times`: the normalised times of a clip resampled to another frame rate, for decoders that
+  evaluate a compressed clip at any time (``motionrep decompress --fps``).
+
+Shapes follow the pose model: ``(F, J, 4)`` xyzw rotations, ``(F, 3)`` root translation, ``(F, P, 3)``
+translations of the joints with position channels.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._model import Motion
+from .errors import ParameterError
+from .rotations import euler_to_quat, quat_slerp, quat_to_euler_continuous
+
+__all__ = ["fixed_axes_restored", "resample", "resample_times", "interpolate_frames", "resampled_count"]
+
+
+def fixed_axes_restored(motion: Motion) -> Motion:
+    """``motion`` with every translation axis that has no position channel set back to the joint's OFFSET.
+
+    A skeleton whose root (or another translated joint) lacks a position channel on some axis cannot move along
+    it: the pose model requires that axis to equal the OFFSET.  Features decoded from a lossy payload carry
+    small deviations there; they are removed here (before evaluation and before writing), so every decoded
+    motion is a valid motion of its skeleton and can be written to BVH.
+    """
+    sk = motion.skeleton
+    root_axes = sk.position_axes[0]
+    root = motion.root_translation
+    if len(root_axes) < 3:
+        root = root.copy()
+        for i, axis in enumerate("XYZ"):
+            if axis not in root_axes:
+                root[:, i] = sk.offsets[0, i]
+    jt = motion.joint_translations
+    if jt is not None and jt.shape[1]:
+        partial = [(k, j) for k, j in enumerate(sk.translated_joints.tolist()) if len(sk.position_axes[j]) < 3]
+        if partial:
+            jt = jt.copy()
+            for k, j in partial:
+                for i, axis in enumerate("XYZ"):
+                    if axis not in sk.position_axes[j]:
+                        jt[:, k, i] = sk.offsets[j, i]
+    if root is motion.root_translation and jt is motion.joint_translations:
+        return motion
+    return motion.replace(root_translation=root, joint_translations=jt)
+
+
+def _check_fps(fps: float) -> float:
+    fps = float(fps)
+    if not (math.isfinite(fps) and fps > 0):
+        raise ParameterError(f"--fps must be > 0, got {fps!r}")
+    return fps
+
+
+def resampled_count(num_frames: int, fps: float, new_fps: float) -> int:
+    """Frames of a ``num_frames`` clip at ``fps`` resampled to ``new_fps``: the first frame at 0 s, then one every
+    ``1 / new_fps`` seconds up to the last source frame, which is included when it falls on the new grid."""
+    new_fps = _check_fps(new_fps)
+    if num_frames <= 1:
+        return 1
+    return int(math.floor((num_frames - 1) / fps * new_fps + 1e-9)) + 1
+
+
+def resample_times(num_frames: int, fps: float, new_fps: float) -> NDArray[np.float64]:
+    """``(n,)`` normalised times (in [0, 1], the clip's first to last frame) of the frames of a clip resampled
+    from ``fps`` to ``new_fps`` (:func:`resampled_count` frames).
+
+    Raises:
+        ParameterError: for a ``new_fps`` that is not a positive number.
+    """
+    count = resampled_count(num_frames, fps, new_fps)
+    if num_frames == 1:
+        return np.zeros(1)
+    duration = (num_frames - 1) / fps
+    return np.minimum(np.arange(count) / new_fps / duration, 1.0)
+
+
+def interpolate_frames(motion: Motion, positions: ArrayLike, fps: float) -> Motion:
+    """``motion`` evaluated at fractional frame ``positions`` ``(n,)`` (clamped to ``[0, F - 1]``), as a motion at
+    ``fps``.
+
+    Between two frames, rotations of joints with three rotation channels (and of joints without any) are slerped
+    along the shorter arc; joints with one or two rotation channels interpolate their continuous Euler angles,
+    so that they stay expressible with their own axes; translations are interpolated linearly.  A whole
+    position gives that frame.
+    """
+    F = motion.num_frames
+    pos = np.clip(np.asarray(positions, dtype=np.float64).reshape(-1), 0.0, F - 1)
+    lo = np.floor(pos).astype(np.int64)
+    hi = np.minimum(lo + 1, F - 1)
+    t = pos - lo
+
+    def lerp(a: NDArray[np.float64]) -> NDArray[np.float64]:
+        w = t.reshape((-1,) + (1,) * (a.ndim - 1))
+        return a[lo] + (a[hi] - a[lo]) * w
+
+    rotations = quat_slerp(motion.rotations[lo], motion.rotations[hi], t[:, None])
+    for j, order in enumerate(motion.skeleton.rotation_orders):
+        if 0 < len(order) < 3:
+            angles = quat_to_euler_continuous(motion.rotations[:, j], order)
+            rotations[:, j] = euler_to_quat(lerp(angles), order)
+    return Motion(motion.skeleton, fps, lerp(motion.root_translation), rotations, lerp(motion.joint_translations))
+
+
+def resample(motion: Motion, fps: float, num_frames: int | None = None) -> Motion:
+    """``motion`` at ``fps``: frame ``i`` is the motion at ``i / fps`` seconds (interpolated as in
+    :func:`interpolate_frames`; times past the last frame give the last frame).
+
+    Args:
+        motion: the clip.
+        fps: the new frame rate.
+        num_frames: frames of the result; default :func:`resampled_count` (up to the last source frame).
+
+    Raises:
+        ParameterError: for an ``fps`` that is not a positive number.
+    """
+    fps = _check_fps(fps)
+    count = resampled_count(motion.num_frames, motion.fps, fps) if num_frames is None else int(num_frames)
+    return interpolate_frames(motion, np.arange(count) * (motion.fps / fps), fps)

@@ -1,0 +1,347 @@
+"""The Fourier plugin's own machinery: the network and its warm start, the L-BFGS optimiser, the frequency
+choice, and the windowed payload (version 2).  The codecs' behaviour through the core is tested in
+``tests/test_codecs.py``."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from motionrep.compress import compress_motion, decompress
+from motionrep.errors import BoundNotMetError, ParameterError
+from motionrep.evaluate import max_joint_error
+from motionrep.synthetic import chain_skeleton, synthetic_motion
+
+FAST_FOURIER = {"iters": 200}
+
+
+@pytest.fixture(scope="module")
+def chain_motion():
+    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Fourier codecs: the network, warm start, frequency choice
+# ---------------------------------------------------------------------------------------------------------------
+def test_warm_start_growth_leaves_the_function_unchanged():
+    import torch
+
+    from motionrep_fourier._train import _grow, _initial
+
+    gen = torch.Generator().manual_seed(3)
+    net = _initial(gen, 5, 10, 7)
+    x = torch.rand(40, 5, generator=gen)
+    before = net.forward(x)
+    grown = _grow(net, gen)
+    assert (grown.inputs, grown.hidden) == (7, 14)
+    x_new = torch.cat([x, torch.rand(40, 2, generator=gen) * 2 - 1], dim=1)  # any values of the new inputs
+    # The new inputs enter through zero weights and the new hidden units through zero output weights, so the
+    # function is unchanged in exact arithmetic. In float32 the wider matrix products may be summed in another
+    # order by the CPU's BLAS kernel (seen: one ulp apart on AMD EPYC, bit-identical on Intel), so the outputs
+    # are compared within a few float32 ulps of values of order 1, not bit for bit.
+    torch.testing.assert_close(grown.forward(x_new), before, rtol=0, atol=4 * torch.finfo(torch.float32).eps)
+
+
+def test_manual_gradient_matches_autograd():
+    import torch
+
+    from motionrep_fourier._train import _grow, _initial
+
+    gen = torch.Generator().manual_seed(4)
+    net = _grow(_initial(gen, 3, 6, 5), gen)
+    x, z = torch.rand(25, 5, generator=gen), torch.rand(25, 5, generator=gen)
+    theta = net.theta.clone().requires_grad_(True)
+    loss = torch.nn.functional.mse_loss(net.forward(x, theta), z)
+    loss.backward()
+    value, grad = net.loss_and_grad(x, z, net.theta.numpy().astype(np.float64))
+    assert value == pytest.approx(float(loss.detach()), rel=1e-6)
+    assert np.allclose(grad, theta.grad.numpy(), atol=1e-6)
+
+
+def _two_loop_direction(g, pairs):
+    """The classic L-BFGS two-loop recursion (Nocedal and Wright, algorithm 7.4), the reference for the compact
+    form: ``-H g`` with ``H0 = (s.y / y.y) I`` from the newest pair."""
+    q, alphas = -g.copy(), []
+    for s, y in reversed(pairs):
+        a = (s @ q) / (s @ y)
+        q -= a * y
+        alphas.append(a)
+    s, y = pairs[-1]
+    q *= (s @ y) / (y @ y)
+    for (s, y), a in zip(pairs, reversed(alphas)):
+        q += (a - (y @ q) / (s @ y)) * s
+    return q
+
+
+def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
+    from motionrep_fourier._train import _LBFGS
+
+    rng = np.random.default_rng(0)
+    n = 40
+    A = rng.normal(size=(n, n))
+    H = A @ A.T + 0.1 * np.eye(n)  # condition number ~ 1e3
+    optimizer = _LBFGS(lambda x: (0.5 * x @ H @ x, H @ x), rng.normal(size=n), history=5)
+    optimizer.run(12)  # the memory is full and has wrapped around
+    m = optimizer.m
+    pairs = [(optimizer._SY[i].astype(np.float64), optimizer._SY[m + i].astype(np.float64))
+             for i in optimizer._o]
+    assert len(pairs) == 5
+    reference = _two_loop_direction(optimizer.g, pairs)
+    assert np.allclose(optimizer._direction(), reference, rtol=1e-5, atol=1e-6 * np.abs(reference).max())
+    f0 = optimizer.f
+    optimizer.run(500)
+    assert optimizer.f < 1e-12 * f0
+    assert optimizer.evaluations < 1.3 * 512  # step 1 is accepted almost always: about one evaluation per step
+
+
+def test_line_search_steps_through_the_float32_noise_of_the_loss():
+    """Near a minimum the loss values carry rounding noise larger than the possible decrease; the line search
+    must still move to where the slope flattens instead of declaring convergence (the gradient is accurate)."""
+    from motionrep_fourier._train import _LBFGS
+
+    rng = np.random.default_rng(1)
+    scales = np.geomspace(1.0, 1e4, 20)  # very uneven curvature
+
+    def noisy(x):
+        value = 1.0 + 0.5 * np.sum(scales * x ** 2)
+        return value * (1.0 + 3e-6 * rng.uniform(-1, 1)), scales * x  # float32-like noise on the value only
+
+    x0 = 1e-3 / np.sqrt(scales)  # every term of the loss is already below its noise
+    optimizer = _LBFGS(noisy, x0)
+    optimizer.run(60)
+    assert not optimizer.converged  # a line search that trusts the values alone stops at once, about 0.5 here
+    assert np.linalg.norm(scales * optimizer.x) < 0.1 * np.linalg.norm(scales * x0)
+
+
+def test_training_needs_no_deterministic_algorithms_mode(chain_motion):
+    """Bit-for-bit determinism on the CPU comes from a fixed thread count, not from
+    torch.use_deterministic_algorithms (which imports torch._dynamo: seconds per process)."""
+    import torch
+
+    before = torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()
+    compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 1, "iters": 25})
+    assert (torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()) == before
+    code = ("import sys; from motionrep.synthetic import chain_skeleton, synthetic_motion; "
+            "from motionrep.compress import compress_motion; "
+            "m = synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20); "
+            "compress_motion(m, 'adaptive-fourier', max_error=None, params={'k': 1, 'iters': 25}); "
+            "assert 'torch._dynamo' not in sys.modules, 'torch._dynamo imported'")
+    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+
+
+def test_adaptive_frequency_is_the_dct_peak_of_the_first_component():
+    from motionrep_fourier._train import next_adaptive_frequency
+
+    N = 200
+    t = np.arange(N)
+    # DCT-II index k is cos(pi k (n + 1/2) / N): k / 2 cycles over the clip
+    strong = np.cos(np.pi * 7 * (t + 0.5) / N)  # 3.5 cycles
+    weak = 0.3 * np.cos(np.pi * 12 * (t + 0.5) / N)  # 6 cycles
+    residual = np.stack([strong + weak, 0.5 * (strong + weak), np.zeros(N)], axis=1)
+    weights = np.array([1.0, 1.0, 5.0])
+    assert next_adaptive_frequency(residual, weights, []) == 3.5
+    assert next_adaptive_frequency(residual, weights, [3.5]) == 6.0
+    assert next_adaptive_frequency(np.zeros((N, 3)), weights, []) is None
+
+
+def test_network_decodes_at_any_time_continuously():
+    from motionrep_fourier._network import fourier_features, network_forward
+
+    x = fourier_features([0.0, 0.5], [1.0, 2.5])
+    assert np.allclose(x, [[0, 0, 1, 0, 1], [0.5, 0, -1, np.sin(2.5 * np.pi), np.cos(2.5 * np.pi)]], atol=1e-12)
+    rng = np.random.default_rng(0)
+    arrays = {"omega": np.array([1.0, 3.0], np.float32), "W0": rng.normal(size=(10, 5)), "b0": rng.normal(size=10),
+              "W1": rng.normal(size=(10, 10)), "b1": rng.normal(size=10), "W2": rng.normal(size=(4, 10)),
+              "b2": rng.normal(size=4)}
+    t = np.linspace(0, 1, 1001)
+    y = network_forward(arrays, t)
+    assert y.shape == (1001, 4)
+    y_near = network_forward(arrays, t + 1e-7)  # continuous in t: nearby times give nearby features
+    assert np.max(np.abs(y_near - y)) < 1e-4 < np.max(np.abs(np.diff(y, axis=0)))
+    with pytest.raises(ValueError, match="shape"):
+        network_forward(dict(arrays, W1=np.zeros((3, 3))), t)
+
+
+def test_network_in_blocks_is_eq_2_and_elu_is_exact():
+    """The blocked, in-place evaluation is the plain formula of eq. 2 (up to BLAS rounding), for any count of
+    times around the block size, and ELU is x for x >= 0 and expm1(x) below."""
+    from motionrep_fourier._network import ROWS, elu, fourier_features, network_forward
+
+    z = np.array([-3.0, -1e-300, -0.0, 0.0, 1e-300, 2.5])
+    e = elu(z)
+    assert np.array_equal(e, np.where(z >= 0, z, np.expm1(z)))
+    inplace = z.copy()
+    assert elu(inplace, out=inplace) is inplace and np.array_equal(inplace, e)
+    rng = np.random.default_rng(3)
+    arrays = {"omega": np.array([0.5, 2.0, 7.5], np.float32), "W0": rng.normal(size=(14, 7)),
+              "b0": rng.normal(size=14), "W1": rng.normal(size=(14, 14)), "b1": rng.normal(size=14),
+              "W2": rng.normal(size=(5, 14)).astype(np.float16), "b2": rng.normal(size=5).astype(np.float32)}
+    a = {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
+
+    def plain(t):
+        h = fourier_features(t, a["omega"]) @ a["W0"].T + a["b0"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        h = h @ a["W1"].T + a["b1"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        return h @ a["W2"].T + a["b2"]
+
+    for count in (1, 2, ROWS - 1, ROWS, ROWS + 1, 2 * ROWS + 7):
+        t = rng.uniform(size=count)
+        y = network_forward(arrays, t)
+        assert y.shape == (count, 5) and y.dtype == np.float64
+        assert np.allclose(y, plain(t), rtol=0, atol=1e-12)
+        assert np.array_equal(network_forward(arrays, t), y)  # deterministic
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Fourier codecs in windows (payload version 2)
+# ---------------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("frames, window", [(2, 8), (9, 8), (10, 8), (48, 16), (100, 8), (101, 33), (1000, 125)])
+def test_window_edges_cover_the_clip_in_equal_windows(frames, window):
+    from motionrep_fourier._windows import window_edges
+
+    edges = window_edges(frames, window)
+    steps = np.diff(edges)
+    assert edges[0] == 0 and edges[-1] == frames - 1 and np.all(steps >= 1) and np.all(steps <= max(window, 1))
+    assert edges.size - 1 == max(1, -(-(frames - 1) // window))
+    assert steps.max() - steps.min() <= 1
+    assert window_edges(frames, 0).tolist() == [0, frames - 1]
+
+
+@pytest.fixture(scope="module")
+def windowed(chain_motion):
+    return compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
+
+
+def test_windows_meet_the_bound_each_with_its_own_network(windowed, chain_motion):
+    r, c = windowed, windowed.container
+    assert c.codec_version == 2 and c.info["windows"] == 3 and len(c.info["K"]) == 3
+    assert c.arrays["edges"].tolist() == [0, 16, 31, 47]
+    assert r.report.max_error <= r.bound and r.report.max_error_percent <= 3.0
+    # every stored number counts: the window table, frequencies, weights, output biases
+    D = r.figures.feature_width
+    per_window = [K + 2 * (2 * K + 1) * (2 * K + 1) + 2 * 2 * (2 * K + 1) + (2 * (2 * K + 1)) ** 2
+                  + D * 2 * (2 * K + 1) + D for K in c.info["K"]]
+    assert c.num_parameters == 4 + 3 + sum(per_window)
+    # the core measured the payload decoded from the bytes: the same error as decoding the file again
+    assert max_joint_error(chain_motion, decompress(r.data)).max_error == r.report.max_error
+
+
+def test_windowed_decoding_follows_each_window_and_is_deterministic(windowed):
+    from motionrep_fourier._network import network_forward
+    from motionrep_fourier._windows import split_windows, windows_forward
+
+    arrays = windowed.container.arrays
+    edges, windows = split_windows(arrays)
+    F = int(edges[-1]) + 1
+    t = np.linspace(0, 1, 1001)
+    y = windows_forward(arrays, t)
+    assert np.array_equal(windows_forward(arrays, t), y)
+    x = t * (F - 1)
+    for s, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+        inside = (x >= a) & (x < b) if s < len(windows) - 1 else (x >= a)
+        np.testing.assert_array_equal(y[inside], network_forward(windows[s], (x[inside] - a) / (b - a)))
+    # a window's own network at the shared boundary frame is within the bound too: both were measured there
+    assert np.isfinite(y).all()
+
+
+def test_windowed_payload_checks_its_layout(windowed):
+    from motionrep_fourier._windows import windows_forward
+
+    arrays = dict(windowed.container.arrays)
+    for name, bad in [("weights", arrays["weights"][:-1]), ("k", arrays["k"] + 1),
+                      ("edges", arrays["edges"][::-1].copy()), ("b2", arrays["b2"][:2])]:
+        with pytest.raises(ValueError, match="windowed payload"):
+            windows_forward({**arrays, name: bad}, [0.5])
+
+
+def test_windowed_files_are_byte_identical_for_a_seed(windowed, chain_motion):
+    again = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
+    assert again.data == windowed.data
+
+
+def test_version_1_payloads_still_decode(chain_motion):
+    """Files written before windows (payload version 1, the same arrays as an unwindowed version 2)."""
+    import dataclasses
+
+    from motionrep.container import pack, unpack
+
+    r = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 50})
+    assert r.container.codec_version == 2 and "edges" not in r.container.arrays
+    old = unpack(pack(dataclasses.replace(r.container, codec_version=1)))
+    assert old.codec_version == 1
+    decoded = decompress(pack(old))
+    np.testing.assert_array_equal(decoded.rotations, decompress(r.data).rotations)
+
+
+def test_windows_measure_the_same_with_or_without_evaluate_frames(chain_motion):
+    """A context without ``evaluate_frames`` (the method is new) is measured on the whole clip instead."""
+    from motionrep.plugins import get_codec, get_representation
+    from motionrep.testing import ConformanceContext
+
+    codec, rep = get_codec("adaptive-fourier"), get_representation("root-quat-axis-angle")
+    params = codec.parse_params({"window": 16, "iters": 100, "k": 1})
+    f, w = rep.to_features(chain_motion), rep.weights(chain_motion)
+
+    class Older:  # every attribute of the context but evaluate_frames
+        def __init__(self, ctx):
+            self.ctx, self.calls = ctx, 0
+            self.params, self.bound, self.seed, self.times = ctx.params, ctx.bound, ctx.seed, ctx.times
+
+        def evaluate(self, features):
+            self.calls += 1
+            assert np.asarray(features).shape == f.shape
+            return self.ctx.evaluate(features)
+
+        def evaluate_payload(self, payload):
+            return self.ctx.evaluate_payload(payload)
+
+        def progress(self, stage, **fields):
+            pass
+
+    def context():
+        return ConformanceContext(chain_motion, rep, codec, params, 1e9, 0)
+
+    older = Older(context())
+    a, b = codec.encode(f, w, context()), codec.encode(f, w, older)
+    assert older.calls > 0
+    assert a.info == b.info and all(np.array_equal(a.arrays[k], b.arrays[k]) for k in a.arrays)
+
+
+@pytest.mark.parametrize("window", [1, 7, -8, 2.5])
+def test_window_parameter_is_validated(window, chain_motion):
+    with pytest.raises(ParameterError, match="window"):
+        compress_motion(chain_motion, "adaptive-fourier", params={"window": window})
+
+
+def test_a_window_that_misses_the_bound_is_split_then_named(chain_motion):
+    # 0-16 misses, so do its halves 0-8 and 8-16; 0-8 spans fewer than 2 x MIN_SPLIT steps: its error is final
+    with pytest.raises(BoundNotMetError, match=r"\(window of frames 0-8\).*max_k=0"):
+        compress_motion(chain_motion, "naive-fourier", max_error="0.01%",
+                        params={"window": 16, "max_k": 0, "iters": 50})
+
+
+def test_windows_that_miss_the_bound_are_split_until_they_meet_it(chain_motion, monkeypatch):
+    import motionrep_fourier._train as train
+    from motionrep_fourier._codecs import MIN_SPLIT
+
+    real_fit, tried = train.fit, []
+
+    def fit(features, weights, context, **kw):  # a network "cannot" cover more than 12 frame steps
+        tried.append(features.shape[0] - 1)
+        if features.shape[0] - 1 > 12:
+            raise BoundNotMetError("too long", 1.0, 0.5)
+        return real_fit(features, weights, context, **kw)
+
+    monkeypatch.setattr(train, "fit", fit)
+    events = []
+    r = compress_motion(chain_motion, "naive-fourier", max_error="50%", params={"window": 24, "iters": 50},
+                        progress=lambda stage, fields: events.append((stage, fields.get("window"))))
+    # 47 steps: windows 0-24 and 24-47; each misses, and is split at its middle frame
+    assert r.container.arrays["edges"].tolist() == [0, 12, 24, 35, 47]
+    assert tried == [24, 12, 12, 23, 11, 12] and MIN_SPLIT == 8
+    assert [w for stage, w in events if stage == "split"] == ["0-24", "24-47"]
+    assert max_joint_error(chain_motion, decompress(r.data)).max_error <= r.bound
