@@ -31,11 +31,11 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Iterator, Sequence, TypeVar
 
 from ._model import Motion
-from .errors import MotionrepError
-from .sources import ClipRef, Source
+from .errors import FormatError, MotionrepError, ParameterError
+from .sources import ClipRef, Source, listing
 
-__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "compress_clips", "evaluate_clips",
-           "THREAD_VARIABLES"]
+__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "compress_clips", "pair_clips",
+           "evaluate_clips", "THREAD_VARIABLES"]
 
 _Item = TypeVar("_Item")
 _Result = TypeVar("_Result")
@@ -209,6 +209,39 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
 # ---------------------------------------------------------------------------------------------------------------
 # evaluate two sources clip by clip
 # ---------------------------------------------------------------------------------------------------------------
+def pair_clips(reference: Source, candidate: Source, clip: str | None = None) -> list[tuple[str, str, str]]:
+    """The clips to compare between two sources, as ``(name, reference clip, candidate clip)``.
+
+    A file of one clip is compared with the other file's only clip (or with its clip ``clip``); two databases or
+    archives are compared clip by clip, by name (only ``clip`` when given).
+
+    Raises:
+        FormatError: when ``clip`` is not in a database or archive given, or two databases hold different clips.
+        ParameterError: when one file holds several clips and the other one, and no ``clip`` says which.
+    """
+    def names(src: Source) -> list[str]:
+        if src.kind in ("database", "archive") and clip is not None:
+            return [src.resolve(clip)]
+        return src.names
+
+    ref_names, cand_names = names(reference), names(candidate)
+    if len(ref_names) == 1 and len(cand_names) == 1:
+        return [(ref_names[0], ref_names[0], cand_names[0])]
+    if len(ref_names) > 1 and len(cand_names) > 1:
+        missing = [n for n in ref_names if n not in cand_names]
+        extra = [n for n in cand_names if n not in ref_names]
+        if missing or extra:
+            where = "; ".join(part for part in (
+                f"only in {reference.path}: {listing(missing)}" if missing else "",
+                f"only in {candidate.path}: {listing(extra)}" if extra else "") if part)
+            raise FormatError(f"the two files hold different clips ({where}); use --clip NAME to compare one",
+                              candidate.path)
+        return [(n, n, n) for n in ref_names]
+    many, found = (reference, ref_names) if len(ref_names) > 1 else (candidate, cand_names)
+    raise ParameterError(f"{many.path} holds {len(found)} clips ({listing(found)}) and the other file one; "
+                         "use --clip NAME")
+
+
 def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[str, str, str]],
                    on_done: Callable[[str, Any], None] | None = None) -> list[tuple[str, Any]]:
     """The shared error of every pair ``(name, reference clip, candidate clip)``, read from the two open sources

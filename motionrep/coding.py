@@ -23,6 +23,9 @@ and CPUs), then handed to the coder, whose fixed-point quantisation of them is i
 values and models therefore give the same bytes, and the same bytes decode to the same values, everywhere.
 The exact definitions are in ``specs/coding.md``.
 
+Size: one concern, integer coding; the quantiser, the model and the coder share one definition of the
+probabilities that must agree bit for bit between encoder and decoder, so they are kept in one module.
+
 Example::
 
     enc = IntegerEncoder()

@@ -14,6 +14,10 @@ Conventions:
 
 The conversions delegate to ``scipy.spatial.transform.Rotation``; only the algebra scipy lacks on plain arrays
 (products, rotating vectors, sign and wrap continuity over frames) is written here.
+
+Size: one concern, rotations on arrays; the length is the number of parameterisations (quaternion, matrix,
+Euler in every order, axis-angle, 6D) times the conversions between them, each short, documented with its
+shapes, and read next to its inverse.
 """
 
 from __future__ import annotations

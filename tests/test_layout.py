@@ -1,5 +1,6 @@
 """The shape of the code base: the README's layout table names every module and folder, no module-level import
-circle inside ``motionrep``, and the command-line package light to import."""
+circle inside ``motionrep``, modules short enough to read (a longer one says why in its docstring), and the
+command-line package light to import."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = REPO / "motionrep"
+#: A module longer than this says why in a docstring paragraph starting "Size:".
+MAX_LINES = 450
 
 
 def _modules() -> list[Path]:
@@ -101,6 +104,15 @@ def test_no_import_circle():
     for node in sorted(graph):
         if not state.get(node):
             visit(node)
+
+
+def test_long_modules_say_why():
+    for module in _modules():
+        lines = module.read_text(encoding="utf-8").count("\n")
+        if lines > MAX_LINES:
+            doc = ast.get_docstring(ast.parse(module.read_text(encoding="utf-8"))) or ""
+            assert "\nSize:" in "\n" + doc, (f"{module.relative_to(REPO)} has {lines} lines: split it, or say in its "
+                                              "docstring (a paragraph starting 'Size:') why one concern needs them")
 
 
 def test_the_command_modules_are_light():

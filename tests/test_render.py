@@ -17,6 +17,7 @@ pytest.importorskip("matplotlib")
 Image = pytest.importorskip("PIL.Image")
 
 from motionrep import render as rmod  # noqa: E402
+from motionrep.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
 from motionrep.cli import cli  # noqa: E402
 from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
 from motionrep.evaluate import max_joint_error  # noqa: E402
@@ -207,7 +208,7 @@ def test_parse_frames_is_python_slicing():
     assert rmod.parse_frames("-5:") == slice(-5, None, None)
     assert rmod.parse_frames("7") == slice(7, 8)
     assert rmod.parse_frames("-1") == slice(-1, None)
-    idx, exact = rmod._select("-5:", 40, "clip")
+    idx, exact = render_frames.select_frames("-5:", 40, "clip")
     assert idx.tolist() == [35, 36, 37, 38, 39] and not exact
 
 
@@ -262,7 +263,7 @@ def test_failure_while_drawing_leaves_no_file(tmp_path, pair, monkeypatch):
     def boom(self, frame):
         raise RuntimeError("drawing failed")
 
-    monkeypatch.setattr(rmod._Panel, "show", boom)
+    monkeypatch.setattr(render_draw.Panel, "show", boom)
     with pytest.raises(RuntimeError):
         rmod.render(tmp_path / "x.gif", *pair, size=SMALL)
     _no_output_left(tmp_path, "x.gif")
@@ -272,15 +273,15 @@ def test_failure_while_drawing_leaves_no_file(tmp_path, pair, monkeypatch):
 
 def test_long_clip_stays_within_max_frames_in_real_time():
     selected = np.arange(2242)
-    shown, rate, notes = rmod._animation_frames(selected, False, 120.0, None, 150, ".gif")
+    shown, rate, notes = render_frames.animation_frames(selected, False, 120.0, None, 150, ".gif")
     assert shown.size <= 150 and notes
     assert 100 / rate == round(100 / rate)  # a whole number of centiseconds per frame
     assert abs(shown.size / rate - 2242 / 120) < 2 / rate  # plays as long as the clip
     assert np.all(np.diff(shown) > 0)
-    shown, rate, notes = rmod._animation_frames(np.arange(344), False, 120.0, None, 150, ".gif")
+    shown, rate, notes = render_frames.animation_frames(np.arange(344), False, 120.0, None, 150, ".gif")
     assert rate == 25 and shown.size == 72 and not notes
     with pytest.raises(ValidationError, match="max-frames"):
-        rmod._animation_frames(np.arange(0, 400, 2), True, 120.0, None, 150, ".gif")
+        render_frames.animation_frames(np.arange(0, 400, 2), True, 120.0, None, 150, ".gif")
 
 
 def test_up_axis_detection(pair):
@@ -295,8 +296,8 @@ def test_equal_scale_in_screen_space(pair):
     """The fixed orthographic camera draws every bone at most its length, the same scale in every frame."""
     ref = pair[0]
     pos = global_positions(ref)
-    bones = rmod._bones(ref.skeleton)
-    scene = rmod._scene(pos, None, bones, "y", np.arange(ref.num_frames), 170.0)
+    bones = render_scene.bones(ref.skeleton)
+    scene = render_scene.build_scene(pos, None, bones, "y", np.arange(ref.num_frames), 170.0)
     true = np.linalg.norm(pos[:, bones[:, 0]] - pos[:, bones[:, 1]], axis=-1)
     drawn = np.linalg.norm(scene.ref[:, bones[:, 0]] - scene.ref[:, bones[:, 1]], axis=-1)
     assert np.all(drawn <= true + 1e-9)

@@ -17,7 +17,8 @@ from motionrep.cli import cli
 from motionrep.errors import FormatError, ParameterError, ValidationError
 from motionrep.io import list_clips, write, write_database
 from motionrep.ops import resample, resample_times
-from motionrep.sources import collect_clips, open_source, pair_clips
+from motionrep.batch import pair_clips
+from motionrep.sources import collect_clips, open_source
 from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 

@@ -8,9 +8,10 @@ import math
 import os
 import statistics
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
-from ..errors import FormatError, MotionrepError, ParameterError
+from ..errors import FormatError, ParameterError
+from ..render.draw import require_matplotlib
 from .report import BenchRow
 
 __all__ = ["plot_series", "plain_log_ticks", "plot_rate_distortion", "require_matplotlib"]
@@ -144,19 +145,3 @@ def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str],
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format=suffix[1:])
     return series
-
-
-def require_matplotlib() -> Any:
-    """matplotlib's ``Figure`` and ``FigureCanvasAgg`` (the non-interactive canvas).
-
-    Raises:
-        MotionrepError: matplotlib is not installed (with the command that installs it).
-    """
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise MotionrepError("drawing plots needs matplotlib, which is not installed: "
-                             "pip install 'motionrep[plot]'") from None
-    return Figure, FigureCanvasAgg
-

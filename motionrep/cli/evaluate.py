@@ -42,7 +42,8 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     """
     from ..batch import evaluate_clips
     from ..errors import ParameterError
-    from ..sources import open_source, pair_clips
+    from ..batch import pair_clips
+    from ..sources import open_source
 
     if clip is not None and not any(p.suffix.lower() in (".h5", ".hdf5") for p in (reference, candidate)):
         raise click.UsageError("--clip applies to HDF5 databases and archives")

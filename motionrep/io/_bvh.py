@@ -5,6 +5,10 @@ In short: rotation channels are intrinsic Euler angles in degrees in the order l
 replaces that axis of the joint's OFFSET; CRLF, CR, tabs, scientific notation, namespaced names
 (``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk with numpy.
 Every problem raises :class:`~motionrep.errors.BVHFormatError` naming the file and the line.
+
+Size: one concern, the BVH format; the reader and the writer are kept together because each is the other's
+specification (the writer must produce exactly what the reader accepts, channel layout and Euler solution
+included), and most of the length is the reader naming the line of every malformed case.
 """
 
 from __future__ import annotations

@@ -7,6 +7,10 @@ only that clip's group.  Every array round-trips bit for bit.  Problems raise
 :class:`~motionrep.errors.HDF5FormatError` naming the file (and the clip).
 
 A file written by :func:`write_hdf5` is a database with one clip, named after the file's stem by default.
+:class:`HDF5Database` is a file open for reading, any number of clips read from it one at a time.
+
+Size: one concern, the HDF5 format; the writer and the reader are kept together because each is the other's
+specification, and most of the length is the reader naming the file, clip and field of every malformed case.
 """
 
 from __future__ import annotations

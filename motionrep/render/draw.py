@@ -1,0 +1,268 @@
+"""Drawing with matplotlib (imported only here, on the non-interactive Agg canvas): the panels of both stick
+figures, titles and legends, and the two writers, an animation (GIF, MP4) and a filmstrip (PNG)."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import MotionrepError, ValidationError
+from ..evaluate import ErrorReport
+from .scene import Scene, Worst
+
+__all__ = ["REFERENCE_COLOR", "CANDIDATE_COLOR", "MARK_COLOR", "DPI", "require_matplotlib", "describe_error",
+           "Panel", "write_animation", "write_filmstrip"]
+
+REFERENCE_COLOR = "#d62728"  # red
+CANDIDATE_COLOR = "#1f5fd6"  # blue
+MARK_COLOR = "#111111"
+DPI = 100
+
+
+def require_matplotlib() -> Any:
+    """matplotlib's ``Figure`` and ``FigureCanvasAgg`` (the non-interactive canvas), for every picture motionrep
+    draws (renders, benchmark plots).
+
+    Raises:
+        MotionrepError: matplotlib is not installed (with the command that installs it).
+    """
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise MotionrepError("drawing pictures and plots needs matplotlib, which is not installed: "
+                             "pip install 'motionrep[plot]'") from None
+    return Figure, FigureCanvasAgg
+
+
+def describe_error(report: ErrorReport) -> str:
+    """The worst joint of a report in a few words: ``"LeftHand 3.21 cm = 1.9% of height, frame 123"``."""
+    unit = f" {report.units}" if report.units else " units"
+    pct = "" if not math.isfinite(report.max_error_percent) else f" = {report.max_error_percent:.3g}% of height"
+    return f"{report.joint} {report.max_error:.3g}{unit}{pct}, frame {report.frame}"
+
+
+class Panel:
+    """The artists of one picture: floor, shadow, both skeletons, the worst-joint marker."""
+
+    def __init__(self, ax, scene: Scene, worst: Worst | None, linewidth: float, marker: float):
+        from matplotlib.collections import LineCollection
+
+        self.scene, self.worst = scene, worst
+        ax.set_axis_off()
+        # one file unit is as long across as up: widen the limits along the axes' longer side
+        box = ax.get_position()
+        fig_w, fig_h = ax.figure.get_size_inches()
+        px = box.width * fig_w / (box.height * fig_h)  # the axes' width / height
+        (x0, x1), (y0, y1) = scene.xlim, scene.ylim
+        if (x1 - x0) / (y1 - y0) < px:
+            grow = (px * (y1 - y0) - (x1 - x0)) / 2
+            x0, x1 = x0 - grow, x1 + grow
+        else:
+            grow = ((x1 - x0) / px - (y1 - y0)) / 2
+            y0, y1 = y0 - grow, y1 + grow
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        self.floor = LineCollection(scene.floor, colors="#dddddd", linewidths=0.8, zorder=0)
+        ax.add_collection(self.floor)
+        has_cand = scene.cand is not None
+        self.shadow = LineCollection([], colors="#c4c4c4", linewidths=linewidth * 1.2, zorder=1,
+                                     capstyle="round")
+        # the reference is drawn wider, under the candidate: where they agree it shows as a red edge around blue
+        self.ref = LineCollection([], colors=REFERENCE_COLOR, linewidths=linewidth * (2.4 if has_cand else 1.2),
+                                  alpha=0.65 if has_cand else 1.0, zorder=2, capstyle="round")
+        self.cand = None
+        for c in (self.shadow, self.ref):
+            ax.add_collection(c)
+        if has_cand:
+            self.cand = LineCollection([], colors=CANDIDATE_COLOR, linewidths=linewidth, zorder=3,
+                                       capstyle="round")
+            ax.add_collection(self.cand)
+        self.ring = self.link = None
+        if worst is not None and has_cand:
+            (self.link,) = ax.plot([], [], color=MARK_COLOR, lw=max(0.8, linewidth * 0.5), zorder=4)
+            (self.ring,) = ax.plot([], [], ls="none", marker="o", ms=marker, mfc="none", mec=MARK_COLOR,
+                                   mew=max(1.0, linewidth * 0.6), zorder=5)
+
+    @property
+    def moving(self) -> list:
+        """The artists that change from frame to frame."""
+        return [a for a in (self.shadow, self.ref, self.cand, self.link, self.ring) if a is not None]
+
+    def show(self, frame: int) -> None:
+        s, b = self.scene, self.scene.bones
+        self.shadow.set_segments(s.ref_shadow[frame][b])
+        self.ref.set_segments(s.ref[frame][b])
+        if self.cand is not None:
+            self.cand.set_segments(s.cand[frame][b])
+        if self.ring is not None:
+            p = self.worst.point
+            pts = np.stack([s.ref[frame, p], s.cand[frame, p]])
+            self.link.set_data(pts[:, 0], pts[:, 1])
+            mid = pts.mean(axis=0)
+            self.ring.set_data([mid[0]], [mid[1]])
+
+
+def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=REFERENCE_COLOR, lw=3, alpha=0.8, label=f"{names[0]} (reference)")]
+    if has_cand:
+        handles.append(Line2D([], [], color=CANDIDATE_COLOR, lw=2, label=f"{names[1]} (decoded)"))
+    if worst is not None:
+        handles.append(Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec=MARK_COLOR, mew=1.5,
+                              label=f"worst joint: {worst.name}"))
+    return handles
+
+
+def headline_text(names: tuple[str, str], has_cand: bool, worst: Worst | None) -> str:
+    if not has_cand:
+        return names[0]
+    line = f"{names[0]} (red) vs {names[1]} (blue)"
+    if worst is not None:
+        line += f"\nworst joint {describe_error(worst.report)}"
+    return line
+
+
+def frame_error_text(scene: Scene, worst: Worst | None, errors: NDArray | None, frame: int) -> str:
+    if worst is None or errors is None:
+        return ""
+    unit = f" {worst.units}" if worst.units else ""
+    return f"{worst.name}: {errors[frame]:.3g}{unit}"
+
+
+def header_height(font: float, lines: int) -> float:
+    """Pixels taken by ``lines`` lines of text at ``font`` points."""
+    return lines * font * 1.4 * DPI / 72.0 + 8.0
+
+
+def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int64], fps: float,
+                     size: tuple[int, int] | None, names: tuple[str, str], worst: Worst | None,
+                     errors: NDArray | None, num_frames: int, clip_fps: float) -> tuple[int, int]:
+    Figure, FigureCanvasAgg = require_matplotlib()
+    from matplotlib import animation
+
+    lines = (2 if worst is not None else 1) + 1 + (1 if worst is not None else 0)  # headline, legend
+    if size is None:
+        body = 380.0
+        width = float(np.clip(scene.aspect * body, 480.0, 800.0))
+        size = (2 * round(width / 2), 2 * round((body + header_height(9.0, lines) + 24.0) / 2))
+    w, h = size
+    font = float(np.clip(9.0 * min(w / 560.0, h / 480.0), 6.0, 14.0))
+    header, footer = header_height(font, lines), font * 2.0 * DPI / 72.0
+    fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
+    FigureCanvasAgg(fig)
+    top = 1.0 - header / h
+    ax = fig.add_axes((0.01, footer / h, 0.98, max(0.1, top - footer / h)))
+    scale = float(np.clip(min(w / scene.aspect, h - header - footer) / 380.0, 0.4, 3.0))
+    panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale)
+    headline = fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst), ha="center",
+                        va="top", fontsize=font)
+    legend = fig.legend(handles=legend_handles(names, scene.cand is not None, worst), loc="upper center",
+                        bbox_to_anchor=(0.5, 1.0 - header_height(font, 2 if worst is not None else 1) / h),
+                        fontsize=font * 0.9, frameon=False, ncol=2, borderaxespad=0.0, borderpad=0.0,
+                        handletextpad=0.5, columnspacing=1.5)
+    counter = fig.text(0.01, 0.01, "", ha="left", va="bottom", fontsize=font, family="monospace")
+    local = fig.text(0.99, 0.01, "", ha="right", va="bottom", fontsize=font)
+    # what does not move (titles, legend, floor) is drawn once and laid under every frame as a bitmap: text is
+    # most of matplotlib's drawing time
+    moving = panel.moving + [counter, local]
+    for artist in moving:
+        artist.set_visible(False)
+    fig.canvas.draw()
+    background = np.asarray(fig.canvas.buffer_rgba()).copy()
+    for artist in (headline, legend, panel.floor):
+        artist.set_visible(False)
+    fig.figimage(background, xo=0, yo=0, origin="upper", zorder=-1)
+    for artist in moving:
+        artist.set_visible(True)
+    if kind == ".gif":
+        writer = animation.PillowWriter(fps=fps)
+    else:
+        writer = animation.FFMpegWriter(fps=fps, codec="h264")  # matplotlib adds yuv420p for players
+    digits = len(str(num_frames - 1))
+    writer.setup(fig, str(path), dpi=DPI)
+    try:
+        for f in frames:
+            f = int(f)
+            panel.show(f)
+            counter.set_text(f"frame {f:>{digits}}/{num_frames - 1} {f / clip_fps:6.2f} s")
+            local.set_text(frame_error_text(scene, worst, errors, f))
+            writer.grab_frame()
+    except BaseException:
+        with contextlib.suppress(Exception):  # stop an ffmpeg process; the partial file is removed by the caller
+            writer.finish()
+        raise
+    writer.finish()
+    return w, h
+
+
+def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
+          title: float) -> tuple[int, int, tuple[int, int]]:
+    """Rows, columns and image size of a filmstrip of ``n`` panels each showing a picture of ``aspect``.
+
+    Without a size, pictures are about 300 pixels high (less if the strip would exceed 1800 pixels across)
+    and the grid is the one closest to a 16:10 image, empty cells counting against it.  With a size, the grid
+    that draws the pictures largest wins.
+    """
+    panel_aspect = float(np.clip(aspect, 0.5, 3.0))
+    if size is None:
+        def cost(cols: int) -> float:
+            rows = math.ceil(n / cols)
+            return abs(math.log(cols * panel_aspect / rows / 1.6)) + 0.5 * (rows * cols - n) / n
+
+        cols = min(range(1, n + 1), key=cost)
+        rows = math.ceil(n / cols)
+        panel_h = min(300.0, 1800.0 / (cols * panel_aspect))
+        return rows, cols, (round(cols * panel_h * panel_aspect), round(rows * (panel_h + title) + header))
+    w, h = size
+    best = None
+    for cols in range(1, n + 1):
+        rows = math.ceil(n / cols)
+        drawn = min(w / cols / panel_aspect, (h - header) / rows - title)  # height of each picture
+        if best is None or drawn > best[0] + 1e-9:
+            best = (drawn, rows, cols)
+    return best[1], best[2], (w, h)
+
+
+def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: tuple[int, int] | None,
+                     names: tuple[str, str], worst: Worst | None, errors: NDArray | None, num_frames: int,
+                     clip_fps: float) -> tuple[int, int]:
+    Figure, FigureCanvasAgg = require_matplotlib()
+    head_lines = 2 if worst is not None else 1
+    font = 10.0 if size is None else float(np.clip(10.0 * min(size[0] / 1200.0, size[1] / 700.0), 6.0, 12.0))
+    title_font = font * 0.85
+    title = header_height(title_font, 2 if worst is not None else 1)
+    header = header_height(font, head_lines + 1)  # the headline, then the legend in a row
+    rows, cols, (w, h) = grid(len(frames), scene.aspect, size, header, title)
+    if (h - header) / rows - title < 20 or w / cols < 20:
+        raise ValidationError(f"size {w}x{h} is too small for {len(frames)} pictures; make it larger")
+    fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
+    FigureCanvasAgg(fig)
+    top = 1.0 - header / h
+    cell_w, cell_h = 1.0 / cols, top / rows
+    picture_h = (h - header) / rows - title
+    scale = float(np.clip(min(w / cols / scene.aspect, picture_h) / 300.0, 0.3, 3.0))
+    for k, f in enumerate(frames):
+        f = int(f)
+        r, c = divmod(k, cols)
+        ax = fig.add_axes((c * cell_w + 0.005 * cell_w, top - (r + 1) * cell_h, 0.99 * cell_w,
+                           cell_h - title / h))
+        Panel(ax, scene, worst, linewidth=1.8 * scale, marker=12.0 * scale).show(f)
+        is_worst = worst is not None and f == worst.frame
+        label = f"frame {f} ({f / clip_fps:.2f} s)" + ("  (worst)" if is_worst else "")
+        err = frame_error_text(scene, worst, errors, f)
+        fig.text((c + 0.5) * cell_w, top - r * cell_h, label + (f"\n{err}" if err else ""), ha="center",
+                 va="top", fontsize=title_font, fontweight="bold" if is_worst else "normal")
+    fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst), ha="center", va="top",
+             fontsize=font)
+    fig.legend(handles=legend_handles(names, scene.cand is not None, worst), loc="upper center",
+               bbox_to_anchor=(0.5, 1.0 - header_height(font, head_lines) / h), fontsize=font * 0.9,
+               frameon=False, ncol=3, borderaxespad=0.0, borderpad=0.0, handletextpad=0.5, columnspacing=2.0)
+    fig.savefig(str(path), format="png", dpi=DPI, facecolor="white")
+    return w, h
