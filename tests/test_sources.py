@@ -163,3 +163,24 @@ def test_one_resampler(tmp_path):
     assert resample(m, 60.0).num_frames == len(resample_times(31, 30.0, 60.0)) == 61
     h = synthetic_motion(humanoid_skeleton(), frames=10, fps=30.0)
     assert resample(h, 7.0).num_frames == len(resample_times(10, 30.0, 7.0)) == 3
+
+
+def test_options_are_resolved_once_and_passed_down(tree, tmp_path, monkeypatch):
+    """compress and bench resolve a setting (codec, representation, parameters, bound) once, not per clip."""
+    from motionrep.compress import Pipeline
+
+    built = []
+    original = Pipeline.build.__func__
+
+    def counting(cls, *args, **kwargs):
+        built.append(args[:1] or kwargs.get("codec"))
+        return original(cls, *args, **kwargs)
+
+    monkeypatch.setattr(Pipeline, "build", classmethod(counting))
+    r = run("compress", tree, "-o", tmp_path / "all.h5", "--codec", "svd")
+    assert r.exit_code == 0, r.output
+    assert len(built) == 1  # four clips, one pipeline
+    built.clear()
+    r = run("bench", tree, "-c", "svd", "--max-error", "1%", "--max-error", "3%", "--decode-poses", "0", "-q")
+    assert r.exit_code == 0, r.output
+    assert len(built) == 2  # four clips x two bounds, one pipeline per bound

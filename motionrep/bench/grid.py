@@ -8,9 +8,9 @@ field of that name; the values of several swept parameters of one codec are comb
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import product
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from ..errors import ParameterError
 from ..sources import ClipRef
@@ -85,6 +85,8 @@ class BenchTask:
         params: codec parameters (strings, as from the command line), in the order given.
         seed: random seed of the codec.
         decode_poses: poses decoded to measure decode throughput (0: not measured).
+        pipeline: the :class:`~motionrep.compress.Pipeline` these settings resolve to (built by
+            :func:`bench_tasks`, shared by the tasks of one setting); None: built when the task runs.
     """
 
     index: int
@@ -95,6 +97,15 @@ class BenchTask:
     params: tuple[tuple[str, str], ...] = ()
     seed: int = 0
     decode_poses: int = DEFAULT_DECODE_POSES
+    pipeline: Any = field(default=None, compare=False, repr=False)
+
+    def resolved(self) -> Any:
+        """The task's :class:`~motionrep.compress.Pipeline` (``pipeline``, or built from the settings)."""
+        from ..compress import Pipeline
+
+        if self.pipeline is not None:
+            return self.pipeline
+        return Pipeline.build(self.codec, self.representation, dict(self.params), self.max_error, self.seed)
 
 
 def codec_parameter_names(codec: str) -> list[str]:
@@ -115,20 +126,18 @@ def bench_tasks(clips: Sequence[ClipRef], codecs: Sequence[str], representations
 
     Each parameter of ``sweep`` applies to the codecs whose ``Params`` has a field of that name; a codec's
     combinations are the cartesian product of the values of the parameters that apply to it.  Every
-    combination is validated (``codec.parse_params``) and every bound parsed before any work.
+    setting is resolved once, before any work, to the :class:`~motionrep.compress.Pipeline` its tasks share
+    (which validates the names, the parameters and the bound).
 
     Raises:
         UnknownPluginError: for an unknown codec or representation.
         ParameterError: for a parameter no codec has, an invalid value, or an invalid bound.
     """
-    from ..compress import parse_max_error
-    from ..plugins import get_codec, get_representation
+    from ..compress import Pipeline, parse_max_error
 
     sweep = dict(sweep or {})
     if not codecs:
         raise ParameterError("no codec to run")
-    for rep in representations:
-        get_representation(rep)
     bounds: list[str | None] = []
     for m in max_errors:
         limit = parse_max_error(m)
@@ -136,22 +145,20 @@ def bench_tasks(clips: Sequence[ClipRef], codecs: Sequence[str], representations
     used: set[str] = set()
     combos: dict[str, list[tuple[tuple[str, str], ...]]] = {}
     for codec in dict.fromkeys(codecs):
-        codec_obj = get_codec(codec)
         names = [k for k in sweep if k in codec_parameter_names(codec)]
         used.update(names)
         combos[codec] = [tuple(zip(names, values)) for values in product(*(sweep[k] for k in names))]
-        for combo in combos[codec]:
-            codec_obj.parse_params(dict(combo))
     unused = [k for k in sweep if k not in used]
     if unused:
         known = sorted({f for c in combos for f in codec_parameter_names(c)})
         raise ParameterError(f"parameter {unused[0]!r} is not a parameter of codec(s) {', '.join(combos)}; their "
                              f"parameters: {', '.join(known)}")
+    settings = [(rep, codec, combo, bound) for rep in dict.fromkeys(representations) for codec in combos
+                for combo in combos[codec] for bound in dict.fromkeys(bounds)]
+    pipelines = {key: Pipeline.build(key[1], key[0], dict(key[2]), key[3], seed) for key in settings}
     tasks: list[BenchTask] = []
     for clip in clips:
-        for rep in dict.fromkeys(representations):
-            for codec in combos:
-                for combo in combos[codec]:
-                    for bound in dict.fromkeys(bounds):
-                        tasks.append(BenchTask(len(tasks), clip, codec, rep, bound, combo, seed, decode_poses))
+        for key in settings:
+            rep, codec, combo, bound = key
+            tasks.append(BenchTask(len(tasks), clip, codec, rep, bound, combo, seed, decode_poses, pipelines[key]))
     return tasks

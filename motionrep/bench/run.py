@@ -87,7 +87,7 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
     A bound that is not met gives a ``"failed"`` row; another :class:`~motionrep.errors.MotionrepError` raised
     while compressing gives an ``"error"`` row.  Errors reading the clip are raised.
     """
-    from ..compress import compress_motion, parse_max_error
+    from ..compress import parse_max_error
     from ..kinematics import character_height
 
     if motion is None:
@@ -102,9 +102,7 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
                 params=_params_text(task.params), seed=task.seed)
     start = time.perf_counter()
     try:
-        result = compress_motion(motion, task.codec, representation=task.representation,
-                                 max_error=task.max_error, params=dict(task.params), seed=task.seed,
-                                 source_bytes=task.clip.source_bytes)
+        result = task.resolved().compress(motion, source_bytes=task.clip.source_bytes)
     except BoundNotMetError as exc:
         best = exc.best_error
         pct = None if best is None or height <= 0 else 100.0 * best / height

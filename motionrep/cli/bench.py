@@ -35,7 +35,7 @@ __all__ = ["bench"]
                    "list 'rank=1,2,4' (items may be ranges).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of every run.")
 @click.option("--jobs", "-j", default=1, show_default=True, type=click.IntRange(1, 256),
-              help="Worker processes (spawned, one torch thread each).")
+              help="Worker processes (spawned; each uses one BLAS thread).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path),
               help="Directory for bench.csv, bench.json and bench.md (created if needed).")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path),

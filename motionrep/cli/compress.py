@@ -54,7 +54,7 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed (same seed, same bytes).")
 @click.option("--clip", metavar="NAME", help="Compress only this clip of an HDF5 database or archive.")
 @click.option("--jobs", "-j", default=1, show_default=True, type=click.IntRange(1, 256),
-              help="Worker processes for many clips (one BLAS and torch thread each).")
+              help="Worker processes for many clips (spawned; each uses one BLAS thread).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object; no progress.")
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, as_json: bool) -> None:
