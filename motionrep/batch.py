@@ -153,8 +153,10 @@ _LAST: dict[str, Any] = {"key": None, "motion": None}
 
 
 def read_clip(ref: ClipRef) -> Motion:
-    """Read ``ref``, keeping the last clip read in this process (a worker given several runs of one clip in a
-    row reads it once)."""
+    """Read ``ref``.  A worker process keeps the last clip it read (a worker given several runs of one clip in a
+    row reads it once); the parent process, whose files may change between runs, always reads."""
+    if _WORKER["pid"] != os.getpid():
+        return ref.read()
     key = (ref.path, ref.clip)
     if _LAST["key"] != key:
         _LAST.update(key=None, motion=None)
