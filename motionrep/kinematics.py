@@ -4,24 +4,25 @@ Positions are in the file's units; global rotations are matrices ``(..., 3, 3)``
 through :attr:`FKResult.rotations`, ``(..., 4)`` xyzw quaternions.  Points are ordered joints first (``J``), then
 end sites (``E``), so every array over points has ``J + E`` entries.
 
-FK composes unit quaternions (normalised first, so the result is exactly the pose the rotations stand for),
-vectorised over frames and over all joints of one depth of the tree: one quaternion product and one vector
-rotation per tree level, on joint-major component arrays, a cache-sized chunk of frames at a time.
+FK composes unit quaternions (normalised first, so the result is exactly the pose the rotations stand for) in one
+compiled loop over frames and joints (``motionrep._jit``): per joint one quaternion product and one vector
+rotation, in float64.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ._jit import jit
 from ._model import Motion, Skeleton
 from .rotations import matrix_to_quat
 
 __all__ = ["FKResult", "forward_kinematics", "global_positions", "rest_positions", "character_height",
-           "point_names", "quat_to_matrix_fast"]
+           "point_names", "quat_to_matrix_fast", "fk_arrays"]
 
 
 @dataclass(frozen=True)
@@ -64,153 +65,105 @@ def quat_to_matrix_fast(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return m
 
 
-class _Plan:
-    """Joints in tree-level order, so each level is a contiguous slice and FK writes results in place."""
+@jit
+def _fk_kernel(rot, root, offsets, parents, translated, joint_t, site_parents, site_offsets, out_pos, out_rot):
+    """World positions ``out_pos (F, J + E, 3)`` and, when ``out_rot`` has ``F`` rows, world rotations
+    ``out_rot (F, J + E, 4)`` (xyzw, ``w >= 0``), frame by frame, joint by joint (parents come first).
 
-    def __init__(self, parents: NDArray[np.int64], end_site_parents: NDArray[np.int64]):
-        J = parents.shape[0]
-        depth = np.zeros(J, np.int64)
-        for j in range(1, J):
-            depth[j] = depth[parents[j]] + 1
-        self.order = np.argsort(depth, kind="stable")  # new index -> joint
-        new_index = np.empty(J, np.int64)
-        new_index[self.order] = np.arange(J)
-        new_parents = new_index[parents[self.order][1:]]
-        bounds = np.searchsorted(depth[self.order], np.arange(1, int(depth.max(initial=0)) + 2))
-        self.levels = [(int(a), int(b), new_parents[a - 1:b - 1]) for a, b in zip(bounds[:-1], bounds[1:])]
-        self.site_parents = new_index[end_site_parents]
-
-
-@lru_cache(maxsize=64)
-def _plan(parents: bytes, end_site_parents: bytes) -> _Plan:
-    return _Plan(np.frombuffer(parents, np.int64), np.frombuffer(end_site_parents, np.int64))
-
-
-#: Joint-frames per FK chunk: the temporaries stay in cache and their memory is reused.
-_CHUNK_JOINT_FRAMES = 1 << 16
-
-
-def _quat_mul_into(a, b, out) -> None:
-    """Hamilton product ``a * b`` of xyzw component sequences into ``out`` (4 arrays), broadcasting."""
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    ox, oy, oz, ow = out
-    np.multiply(aw, bx, out=ox)
-    ox += ax * bw
-    ox += ay * bz
-    ox -= az * by
-    np.multiply(aw, by, out=oy)
-    oy -= ax * bz
-    oy += ay * bw
-    oy += az * bx
-    np.multiply(aw, bz, out=oz)
-    oz += ax * by
-    oz -= ay * bx
-    oz += az * bw
-    np.multiply(aw, bw, out=ow)
-    ow -= ax * bx
-    ow -= ay * by
-    ow -= az * bz
-
-
-def _rotate_add_into(q, v, base, out) -> None:
-    """``out = base + rotate(q, v)`` for unit xyzw quaternion components ``q`` and vector components ``v``."""
-    qx, qy, qz, qw = q
-    vx, vy, vz = v
-    tx = qy * vz  # t = 2 (q_vec x v)
-    tx -= qz * vy
-    tx += tx
-    ty = qz * vx
-    ty -= qx * vz
-    ty += ty
-    tz = qx * vy
-    tz -= qy * vx
-    tz += tz
-    for o, b, vc, tc, c1, t1, c2, t2 in ((out[0], base[0], vx, tx, qy, tz, qz, ty),
-                                         (out[1], base[1], vy, ty, qz, tx, qx, tz),
-                                         (out[2], base[2], vz, tz, qx, ty, qy, tx)):
-        np.add(b, vc, out=o)  # out = base + v + w t + q_vec x t
-        o += qw * tc
-        o += c1 * t1
-        o -= c2 * t2
-
-
-def _fk_chunk(skeleton: Skeleton, plan: _Plan, rot: NDArray, trans: NDArray | None, out_pos: NDArray,
-              out_rot: NDArray | None) -> None:
-    """FK for a few frames, joint-major inside (``(component, J, frame)`` arrays), joints in tree-level order.
-
-    Args:
-        rot: ``(m, J, 4)`` local rotations (xyzw).
-        trans: ``(m, J, 3)`` local translations, or None when only the root moves (then ``out_pos[:, 0]``
-            already holds the root translation and other joints use their OFFSETs).
-        out_pos: ``(m, J + E, 3)`` filled with world positions.
-        out_rot: ``(m, J + E, 4)`` filled with world rotations (xyzw) if given.
+    ``rot (F, J, 4)`` local rotations (float32 or float64; normalised here, arithmetic in float64), ``root
+    (F, 3)``, ``offsets (J, 3)``, ``translated (P,)`` joints whose local translation is ``joint_t (F, P, 3)``,
+    ``site_parents (E,)`` and ``site_offsets (E, 3)``.
     """
-    J = skeleton.num_joints
-    order = plan.order
-    m = rot.shape[0]
-    q = np.empty((4, J, m))
-    for c in range(4):
-        q[c] = rot[:, :, c].T
-    q /= np.sqrt(np.einsum("cjm,cjm->jm", q, q))  # exactly unit: FK of the rotation each one stands for
-    g = np.empty_like(q)  # world rotations, in level order
-    p = np.empty((3, J, m))  # world positions, in level order
-    root = order[0]
-    g[:, 0] = q[:, root]
-    if trans is None:
-        p[:, 0] = out_pos[:, 0].T
-        local = skeleton.offsets[order].T[:, :, None]
-    else:
-        local = np.empty((3, J, m))
+    F, J = rot.shape[0], rot.shape[1]
+    E = site_parents.shape[0]
+    rotations = out_rot.shape[0] == F
+    g = np.empty((J, 4))
+    local = np.empty((J, 3))
+    for j in range(J):
         for c in range(3):
-            local[c] = trans[:, :, c].T
-        local = local[:, order]
-        p[:, 0] = local[:, 0]
-    for a, b, par in plan.levels:
-        gp = g[:, par]
-        _rotate_add_into(gp, local[:, a:b], p[:, par], p[:, a:b])
-        _quat_mul_into(gp, q[:, order[a:b]], g[:, a:b])
-    back = np.empty(J, np.int64)
-    back[order] = np.arange(J)
-    pj = p[:, back]
-    for c in range(3):
-        out_pos[:, :J, c] = pj[c].T
-    E = skeleton.num_end_sites
-    if E:
-        sp = plan.site_parents
-        ge = g[:, sp]
-        site = np.empty((3, E, m))
-        _rotate_add_into(ge, skeleton.end_site_offsets.T[:, :, None], p[:, sp], site)
-        for c in range(3):
-            out_pos[:, J:, c] = site[c].T
-    if out_rot is not None:
-        gj = g[:, back]
-        for c in range(4):
-            out_rot[:, :J, c] = gj[c].T
-        if E:
-            out_rot[:, J:] = out_rot[:, skeleton.end_site_parents]
+            local[j, c] = offsets[j, c]
+    for f in range(F):
+        for k in range(translated.shape[0]):
+            for c in range(3):
+                local[translated[k], c] = joint_t[f, k, c]
+        for j in range(J):
+            x = np.float64(rot[f, j, 0])
+            y = np.float64(rot[f, j, 1])
+            z = np.float64(rot[f, j, 2])
+            w = np.float64(rot[f, j, 3])
+            n = np.sqrt(x * x + y * y + z * z + w * w)  # exactly unit: FK of the rotation each one stands for
+            x /= n
+            y /= n
+            z /= n
+            w /= n
+            p = parents[j]
+            if p < 0:
+                g[j, 0], g[j, 1], g[j, 2], g[j, 3] = x, y, z, w
+                for c in range(3):
+                    out_pos[f, j, c] = root[f, c]
+                continue
+            _rotate_add(g[p], local[j, 0], local[j, 1], local[j, 2], out_pos[f, p], out_pos[f, j])
+            ax, ay, az, aw = g[p, 0], g[p, 1], g[p, 2], g[p, 3]
+            g[j, 0] = aw * x + ax * w + ay * z - az * y
+            g[j, 1] = aw * y - ax * z + ay * w + az * x
+            g[j, 2] = aw * z + ax * y - ay * x + az * w
+            g[j, 3] = aw * w - ax * x - ay * y - az * z
+        for e in range(E):
+            p = site_parents[e]
+            _rotate_add(g[p], site_offsets[e, 0], site_offsets[e, 1], site_offsets[e, 2], out_pos[f, p],
+                        out_pos[f, J + e])
+        if rotations:
+            for i in range(J + E):
+                j = i if i < J else site_parents[i - J]
+                sign = -1.0 if g[j, 3] < 0 else 1.0  # w >= 0, as matrix_to_quat gives
+                for c in range(4):
+                    out_rot[f, i, c] = sign * g[j, c]
+
+
+@jit
+def _rotate_add(q, vx, vy, vz, base, out):
+    """``out = base + rotate(q, v)`` for a unit xyzw quaternion ``q``: ``v + w t + q_vec x t`` with
+    ``t = 2 q_vec x v``."""
+    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    out[0] = base[0] + vx + qw * tx + (qy * tz - qz * ty)
+    out[1] = base[1] + vy + qw * ty + (qz * tx - qx * tz)
+    out[2] = base[2] + vz + qw * tz + (qx * ty - qy * tx)
 
 
 def _fk(motion: Motion, want_rotations: bool) -> tuple[NDArray, NDArray | None]:
-    """World positions ``(F, J + E, 3)`` and, if asked, world rotations ``(F, J + E, 4)`` (xyzw)."""
+    """World positions ``(F, J + E, 3)`` and, if asked, world rotations ``(F, J + E, 4)`` (xyzw, w >= 0)."""
     sk = motion.skeleton
-    F, J, E = motion.num_frames, sk.num_joints, sk.num_end_sites
+    return fk_arrays(sk, motion.rotations, motion.root_translation, motion.joint_translations, want_rotations)
+
+
+def fk_arrays(skeleton: Skeleton, rotations: NDArray, root_translation: NDArray,
+              joint_translations: NDArray, want_rotations: bool = False) -> tuple[NDArray, NDArray | None]:
+    """FK of pose arrays without building a :class:`~motionrep.Motion` (the runtime decoder's path).
+
+    Args:
+        skeleton: the skeleton.
+        rotations: ``(F, J, 4)`` local xyzw rotations, float32 or float64 (normalised here; arithmetic in
+            float64).
+        root_translation: ``(F, 3)``.
+        joint_translations: ``(F, P, 3)`` local translations of ``skeleton.translated_joints``.
+        want_rotations: also return world rotations.
+
+    Returns:
+        ``(F, J + E, 3)`` float64 world positions and ``(F, J + E, 4)`` world rotations (w >= 0) or None.
+    """
+    F, J, E = rotations.shape[0], skeleton.num_joints, skeleton.num_end_sites
     out_pos = np.empty((F, J + E, 3))
-    out_rot = np.empty((F, J + E, 4)) if want_rotations else None
-    moving = sk.translated_joints.size > 0
-    if not moving:
-        out_pos[:, 0] = motion.root_translation
-    plan = _plan(sk.parents.tobytes(), sk.end_site_parents.tobytes())
-    step = max(1, _CHUNK_JOINT_FRAMES // J)
-    trans = None
-    for a in range(0, F, step):
-        b = min(F, a + step)
-        if moving:
-            trans = np.broadcast_to(sk.offsets, (b - a, J, 3)).copy()
-            trans[:, 0] = motion.root_translation[a:b]
-            trans[:, sk.translated_joints] = motion.joint_translations[a:b]
-        _fk_chunk(sk, plan, motion.rotations[a:b], trans, out_pos[a:b], None if out_rot is None else out_rot[a:b])
-    return out_pos, out_rot
+    out_rot = np.empty((F, J + E, 4)) if want_rotations else np.empty((0, 0, 4))
+    rot = np.ascontiguousarray(rotations)
+    if rot.dtype not in (np.float32, np.float64):
+        rot = rot.astype(np.float64)
+    _fk_kernel(rot, np.ascontiguousarray(root_translation, np.float64), skeleton.offsets, skeleton.parents,
+               skeleton.translated_joints, np.ascontiguousarray(joint_translations, np.float64),
+               skeleton.end_site_parents, skeleton.end_site_offsets, out_pos, out_rot)
+    return out_pos, (out_rot if want_rotations else None)
 
 
 def forward_kinematics(motion: Motion) -> FKResult:
@@ -227,7 +180,6 @@ def forward_kinematics(motion: Motion) -> FKResult:
     """
     pos, rot = _fk(motion, want_rotations=True)
     result = FKResult(pos, quat_to_matrix_fast(rot))
-    rot *= np.where(rot[..., 3:] < 0, -1.0, 1.0)  # w >= 0, as matrix_to_quat gives
     result.__dict__["rotations"] = rot  # fills the cached property: no conversion back from the matrices
     return result
 
