@@ -18,7 +18,7 @@ import types
 import typing
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Mapping, Protocol
+from typing import Any, Callable, ClassVar, Mapping, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -127,6 +127,17 @@ class Codec(ABC):
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         """Features ``(T, D)`` float64 at normalised ``times`` ``(T,)`` in [0, 1].  Must not import torch."""
 
+    def decoder(self, payload: Payload) -> Callable[..., NDArray[np.floating]]:
+        """``payload`` prepared for decoding many times (arrays checked and converted once).
+
+        Returns a callable ``decoder(times, out=None)`` giving ``(T, D)`` features at normalised ``times``,
+        float32 or float64 (the codec's working precision), equal value for value to ``decode(payload, times)``
+        and written into ``out`` (an array of that shape and dtype) when given.  The runtime decoder
+        (``motionrep.open``) calls it for every block of poses.  The default wraps :meth:`decode`; a codec whose
+        decoding has set-up work overrides this and implements ``decode`` with it (one path).
+        """
+        return _DecodeCall(self, payload)
+
     def parse_params(self, raw: Mapping[str, Any]) -> Any:
         """Validated ``Params`` from ``raw`` (values may be strings from the command line)."""
         return parse_params(self.Params, raw, self.name)
@@ -222,6 +233,20 @@ def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
         else:
             parts.append(f"{key}={value}")
     return " ".join(parts)
+
+
+class _DecodeCall:
+    """The default :meth:`Codec.decoder`: ``decode`` on every call."""
+
+    def __init__(self, codec: Codec, payload: Payload):
+        self._codec, self._payload = codec, payload
+
+    def __call__(self, times: ArrayLike, out: NDArray[np.floating] | None = None) -> NDArray[np.floating]:
+        features = self._codec.decode(self._payload, times)
+        if out is None:
+            return features
+        out[...] = features
+        return out
 
 
 def frame_times(num_frames: int) -> NDArray[np.float64]:

@@ -5,7 +5,7 @@ through :attr:`FKResult.rotations`, ``(..., 4)`` xyzw quaternions.  Points are o
 end sites (``E``), so every array over points has ``J + E`` entries.
 
 FK composes unit quaternions (normalised first, so the result is exactly the pose the rotations stand for) in one
-compiled loop over frames and joints (``motionrep._jit``): per joint one quaternion product and one vector
+compiled loop over frames and joints (``motionrep.jit``): per joint one quaternion product and one vector
 rotation, in float64.
 """
 
@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from ._jit import jit
+from .jit import jit
 from ._model import Motion, Skeleton
 from .rotations import matrix_to_quat
 

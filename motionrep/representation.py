@@ -22,7 +22,44 @@ from .errors import ValidationError
 from .kinematics import forward_kinematics
 
 __all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
-           "representation_problems"]
+           "representation_problems", "Poses", "empty_poses", "motion_from_poses"]
+
+
+@dataclass(frozen=True, eq=False)
+class Poses:
+    """Decoded poses as plain arrays: what :meth:`Representation.decode_poses` writes and the runtime decoder
+    (``motionrep.open``) returns.
+
+    Attributes:
+        root_translation: ``(T, 3)`` float64, the root's local translation.
+        rotations: ``(T, J, 4)`` local rotations, unit xyzw quaternions (float64, or float32 when asked for).
+        joint_translations: ``(T, P, 3)`` float64, local translations of ``skeleton.translated_joints``.
+    """
+
+    root_translation: NDArray[np.float64]
+    rotations: NDArray[np.floating]
+    joint_translations: NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return int(self.rotations.shape[0])
+
+    def rows(self, index: slice) -> "Poses":
+        """The poses ``index`` selects (views)."""
+        return Poses(self.root_translation[index], self.rotations[index], self.joint_translations[index])
+
+
+def empty_poses(skeleton: Skeleton, count: int, dtype: type = np.float64) -> Poses:
+    """Uninitialised :class:`Poses` for ``count`` poses of ``skeleton``, rotations in ``dtype`` (float64 or
+    float32)."""
+    if np.dtype(dtype) not in (np.dtype(np.float64), np.dtype(np.float32)):
+        raise ValidationError(f"rotations can be float64 or float32, not {np.dtype(dtype)}")
+    P = skeleton.translated_joints.shape[0]
+    return Poses(np.empty((count, 3)), np.empty((count, skeleton.num_joints, 4), dtype), np.empty((count, P, 3)))
+
+
+def motion_from_poses(poses: Poses, skeleton: Skeleton, fps: float, **extra) -> Motion:
+    """The validated :class:`Motion` of ``poses`` (float64; ``extra`` as ``Motion``'s ``euler_branch``)."""
+    return Motion(skeleton, fps, poses.root_translation, poses.rotations, poses.joint_translations, **extra)
 
 
 class Representation(ABC):
@@ -69,6 +106,21 @@ class Representation(ABC):
         Raises:
             ValidationError: if ``features`` is not ``(F, D)`` for this skeleton, or not finite.
         """
+
+    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
+        """Decode ``(T, D)`` features into ``out`` (:class:`Poses` of ``T`` rows, see :func:`empty_poses`).
+
+        The runtime decoder (``motionrep.open``) calls this for every block of poses; ``from_features`` must give
+        the same values (the shipped representations build their ``Motion`` from it).  The default goes through
+        :meth:`from_features`; override it with a path that writes into ``out`` without building a ``Motion``.
+
+        Raises:
+            ValidationError: as :meth:`from_features`.
+        """
+        motion = self.from_features(features, skeleton, 1.0)
+        out.root_translation[...] = motion.root_translation
+        out.rotations[...] = motion.rotations
+        out.joint_translations[...] = motion.joint_translations
 
     @abstractmethod
     def weights(self, motion: Motion) -> NDArray[np.float64]:
@@ -130,20 +182,25 @@ def joint_reach(motion: Motion) -> NDArray[np.float64]:
     return reach
 
 
-def check_features(features: ArrayLike, width: int, name: str) -> NDArray[np.float64]:
+def check_features(features: ArrayLike, width: int, name: str, *, float32: bool = False) -> NDArray[np.floating]:
     """Validate ``(F, width)`` finite features for representation ``name``; return them as float64.
+
+    Args:
+        float32: return float32 features as they are (for decoders whose arithmetic is float64 anyway, such as
+            the ``motionrep.rotations`` column conversions): no converted copy.
 
     Raises:
         ValidationError: naming the representation, the expected and the received shape.
     """
     try:
-        f = np.asarray(features, dtype=np.float64)
+        keep = float32 and isinstance(features, np.ndarray) and features.dtype == np.float32
+        f = features if keep else np.asarray(features, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValidationError(f"features for representation {name!r} must be numeric") from None
     if f.ndim != 2 or f.shape[1] != width or f.shape[0] == 0:
         raise ValidationError(f"representation {name!r} expects features of shape (frames, {width}) for this "
                               f"skeleton, got {f.shape}")
-    if not np.all(np.isfinite(f)):
+    if not np.isfinite(f).all():
         raise ValidationError(f"features for representation {name!r} contain NaN or infinity")
     return f
 
@@ -189,6 +246,19 @@ class FeatureLayout:
     def split(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F, 3)`` root translation and ``(F, P, 3)`` joint translations of ``(F, D)`` features."""
         return features[:, :3], features[:, self.translation_columns]
+
+    def translations_into(self, features: NDArray, out: "Poses") -> None:
+        """Copy the root and joint translations of ``(T, D)`` features into ``out`` (float64)."""
+        np.copyto(out.root_translation, features[:, :3])
+        if self.translation_columns.size:
+            out.joint_translations[...] = features[:, self.translation_columns]
+
+    @functools.cached_property
+    def identity_joints(self) -> NDArray[np.int64]:
+        """``(M,)`` joints without a rotation block (they decode to the identity)."""
+        missing = np.ones(self.skeleton.num_joints, bool)
+        missing[self.rotation_joints] = False
+        return np.flatnonzero(missing)
 
     def assemble(self, root_translation: NDArray[np.float64], rotations: NDArray[np.float64] | Sequence[NDArray],
                  joint_translations: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -12,7 +12,13 @@ Conventions:
   ``[R00, R10, R20, R01, R11, R21]``.
 * Every function accepts any number of leading batch dimensions and returns float64.
 
-The conversions delegate to ``scipy.spatial.transform.Rotation``; only the algebra scipy lacks on plain arrays
+Conversions *to* quaternions (what decoding and reading BVH spend their time on) are compiled loops
+(``motionrep.jit``) that read their input straight from the columns of a 2-D array (a feature matrix, a BVH frame
+block) and write into the joint slots of a ``(T, J, 4)`` array: the ``*_columns_*`` functions below, which the
+representations' decoders and the BVH reader call, and which the plain functions (:func:`axis_angle_to_quat`,
+:func:`euler_to_quat`, :func:`ortho6d_to_quat`, :func:`quat_normalize`) call too.  Their arithmetic is float64
+whatever the input's dtype, and IEEE throughout (no fast-math), so a value does not depend on the batch it is in.
+The other conversions delegate to ``scipy.spatial.transform.Rotation``; the algebra scipy lacks on plain arrays
 (products, rotating vectors, sign and wrap continuity over frames) is written here.
 
 Size: one concern, rotations on arrays; the length is the number of parameterisations (quaternion, matrix,
@@ -29,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from .errors import ValidationError
+from .jit import jit, jit_inline, sincos
 
 __all__ = [
     "quat_identity",
@@ -53,6 +60,11 @@ __all__ = [
     "quat_slerp",
     "quat_xyzw_to_wxyz",
     "quat_wxyz_to_xyzw",
+    "quat_columns_normalized",
+    "axis_angle_columns_to_quat",
+    "euler_columns",
+    "euler_columns_to_quat",
+    "ortho6d_columns_to_quat",
 ]
 
 
@@ -79,16 +91,16 @@ def quat_identity(shape: tuple[int, ...] = ()) -> NDArray[np.float64]:
 
 
 def quat_normalize(q: ArrayLike) -> NDArray[np.float64]:
-    """Scale ``(..., 4)`` quaternions to unit length.
+    """Scale ``(..., 4)`` quaternions to unit length (``q / sqrt(x^2 + y^2 + z^2 + w^2)``).
 
     Raises:
         ValidationError: if a quaternion has zero (or non-finite) length.
     """
     q = _last_dim(q, 4, "q")
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    if not np.all(np.isfinite(n) & (n > 0)):
-        raise ValidationError("cannot normalise a quaternion of zero or non-finite length")
-    return q / n
+    flat = q.reshape(-1, 4)
+    out = np.empty((flat.shape[0], 1, 4))
+    quat_columns_normalized(flat, _XYZW_COLUMNS, np.zeros(1, np.int64), out)
+    return out.reshape(q.shape)
 
 
 def quat_conjugate(q: ArrayLike) -> NDArray[np.float64]:
@@ -155,78 +167,17 @@ def euler_to_quat(angles: ArrayLike, order: str, degrees: bool = False) -> NDArr
         order: 1-3 axes; upper case intrinsic (BVH channel order), lower case extrinsic.
         degrees: angles in degrees rather than radians.
 
-    Computed as the product of the per-axis quaternions, one component array at a time (the same result as
-    scipy's ``Rotation.from_euler`` to rounding and many times faster on large batches, which matters when
-    reading long BVH files).  The result is not sign-canonicalised.
+    Computed as the product of the per-axis quaternions in one compiled loop (see
+    :func:`euler_columns_to_quat`); the same result as scipy's ``Rotation.from_euler`` to an ulp or two, many
+    times faster.  The result is not sign-canonicalised.
     """
     order = _check_order(order)
     angles = _last_dim(angles, len(order), "angles")
-    out = np.empty(angles.shape[:-1] + (4,))
-    _euler_to_quat_into(angles, order, degrees, out)
-    return out
-
-
-def _euler_to_quat_into(angles: NDArray, order: str, degrees: bool, out: NDArray) -> None:
-    """:func:`euler_to_quat` of ``angles (..., n)`` (checked, float64) written into ``out (..., 4)``, which may be
-    a strided view (say, some joints of a ``(F, J, 4)`` array); chunked along the first axis."""
-    n = len(order)
-    axes = ["XYZ".index(a) for a in order.upper()]
-    steps = list(range(n))
-    if order.islower():  # extrinsic: the same axes applied in reverse order, intrinsically
-        steps.reverse()
-    scale = np.pi / 720.0 if degrees else 0.25  # to quarter angles in radians
-    if angles.ndim == 1:
-        angles, out = angles[None], out[None]
-    per_row = max(1, int(np.prod(angles.shape[1:-1])))
-    step = max(1, _CHUNK // per_row)
-    for a in range(0, angles.shape[0], step):  # chunks stay in cache and reuse their memory
-        _euler_to_quat_chunk(angles[a:a + step], out[a:a + step], axes, steps, scale)
-
-
-#: Rows per chunk in the element-wise conversions (small temporaries are reused, large ones page-fault).
-_CHUNK = 4096
-
-
-def _euler_to_quat_chunk(angles: NDArray, out: NDArray, axes: list[int], steps: list[int], scale: float) -> None:
-    """One chunk: ``angles (m, ..., n)`` to ``out (m, ..., 4)``."""
-    # sin and cos of the half angles from the tangent of the quarter angles (t = tan(a / 4):
-    # sin(a / 2) = 2t / (1 + t^2), cos(a / 2) = (1 - t^2) / (1 + t^2)), accurate to an ulp or two and
-    # several times faster than numpy's sin and cos, which have no vectorised float64 loops.
-    t = np.moveaxis(angles, -1, 0) * scale  # (n, m, ...) contiguous
-    np.tan(t, out=t)
-    t2 = t * t
-    den = t2 + 1.0
-    s = np.divide(2.0 * t, den)
-    c = np.subtract(1.0, t2, out=t2)
-    c /= den
-    k0 = steps[0]
-    if len(steps) == 1:
-        out[...] = 0.0
-        out[..., axes[k0]] = s[k0]
-        out[..., 3] = c[k0]
-        return
-    # the first two factors in closed form: rotations about two different axes i, j (k the third)
-    k1 = steps[1]
-    i, j = axes[k0], axes[k1]
-    comps: list = [None, None, None, c[k0] * c[k1]]
-    comps[i] = s[k0] * c[k1]
-    comps[j] = c[k0] * s[k1]
-    cross = s[k0] * s[k1]  # e_i x e_j = +-e_k
-    comps[3 - i - j] = cross if (j - i) % 3 == 1 else np.negative(cross, out=cross)
-    for k in steps[2:]:
-        comps = _times_axis_quat(comps, axes[k], s[k], c[k])
-    for i in range(4):
-        out[..., i] = comps[i]
-
-
-def _times_axis_quat(q: list[NDArray], axis: int, s: NDArray, c: NDArray) -> list[NDArray]:
-    """``q * (s * e_axis, c)`` on component arrays ``[x, y, z, w]``: the product with a rotation about one axis."""
-    x, y, z, w = q
-    if axis == 0:
-        return [c * x + s * w, c * y + s * z, c * z - s * y, c * w - s * x]
-    if axis == 1:
-        return [c * x - s * z, c * y + s * w, c * z + s * x, c * w - s * y]
-    return [c * x + s * y, c * y - s * x, c * z + s * w, c * w - s * z]
+    flat = angles.reshape(-1, len(order))
+    out = np.empty((flat.shape[0], 1, 4))
+    columns, axes = euler_columns([order])
+    euler_columns_to_quat(flat, columns, axes, np.zeros(1, np.int64), out, degrees=degrees)
+    return out.reshape(angles.shape[:-1] + (4,))
 
 
 def euler_to_matrix(angles: ArrayLike, order: str, degrees: bool = False) -> NDArray[np.float64]:
@@ -406,11 +357,13 @@ def euler_branch(angles: ArrayLike, order: str, degrees: bool = False) -> NDArra
 
 
 def axis_angle_to_quat(v: ArrayLike) -> NDArray[np.float64]:
-    """``(..., 3)`` rotation vectors (axis times angle, radians) to ``(..., 4)`` xyzw quaternions."""
+    """``(..., 3)`` rotation vectors (axis times angle, radians) to ``(..., 4)`` xyzw quaternions
+    (``[sin(theta / 2) n, cos(theta / 2)]``, not sign-canonicalised; see :func:`axis_angle_columns_to_quat`)."""
     v = _last_dim(v, 3, "v")
-    if v.size == 0:
-        return np.zeros(v.shape[:-1] + (4,))
-    return Rotation.from_rotvec(v.reshape(-1, 3)).as_quat().reshape(v.shape[:-1] + (4,))
+    flat = v.reshape(-1, 3)
+    out = np.empty((flat.shape[0], 1, 4))
+    axis_angle_columns_to_quat(flat, _XYZ_COLUMNS, np.zeros(1, np.int64), out)
+    return out.reshape(v.shape[:-1] + (4,))
 
 
 def quat_to_axis_angle(q: ArrayLike) -> NDArray[np.float64]:
@@ -492,8 +445,17 @@ def ortho6d_to_matrix(d6: ArrayLike) -> NDArray[np.float64]:
 
 
 def ortho6d_to_quat(d6: ArrayLike) -> NDArray[np.float64]:
-    """``(..., 6)`` 6D encodings to ``(..., 4)`` xyzw quaternions (Gram-Schmidt, then conversion)."""
-    return matrix_to_quat(ortho6d_to_matrix(d6))
+    """``(..., 6)`` 6D encodings to ``(..., 4)`` xyzw quaternions (w >= 0): Gram-Schmidt, then the matrix's
+    quaternion (see :func:`ortho6d_columns_to_quat`).
+
+    Raises:
+        ValidationError: if the two columns are (nearly) zero or parallel.
+    """
+    d6 = _last_dim(d6, 6, "d6")
+    flat = d6.reshape(-1, 6)
+    out = np.empty((flat.shape[0], 1, 4))
+    ortho6d_columns_to_quat(flat, _SIX_COLUMNS, np.zeros(1, np.int64), out)
+    return out.reshape(d6.shape[:-1] + (4,))
 
 
 def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
@@ -529,3 +491,302 @@ def quat_wxyz_to_xyzw(q: ArrayLike) -> NDArray[np.float64]:
     """Reorder ``(..., 4)`` quaternions from wxyz to motionrep's xyzw."""
     q = _last_dim(q, 4, "q")
     return q[..., [1, 2, 3, 0]]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# compiled conversions from the columns of a 2-D array into the joint slots of (T, J, 4) quaternions
+# ---------------------------------------------------------------------------------------------------------------
+_XYZ_COLUMNS = np.arange(3, dtype=np.int64).reshape(1, 3)
+_XYZW_COLUMNS = np.arange(4, dtype=np.int64).reshape(1, 4)
+_SIX_COLUMNS = np.arange(6, dtype=np.int64).reshape(1, 6)
+#: Rows converted together: each joint's inputs are gathered into contiguous float64 arrays of this length, so
+#: the arithmetic runs in vector registers, and the block stays in the CPU cache.
+_BLOCK = 128
+
+
+def _columns_args(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int
+                  ) -> tuple[NDArray, NDArray, NDArray]:
+    """Check the shapes and dtypes of the ``*_columns_*`` functions' arguments (the kernels check that the
+    indices are in range, see :func:`_plan_ok`); return them as kernel-ready arrays."""
+    f = features if isinstance(features, np.ndarray) else np.asarray(features)
+    if f.dtype != np.float64 and f.dtype != np.float32:
+        f = f.astype(np.float64)
+    cols = np.asarray(columns, dtype=np.int64)
+    idx = np.asarray(joints, dtype=np.int64)
+    if f.ndim != 2:
+        raise ValidationError(f"features must be 2-D (rows, columns), got shape {f.shape}")
+    if idx.ndim != 1 or cols.ndim != 2 or cols.shape[1] != width or cols.shape[0] != idx.shape[0]:
+        raise ValidationError(f"columns must have shape (R, {width}) and joints (R,), got {cols.shape} and "
+                              f"{idx.shape}")
+    if (not isinstance(out, np.ndarray) or out.ndim != 3 or out.shape[0] != f.shape[0] or out.shape[2] != 4
+            or (out.dtype != np.float64 and out.dtype != np.float32)):
+        raise ValidationError(f"out must be a float32 or float64 array of shape ({f.shape[0]}, J, 4), got "
+                              f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
+    return f, cols, idx
+
+
+def _raise_for(status: int, what: str) -> None:
+    if status == 1:
+        raise ValidationError("columns must index the columns of features (-1 only to end a joint's Euler "
+                              "factors early) and joints the joints of out")
+    if status == 2:
+        raise ValidationError(what)
+
+
+@jit_inline
+def _plan_ok(cols, joints, num_columns, num_joints, allow_missing):
+    """True when every column index is in ``[0, num_columns)`` (or -1 after the first, when ``allow_missing``)
+    and every joint in ``[0, num_joints)``: kernels have no bounds checks, so their plans are checked here."""
+    for r in range(cols.shape[0]):
+        if joints[r] < 0 or joints[r] >= num_joints:
+            return False
+        for k in range(cols.shape[1]):
+            c = cols[r, k]
+            if c >= num_columns or c < -1 or (c == -1 and not (allow_missing and k > 0)):
+                return False
+    return True
+
+
+@jit
+def _quat_columns_kernel(f, cols, joints, out):
+    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
+        return 1
+    T, R = f.shape[0], cols.shape[0]
+    ok = True
+    for t in range(T):
+        for r in range(R):
+            x = np.float64(f[t, cols[r, 0]])
+            y = np.float64(f[t, cols[r, 1]])
+            z = np.float64(f[t, cols[r, 2]])
+            w = np.float64(f[t, cols[r, 3]])
+            n = np.sqrt(((x * x + y * y) + z * z) + w * w)
+            ok &= (n > 0.0) & (n < np.inf)
+            j = joints[r]
+            out[t, j, 0] = x / n
+            out[t, j, 1] = y / n
+            out[t, j, 2] = z / n
+            out[t, j, 3] = w / n
+    return 0 if ok else 2
+
+
+def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
+    """``out[:, joints[r]] = q / |q|`` for the quaternion (xyzw) in ``features[:, columns[r]]``.
+
+    Args:
+        features: ``(T, C)`` float32 or float64.
+        columns: ``(R, 4)`` column indices of each quaternion's x, y, z, w.
+        joints: ``(R,)`` where each goes in ``out``.
+        out: ``(T, J, 4)`` float32 or float64, written in place.
+
+    Raises:
+        ValidationError: if a quaternion has zero (or non-finite) length.
+    """
+    f, cols, idx = _columns_args(features, columns, joints, out, 4)
+    _raise_for(_quat_columns_kernel(f, cols, idx, out), "cannot normalise a quaternion of zero or non-finite length")
+
+
+@jit
+def _axis_angle_columns_kernel(f, cols, joints, out):
+    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
+        return 1
+    T, R = f.shape[0], cols.shape[0]
+    X, Y, Z = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
+    K, C = np.empty(_BLOCK), np.empty(_BLOCK)
+    for a in range(0, T, _BLOCK):
+        m = min(_BLOCK, T - a)
+        for r in range(R):
+            c0, c1, c2, j = cols[r, 0], cols[r, 1], cols[r, 2], joints[r]
+            for i in range(m):
+                X[i] = f[a + i, c0]
+                Y[i] = f[a + i, c1]
+                Z[i] = f[a + i, c2]
+            for i in range(m):
+                x, y, z = X[i], Y[i], Z[i]
+                theta2 = (x * x + y * y) + z * z
+                theta = np.sqrt(theta2)
+                s, c = sincos(0.5 * theta)
+                # sin(theta / 2) / theta, by its series below 1e-3 (no 0 / 0), as scipy does
+                K[i] = s / theta if theta > 1e-3 else 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
+                C[i] = c
+            for i in range(m):
+                out[a + i, j, 0] = K[i] * X[i]
+                out[a + i, j, 1] = K[i] * Y[i]
+                out[a + i, j, 2] = K[i] * Z[i]
+                out[a + i, j, 3] = C[i]
+    return 0
+
+
+def axis_angle_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
+    """``out[:, joints[r]]`` = the quaternion of the rotation vector in ``features[:, columns[r]]``.
+
+    ``q = [sin(theta / 2) v / theta, cos(theta / 2)]`` with ``theta = |v|`` (its series below 1e-3 rad), in
+    float64, not sign-canonicalised (``theta > pi`` gives ``w < 0``), as scipy's ``Rotation.from_rotvec``.
+
+    Args:
+        features: ``(T, C)`` float32 or float64.
+        columns: ``(R, 3)`` column indices of each rotation vector's x, y, z.
+        joints: ``(R,)`` where each goes in ``out``.
+        out: ``(T, J, 4)`` float32 or float64, written in place.
+    """
+    f, cols, idx = _columns_args(features, columns, joints, out, 3)
+    _raise_for(_axis_angle_columns_kernel(f, cols, idx, out), "")
+
+
+def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Per joint, which of its own angles each factor of :func:`euler_columns_to_quat` takes, and the axes.
+
+    For joint ``r`` with ``order = orders[r]`` (angles stored in the order's sequence), returns ``positions[r, k]``,
+    the index among that joint's angles of the ``k``-th factor applied intrinsically (the reverse sequence for
+    an extrinsic, lower-case order), and ``axes[r, k]`` its axis (0 = X, 1 = Y, 2 = Z); ``-1`` pads orders of
+    fewer than three axes.  Add each joint's first column to its positions (keeping the ``-1``) to get the
+    ``columns`` argument.
+
+    Example::
+
+        positions, axes = euler_columns(["ZXY", "zyx"])  # positions [[0, 1, 2], [2, 1, 0]], axes [[2, 0, 1], [0, 1, 2]]
+    """
+    R = len(orders)
+    positions = np.full((R, 3), -1, np.int64)
+    axes = np.full((R, 3), -1, np.int64)
+    for r, order in enumerate(orders):
+        order = _check_order(order)
+        k = list(range(len(order)))
+        if order.islower():  # extrinsic: the same axes applied in reverse order, intrinsically
+            k.reverse()
+        positions[r, :len(k)] = k
+        axes[r, :len(k)] = ["XYZ".index(order[i].upper()) for i in k]
+    return positions, axes
+
+
+@jit
+def _euler_columns_kernel(f, cols, axes, joints, degrees, out):
+    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], True):
+        return 1
+    for r in range(cols.shape[0]):
+        for k in range(3):
+            if cols[r, k] >= 0 and (axes[r, k] < 0 or axes[r, k] > 2):
+                return 1
+    T, R = f.shape[0], cols.shape[0]
+    QX, QY, QZ, QW = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
+    A = np.empty(_BLOCK)
+    for a in range(0, T, _BLOCK):
+        m = min(_BLOCK, T - a)
+        for r in range(R):
+            for i in range(m):
+                QX[i], QY[i], QZ[i], QW[i] = 0.0, 0.0, 0.0, 1.0
+            for k in range(3):
+                col, axis = cols[r, k], axes[r, k]
+                if col < 0:
+                    break
+                ex = 1.0 if axis == 0 else 0.0
+                ey = 1.0 if axis == 1 else 0.0
+                ez = 1.0 if axis == 2 else 0.0
+                for i in range(m):
+                    A[i] = f[a + i, col]
+                for i in range(m):
+                    v = A[i]
+                    if degrees:
+                        # exact reduction to about [-360, 360] (Sterbenz), then the half angle in radians
+                        v = (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0)
+                    else:
+                        v = 0.5 * v
+                    s, c = sincos(v)
+                    bx, by, bz = s * ex, s * ey, s * ez
+                    x, y, z, w = QX[i], QY[i], QZ[i], QW[i]
+                    QX[i] = w * bx + x * c + y * bz - z * by
+                    QY[i] = w * by - x * bz + y * c + z * bx
+                    QZ[i] = w * bz + x * by - y * bx + z * c
+                    QW[i] = w * c - x * bx - y * by - z * bz
+            j = joints[r]
+            for i in range(m):
+                out[a + i, j, 0] = QX[i]
+                out[a + i, j, 1] = QY[i]
+                out[a + i, j, 2] = QZ[i]
+                out[a + i, j, 3] = QW[i]
+    return 0
+
+
+def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike, joints: ArrayLike, out: NDArray,
+                          degrees: bool = False) -> None:
+    """``out[:, joints[r]]`` = the product of the rotations about ``axes[r, k]`` by the angles in
+    ``features[:, columns[r, k]]`` (``k`` = 0, 1, 2; intrinsic: the first factor leftmost).
+
+    Args:
+        features: ``(T, C)`` float32 or float64 angles.
+        columns: ``(R, 3)`` column of each factor's angle; ``-1`` ends a joint's factors early.
+        axes: ``(R, 3)`` axis of each factor (0 = X, 1 = Y, 2 = Z); see :func:`euler_columns` for orders.
+
+    Raises:
+        ValidationError: for columns, axes or joints out of range.
+        joints: ``(R,)`` where each goes in ``out``.
+        out: ``(T, J, 4)`` float32 or float64, written in place.
+        degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
+    """
+    f, cols, idx = _columns_args(features, columns, joints, out, 3)
+    ax = np.asarray(axes, dtype=np.int64)
+    if ax.shape != cols.shape:
+        raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
+    _raise_for(_euler_columns_kernel(f, cols, ax, idx, bool(degrees), out), "")
+
+
+@jit
+def _ortho6d_columns_kernel(f, cols, joints, out):
+    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
+        return 1
+    T, R = f.shape[0], cols.shape[0]
+    ok = True
+    for t in range(T):
+        for r in range(R):
+            a1x, a1y, a1z = np.float64(f[t, cols[r, 0]]), np.float64(f[t, cols[r, 1]]), np.float64(f[t, cols[r, 2]])
+            a2x, a2y, a2z = np.float64(f[t, cols[r, 3]]), np.float64(f[t, cols[r, 4]]), np.float64(f[t, cols[r, 5]])
+            n1 = np.sqrt((a1x * a1x + a1y * a1y) + a1z * a1z)
+            d = n1 if n1 > 0.0 else 1.0
+            b1x, b1y, b1z = a1x / d, a1y / d, a1z / d
+            dot = (b1x * a2x + b1y * a2y) + b1z * a2z
+            u2x, u2y, u2z = a2x - dot * b1x, a2y - dot * b1y, a2z - dot * b1z
+            n2 = np.sqrt((u2x * u2x + u2y * u2y) + u2z * u2z)
+            ok &= (n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < np.inf)
+            b2x, b2y, b2z = u2x / n2, u2y / n2, u2z / n2
+            b3x, b3y, b3z = b1y * b2z - b1z * b2y, b1z * b2x - b1x * b2z, b1x * b2y - b1y * b2x
+            # the columns b1, b2, b3 form the matrix m[row, col]; its quaternion as scipy's from_matrix
+            m00, m10, m20 = b1x, b1y, b1z
+            m01, m11, m21 = b2x, b2y, b2z
+            m02, m12, m22 = b3x, b3y, b3z
+            trace = (m00 + m11) + m22
+            if trace >= m00 and trace >= m11 and trace >= m22:
+                x, y, z, w = m21 - m12, m02 - m20, m10 - m01, 1.0 + trace
+            elif m00 >= m11 and m00 >= m22:
+                x, y, z, w = 1.0 - trace + 2.0 * m00, m10 + m01, m20 + m02, m21 - m12
+            elif m11 >= m22:
+                x, y, z, w = m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12, m02 - m20
+            else:
+                x, y, z, w = m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22, m10 - m01
+            n = np.sqrt(((x * x + y * y) + z * z) + w * w)
+            # canonical sign: w >= 0 (w == 0: the first non-zero component positive)
+            flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
+            if flip:
+                n = -n
+            j = joints[r]
+            out[t, j, 0] = x / n
+            out[t, j, 1] = y / n
+            out[t, j, 2] = z / n
+            out[t, j, 3] = w / n
+    return 0 if ok else 2
+
+
+def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
+    """``out[:, joints[r]]`` = the quaternion (w >= 0) of the 6D encoding in ``features[:, columns[r]]``
+    (Gram-Schmidt of the two columns, their cross product third; then the matrix's quaternion as scipy's
+    ``Rotation.from_matrix``).
+
+    Args:
+        features: ``(T, C)`` float32 or float64.
+        columns: ``(R, 6)`` column indices of ``[R00, R10, R20, R01, R11, R21]``.
+        joints: ``(R,)`` where each goes in ``out``.
+        out: ``(T, J, 4)`` float32 or float64, written in place.
+
+    Raises:
+        ValidationError: if the two columns are (nearly) zero or parallel.
+    """
+    f, cols, idx = _columns_args(features, columns, joints, out, 6)
+    _raise_for(_ortho6d_columns_kernel(f, cols, idx, out), "6D rotation encoding has a zero or degenerate column")

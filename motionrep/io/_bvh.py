@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from .._model import CHANNEL_NAMES, Motion, Skeleton
 from ..errors import BVHFormatError, ValidationError
-from ..rotations import _euler_to_quat_into, euler_branch, quat_to_euler_continuous
+from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._numbers import _python_float, parse_number_tokens, scan_tokens
 
@@ -400,29 +400,32 @@ def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Mo
     rotations = np.empty((F, J, 4))
     branch = np.zeros((F, J), bool)
     by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
+    rot_joints: list[int] = []
+    rot_cols: list[list[int]] = []
     col = 0
     for j, chans in enumerate(skeleton.channels):
-        rot_cols = []
+        cols = []
         for c in chans:
             if c.endswith("position"):
                 translations[:, slot[j], "XYZ".index(c[0])] = values[:, col]
             else:
-                rot_cols.append(col)
+                cols.append(col)
             col += 1
-        if rot_cols:
-            joints, cols = by_order.setdefault(skeleton.rotation_orders[j], ([], []))
+        if cols:
+            joints, grouped = by_order.setdefault(skeleton.rotation_orders[j], ([], []))
             joints.append(j)
-            cols.append(rot_cols)
+            grouped.append(cols)
+            rot_joints.append(j)
+            rot_cols.append(cols)
         else:
             rotations[:, j] = (0.0, 0.0, 0.0, 1.0)
+    if rot_joints:  # every joint's Euler angles to a quaternion, in one compiled pass over the frame block
+        positions, axes = euler_columns([skeleton.rotation_orders[j] for j in rot_joints])
+        columns = np.array([[cols[k] if k >= 0 else -1 for k in ks] for cols, ks in zip(rot_cols, positions.tolist())],
+                           np.int64)  # a joint's rotation channels need not be next to each other
+        euler_columns_to_quat(values, columns, axes, np.array(rot_joints, np.int64), rotations, degrees=True)
     for order, (joints, cols) in by_order.items():
-        angles = values[:, np.array(cols)]  # (F, n, len(order))
-        run = joints == list(range(joints[0], joints[-1] + 1))  # a run of joints: convert in place
-        target = rotations[:, joints[0]:joints[-1] + 1] if run else np.empty(angles.shape[:-1] + (4,))
-        _euler_to_quat_into(angles, order, True, target)
-        if not run:
-            rotations[:, joints] = target
-        branch[:, joints] = euler_branch(angles, order, degrees=True)
+        branch[:, joints] = euler_branch(values[:, np.array(cols)], order, degrees=True)
     root = np.ascontiguousarray(translations[:, 0])
     moved = np.ascontiguousarray(translations[:, 1:])
     for a in (root, rotations, moved):

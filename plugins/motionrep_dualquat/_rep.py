@@ -8,8 +8,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
+from motionrep.errors import ValidationError
+from motionrep.jit import jit
 from motionrep.kinematics import global_positions
-from motionrep.representation import FeatureLayout, Representation, check_features, feature_layout, per_skeleton
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
+                                      feature_layout, motion_from_poses, per_skeleton)
 from motionrep.rotations import quat_conjugate, quat_multiply
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
@@ -47,6 +50,51 @@ def _features_dualquats(f: NDArray[np.float64], lay: FeatureLayout) -> NDArray[n
     return dualquat_normalize(lay.rotation_block(f))
 
 
+@per_skeleton
+def _decode_plan(skeleton: Skeleton) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """``(J, 4)`` columns of each joint's real part and ``(J,)`` whether it has rotation channels."""
+    lay = _layout(skeleton)
+    columns = np.array([cols[:4] for cols in lay.rotation_columns], np.int64).reshape(-1, 4)
+    return columns, np.array([bool(o) for o in skeleton.rotation_orders])
+
+
+@jit
+def _local_rotations(f, columns, parents, rotated, out):
+    """Local rotations ``out (T, J, 4)`` from the real parts in ``f[:, columns[j]]``, normalised (eq. 13): joint
+    ``j``'s is ``G_parent* r_j`` with ``G`` the world rotations decoded so far (the identity for joints without
+    rotation channels).  False if a real part has zero or non-finite length."""
+    T, J = f.shape[0], columns.shape[0]
+    world = np.empty((J, 4))
+    ok = True
+    for t in range(T):
+        for j in range(J):
+            if rotated[j]:
+                x, y, z, w = (np.float64(f[t, columns[j, 0]]), np.float64(f[t, columns[j, 1]]),
+                              np.float64(f[t, columns[j, 2]]), np.float64(f[t, columns[j, 3]]))
+                n = np.sqrt(((x * x + y * y) + z * z) + w * w)
+                ok &= (n > 0.0) & (n < np.inf)
+                x, y, z, w = x / n, y / n, z / n, w / n
+            else:
+                x, y, z, w = 0.0, 0.0, 0.0, 1.0
+            p = parents[j]
+            if p >= 0:
+                # local = conj(G_p) r (for a joint without rotation channels: the identity)
+                ax, ay, az, aw = -world[p, 0], -world[p, 1], -world[p, 2], world[p, 3]
+                if rotated[j]:
+                    x, y, z, w = (aw * x + ax * w + ay * z - az * y, aw * y - ax * z + ay * w + az * x,
+                                  aw * z + ax * y - ay * x + az * w, aw * w - ax * x - ay * y - az * z)
+                # G_j = G_p local
+                ax, ay, az, aw = world[p, 0], world[p, 1], world[p, 2], world[p, 3]
+                world[j, 0] = aw * x + ax * w + ay * z - az * y
+                world[j, 1] = aw * y - ax * z + ay * w + az * x
+                world[j, 2] = aw * z + ax * y - ay * x + az * w
+                world[j, 3] = aw * w - ax * x - ay * y - az * z
+            else:
+                world[j, 0], world[j, 1], world[j, 2], world[j, 3] = x, y, z, w
+            out[t, j, 0], out[t, j, 1], out[t, j, 2], out[t, j, 3] = x, y, z, w
+    return ok
+
+
 class DualQuaternion(Representation):
     """Root translation and one unit dual quaternion per joint in root-relative current coordinates.
 
@@ -57,9 +105,9 @@ class DualQuaternion(Representation):
     (3, file units).  Frame 0 takes the sign with real ``w >= 0``, every later frame the sign closest in L2
     (8-D) to the frame before.
 
-    Decoding normalises each dual quaternion (eq. 13) and uses only the real parts: joint ``j``'s local
-    rotation is ``G_parent* r_j`` with ``G_parent`` the parent's already decoded world rotation (the identity
-    for joints without rotation channels).  The root translation comes from its 3 columns, joint offsets from
+    Decoding normalises each dual quaternion's real part (eq. 13) and uses only the real parts: joint ``j``'s
+    local rotation is ``G_parent* r_j`` with ``G_parent`` the parent's already decoded world rotation (the
+    identity for joints without rotation channels), in one compiled loop over frames and joints.  The root translation comes from its 3 columns, joint offsets from
     the skeleton (and from the translation columns for joints with position channels).  The dual parts are kept
     for users who want positions without FK; :func:`dual_part_offset_error` measures how far they have drifted.
     """
@@ -82,24 +130,22 @@ class DualQuaternion(Representation):
         return _layout(sk).assemble(motion.root_translation, dq, motion.joint_translations)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
+        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
+        poses = empty_poses(skeleton, f.shape[0])
+        self._decode(f, skeleton, poses)
+        return motion_from_poses(poses, skeleton, fps)
+
+    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
+        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
+
+    @staticmethod
+    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
         lay = _layout(skeleton)
-        f = check_features(features, lay.width, self.name)
-        real = _features_dualquats(f, lay)[..., :4]
-        F, J = real.shape[:2]
-        local = np.zeros((F, J, 4))
-        local[..., 3] = 1.0
-        rotated = np.array([bool(o) for o in skeleton.rotation_orders])
-        if rotated[0]:
-            local[:, 0] = real[:, 0]
-        world = local.copy()
-        for idx in _levels(skeleton):
-            par = skeleton.parents[idx]
-            keep = idx[rotated[idx]]
-            if keep.size:
-                local[:, keep] = quat_multiply(quat_conjugate(world[:, skeleton.parents[keep]]), real[:, keep])
-            world[:, idx] = quat_multiply(world[:, par], local[:, idx])
-        root_t, joint_t = lay.split(f)
-        return Motion(skeleton, fps, root_t, local, joint_t)
+        columns, rotated = _decode_plan(skeleton)
+        if not _local_rotations(f, columns, skeleton.parents, rotated, out.rotations):
+            raise ValidationError("cannot normalise a dual quaternion whose real part has zero or non-finite "
+                                  "length")
+        lay.translations_into(f, out)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations and dual parts; for a joint's real part, its longest bone to a

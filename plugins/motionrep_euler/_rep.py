@@ -6,9 +6,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
-                                      per_skeleton)
-from motionrep.rotations import euler_branch, euler_to_quat, quat_to_euler_continuous
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
+                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
 
 __all__ = ["Euler"]
 
@@ -16,6 +16,17 @@ __all__ = ["Euler"]
 @per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: tuple(f"{a}rotation" for a in skeleton.rotation_orders[j]))
+
+
+@per_skeleton
+def _decode_plan(skeleton: Skeleton) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Columns ``(R, 3)``, axes ``(R, 3)`` and joints ``(R,)`` for ``euler_columns_to_quat``."""
+    lay = _layout(skeleton)
+    joints = lay.rotation_joints
+    positions, axes = euler_columns([skeleton.rotation_orders[j] for j in joints.tolist()])
+    columns = np.array([[cols[k] if k >= 0 else -1 for k in ks] for cols, ks in
+                        zip(lay.rotation_columns, positions.tolist())], np.int64).reshape(-1, 3)
+    return columns, axes, joints
 
 
 def _by_order(skeleton: Skeleton, joints: NDArray[np.int64]) -> dict[str, list[int]]:
@@ -64,19 +75,27 @@ class Euler(Representation):
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
         lay = _layout(skeleton)
-        f = check_features(features, lay.width, self.name)
-        F, J = f.shape[0], skeleton.num_joints
-        rotations = np.zeros((F, J, 4))
-        rotations[..., 3] = 1.0
-        branch = np.zeros((F, J), bool)
+        f = check_features(features, lay.width, self.name, float32=True)
+        poses = empty_poses(skeleton, f.shape[0])
+        self._decode(f, skeleton, poses)
+        branch = np.zeros((f.shape[0], skeleton.num_joints), bool)
         joints = lay.rotation_joints
         for order, ks in _by_order(skeleton, joints).items():
-            idx = joints[ks]
             angles = f[:, np.stack([lay.rotation_columns[k] for k in ks])]  # (F, k, n)
-            rotations[:, idx] = euler_to_quat(angles, order, degrees=True)
-            branch[:, idx] = euler_branch(angles, order, degrees=True)
-        root_t, joint_t = lay.split(f)
-        return Motion(skeleton, fps, root_t, rotations, joint_t, euler_branch=branch)
+            branch[:, joints[ks]] = euler_branch(angles, order, degrees=True)
+        return motion_from_poses(poses, skeleton, fps, euler_branch=branch)
+
+    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
+        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
+
+    @staticmethod
+    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
+        lay = _layout(skeleton)
+        if lay.identity_joints.size:
+            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
+        columns, axes, joints = _decode_plan(skeleton)
+        euler_columns_to_quat(f, columns, axes, joints, out.rotations, degrees=True)
+        lay.translations_into(f, out)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations; for a joint's angles (degrees), its reach times pi / 180."""

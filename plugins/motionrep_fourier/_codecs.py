@@ -11,8 +11,8 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 
-from ._network import network_forward
-from ._windows import join_windows, local_times, window_edges, windows_forward
+from ._network import Network, network_forward
+from ._windows import Windows, join_windows, local_times, window_edges
 
 __all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec", "MIN_SPLIT"]
 
@@ -122,10 +122,14 @@ class _FourierCodec(Codec):
 
         from . import _train  # noqa: F401  (imports torch)
 
-    def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+    def decoder(self, payload: Payload) -> Network | Windows:
+        """The payload's network (or windows of networks), converted once; decodes in float32."""
         if "edges" in payload.arrays:
-            return windows_forward(payload.arrays, times)
-        return network_forward(payload.arrays, times)
+            return Windows(payload.arrays)
+        return Network(payload.arrays)
+
+    def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+        return self.decoder(payload)(times).astype(np.float64)
 
 
 class _WindowContext:

@@ -3,7 +3,7 @@
 Window ``s`` covers frames ``edges[s] .. edges[s + 1]`` (inclusive; neighbours share their boundary frame) and
 its network sees the local time ``tau = (x - edges[s]) / (edges[s + 1] - edges[s])`` in [0, 1], where
 ``x = t (F - 1)`` is the frame position of the clip time ``t``. A time is decoded by the window it falls in,
-a shared boundary frame by the later window (both windows were measured on it). Numpy only.
+a shared boundary frame by the later window (both windows were measured on it). No torch.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Payload
 
-from ._network import network_forward
+from ._network import Network
 
-__all__ = ["window_edges", "local_times", "window_of", "join_windows", "split_windows", "windows_forward"]
+__all__ = ["window_edges", "local_times", "window_of", "join_windows", "split_windows", "windows_forward", "Windows"]
 
 
 def window_edges(num_frames: int, window: int) -> NDArray[np.int64]:
@@ -101,15 +101,38 @@ def split_windows(arrays: Mapping[str, ArrayLike]) -> tuple[NDArray[np.int64], l
     return edges, windows
 
 
+class Windows:
+    """A windowed payload's networks, checked and converted once (:class:`~._network.Network` each), ready to
+    decode any number of clip times: each time by the network of the window it falls in, at its local time.
+
+    Raises:
+        ValueError: if the arrays do not fit together.
+    """
+
+    def __init__(self, arrays: Mapping[str, ArrayLike]):
+        edges, windows = split_windows(arrays)
+        self._edges = edges
+        self._frames = int(edges[-1]) + 1
+        self._networks = [Network(w) for w in windows]
+        self.width = self._networks[0].width
+
+    def __call__(self, times: ArrayLike, out: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
+        """``(T, D)`` float32 features at clip ``times`` ``(T,)`` in [0, 1] (into ``out`` when given)."""
+        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+        if out is None:
+            out = np.empty((t.size, self.width), np.float32)
+        index = window_of(t, self._edges, self._frames)
+        tau = local_times(t, self._frames, self._edges[index], self._edges[index + 1])
+        if t.size == 1:
+            self._networks[int(index[0])](tau, out)
+            return out
+        for s in np.unique(index).tolist():
+            rows = np.flatnonzero(index == s)
+            out[rows] = self._networks[s](tau[rows])
+        return out
+
+
 def windows_forward(arrays: Mapping[str, ArrayLike], times: ArrayLike) -> NDArray[np.float64]:
-    """``(T, D)`` features of a windowed payload at clip ``times`` in [0, 1] (float64, numpy only)."""
-    edges, windows = split_windows(arrays)
-    t = np.asarray(times, dtype=np.float64).reshape(-1)
-    frames = int(edges[-1]) + 1
-    index = window_of(t, edges, frames)
-    tau = local_times(t, frames, edges[index], edges[index + 1])
-    out = np.empty((t.size, windows[0]["b2"].size))
-    for s in np.unique(index).tolist():
-        rows = index == s
-        out[rows] = network_forward(windows[s], tau[rows])
-    return out
+    """``(T, D)`` features of a windowed payload at clip ``times`` in [0, 1] (computed in float32 by
+    :class:`Windows`), as float64."""
+    return Windows(arrays)(times).astype(np.float64)

@@ -6,9 +6,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
-                                      per_skeleton)
-from motionrep.rotations import ortho6d_to_quat, quat_to_ortho6d
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
+                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.rotations import ortho6d_columns_to_quat, quat_to_ortho6d
 
 __all__ = ["Ortho6D"]
 
@@ -19,6 +19,12 @@ _SIX = ("m00", "m10", "m20", "m01", "m11", "m21")
 @per_skeleton
 def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, lambda j: _SIX if skeleton.rotation_orders[j] else ())
+
+
+@per_skeleton
+def _columns(skeleton: Skeleton) -> NDArray[np.int64]:
+    """``(R, 6)`` columns of each rotated joint's 6D block."""
+    return np.array(_layout(skeleton).rotation_columns, np.int64).reshape(-1, 6)
 
 
 class Ortho6D(Representation):
@@ -45,14 +51,21 @@ class Ortho6D(Representation):
         return lay.assemble(motion.root_translation, six, motion.joint_translations)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
+        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
+        poses = empty_poses(skeleton, f.shape[0])
+        self._decode(f, skeleton, poses)
+        return motion_from_poses(poses, skeleton, fps)
+
+    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
+        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
+
+    @staticmethod
+    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
         lay = _layout(skeleton)
-        f = check_features(features, lay.width, self.name)
-        rotations = np.zeros((f.shape[0], skeleton.num_joints, 4))
-        rotations[..., 3] = 1.0
-        if lay.rotation_joints.size:
-            rotations[:, lay.rotation_joints] = ortho6d_to_quat(lay.rotation_block(f))
-        root_t, joint_t = lay.split(f)
-        return Motion(skeleton, fps, root_t, rotations, joint_t)
+        if lay.identity_joints.size:
+            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
+        ortho6d_columns_to_quat(f, _columns(skeleton), lay.rotation_joints, out.rotations)
+        lay.translations_into(f, out)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

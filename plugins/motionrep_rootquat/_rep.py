@@ -8,10 +8,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
-                                      per_skeleton)
-from motionrep.rotations import (axis_angle_make_continuous, axis_angle_to_quat, quat_make_continuous,
-                                 quat_normalize, quat_to_axis_angle)
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
+                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.rotations import (axis_angle_columns_to_quat, axis_angle_make_continuous, quat_columns_normalized,
+                                 quat_make_continuous, quat_to_axis_angle)
 
 __all__ = ["RootQuatAxisAngle"]
 
@@ -31,30 +31,23 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
 
 @dataclass(frozen=True)
 class _DecodePlan:
-    """Where ``from_features`` reads and writes, worked out once per skeleton."""
+    """Where decoding reads and writes, worked out once per skeleton."""
 
-    identity_fill: bool  # some joints have no rotation channels
-    root_columns: NDArray[np.int64] | None  # the root quaternion's 4 columns
-    joints: slice | NDArray[np.int64] | None  # the non-root joints with axis-angle columns
-    columns: slice | NDArray[np.int64] | None  # their columns: a slice when contiguous, else (R, 3) indices
+    root_columns: NDArray[np.int64]  # (1, 4) the root quaternion's columns, or (0, 4)
+    root_joint: NDArray[np.int64]  # (1,) or (0,)
+    columns: NDArray[np.int64]  # (R, 3) the rotation vectors' columns
+    joints: NDArray[np.int64]  # (R,) their joints
 
 
 @per_skeleton
 def _decode_plan(skeleton: Skeleton) -> _DecodePlan:
     lay = _layout(skeleton)
-    joints = lay.rotation_joints
-    root = lay.rotation_columns[0] if joints.size and joints[0] == 0 else None
-    others = [(j, cols) for j, cols in zip(joints.tolist(), lay.rotation_columns) if j > 0]
-    if not others:
-        return _DecodePlan(joints.size < skeleton.num_joints, root, None, None)
-    idx = np.array([j for j, _ in others])
-    cols = np.stack([c for _, c in others])
-    first = int(cols[0, 0])
-    columns = (slice(first, first + cols.size) if np.array_equal(cols.ravel(), np.arange(first, first + cols.size))
-               else cols)
-    target = (slice(int(idx[0]), int(idx[0]) + idx.size) if np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size))
-              else idx)
-    return _DecodePlan(joints.size < skeleton.num_joints, root, target, columns)
+    pairs = list(zip(lay.rotation_joints.tolist(), lay.rotation_columns))
+    root = [cols for j, cols in pairs if j == 0]
+    others = [(j, cols) for j, cols in pairs if j > 0]
+    return _DecodePlan(np.array(root, np.int64).reshape(-1, 4), np.zeros(len(root), np.int64),
+                       np.array([c for _, c in others], np.int64).reshape(-1, 3),
+                       np.array([j for j, _ in others], np.int64))
 
 
 class RootQuatAxisAngle(Representation):
@@ -68,7 +61,9 @@ class RootQuatAxisAngle(Representation):
     previous frame); for joints with position channels, their local translation (3, file units).  Joints
     without rotation channels take no rotation columns and decode to the identity.
 
-    Decoding normalises the root quaternion.
+    Decoding normalises the root quaternion and converts the rotation vectors in one compiled pass each
+    (``motionrep.rotations.quat_columns_normalized``, ``axis_angle_columns_to_quat``), straight from the feature
+    columns, float32 or float64 features alike (the arithmetic is float64).
     """
 
     name = "root-quat-axis-angle"
@@ -95,24 +90,23 @@ class RootQuatAxisAngle(Representation):
         return lay.assemble(root_t, blocks, joint_t)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
-        lay = _layout(skeleton)
-        f = check_features(features, lay.width, self.name)
-        F = f.shape[0]
-        rotations = np.empty((F, skeleton.num_joints, 4))
-        plan = _decode_plan(skeleton)
-        if plan.identity_fill:  # joints without rotation channels: identity
-            rotations[...] = (0.0, 0.0, 0.0, 1.0)
-        if plan.root_columns is not None:
-            rotations[:, 0] = quat_normalize(f[:, plan.root_columns])
-        if plan.joints is not None:
-            if isinstance(plan.columns, slice):
-                vectors = f[:, plan.columns].reshape(F, -1, 3)  # a view, no gather
-            else:
-                vectors = f[:, plan.columns]
-            rotations[:, plan.joints] = axis_angle_to_quat(vectors)
-        root_t, joint_t = lay.split(f)
-        rotations.flags.writeable = False  # handed to the Motion without a copy
-        return Motion(skeleton, fps, root_t, rotations, joint_t)
+        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
+        poses = empty_poses(skeleton, f.shape[0])
+        self._decode(f, skeleton, poses)
+        return motion_from_poses(poses, skeleton, fps)
+
+    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
+        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
+
+    @staticmethod
+    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
+        lay, plan = _layout(skeleton), _decode_plan(skeleton)
+        if lay.identity_joints.size:  # joints without rotation channels: identity
+            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
+        if plan.root_joint.size:
+            quat_columns_normalized(f, plan.root_columns, plan.root_joint, out.rotations)
+        axis_angle_columns_to_quat(f, plan.columns, plan.joints, out.rotations)
+        lay.translations_into(f, out)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

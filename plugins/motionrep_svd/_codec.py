@@ -7,7 +7,8 @@ is stored as ``coefficients = U_r S_r`` ``(F, r)`` and ``basis = V_r^T / s`` ``(
 Fourier codecs' loss.
 
 Decoding at normalised times ``t``: the coefficient rows are interpolated linearly between frames
-(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``.  Pure numpy.
+(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in float32 (the payload's precision) in
+one compiled loop (:class:`SVDDecoder`).
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
+from motionrep.jit import affine_block, affine_one, jit
 
-__all__ = ["SVDCodec", "SVDParams", "interpolate_rows"]
+__all__ = ["SVDCodec", "SVDParams", "SVDDecoder"]
 
 _DTYPES = {"float32": np.float32, "float16": np.float16}
 
@@ -41,18 +43,6 @@ class SVDParams:
             raise ParameterError(f"svd: rank must be an integer >= 0, got {self.rank!r}")
         if self.dtype not in _DTYPES:
             raise ParameterError(f"svd: dtype must be one of {', '.join(_DTYPES)}, got {self.dtype!r}")
-
-
-def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike) -> NDArray[np.float64]:
-    """Rows ``(F, k)`` sampled at ``t = i / (F - 1)``, linearly interpolated at ``times`` ``(T,)`` in [0, 1]."""
-    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
-    F = rows.shape[0]
-    if F == 1:
-        return np.repeat(rows, t.size, axis=0)
-    pos = t * (F - 1)
-    i = np.minimum(np.floor(pos).astype(np.int64), F - 2)
-    a = (pos - i)[:, None]
-    return rows[i] * (1.0 - a) + rows[i + 1] * a
 
 
 class SVDCodec(Codec):
@@ -122,12 +112,74 @@ class SVDCodec(Codec):
         """``rank=9``."""
         return f"rank={info['rank']}" if "rank" in info else super().describe(info, detail)
 
+    def decoder(self, payload: Payload) -> "SVDDecoder":
+        return SVDDecoder(payload.arrays)
+
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
-        mean = np.asarray(payload.arrays["mean"], dtype=np.float64)
-        coeff = np.asarray(payload.arrays["coefficients"], dtype=np.float64)
-        basis = np.asarray(payload.arrays["basis"], dtype=np.float64)
+        return self.decoder(payload)(times).astype(np.float64)
+
+
+#: Times decoded together (the block's coefficients and features stay in the CPU cache).
+_ROWS = 64
+
+
+@jit
+def _decode_kernel(times, coeff, mean, basis_t, basis, out):
+    """``out (T, D)`` float32 = ``mean + c(t) @ basis``, ``c(t)`` the coefficient rows ``coeff (F, r)``
+    interpolated linearly at ``t`` (clipped to [0, 1]); the sums as ``motionrep.jit.affine_block`` /
+    ``affine_one`` (mean first, then the rank components in order), so a time decodes to the same bits alone or
+    in a batch."""
+    T, F, r, D = times.shape[0], coeff.shape[0], coeff.shape[1], mean.shape[0]
+    C = np.empty((r, _ROWS), np.float32)
+    Y = np.empty((D, _ROWS), np.float32)
+    c1 = np.empty(r, np.float32)
+    for a in range(0, T, _ROWS):
+        m = min(_ROWS, T - a)
+        for i in range(m):
+            t = min(max(times[a + i], 0.0), 1.0)
+            pos = t * (F - 1)
+            j = min(np.int64(np.floor(pos)), max(F - 2, 0))
+            frac = np.float32(pos - j)
+            rest = np.float32(1.0) - frac
+            k1 = min(j + 1, F - 1)
+            for k in range(r):
+                C[k, i] = coeff[j, k] * rest + coeff[k1, k] * frac
+        if m == 1:
+            for k in range(r):
+                c1[k] = C[k, 0]
+            affine_one(basis, mean, c1, out[a])
+            continue
+        affine_block(basis_t, mean, C, Y, m)
+        for i in range(m):
+            for d in range(D):
+                out[a + i, d] = Y[d, i]
+
+
+class SVDDecoder:
+    """An ``svd`` payload checked and converted to float32 once, ready to decode any number of times.
+
+    Decoding is float32 (the payload's own precision: ``mean`` is float32, coefficients and basis float32 or
+    float16): one compiled pass per block of times (``_decode_kernel``).
+
+    Raises:
+        ValueError: if the arrays' shapes do not fit together.
+    """
+
+    def __init__(self, arrays):
+        mean, coeff, basis = (np.asarray(arrays[k]) for k in ("mean", "coefficients", "basis"))
         if mean.ndim != 1 or coeff.ndim != 2 or basis.shape != (coeff.shape[1], mean.shape[0]) or coeff.shape[0] < 1:
             raise ValueError(f"inconsistent svd payload shapes: mean {mean.shape}, coefficients {coeff.shape}, "
                              f"basis {basis.shape}")
-        t = np.asarray(times, dtype=np.float64).reshape(-1)
-        return mean + interpolate_rows(coeff, t) @ basis
+        self.width = mean.shape[0]
+        self._mean = np.ascontiguousarray(mean, dtype=np.float32)
+        self._coeff = np.ascontiguousarray(coeff, dtype=np.float32)
+        self._basis = np.ascontiguousarray(basis, dtype=np.float32)
+        self._basis_t = np.ascontiguousarray(self._basis.T)
+
+    def __call__(self, times: ArrayLike, out: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
+        """``(T, D)`` float32 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
+        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+        if out is None:
+            out = np.empty((t.size, self.width), np.float32)
+        _decode_kernel(t, self._coeff, self._mean, self._basis_t, self._basis, out)
+        return out

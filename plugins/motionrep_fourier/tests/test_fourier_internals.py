@@ -165,20 +165,17 @@ def test_network_decodes_at_any_time_continuously():
         network_forward(dict(arrays, W1=np.zeros((3, 3))), t)
 
 
-def test_network_in_blocks_is_eq_2_and_elu_is_exact():
-    """The blocked, in-place evaluation is the plain formula of eq. 2 (up to BLAS rounding), for any count of
-    times around the block size, and ELU is x for x >= 0 and expm1(x) below."""
-    from motionrep_fourier._network import ROWS, elu, fourier_features, network_forward
+def test_network_is_eq_2_in_float32_and_a_time_decodes_alike_in_any_batch():
+    """The compiled float32 forward pass is the plain formula of eq. 2 (float64, weights as stored) to float32
+    rounding, for any count of times around the block size; a time gives the same bits alone, in any batch and
+    at any position (fixed summation order, no BLAS), so what the core measures is what a runtime gets."""
+    from motionrep_fourier._network import ROWS, Network, fourier_features, network_forward
 
-    z = np.array([-3.0, -1e-300, -0.0, 0.0, 1e-300, 2.5])
-    e = elu(z)
-    assert np.array_equal(e, np.where(z >= 0, z, np.expm1(z)))
-    inplace = z.copy()
-    assert elu(inplace, out=inplace) is inplace and np.array_equal(inplace, e)
     rng = np.random.default_rng(3)
-    arrays = {"omega": np.array([0.5, 2.0, 7.5], np.float32), "W0": rng.normal(size=(14, 7)),
-              "b0": rng.normal(size=14), "W1": rng.normal(size=(14, 14)), "b1": rng.normal(size=14),
-              "W2": rng.normal(size=(5, 14)).astype(np.float16), "b2": rng.normal(size=5).astype(np.float32)}
+    arrays = {"omega": np.array([0.5, 2.0, 7.5], np.float32), "W0": rng.normal(size=(14, 7)).astype(np.float32),
+              "b0": rng.normal(size=14).astype(np.float32), "W1": rng.normal(size=(14, 14)).astype(np.float32),
+              "b1": rng.normal(size=14).astype(np.float32), "W2": rng.normal(size=(5, 14)).astype(np.float16),
+              "b2": rng.normal(size=5).astype(np.float32)}
     a = {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
 
     def plain(t):
@@ -188,12 +185,30 @@ def test_network_in_blocks_is_eq_2_and_elu_is_exact():
         h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
         return h @ a["W2"].T + a["b2"]
 
+    net = Network(arrays)
     for count in (1, 2, ROWS - 1, ROWS, ROWS + 1, 2 * ROWS + 7):
         t = rng.uniform(size=count)
         y = network_forward(arrays, t)
         assert y.shape == (count, 5) and y.dtype == np.float64
-        assert np.allclose(y, plain(t), rtol=0, atol=1e-12)
+        ref = plain(t)
+        assert np.max(np.abs(y - ref)) < 1e-5 * max(1.0, np.max(np.abs(ref)))  # float32 rounding
         assert np.array_equal(network_forward(arrays, t), y)  # deterministic
+        ones = np.concatenate([net(t[i:i + 1]) for i in range(count)])
+        assert np.array_equal(ones, y.astype(np.float32))  # alone = in a batch, bit for bit
+        assert np.array_equal(net(t[1:]), ones[1:])  # another position in the block
+
+
+def test_decoder_elu_is_expm1_to_float32_rounding():
+    from motionrep_fourier._network import elu
+
+    z = np.concatenate([[-1e3, -30.0, -17.0, -3.0, -1e-30, -0.0, 0.0, 1e-30, 2.5],
+                        -np.logspace(-8, 1.5, 2000)]).astype(np.float32)
+    e = elu(z)
+    assert e.dtype == np.float32
+    positive = z >= 0
+    assert np.array_equal(e[positive], z[positive])
+    exact = np.expm1(z[~positive].astype(np.float64))
+    assert np.all(np.abs(e[~positive] - exact) <= 4 * np.spacing(np.abs(exact).astype(np.float32)))
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -1,0 +1,85 @@
+"""The one way motionrep compiles its hot loops: numba's ``njit`` with a fixed set of options.
+
+``jit`` compiles on first call and keeps the machine code in numba's on-disk cache (``cache=True``: the
+``__pycache__`` beside the source, or numba's user-wide cache directory when that is not writable), so a process
+pays the compilation once per machine and afterwards only numba's start-up (``benchmarks/README.md`` gives the
+times).  The options:
+
+* ``nogil``: kernels release the GIL, so threads can decode in parallel;
+* ``error_model="numpy"``: division by zero gives inf/nan like numpy instead of raising (kernels check what they
+  need themselves), which keeps divisions vectorisable;
+* no ``fastmath``: every operation is IEEE, so a value does not depend on whether it was computed in a vector
+  or a scalar lane, i.e. one pose decodes to the same bits alone or inside a batch, on one machine.
+
+Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input;
+there is no second, pure-numpy copy of the same computation.  Plugins (shipped or third-party) may compile their
+own hot loops with the same decorator: ``from motionrep.jit import jit``.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__ = ["jit", "jit_inline", "sincos", "affine_block", "affine_one"]
+
+#: Decorator for motionrep's compiled kernels (see the module docstring).
+jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+#: The same for small helpers that kernels call: inlined into each caller, so the loops around them vectorise.
+jit_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+
+@jit_inline
+def sincos(x):
+    """``(sin x, cos x)`` of a float64 ``x`` to within an ulp, for compiled code (numba's ``np.sin`` calls libm
+    and keeps loops scalar): Cody-Waite reduction by pi / 2 (three parts, exact products for ``|x| < 2^20 pi /
+    2``; beyond, the reduction and so the result lose accuracy gracefully but stay bounded), then fdlibm's
+    kernels on [-pi/4, pi/4]; branch-free, so loops over it vectorise."""
+    n = np.floor(x * 0.6366197723675814 + 0.5)
+    r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21
+    z = r * r
+    s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
+        -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
+            -2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))))
+    tail = z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (
+        2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (
+            2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))))
+    hz = 0.5 * z
+    w = 1.0 - hz
+    c = w + (((1.0 - w) - hz) + tail)
+    quadrant = n - 4.0 * np.floor(n * 0.25)
+    odd = (quadrant == 1.0) | (quadrant == 3.0)
+    s1 = c if odd else s
+    c1 = -s if odd else c
+    if quadrant >= 2.0:
+        return -s1, -c1
+    return s1, c1
+
+
+@jit_inline
+def affine_block(W, b, X, Z, m):
+    """``Z[u, :m] = b[u] + sum_k W[u, k] X[k, :m]`` for compiled decoders: a dense layer on a block of ``m``
+    inputs stored as columns (``X (K, >= m)``, ``Z (U, >= m)``), each sum in a fixed order (bias first, then
+    ``k = 0, 1, ...``) and vectorised over the block's columns, never over the sum: an input gives the same bits
+    in any block, at any position (compare :func:`affine_one`), and on any x86-64 CPU."""
+    for u in range(W.shape[0]):
+        bias = b[u]
+        for i in range(m):
+            Z[u, i] = bias
+        for k in range(W.shape[1]):
+            w = W[u, k]
+            for i in range(m):
+                Z[u, i] += w * X[k, i]
+
+
+@jit_inline
+def affine_one(WT, b, x, z):
+    """``z[u] = b[u] + sum_k WT[k, u] x[k]``: :func:`affine_block` for one input (the same sums, the same
+    order), vectorised over the units instead, with the transposed weights ``WT (K, U)``."""
+    n = b.shape[0]
+    for u in range(n):
+        z[u] = b[u]
+    for k in range(WT.shape[0]):
+        xk = x[k]
+        for u in range(n):
+            z[u] += WT[k, u] * xk
