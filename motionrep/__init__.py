@@ -14,7 +14,18 @@ from .hookspecs import hookimpl  # noqa: E402
 from .io import FeatureClip, read, write  # noqa: E402
 from .kinematics import character_height, forward_kinematics, global_positions  # noqa: E402
 
+
+
+def open(source):  # noqa: A001 - motionrep.open, like io.open: the runtime entry point
+    """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.runtime.Clip`
+    (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.runtime``)."""
+    from .runtime import open_clip
+
+    return open_clip(source)
+
+
 __all__ = [
+    "open",
     "Skeleton",
     "Motion",
     "MotionrepError",

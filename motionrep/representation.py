@@ -22,7 +22,7 @@ from .errors import ValidationError
 from .kinematics import forward_kinematics
 
 __all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
-           "representation_problems", "Poses", "empty_poses", "motion_from_poses"]
+           "representation_problems", "Poses", "empty_poses", "motion_from_poses", "decoded_motion"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +60,19 @@ def empty_poses(skeleton: Skeleton, count: int, dtype: type = np.float64) -> Pos
 def motion_from_poses(poses: Poses, skeleton: Skeleton, fps: float, **extra) -> Motion:
     """The validated :class:`Motion` of ``poses`` (float64; ``extra`` as ``Motion``'s ``euler_branch``)."""
     return Motion(skeleton, fps, poses.root_translation, poses.rotations, poses.joint_translations, **extra)
+
+
+def decoded_motion(representation: "Representation", features: ArrayLike, skeleton: Skeleton, fps: float,
+                   **extra) -> Motion:
+    """``from_features`` for a representation that implements :meth:`Representation.decode_poses`: decode into
+    fresh :class:`Poses` and build the :class:`Motion` of them, so both give the same values."""
+    try:
+        rows = np.shape(features)[0] if np.ndim(features) == 2 else 0
+    except (TypeError, ValueError):  # not an array at all: decode_poses says so
+        rows = 0
+    poses = empty_poses(skeleton, rows)
+    representation.decode_poses(features, skeleton, poses)
+    return motion_from_poses(poses, skeleton, fps, **extra)
 
 
 class Representation(ABC):
@@ -182,6 +195,9 @@ def joint_reach(motion: Motion) -> NDArray[np.float64]:
     return reach
 
 
+_F32 = np.dtype(np.float32)
+
+
 def check_features(features: ArrayLike, width: int, name: str, *, float32: bool = False) -> NDArray[np.floating]:
     """Validate ``(F, width)`` finite features for representation ``name``; return them as float64.
 
@@ -193,7 +209,7 @@ def check_features(features: ArrayLike, width: int, name: str, *, float32: bool 
         ValidationError: naming the representation, the expected and the received shape.
     """
     try:
-        keep = float32 and isinstance(features, np.ndarray) and features.dtype == np.float32
+        keep = float32 and type(features) is np.ndarray and features.dtype is _F32
         f = features if keep else np.asarray(features, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValidationError(f"features for representation {name!r} must be numeric") from None

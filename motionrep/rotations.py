@@ -504,22 +504,26 @@ _SIX_COLUMNS = np.arange(6, dtype=np.int64).reshape(1, 6)
 _BLOCK = 128
 
 
+_F64, _F32, _I64 = np.dtype(np.float64), np.dtype(np.float32), np.dtype(np.int64)
+
+
 def _columns_args(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int
                   ) -> tuple[NDArray, NDArray, NDArray]:
     """Check the shapes and dtypes of the ``*_columns_*`` functions' arguments (the kernels check that the
-    indices are in range, see :func:`_plan_ok`); return them as kernel-ready arrays."""
-    f = features if isinstance(features, np.ndarray) else np.asarray(features)
-    if f.dtype != np.float64 and f.dtype != np.float32:
+    indices are in range, see :func:`_plan_ok`); return them as kernel-ready arrays.  Cheap for arrays that are
+    already right: decoding one pose calls this a few times."""
+    f = features if type(features) is np.ndarray else np.asarray(features)
+    if f.dtype is not _F64 and f.dtype is not _F32:
         f = f.astype(np.float64)
-    cols = np.asarray(columns, dtype=np.int64)
-    idx = np.asarray(joints, dtype=np.int64)
+    cols = columns if type(columns) is np.ndarray and columns.dtype is _I64 else np.asarray(columns, np.int64)
+    idx = joints if type(joints) is np.ndarray and joints.dtype is _I64 else np.asarray(joints, np.int64)
     if f.ndim != 2:
         raise ValidationError(f"features must be 2-D (rows, columns), got shape {f.shape}")
     if idx.ndim != 1 or cols.ndim != 2 or cols.shape[1] != width or cols.shape[0] != idx.shape[0]:
         raise ValidationError(f"columns must have shape (R, {width}) and joints (R,), got {cols.shape} and "
                               f"{idx.shape}")
-    if (not isinstance(out, np.ndarray) or out.ndim != 3 or out.shape[0] != f.shape[0] or out.shape[2] != 4
-            or (out.dtype != np.float64 and out.dtype != np.float32)):
+    if (type(out) is not np.ndarray or out.ndim != 3 or out.shape[0] != f.shape[0] or out.shape[2] != 4
+            or (out.dtype is not _F64 and out.dtype is not _F32)):
         raise ValidationError(f"out must be a float32 or float64 array of shape ({f.shape[0]}, J, 4), got "
                               f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
     return f, cols, idx
@@ -547,6 +551,17 @@ def _plan_ok(cols, joints, num_columns, num_joints, allow_missing):
     return True
 
 
+@jit_inline
+def _store_normalized(x, y, z, w, sign, out):
+    """``out[:] = sign * q / |q|``; False if ``|q|`` is zero or not finite."""
+    n = sign * np.sqrt(((x * x + y * y) + z * z) + w * w)
+    out[0] = x / n
+    out[1] = y / n
+    out[2] = z / n
+    out[3] = w / n
+    return (n != 0.0) & (abs(n) < np.inf)
+
+
 @jit
 def _quat_columns_kernel(f, cols, joints, out):
     if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
@@ -559,13 +574,7 @@ def _quat_columns_kernel(f, cols, joints, out):
             y = np.float64(f[t, cols[r, 1]])
             z = np.float64(f[t, cols[r, 2]])
             w = np.float64(f[t, cols[r, 3]])
-            n = np.sqrt(((x * x + y * y) + z * z) + w * w)
-            ok &= (n > 0.0) & (n < np.inf)
-            j = joints[r]
-            out[t, j, 0] = x / n
-            out[t, j, 1] = y / n
-            out[t, j, 2] = z / n
-            out[t, j, 3] = w / n
+            ok &= _store_normalized(x, y, z, w, 1.0, out[t, joints[r]])
     return 0 if ok else 2
 
 
@@ -591,11 +600,11 @@ def _axis_angle_columns_kernel(f, cols, joints, out):
         return 1
     T, R = f.shape[0], cols.shape[0]
     X, Y, Z = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
-    K, C = np.empty(_BLOCK), np.empty(_BLOCK)
+    K, C = np.empty((R, _BLOCK)), np.empty((R, _BLOCK))
     for a in range(0, T, _BLOCK):
         m = min(_BLOCK, T - a)
-        for r in range(R):
-            c0, c1, c2, j = cols[r, 0], cols[r, 1], cols[r, 2], joints[r]
+        for r in range(R):  # joint by joint, vectorised over the block's rows
+            c0, c1, c2 = cols[r, 0], cols[r, 1], cols[r, 2]
             for i in range(m):
                 X[i] = f[a + i, c0]
                 Y[i] = f[a + i, c1]
@@ -606,13 +615,15 @@ def _axis_angle_columns_kernel(f, cols, joints, out):
                 theta = np.sqrt(theta2)
                 s, c = sincos(0.5 * theta)
                 # sin(theta / 2) / theta, by its series below 1e-3 (no 0 / 0), as scipy does
-                K[i] = s / theta if theta > 1e-3 else 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
-                C[i] = c
-            for i in range(m):
-                out[a + i, j, 0] = K[i] * X[i]
-                out[a + i, j, 1] = K[i] * Y[i]
-                out[a + i, j, 2] = K[i] * Z[i]
-                out[a + i, j, 3] = C[i]
+                K[r, i] = s / theta if theta > 1e-3 else 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
+                C[r, i] = c
+        for i in range(m):  # then row by row, so the output is written in order
+            for r in range(R):
+                k, j = K[r, i], joints[r]
+                out[a + i, j, 0] = k * f[a + i, cols[r, 0]]
+                out[a + i, j, 1] = k * f[a + i, cols[r, 1]]
+                out[a + i, j, 2] = k * f[a + i, cols[r, 2]]
+                out[a + i, j, 3] = C[r, i]
     return 0
 
 
@@ -761,16 +772,9 @@ def _ortho6d_columns_kernel(f, cols, joints, out):
                 x, y, z, w = m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12, m02 - m20
             else:
                 x, y, z, w = m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22, m10 - m01
-            n = np.sqrt(((x * x + y * y) + z * z) + w * w)
             # canonical sign: w >= 0 (w == 0: the first non-zero component positive)
             flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
-            if flip:
-                n = -n
-            j = joints[r]
-            out[t, j, 0] = x / n
-            out[t, j, 1] = y / n
-            out[t, j, 2] = z / n
-            out[t, j, 3] = w / n
+            _store_normalized(x, y, z, w, -1.0 if flip else 1.0, out[t, joints[r]])
     return 0 if ok else 2
 
 

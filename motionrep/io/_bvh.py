@@ -25,7 +25,7 @@ from .._model import CHANNEL_NAMES, Motion, Skeleton
 from ..errors import BVHFormatError, ValidationError
 from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
-from ._numbers import _python_float, parse_number_tokens, scan_tokens
+from ._numbers import _python_float, first_control_byte, scan_block
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
@@ -263,11 +263,10 @@ def _decode(data: bytes, path) -> bytes:
             raise BVHFormatError(f"not a text file: invalid UTF-8 byte 0x{data[exc.start]:02x}", path,
                                  line) from None
     u = np.frombuffer(data, np.uint8)
-    # control bytes other than tab, LF, VT, FF, CR (9..13): below 9, or 14..31 (u - 14 wraps below 18)
-    if u.min() < 9 or np.any((u - np.uint8(14)) < 18):
-        bad = np.flatnonzero((u < 32) & (u != 9) & (u != 10) & (u != 13) & (u != 11) & (u != 12))
-        line = data.count(b"\n", 0, int(bad[0])) + 1
-        raise BVHFormatError(f"not a text file: control byte 0x{u[bad[0]]:02x}", path, line)
+    bad = first_control_byte(u)  # control bytes other than tab, LF, VT, FF, CR
+    if bad >= 0:
+        line = data.count(b"\n", 0, bad) + 1
+        raise BVHFormatError(f"not a text file: control byte 0x{u[bad]:02x}", path, line)
     return data
 
 
@@ -353,40 +352,27 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
     Errors name the offending line.
     """
     u = np.frombuffer(data, np.uint8, offset=start)
-    tokens = scan_tokens(u)
-    counts = tokens.line_counts
-    data_lines = np.flatnonzero(counts > 0)  # blank lines are skipped
+    scan = scan_block(u, channels, frames)
     if channels == 0:
-        if data_lines.size:
+        if scan.rows:
             raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
-                                 first_line + int(data_lines[0]))
+                                 first_line + scan.first_data_line)
         return np.zeros((frames, 0))
-    if data_lines.size < frames:  # named: the line where the first missing frame should be
-        line = first_line + (int(data_lines[-1]) + 1 if data_lines.size else 0)
-        raise BVHFormatError(f"truncated motion: Frames: {frames} but only {data_lines.size} frame lines",
-                             path, line)
-    if data_lines.size > frames:
-        raise BVHFormatError(f"more frame lines than Frames: {frames} (line {first_line + int(data_lines[frames])}"
-                             f" is frame {frames + 1})", path, first_line + int(data_lines[frames]))
-    wrong = data_lines[counts[data_lines] != channels]
-    if wrong.size:
-        line = int(wrong[0])
-        raise BVHFormatError(f"frame line has {int(counts[line])} values, expected {channels} (one per channel)",
-                             path, first_line + line)
-    values, bad = parse_number_tokens(u, tokens)
-    if bad is not None:
-        raise BVHFormatError(f"expected a number, found {_token(u, tokens, bad)!r}", path,
-                             first_line + tokens.line_of(bad))
-    nonfinite = np.flatnonzero(~np.isfinite(values))
-    if nonfinite.size:
-        i = int(nonfinite[0])
-        raise BVHFormatError(f"{_token(u, tokens, i)!r} is not a finite number", path,
-                             first_line + tokens.line_of(i))
-    return values.reshape(frames, channels)
-
-
-def _token(u: NDArray[np.uint8], tokens, i: int) -> str:
-    return u[tokens.starts[i]: tokens.ends[i]].tobytes().decode("utf-8", "replace")[:40]
+    if scan.rows < frames:  # named: the line where the first missing frame should be
+        line = first_line + (scan.last_data_line + 1 if scan.rows else 0)
+        raise BVHFormatError(f"truncated motion: Frames: {frames} but only {scan.rows} frame lines", path, line)
+    if scan.rows > frames:
+        raise BVHFormatError(f"more frame lines than Frames: {frames} (line {first_line + scan.extra_line}"
+                             f" is frame {frames + 1})", path, first_line + scan.extra_line)
+    if scan.first_wrong_line >= 0:
+        raise BVHFormatError(f"frame line has {scan.wrong_count} values, expected {channels} (one per channel)",
+                             path, first_line + scan.first_wrong_line)
+    if scan.bad is not None:
+        raise BVHFormatError(f"expected a number, found {scan.bad[2]!r}", path, first_line + scan.bad[1])
+    if scan.nonfinite is not None:
+        raise BVHFormatError(f"{scan.nonfinite[2]!r} is not a finite number", path,
+                             first_line + scan.nonfinite[1])
+    return scan.values.reshape(frames, channels)
 
 
 def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Motion:

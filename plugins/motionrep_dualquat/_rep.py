@@ -11,8 +11,8 @@ from motionrep import Motion, Skeleton
 from motionrep.errors import ValidationError
 from motionrep.jit import jit
 from motionrep.kinematics import global_positions
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
-                                      feature_layout, motion_from_poses, per_skeleton)
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+                                      feature_layout, per_skeleton)
 from motionrep.rotations import quat_conjugate, quat_multiply
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
@@ -130,10 +130,7 @@ class DualQuaternion(Representation):
         return _layout(sk).assemble(motion.root_translation, dq, motion.joint_translations)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
-        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
-        poses = empty_poses(skeleton, f.shape[0])
-        self._decode(f, skeleton, poses)
-        return motion_from_poses(poses, skeleton, fps)
+        return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
         self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)

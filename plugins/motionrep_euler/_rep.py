@@ -6,8 +6,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
-                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+                                      feature_layout, joint_reach, per_skeleton)
 from motionrep.rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
 
 __all__ = ["Euler"]
@@ -76,14 +76,12 @@ class Euler(Representation):
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
         lay = _layout(skeleton)
         f = check_features(features, lay.width, self.name, float32=True)
-        poses = empty_poses(skeleton, f.shape[0])
-        self._decode(f, skeleton, poses)
         branch = np.zeros((f.shape[0], skeleton.num_joints), bool)
         joints = lay.rotation_joints
         for order, ks in _by_order(skeleton, joints).items():
             angles = f[:, np.stack([lay.rotation_columns[k] for k in ks])]  # (F, k, n)
             branch[:, joints[ks]] = euler_branch(angles, order, degrees=True)
-        return motion_from_poses(poses, skeleton, fps, euler_branch=branch)
+        return decoded_motion(self, f, skeleton, fps, euler_branch=branch)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
         self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)

@@ -6,8 +6,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
-                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+                                      feature_layout, joint_reach, per_skeleton)
 from motionrep.rotations import ortho6d_columns_to_quat, quat_to_ortho6d
 
 __all__ = ["Ortho6D"]
@@ -51,10 +51,7 @@ class Ortho6D(Representation):
         return lay.assemble(motion.root_translation, six, motion.joint_translations)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
-        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
-        poses = empty_poses(skeleton, f.shape[0])
-        self._decode(f, skeleton, poses)
-        return motion_from_poses(poses, skeleton, fps)
+        return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
         self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)

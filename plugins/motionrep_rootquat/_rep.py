@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, empty_poses,
-                                      feature_layout, joint_reach, motion_from_poses, per_skeleton)
+from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+                                      feature_layout, joint_reach, per_skeleton)
 from motionrep.rotations import (axis_angle_columns_to_quat, axis_angle_make_continuous, quat_columns_normalized,
                                  quat_make_continuous, quat_to_axis_angle)
 
@@ -90,10 +90,7 @@ class RootQuatAxisAngle(Representation):
         return lay.assemble(root_t, blocks, joint_t)
 
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
-        f = check_features(features, _layout(skeleton).width, self.name, float32=True)
-        poses = empty_poses(skeleton, f.shape[0])
-        self._decode(f, skeleton, poses)
-        return motion_from_poses(poses, skeleton, fps)
+        return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
         self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)

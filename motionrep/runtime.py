@@ -1,0 +1,227 @@
+"""Sample a compressed clip many times: the runtime decoder behind ``motionrep.open``.
+
+A game samples the pose of every character every frame, a training pipeline a batch of poses per step; both
+open a ``.mrc`` once and then ask for poses at arbitrary times::
+
+    clip = motionrep.open("walk.mrc")
+    pose = clip.pose(0.25)                      # one pose, t in seconds
+    pose.rotations                              # (J, 4) local rotations, xyzw
+    batch = clip.poses(np.linspace(0, clip.duration, 1000))   # (T, J, 4), (T, 3), (T, P, 3)
+    points = clip.positions([0.0, 0.5])         # (T, J + E, 3) world positions (FK)
+
+Opening checks the container, looks up its codec and representation and prepares everything that does not
+depend on the time: the codec's decoder (``Codec.decoder``: arrays checked and converted to their working
+precision), the representation's per-skeleton plan (``Representation.decode_poses``), the axes that have no
+position channel, and the scratch buffers of one block of :data:`BLOCK` poses.  Sampling then runs the codec and
+the representation block by block in compiled loops (``motionrep.jit``) into the caller's arrays, nothing
+decoded is cached: memory is the payload plus a few hundred kB of buffers, whatever the clip's length.
+
+The values are those the core measured when it wrote the file: the same codec decoder and representation
+kernels as :func:`motionrep.compress.decompress`, and a time decodes to the same bits alone or in a batch.  Time
+``t`` (seconds from the first frame) maps to the codec's normalised time ``t * fps / (F - 1)``, clamped to the
+clip, so a frame's time gives that frame's pose (to the rounding of the time itself; :meth:`Clip.motion` decodes
+the frames exactly as ``decompress``).
+
+A :class:`Clip` keeps scratch buffers: use one per thread (the compiled loops release the GIL, so threads with
+their own clips decode in parallel).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._model import Motion, Skeleton
+from .codec import Payload
+from .container import Container, read_container, unpack
+from .errors import ContainerError, MotionrepError, ValidationError
+from .kinematics import fk_arrays
+from .representation import Poses, empty_poses
+
+__all__ = ["Clip", "Pose", "open_clip", "BLOCK"]
+
+#: Poses decoded together: the block's features and poses stay in the CPU cache.
+BLOCK = 512
+_F64 = np.dtype(np.float64)
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """One decoded pose (fresh arrays, the caller's to keep).
+
+    Attributes:
+        rotations: ``(J, 4)`` local rotations, unit xyzw quaternions (float64, or float32 when asked for).
+        root_translation: ``(3,)`` float64, the root's local translation.
+        joint_translations: ``(P, 3)`` float64, local translations of ``skeleton.translated_joints``.
+    """
+
+    rotations: NDArray[np.floating]
+    root_translation: NDArray[np.float64]
+    joint_translations: NDArray[np.float64]
+
+
+class Clip:
+    """A ``.mrc`` clip opened for sampling (see the module docstring); build it with :func:`open_clip`.
+
+    Attributes:
+        skeleton: the clip's :class:`~motionrep.Skeleton`.
+        fps: frames per second of the encoded clip.
+        num_frames: number of encoded frames ``F``.
+        duration: seconds from the first to the last frame, ``(F - 1) / fps`` (0 for one frame).
+        codec, representation: names, as in the file.
+        container: the parsed container.
+    """
+
+    def __init__(self, container: Container, path: str | os.PathLike[str] | None = None):
+        from .compress import _codec_for, _representation_for
+
+        codec = _codec_for(container, path)
+        self._rep = _representation_for(container, path)
+        try:
+            self._decode_features = codec.decoder(Payload(arrays=container.arrays, info=container.info))
+        except MotionrepError:
+            raise
+        except (KeyError, ValueError, IndexError, TypeError) as exc:
+            raise ContainerError(f"codec {codec.name!r} cannot decode this payload: {type(exc).__name__}: {exc}",
+                                 path) from None
+        self.container = container
+        self.skeleton: Skeleton = container.skeleton
+        self.fps = float(container.fps)
+        self.num_frames = int(container.num_frames)
+        self.codec, self.representation = container.codec, container.representation
+        self.duration = (self.num_frames - 1) / self.fps
+        self._per_second = self.fps / (self.num_frames - 1) if self.num_frames > 1 else 0.0
+        self._fixed = _fixed_axes(self.skeleton)
+        self._features: NDArray | None = None  # (BLOCK, D) scratch, in the decoder's dtype (first call)
+        self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),
+                     np.dtype(np.float32): empty_poses(self.skeleton, 1, np.float32)}
+        self._time = np.zeros(1)
+
+    def __repr__(self) -> str:
+        return (f"<Clip {self.codec}/{self.representation}: {self.num_frames} frames at {self.fps:g} fps, "
+                f"{self.skeleton.num_joints} joints>")
+
+    # ---- times ----------------------------------------------------------------------------------------------
+    def normalized_times(self, times: ArrayLike) -> NDArray[np.float64]:
+        """``(T,)`` codec times in [0, 1] of ``times`` in seconds (clamped to the clip).
+
+        Raises:
+            ValidationError: for times that are not finite numbers.
+        """
+        try:
+            t = np.asarray(times, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValidationError("times must be numbers (seconds)") from None
+        if not np.isfinite(t).all():
+            raise ValidationError("times must be finite (seconds)")
+        return np.clip(t * self._per_second, 0.0, 1.0)
+
+    # ---- sampling -------------------------------------------------------------------------------------------
+    def pose(self, t: float, dtype: type = np.float64) -> Pose:
+        """The pose at ``t`` seconds (clamped to ``[0, duration]``).
+
+        Args:
+            t: time in seconds from the first frame.
+            dtype: of the rotations, float64 (the values the core measured) or float32 (those, rounded).
+
+        Raises:
+            ValidationError: if ``t`` is not a finite number.
+        """
+        try:
+            u = float(t) * self._per_second
+        except (TypeError, ValueError):
+            raise ValidationError(f"t must be a number (seconds), got {t!r}") from None
+        if not math.isfinite(u):
+            raise ValidationError(f"t must be finite, got {t!r}")
+        self._time[0] = min(max(u, 0.0), 1.0)
+        one = self._one[_F64] if dtype is np.float64 else self._one.get(np.dtype(dtype))
+        if one is None:
+            raise ValidationError(f"rotations can be float64 or float32, not {np.dtype(dtype)}")
+        self._decode_block(self._time, one)
+        return Pose(one.rotations[0].copy(), one.root_translation[0].copy(), one.joint_translations[0].copy())
+
+    def poses(self, times: ArrayLike, dtype: type = np.float64, out: Poses | None = None) -> Poses:
+        """The poses at ``times`` ``(T,)`` seconds (each clamped to ``[0, duration]``).
+
+        Args:
+            times: seconds from the first frame.
+            dtype: of the rotations, float64 (the values the core measured) or float32 (those, rounded).
+            out: :class:`~motionrep.representation.Poses` of ``T`` rows to write into (then ``dtype`` is
+                its rotations' dtype); fresh arrays when None.
+
+        Raises:
+            ValidationError: for times that are not finite, or an ``out`` of the wrong shape.
+        """
+        u = self.normalized_times(times)
+        if out is None:
+            out = empty_poses(self.skeleton, u.size, dtype)
+        elif (len(out) != u.size or out.rotations.shape[1:] != (self.skeleton.num_joints, 4)
+              or out.root_translation.shape != (u.size, 3)
+              or out.joint_translations.shape != (u.size, self.skeleton.translated_joints.size, 3)):
+            raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
+        for a in range(0, u.size, BLOCK):
+            b = min(u.size, a + BLOCK)
+            self._decode_block(u[a:b], out.rows(slice(a, b)))
+        return out
+
+    def positions(self, times: ArrayLike) -> NDArray[np.float64]:
+        """``(T, J + E, 3)`` world positions of every joint then every end site at ``times`` seconds (FK of
+        :meth:`poses`, float64: the positions the core's error measure compares)."""
+        p = self.poses(times)
+        return fk_arrays(self.skeleton, p.rotations, p.root_translation, p.joint_translations)[0]
+
+    def motion(self, fps: float | None = None) -> Motion:
+        """Every frame (or the clip resampled to ``fps``) as a :class:`~motionrep.Motion`: what
+        :func:`motionrep.compress.decompress` returns."""
+        from .compress import decode_container
+
+        return decode_container(self.container, fps, path=None)
+
+    def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
+        """Decode at most :data:`BLOCK` normalised times into ``out``."""
+        n = u.shape[0]
+        if self._features is None:
+            first = np.asarray(self._decode_features(u[:1]))
+            self._features = np.empty((BLOCK, first.shape[1]), first.dtype)
+        features = self._decode_features(u, out=self._features[:n])
+        self._rep.decode_poses(features, self.skeleton, out)
+        for name, index, values in self._fixed:
+            getattr(out, name)[index] = values
+
+
+def _fixed_axes(skeleton: Skeleton) -> list:
+    """``(Poses attribute, index, values)`` for every translation axis that has no position channel: set back to
+    the joint's OFFSET after decoding, as ``motionrep.compress.fixed_axes_restored`` does for a Motion."""
+    fixed = []
+    root = [i for i, axis in enumerate("XYZ") if axis not in skeleton.position_axes[0]]
+    if root:
+        fixed.append(("root_translation", (slice(None), root), skeleton.offsets[0, root]))
+    k_idx, axes, values = [], [], []
+    for k, j in enumerate(skeleton.translated_joints.tolist()):
+        for i, axis in enumerate("XYZ"):
+            if axis not in skeleton.position_axes[j]:
+                k_idx.append(k)
+                axes.append(i)
+                values.append(skeleton.offsets[j, i])
+    if k_idx:
+        fixed.append(("joint_translations", (slice(None), k_idx, axes), np.array(values)))
+    return fixed
+
+
+def open_clip(source: str | os.PathLike[str] | bytes | Container) -> Clip:
+    """Open a ``.mrc`` file (a path, its bytes, or a parsed container) for sampling: ``motionrep.open``.
+
+    Raises:
+        ContainerError: the file is not a valid ``.mrc`` file, or its payload does not fit its codec.
+        UnknownPluginError: its codec or representation is not installed.
+    """
+    if isinstance(source, Container):
+        return Clip(source)
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        return Clip(unpack(bytes(source)))
+    return Clip(read_container(source), path=source)
+

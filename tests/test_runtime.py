@@ -1,0 +1,198 @@
+"""The runtime decoder (motionrep.open): the values the core measured, one pose alike alone or in a batch, times in
+seconds clamped to the clip, FK positions, clean errors; and the compiled decoding kernels it is built on."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import motionrep
+from motionrep import Motion, Skeleton
+from motionrep.compress import compress_motion, decompress
+from motionrep.container import unpack
+from motionrep.errors import ContainerError, ValidationError
+from motionrep.kinematics import global_positions
+from motionrep.representation import empty_poses
+from motionrep.runtime import BLOCK, Clip
+from motionrep.testing import chain_skeleton, odd_skeleton, synthetic_motion
+
+
+def _partial_axes_skeleton() -> Skeleton:
+    """A root with only X and Z position channels and a joint with only a Y position channel: the other axes
+    keep their OFFSET, which decoding must restore."""
+    channels = (("Xposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"),
+                ("Yposition", "Zrotation", "Xrotation", "Yrotation"), ("Zrotation", "Xrotation", "Yrotation"))
+    return Skeleton(names=("hips", "spine", "head"), parents=np.array([-1, 0, 1]),
+                    offsets=np.array([[1.0, 90.0, 2.0], [0.0, 10.0, 0.0], [0.0, 20.0, 0.0]]), channels=channels,
+                    end_site_parents=np.array([2]), end_site_offsets=np.array([[0.0, 8.0, 0.0]]))
+
+
+@pytest.fixture(scope="module")
+def svd_clip():
+    motion = synthetic_motion(odd_skeleton(), frames=61, fps=30, seed=2)
+    return motion, compress_motion(motion, "svd", max_error=None, params={"rank": 5}).data
+
+
+@pytest.fixture(scope="module")
+def fourier_clip():
+    motion = synthetic_motion(chain_skeleton(4), frames=40, fps=24, seed=3)
+    return motion, compress_motion(motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 25}).data
+
+
+@pytest.mark.parametrize("representation", ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"])
+@pytest.mark.parametrize("skeleton", [odd_skeleton, _partial_axes_skeleton], ids=["odd", "partial-axes"])
+def test_frames_decode_to_what_decompress_gives(representation, skeleton):
+    motion = synthetic_motion(skeleton(), frames=33, fps=30, seed=4)
+    data = compress_motion(motion, "svd", representation=representation, max_error=None, params={"rank": 3}).data
+    clip = motionrep.open(data)
+    expected = decompress(data)
+    # the frames' normalised times exactly as the core decodes them
+    got = empty_poses(clip.skeleton, motion.num_frames)
+    clip._decode_block(np.arange(motion.num_frames) / (motion.num_frames - 1), got)
+    assert np.array_equal(got.rotations, expected.rotations)
+    assert np.array_equal(got.root_translation, expected.root_translation)
+    assert np.array_equal(got.joint_translations, expected.joint_translations)
+    # the same through the public API, in seconds (times rounded, so equal to float32 rounding of the features)
+    p = clip.poses(np.arange(motion.num_frames) / clip.fps)
+    assert np.allclose(p.rotations, expected.rotations, atol=1e-6)
+    assert clip.motion().rotations.tobytes() == expected.rotations.tobytes()
+
+
+def test_open_path_bytes_and_container(svd_clip, tmp_path):
+    motion, data = svd_clip
+    path = tmp_path / "a.mrc"
+    path.write_bytes(data)
+    clips = [motionrep.open(path), motionrep.open(str(path)), motionrep.open(data), motionrep.open(unpack(data))]
+    for clip in clips:
+        assert isinstance(clip, Clip)
+        assert clip.num_frames == 61 and clip.fps == 30.0 and clip.duration == pytest.approx(2.0)
+        assert clip.codec == "svd" and clip.representation == "root-quat-axis-angle"
+        assert clip.skeleton == motion.skeleton
+    t = np.linspace(0, 2, 17)
+    first = clips[0].poses(t)
+    for clip in clips[1:]:
+        assert np.array_equal(clip.poses(t).rotations, first.rotations)
+    assert "svd" in repr(clips[0])
+
+
+@pytest.mark.parametrize("which", ["svd_clip", "fourier_clip"])
+def test_one_pose_is_the_batch_row_bit_for_bit(which, request):
+    _, data = request.getfixturevalue(which)
+    clip = motionrep.open(data)
+    times = np.random.default_rng(0).uniform(0, clip.duration, 2 * BLOCK + 9)  # several blocks
+    batch = clip.poses(times)
+    assert batch.rotations.shape == (times.size, clip.skeleton.num_joints, 4)
+    assert batch.rotations.dtype == np.float64
+    for i in (0, 1, BLOCK - 1, BLOCK, 2 * BLOCK + 8):
+        one = clip.pose(times[i])
+        assert np.array_equal(one.rotations, batch.rotations[i])
+        assert np.array_equal(one.root_translation, batch.root_translation[i])
+        assert np.array_equal(one.joint_translations, batch.joint_translations[i])
+    # a sub-batch at another position gives the same rows
+    assert np.array_equal(clip.poses(times[5:40]).rotations, batch.rotations[5:40])
+    norms = np.linalg.norm(batch.rotations, axis=-1)
+    assert np.allclose(norms, 1.0, atol=1e-12)
+
+
+def test_float32_rotations_are_the_float64_ones_rounded(svd_clip):
+    clip = motionrep.open(svd_clip[1])
+    t = np.linspace(0, clip.duration, 50)
+    p64, p32 = clip.poses(t), clip.poses(t, dtype=np.float32)
+    assert p32.rotations.dtype == np.float32 and p32.root_translation.dtype == np.float64
+    assert np.array_equal(p32.rotations, p64.rotations.astype(np.float32))
+    assert np.array_equal(clip.pose(0.7, dtype=np.float32).rotations, p32.rotations.dtype.type(
+        clip.pose(0.7).rotations))
+    with pytest.raises(ValidationError, match="float64 or float32"):
+        clip.pose(0.1, dtype=np.int32)
+
+
+def test_out_arrays_are_written_in_place(svd_clip):
+    clip = motionrep.open(svd_clip[1])
+    t = np.linspace(0, clip.duration, 700)
+    out = empty_poses(clip.skeleton, t.size, np.float32)
+    assert clip.poses(t, out=out) is out
+    assert np.array_equal(out.rotations, clip.poses(t, dtype=np.float32).rotations)
+    with pytest.raises(ValidationError, match="out must hold"):
+        clip.poses(t[:3], out=out)
+
+
+def test_times_are_seconds_clamped_to_the_clip(svd_clip):
+    clip = motionrep.open(svd_clip[1])
+    inside = clip.poses([0.0, clip.duration])
+    outside = clip.poses([-5.0, clip.duration + 100.0])
+    assert np.array_equal(outside.rotations, inside.rotations)
+    assert np.array_equal(outside.root_translation, inside.root_translation)
+    assert len(clip.poses([])) == 0
+    for bad in (np.nan, np.inf):
+        with pytest.raises(ValidationError, match="finite"):
+            clip.pose(bad)
+        with pytest.raises(ValidationError, match="finite"):
+            clip.poses([0.0, bad])
+    with pytest.raises(ValidationError, match="number"):
+        clip.pose("soon")
+
+
+def test_positions_are_fk_of_the_poses(svd_clip):
+    motion, data = svd_clip
+    clip = motionrep.open(data)
+    expected = global_positions(decompress(data))
+    got = clip.positions(np.arange(motion.num_frames) / clip.fps)
+    assert got.shape == expected.shape
+    assert np.allclose(got, expected, atol=1e-9 * 100)
+
+
+def test_axes_without_position_channels_keep_their_offset():
+    sk = _partial_axes_skeleton()
+    motion = synthetic_motion(sk, frames=20, fps=30, seed=5)
+    clip = motionrep.open(compress_motion(motion, "svd", max_error=None, params={"rank": 1}).data)
+    p = clip.poses(np.linspace(0, clip.duration, 13))
+    assert np.all(p.root_translation[:, 1] == sk.offsets[0, 1])
+    assert np.all(p.joint_translations[:, 0, [0, 2]] == sk.offsets[1, [0, 2]])
+
+
+def test_one_frame_clip():
+    motion = synthetic_motion(chain_skeleton(3), frames=1, fps=30, seed=6)
+    clip = motionrep.open(compress_motion(motion, "svd", max_error=None, params={"rank": 0}).data)
+    assert clip.duration == 0.0
+    assert np.array_equal(clip.pose(3.0).rotations, clip.pose(0.0).rotations)
+
+
+def test_a_payload_that_does_not_fit_its_codec_is_a_container_error(svd_clip):
+    import dataclasses
+
+    container = unpack(svd_clip[1])
+    arrays = dict(container.arrays, basis=np.zeros((2, 2), np.float32))
+    with pytest.raises(ContainerError, match="cannot decode this payload"):
+        motionrep.open(dataclasses.replace(container, arrays=arrays))
+
+
+def test_decoding_imports_no_torch(fourier_clip, tmp_path):
+    path = tmp_path / "f.mrc"
+    path.write_bytes(fourier_clip[1])
+    code = ("import sys, motionrep; c = motionrep.open(sys.argv[1]); p = c.poses([0.0, 0.5]); c.pose(0.2); "
+            "c.positions([0.1]); assert 'torch' not in sys.modules, 'torch imported'; print(len(p))")
+    out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "2"
+
+
+def test_fourier_windows_decode_like_decompress():
+    motion = synthetic_motion(chain_skeleton(3), frames=60, fps=30, seed=7)
+    data = compress_motion(motion, "naive-fourier", max_error=None, params={"k": 1, "iters": 25, "window": 20}).data
+    clip = motionrep.open(data)
+    expected = decompress(data)
+    got = empty_poses(clip.skeleton, motion.num_frames)
+    clip._decode_block(np.arange(60) / 59, got)
+    assert np.array_equal(got.rotations, expected.rotations)
+    times = np.random.default_rng(1).uniform(0, clip.duration, 300)
+    batch = clip.poses(times)
+    assert np.array_equal(clip.pose(times[17]).rotations, batch.rotations[17])
+
+
+def test_motion_of_a_clip_is_decompress(svd_clip):
+    motion, data = svd_clip
+    got, expected = motionrep.open(data).motion(fps=45.0), decompress(data, fps=45.0)
+    assert isinstance(got, Motion) and got.num_frames == expected.num_frames
+    assert np.array_equal(got.rotations, expected.rotations)
