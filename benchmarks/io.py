@@ -14,7 +14,9 @@ repository; ``edge/malformed`` is skipped) and times, best of ``--repeat`` runs 
   joint_angles)``: world positions of every joint and end site of every frame.
 
 Throughput is file megabytes per second for reading and joint-frames (frames x (joints + end sites)) per second
-for FK; totals are sums of sizes over sums of times.  The ratio columns are ours / theirs (above 1: motionrep is
+for FK; totals are sums of sizes over sums of times.  The summary gives each figure beside the one before the
+compiled reader and FK and beside its target, with the load average at the start and the end, and the start-up
+of a fresh process reading the smallest file.  The ratio columns are ours / theirs (above 1: motionrep is
 faster).  pybvh is optional: run this script with an interpreter where it is installed (it is not a motionrep
 dependency); without it those columns are skipped.  pybvh only reads files whose root has 6 channels and every
 other joint 3 rotation channels; its ratios are over the files it reads.
@@ -24,7 +26,9 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
 import platform
+import subprocess
 import sys
 import time
 import warnings
@@ -42,6 +46,13 @@ except ImportError:  # pragma: no cover - depends on the environment
     pybvh = None
 
 REPO = Path(__file__).resolve().parent.parent
+
+#: Figures before the compiled reader and FK (benchmarks/README.md, code of 2026-11-22, load 3-6) and the targets
+#: of issue 12: (previous, target).
+PREVIOUS_AND_TARGET = {"read / loadtxt": (0.64, 1.0), "read / pybvh": (0.77, 1.0),
+                       "FK M joint-frames/s (long clips)": (5.8, 20.0)}
+#: Clips of at least this many frames count as long for the FK target.
+LONG_FRAMES = 1000
 
 
 def best_time(fn, repeat: int) -> float:
@@ -75,6 +86,7 @@ def bench_file(path: Path, repeat: int) -> dict:
     motion = read_bvh(path)
     points = motion.num_frames * (motion.num_joints + motion.skeleton.num_end_sites)
     row["points"] = points
+    row["frames"] = motion.num_frames
     row["ours_read"] = best_time(lambda: read_bvh(path), repeat)
     row["loadtxt_read"] = best_time(lambda: np.loadtxt(path, skiprows=skip, ndmin=2), repeat)
     row["ours_fk"] = best_time(lambda: global_positions(motion), repeat)
@@ -96,6 +108,27 @@ def bench_file(path: Path, repeat: int) -> dict:
     return row
 
 
+_START_UP = """
+import sys, time
+t0 = time.perf_counter()
+import motionrep.io
+t1 = time.perf_counter()
+motionrep.io.read_bvh(sys.argv[1])
+t2 = time.perf_counter()
+motionrep.io.read_bvh(sys.argv[1])
+t3 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2)
+"""
+
+
+def start_up(path: Path) -> dict:
+    """Seconds of a fresh process to import ``motionrep.io``, read ``path`` once (numba loads the cached machine
+    code of the reader's compiled loops then) and read it again."""
+    out = subprocess.run([sys.executable, "-c", _START_UP, str(path)], capture_output=True, text=True, check=True)
+    a, b, c = map(float, out.stdout.split())
+    return {"import": a, "first_read": b, "second_read": c}
+
+
 def rate(total, seconds) -> float:
     return total / seconds if seconds > 0 else float("nan")
 
@@ -114,7 +147,9 @@ def main(argv: list[str] | None = None) -> int:
     if not files:
         print(f"no BVH files of at least {args.min_kb:g} kB under {root}", file=sys.stderr)
         return 1
-    print(f"motionrep BVH benchmark: {len(files)} files from {root}")
+    load_start = os.getloadavg()[0]
+    print(f"motionrep BVH benchmark: {len(files)} files from {root}; load average {load_start:.2f} "
+          f"({os.cpu_count()} CPUs)")
     print(f"python {platform.python_version()}, numpy {np.__version__}, "
           f"pybvh {getattr(pybvh, '__version__', 'not installed')}, {platform.machine()}, "
           f"{platform.processor() or 'cpu'}, best of {args.repeat}")
@@ -140,10 +175,15 @@ def main(argv: list[str] | None = None) -> int:
     fk_ours = total("ours_fk", rows, "points") / 1e6
     print(f"all {len(rows)} files: read {read_ours:.1f} MB/s (loadtxt {read_lt:.1f} MB/s, ours/loadtxt "
           f"{read_ours / read_lt:.2f}); FK {fk_ours:.2f} M joint-frames/s")
+    figures = {"read / loadtxt": read_ours / read_lt}
+    long = [r for r in rows if r["frames"] >= LONG_FRAMES]
+    if long:
+        figures["FK M joint-frames/s (long clips)"] = total("ours_fk", long, "points") / 1e6
     with_read = [r for r in rows if "pybvh_read" in r]
     with_fk = [r for r in rows if "pybvh_fk" in r]
     if with_read:
         a, b = total("ours_read", with_read), total("pybvh_read", with_read)
+        figures["read / pybvh"] = a / b
         print(f"{len(with_read)} files pybvh reads: read ours {a:.1f} MB/s, pybvh {b:.1f} MB/s, "
               f"ours/pybvh {a / b:.2f}")
     if with_fk:
@@ -151,6 +191,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(with_fk)} files: FK ours {a:.2f} M joint-frames/s, pybvh {b:.2f}, ours/pybvh {a / b:.2f}")
     if pybvh is None:
         print("pybvh not installed: its columns are skipped")
+    print(f"\nagainst the targets (load average {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} at the end):")
+    print(f"{'figure':36s} {'previous':>9s} {'now':>9s} {'target':>9s}  met")
+    for name, (previous, target) in PREVIOUS_AND_TARGET.items():
+        now = figures.get(name)
+        shown = "-" if now is None else f"{now:9.2f}"
+        met = "-" if now is None else ("yes" if now >= target else "no")
+        print(f"{name:36s} {previous:9.2f} {shown:>9s} {'>= ' + format(target, 'g'):>9s}  {met}")
+    small = min(files, key=lambda p: p.stat().st_size)
+    start = start_up(small)
+    print(f"\nfresh process, import motionrep and read the smallest file ({small.name}, "
+          f"{small.stat().st_size / 1e3:.0f} kB): {start['import']:.2f} s import, {start['first_read']:.3f} s first "
+          f"read (numba loading its cached code), {start['second_read'] * 1e3:.1f} ms second read")
     return 0
 
 

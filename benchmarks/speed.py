@@ -13,11 +13,11 @@ Measurements (each clip in a fresh process, so that memory peaks and first-call 
 2. ``profile``: the same on one clip under ``cProfile``, with the time grouped by what it is spent on (network
    forward/backward, the L-BFGS direction, line-search bookkeeping, the shared evaluation and its parts,
    frequency selection, the pipeline's own checks), and ``tracemalloc``'s peak of numpy/Python allocations.
-3. ``decode``: a clip compressed with ``adaptive-fourier`` (K = 10, as in the paper) and with ``svd`` at 2 %,
-   decoded at 200,000 random times in batches of 1024, 8192 and 65536 (best of 3): poses per second through the
-   codec only (feature vectors) and
-   through codec + representation (local joint rotations, a ``Motion``), the time of one pose at an arbitrary
-   time, and the split of the batch time into its steps.
+3. ``decode``: a clip compressed with ``svd`` at 2 %, ``adaptive-fourier`` (K = 10, as in the paper) and
+   ``transform`` (when installed), in every representation, opened with the runtime decoder (``motionrep.open``)
+   and sampled at 200,000 random times (best of 3): poses per second (float64 and float32 rotations), the codec
+   alone, the median time of one pose, beside the figures before it and the targets; and the start-up of a fresh
+   process (numba's cache warm and empty).
 
 Results: ``benchmarks/results/speed.json`` and ``benchmarks/results/speed.md``; the 1-minute load average is
 recorded with every measurement (the machine is shared).
@@ -178,7 +178,7 @@ _PROFILE_KEYS = [
     ("strong-Wolfe line search (scipy)", "_linesearch.py", "line_search_wolfe2"),
     ("line search", "_train.py", "_line_search"),
     ("shared evaluation of candidates", "motionrep/compress.py", "evaluate_payload"),
-    ("  codec decode (numpy network)", "_network.py", "network_forward"),
+    ("  codec decode (compiled float32 network)", "_codecs.py", "decode"),
     ("  representation from_features", "_rep.py", "from_features"),
     ("  evaluator (FK + L-inf)", "motionrep/evaluate.py", "__call__"),
     ("payload building", "_train.py", "payload_of"),
@@ -241,129 +241,142 @@ def profile_one(name: str, bound: str, trim: bool = True) -> dict:
 # ---------------------------------------------------------------------------------------------------------------
 # 3. decode throughput (in this process)
 # ---------------------------------------------------------------------------------------------------------------
+#: The decode figures before the runtime decoder (results/speed.md at code 689765ee00c5, quiet machine: load
+#: 1.0-1.3) and the targets of issue 12.
+DECODE_PREVIOUS = {"poses_per_second": "139k-170k (adaptive-fourier), 208k-285k (svd)",
+                   "one_pose_us": "399 (adaptive-fourier), 248 (svd)"}
+DECODE_TARGETS = {"poses_per_second": 1_000_000, "one_pose_us": 20.0}
+#: Codecs of the decode measurement: (name, compress options). ``transform`` is measured when it is installed.
+DECODE_CODECS = (("svd", {"max_error": "2%"}),
+                 ("adaptive-fourier", {"max_error": None, "params": {"k": 10}}),
+                 ("transform", {"max_error": "2%"}))
+DECODE_REPRESENTATIONS = ("root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion")
+
+
+def _cpu_best(fn, repeats: int) -> tuple[float, float]:
+    """Best wall-clock and best thread-CPU seconds of ``repeats`` runs of ``fn()`` (the CPU time leaves out the
+    time this thread waited for a core, which on a shared machine is most of the noise)."""
+    import gc
+
+    wall = cpu = float("inf")
+    gc.collect()
+    gc.disable()
+    try:
+        for _ in range(repeats):
+            w, c = time.perf_counter(), time.thread_time()
+            fn()
+            wall, cpu = min(wall, time.perf_counter() - w), min(cpu, time.thread_time() - c)
+    finally:
+        gc.enable()
+    return wall, cpu
+
+
 def decode_speed(name: str, poses: int) -> dict:
+    """The runtime decoder (``motionrep.open``) on one clip, every codec x representation: batched poses per
+    second (``clip.poses(times, out=...)``, float64 and float32 rotations), the codec alone (feature vectors
+    per second), the median time of ``clip.pose(t)``, and numba's start-up in fresh processes."""
     import numpy as np
 
-    from motionrep.codec import Payload
+    import motionrep
     from motionrep.compress import compress_motion
-    from motionrep.ops import fixed_axes_restored
-    from motionrep.plugins import get_codec, get_representation
+    from motionrep.errors import MotionrepError
+    from motionrep.plugins import get_codec
+    from motionrep.representation import empty_poses
 
     get_codec("adaptive-fourier").warm_up()
     motion, _ = _read(name, True)
     out = {"clip": name, "code": _code(), "frames": motion.num_frames, "joints": motion.num_joints, "poses": poses,
-           "codecs": []}
+           "repeats": REPEATS, "load_start": _load(), "codecs": [], "previous": DECODE_PREVIOUS,
+           "targets": DECODE_TARGETS}
     rng = np.random.default_rng(0)
-    times = rng.random(poses)
-    for codec_name, kwargs in (("adaptive-fourier", {"max_error": None, "params": {"k": 10}}),
-                               ("svd", {"max_error": "2%"})):
-        result = compress_motion(motion, codec_name, seed=0, **kwargs)
-        c = result.container
-        codec, rep = get_codec(c.codec), get_representation(c.representation)
-        payload = Payload(arrays=c.arrays, info=c.info)
-        entry = {"codec": codec_name, "info": {k: v for k, v in c.info.items() if k != "omega"},
-                 "parameters": c.num_parameters, "error_percent": result.report.max_error_percent,
-                 "load_start": _load(), "batches": []}
-        for batch in (1024, 8192, 65536):
-            best_f = best_p = 0.0
-            for _ in range(REPEATS):  # best of REPEATS: the machine is shared
-                t0 = time.perf_counter()
-                for i in range(0, poses, batch):
-                    codec.decode(payload, times[i:i + batch])
-                t1 = time.perf_counter()
-                for i in range(0, poses, batch):
-                    fixed_axes_restored(rep.from_features(codec.decode(payload, times[i:i + batch]), c.skeleton,
-                                                          c.fps))
-                t2 = time.perf_counter()
-                best_f, best_p = max(best_f, poses / (t1 - t0)), max(best_p, poses / (t2 - t1))
-            entry["batches"].append({"batch": batch, "poses": poses, "repeats": REPEATS,
-                                     "features_per_second": best_f, "poses_per_second": best_p})
-        single = []
-        for t in rng.random(2000):
-            s = time.perf_counter()
-            fixed_axes_restored(rep.from_features(codec.decode(payload, np.array([t])), c.skeleton, c.fps))
-            single.append(time.perf_counter() - s)
-        single_codec = []
-        for t in rng.random(2000):
-            s = time.perf_counter()
-            codec.decode(payload, np.array([t]))
-            single_codec.append(time.perf_counter() - s)
-        entry["one_pose_seconds_median"] = statistics.median(single)
-        entry["one_pose_seconds_p90"] = sorted(single)[int(0.9 * len(single))]
-        entry["one_features_seconds_median"] = statistics.median(single_codec)
-        # where the batch time goes (8192 poses)
-        t = times[:8192]
-        steps: dict[str, float] = {}
-        reps = 20
-        if codec_name != "svd":
-            from motionrep_fourier._network import elu, fourier_features
+    sample = None
+    for codec_name, options in DECODE_CODECS:
+        try:
+            get_codec(codec_name)
+        except MotionrepError:
+            print(f"  {codec_name}: not installed, skipped", flush=True)
+            continue
+        for rep in DECODE_REPRESENTATIONS:
+            try:
+                result = compress_motion(motion, codec_name, representation=rep, seed=0, **options)
+            except MotionrepError as exc:
+                out["codecs"].append({"codec": codec_name, "representation": rep, "error": str(exc)})
+                continue
+            clip = motionrep.open(result.data)
+            if sample is None and codec_name == "adaptive-fourier":
+                sample = result.data
+            times = rng.random(poses) * clip.duration
+            entry = {"codec": codec_name, "representation": rep, "bytes": len(result.data),
+                     "info": {k: v for k, v in result.container.info.items() if k != "omega"},
+                     "error_percent": result.report.max_error_percent, "load_start": _load()}
+            for dtype in (np.float64, np.float32):
+                buffer = empty_poses(clip.skeleton, poses, dtype)
+                clip.poses(times, out=buffer)  # pages touched, kernels compiled
+                wall, cpu = _cpu_best(lambda: clip.poses(times, out=buffer), REPEATS)
+                entry[f"poses_per_second_{np.dtype(dtype).name}"] = poses / wall
+                entry[f"poses_per_cpu_second_{np.dtype(dtype).name}"] = poses / cpu
+            u = clip.normalized_times(times)
+            features = np.empty((512, clip._features.shape[1]), clip._features.dtype)
 
-            a = {k: np.asarray(v, dtype=np.float64) for k, v in c.arrays.items()}
-            s = time.perf_counter()
-            for _ in range(reps):
-                x = fourier_features(t, a["omega"])
-            steps["Fourier features (sin, cos)"] = (time.perf_counter() - s) / reps
-            s = time.perf_counter()
-            for _ in range(reps):
-                z0 = x @ a["W0"].T + a["b0"]
-                z1 = elu(z0) @ a["W1"].T + a["b1"]
-                y = elu(z1) @ a["W2"].T + a["b2"]
-            steps["three layers incl. ELU"] = (time.perf_counter() - s) / reps
-            s = time.perf_counter()
-            for _ in range(reps):
-                elu(z0)
-                elu(z1)
-            steps["  of which the two ELUs"] = (time.perf_counter() - s) / reps
-        else:
-            s = time.perf_counter()
-            for _ in range(reps):
-                y = codec.decode(payload, t)
-            steps["svd decode"] = (time.perf_counter() - s) / reps
-        s = time.perf_counter()
-        for _ in range(reps):
-            rep.from_features(y, c.skeleton, c.fps)
-        steps["representation from_features"] = (time.perf_counter() - s) / reps
-        entry["split_8192_seconds"] = steps
-        # float32, what the stored weights already are: an upper bound on what a float32 decode path could do
-        if codec_name != "svd":
-            a32 = {k: np.asarray(v, dtype=np.float32) for k, v in c.arrays.items()}
-            t32 = t.astype(np.float32)
+            def codec_only():
+                for a in range(0, poses, 512):
+                    clip._decode_features(u[a:a + 512], out=features[:min(512, poses - a)])
 
-            def f32(tt):
-                ang = (2 * np.pi) * tt[:, None] * a32["omega"][None, :]
-                x = np.empty((tt.size, 2 * ang.shape[1] + 1), np.float32)
-                x[:, 0] = tt
-                x[:, 1::2] = np.sin(ang)
-                x[:, 2::2] = np.cos(ang)
-                h = x @ a32["W0"].T
-                h += a32["b0"]
-                _elu_inplace(h)
-                h2 = h @ a32["W1"].T
-                h2 += a32["b1"]
-                _elu_inplace(h2)
-                out = h2 @ a32["W2"].T
-                out += a32["b2"]
-                return out
-
-            y32 = f32(t32)
-            s = time.perf_counter()
-            for _ in range(reps):
-                f32(t32)
-            entry["float32_network_features_per_second"] = 8192 * reps / (time.perf_counter() - s)
-            entry["float32_max_abs_difference"] = float(np.max(np.abs(y32 - codec.decode(payload, t))))
-        entry["load_end"] = _load()
-        out["codecs"].append(entry)
+            wall, cpu = _cpu_best(codec_only, REPEATS)
+            entry["features_per_second"], entry["features_per_cpu_second"] = poses / wall, poses / cpu
+            single = []
+            for t in rng.random(3000) * clip.duration:
+                s = time.perf_counter()
+                clip.pose(t)
+                single.append(time.perf_counter() - s)
+            entry["one_pose_seconds_median"] = statistics.median(single)
+            entry["one_pose_seconds_p90"] = sorted(single)[int(0.9 * len(single))]
+            entry["load_end"] = _load()
+            out["codecs"].append(entry)
+            print(f"  {codec_name} / {rep}: {entry['poses_per_second_float64']:,.0f} poses/s, one pose "
+                  f"{1e6 * entry['one_pose_seconds_median']:.1f} us (load {entry['load_end']})", flush=True)
+    if sample is not None:
+        out["start_up"] = _start_up(sample)
+    out["load_end"] = _load()
     return out
 
 
-def _elu_inplace(h):
-    import numpy as np
+_START_UP = """
+import sys, time
+t0 = time.perf_counter()
+import numpy
+t1 = time.perf_counter()
+import motionrep
+clip = motionrep.open(sys.argv[1])
+t2 = time.perf_counter()
+clip.pose(0.1)
+t3 = time.perf_counter()
+clip.poses([0.1, 0.2])
+t4 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
+"""
 
-    neg = np.minimum(h, 0)
-    np.expm1(neg, out=neg)
-    np.maximum(h, 0, out=h)
-    h += neg
-    return h
+
+def _start_up(data: bytes) -> dict:
+    """Seconds of a fresh process to import motionrep and open a clip, then of its first pose and first batch
+    (numba loading its cached machine code, or compiling it when its cache is empty), with the cache warm and
+    with an empty one (``NUMBA_CACHE_DIR`` set to a new directory)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "clip.mrc"
+        path.write_bytes(data)
+        runs = {}
+        for label, cache in (("warm cache", None), ("empty cache", Path(tmp) / "numba")):
+            env = dict(os.environ)
+            if cache is not None:
+                env["NUMBA_CACHE_DIR"] = str(cache)
+            proc = subprocess.run([sys.executable, "-c", _START_UP, str(path)], capture_output=True, text=True,
+                                  env=env, check=True)
+            numpy_s, open_s, pose_s, batch_s = map(float, proc.stdout.split())
+            runs[label] = {"import_numpy": numpy_s, "import_and_open": open_s, "first_pose": pose_s,
+                           "first_batch": batch_s, "load": _load()}
+    return runs
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -487,31 +500,46 @@ def report(doc: dict) -> str:
                f"{prof['tracemalloc_peak_mb']:.1f} MB; process peak RSS {prof['rss_mb_peak']:.0f} MB (mostly torch).",
                ""]
     dec = doc.get("decode")
-    if dec:
-        md += [f"## Decode throughput ({dec['clip']}, {dec['frames']} frames, {dec['joints']} joints; "
-               f"{dec['poses']:,} random times, best of {REPEATS}, load {dec['codecs'][0]['load_start']}-"
-               f"{dec['codecs'][-1]['load_end']})", "",
-               "| codec | batch | feature vectors / s (codec only) | poses / s (codec + representation) |",
-               "|---|---:|---:|---:|"]
-        for c in dec["codecs"]:
-            for b in c["batches"]:
-                md.append(f"| {c['codec']} ({', '.join(f'{k}={v}' for k, v in c['info'].items())}) | {b['batch']} "
-                          f"| {b['features_per_second']:,.0f} | {b['poses_per_second']:,.0f} |")
-        md += ["", "| codec | one pose at an arbitrary time (median, p90) | one feature vector (median) |",
-               "|---|---:|---:|"]
-        for c in dec["codecs"]:
-            md.append(f"| {c['codec']} | {1e6 * c['one_pose_seconds_median']:.0f} us, "
-                      f"{1e6 * c['one_pose_seconds_p90']:.0f} us | {1e6 * c['one_features_seconds_median']:.0f} us |")
-        md += ["", "Split of one batch of 8192 poses:", "", "| codec | step | ms |", "|---|---|---:|"]
-        for c in dec["codecs"]:
-            for k, v in c["split_8192_seconds"].items():
-                md.append(f"| {c['codec']} | {k} | {1000 * v:.2f} |")
-            if "float32_network_features_per_second" in c:
-                md.append(f"| {c['codec']} | float32 network instead (max abs difference "
-                          f"{c['float32_max_abs_difference']:.1e}): feature vectors / s | "
-                          f"{c['float32_network_features_per_second']:,.0f} |")
-        md.append("")
+    if dec and "previous" in dec:
+        md += _decode_report(dec)
     return "\n".join(md)
+
+
+def _decode_report(dec: dict) -> list[str]:
+    ok = [c for c in dec["codecs"] if "error" not in c]
+    target_p, target_us = dec["targets"]["poses_per_second"], dec["targets"]["one_pose_us"]
+    md = [f"## Decoding with the runtime decoder ({dec['clip']}, {dec['frames']} frames, {dec['joints']} joints; "
+          f"{dec['poses']:,} random times, best of {dec['repeats']}; load {dec['load_start']}-{dec['load_end']})", "",
+          "`clip = motionrep.open(data)`; batched: `clip.poses(times, out=...)` (codec, representation, fixed "
+          "axes; rotations float64, the values the core measured, or float32); codec only: the prepared decoder "
+          "in blocks of 512; one pose: `clip.pose(t)`, median and 90th percentile over 3000 random times. "
+          "\"per CPU s\" divides by this thread's CPU time instead of the wall clock (the machine may be shared).",
+          "",
+          "| codec | representation | poses/s float64 (per CPU s) | poses/s float32 | features/s (codec only) "
+          "| one pose median, p90 | target | met |",
+          "|---|---|---:|---:|---:|---:|---|---|"]
+    for c in ok:
+        met = c["poses_per_second_float64"] >= target_p and 1e6 * c["one_pose_seconds_median"] <= target_us
+        md.append(f"| {c['codec']} | {c['representation']} | {c['poses_per_second_float64']:,.0f} "
+                  f"({c['poses_per_cpu_second_float64']:,.0f}) | {c['poses_per_second_float32']:,.0f} "
+                  f"| {c['features_per_second']:,.0f} | {1e6 * c['one_pose_seconds_median']:.1f} us, "
+                  f"{1e6 * c['one_pose_seconds_p90']:.1f} us | >= {target_p:,} poses/s, <= {target_us:g} us "
+                  f"| {'yes' if met else 'no'} |")
+    for c in dec["codecs"]:
+        if "error" in c:
+            md.append(f"| {c['codec']} | {c['representation']} | failed: {c['error'][:80]} | | | | | |")
+    md += ["", f"Before (batched through `decompress`'s steps, one pose through them): "
+           f"{dec['previous']['poses_per_second']} poses/s; one pose {dec['previous']['one_pose_us']} us.", ""]
+    if "start_up" in dec:
+        md += ["Start-up of a fresh process (import motionrep, open a clip; then its first pose and first batch, "
+               "when numba loads its cached machine code or, with an empty cache, compiles it):", "",
+               "| numba cache | import numpy | import motionrep + open | first pose | first batch | load |",
+               "|---|---:|---:|---:|---:|---:|"]
+        for label, r in dec["start_up"].items():
+            md.append(f"| {label} | {r['import_numpy']:.2f} s | {r['import_and_open']:.2f} s | {r['first_pose']:.2f} s "
+                      f"| {r['first_batch']:.2f} s | {r['load']} |")
+        md.append("")
+    return md
 
 
 if __name__ == "__main__":
