@@ -41,10 +41,10 @@ from numpy.typing import ArrayLike
 from ._model import Motion
 from .codec import Codec, Payload, frame_times
 from .container import Container, pack, read_container, unpack
-from .errors import BoundNotMetError, CodecError, ContainerError, MotionrepError, ParameterError
+from .errors import BoundNotMetError, CodecError, ParameterError
 from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
 from .kinematics import character_height
-from .ops import fixed_axes_restored, resample_times
+from .ops import resample_times
 from .representation import Representation
 
 __all__ = [
@@ -371,7 +371,8 @@ def decode_at(container: Container, times: ArrayLike, *, fps: float | None = Non
     """The motion a container holds at normalised ``times`` ``(T,)`` in [0, 1] (the clip's first to last frame):
     the codec decodes features at those times, the representation turns them into poses, and translation axes
     without a position channel are restored (:func:`motionrep.ops.fixed_axes_restored`).  This is the one decode
-    path: decompression, evaluation, rendering and benchmarks all decode through it.
+    path: decompression, evaluation, rendering and benchmarks all decode through it, and it is the runtime
+    decoder's (:meth:`motionrep.runtime.Clip.motion_at`; ``motionrep.open`` samples poses with the same steps).
 
     Args:
         container: the compressed clip.
@@ -386,24 +387,9 @@ def decode_at(container: Container, times: ArrayLike, *, fps: float | None = Non
         PluginVersionError: for a payload or representation version the installed plugin cannot read.
         ContainerError: for a payload the codec cannot decode.
     """
-    from .plugins import get_codec, get_representation
+    from .runtime import Clip
 
-    if codec is None:
-        codec = get_codec(container.codec, version=container.codec_version, provided_by=container.codec_plugin,
-                          path=path)
-    if representation is None:
-        representation = get_representation(container.representation, version=container.representation_version,
-                                            provided_by=container.representation_plugin, path=path)
-    payload = Payload(arrays=container.arrays, info=container.info)
-    try:
-        features = codec.decode(payload, np.asarray(times, dtype=np.float64).reshape(-1))
-    except MotionrepError:
-        raise
-    except (KeyError, ValueError, IndexError, TypeError) as exc:
-        raise ContainerError(f"codec {codec.name!r} cannot decode this payload: {type(exc).__name__}: {exc}",
-                             path) from None
-    return fixed_axes_restored(representation.from_features(features, container.skeleton,
-                                                            container.fps if fps is None else float(fps)))
+    return Clip(container, path, codec=codec, representation=representation).motion_at(times, fps)
 
 
 def decompress(data: bytes | Container, fps: float | None = None, *, path: Any = None, codec: Codec | None = None,

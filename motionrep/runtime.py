@@ -16,8 +16,9 @@ position channel, and the scratch buffers of one block of :data:`BLOCK` poses.  
 the representation block by block in compiled loops (``motionrep.jit``) into the caller's arrays, nothing
 decoded is cached: memory is the payload plus a few hundred kB of buffers, whatever the clip's length.
 
-The values are those the core measured when it wrote the file: the same codec decoder and representation
-kernels as :func:`motionrep.compress.decompress`, and a time decodes to the same bits alone or in a batch.  Time
+The values are those the core measured when it wrote the file: ``motionrep.compress.decode_at``, the one decode
+path, is :meth:`Clip.motion_at` (the same prepared codec decoder, the representation's ``from_features``, whose
+values its ``decode_poses`` gives too), and a time decodes to the same bits alone or in a batch.  Time
 ``t`` (seconds from the first frame) maps to the codec's normalised time ``t * fps / (F - 1)``, clamped to the
 clip, so a frame's time gives that frame's pose (to the rounding of the time itself; :meth:`Clip.motion` decodes
 the frames exactly as ``decompress``).
@@ -31,16 +32,18 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._model import Motion, Skeleton
-from .codec import Payload
+from .codec import Codec, Payload, frame_times
 from .container import Container, read_container, unpack
 from .errors import ContainerError, MotionrepError, ValidationError
 from .kinematics import fk_arrays
-from .representation import Poses, empty_poses
+from .ops import fixed_axes_restored, resample_times
+from .representation import Poses, Representation, empty_poses
 
 __all__ = ["Clip", "Pose", "open_clip", "BLOCK"]
 
@@ -76,18 +79,25 @@ class Clip:
         container: the parsed container.
     """
 
-    def __init__(self, container: Container, path: str | os.PathLike[str] | None = None):
-        from .compress import _codec_for, _representation_for
+    def __init__(self, container: Container, path: Any = None, *, codec: Codec | None = None,
+                 representation: Representation | None = None):
+        from .plugins import get_codec, get_representation
 
-        codec = _codec_for(container, path)
-        self._rep = _representation_for(container, path)
+        if codec is None:
+            codec = get_codec(container.codec, version=container.codec_version, provided_by=container.codec_plugin,
+                              path=path)
+        if representation is None:
+            representation = get_representation(container.representation, version=container.representation_version,
+                                                provided_by=container.representation_plugin, path=path)
+        self._rep = representation
+        self._path = path
+        self._codec_name = codec.name
         try:
             self._decode_features = codec.decoder(Payload(arrays=container.arrays, info=container.info))
         except MotionrepError:
             raise
         except (KeyError, ValueError, IndexError, TypeError) as exc:
-            raise ContainerError(f"codec {codec.name!r} cannot decode this payload: {type(exc).__name__}: {exc}",
-                                 path) from None
+            raise self._payload_error(exc) from None
         self.container = container
         self.skeleton: Skeleton = container.skeleton
         self.fps = float(container.fps)
@@ -175,19 +185,48 @@ class Clip:
         return fk_arrays(self.skeleton, p.rotations, p.root_translation, p.joint_translations)[0]
 
     def motion(self, fps: float | None = None) -> Motion:
-        """Every frame (or the clip resampled to ``fps``) as a :class:`~motionrep.Motion`: what
-        :func:`motionrep.compress.decompress` returns."""
-        from .compress import decode_container
+        """Every frame (or the clip resampled to ``fps``, at :func:`motionrep.ops.resample_times`) as a
+        :class:`~motionrep.Motion`: what :func:`motionrep.compress.decompress` returns."""
+        if fps is None or math.isclose(fps, self.fps, rel_tol=1e-12):
+            return self.motion_at(frame_times(self.num_frames))
+        return self.motion_at(resample_times(self.num_frames, self.fps, float(fps)), float(fps))
 
-        return decode_container(self.container, fps, path=None)
+    def motion_at(self, u: ArrayLike, fps: float | None = None) -> Motion:
+        """The :class:`~motionrep.Motion` at normalised times ``u`` ``(T,)`` in [0, 1]: the codec's features (the
+        same prepared decoder as :meth:`poses`, as float64), the representation's ``from_features`` (the values
+        of ``decode_poses``, plus what a ``Motion`` keeps beside them, such as the Euler branch) and the axes
+        without a position channel restored.  ``motionrep.compress.decode_at``, the one decode path, is this."""
+        u = np.ascontiguousarray(u, dtype=np.float64).reshape(-1)
+        features = np.empty((u.size, self._width()), self._features.dtype)
+        for a in range(0, u.size, BLOCK):
+            b = min(u.size, a + BLOCK)
+            self._features_at(u[a:b], features[a:b])
+        motion = self._rep.from_features(features.astype(np.float64), self.skeleton,
+                                         self.fps if fps is None else float(fps))
+        return fixed_axes_restored(motion)
+
+    def _width(self) -> int:
+        if self._features is None:  # the first call sizes the scratch: dtype and width of the decoder's output
+            first = np.asarray(self._features_at(np.zeros(1), None))
+            self._features = np.empty((BLOCK, first.shape[1]), first.dtype)
+        return self._features.shape[1]
+
+    def _features_at(self, u: NDArray[np.float64], out: NDArray | None) -> NDArray:
+        try:
+            return self._decode_features(u, out=out)
+        except MotionrepError:
+            raise
+        except (KeyError, ValueError, IndexError, TypeError) as exc:
+            raise self._payload_error(exc) from None
+
+    def _payload_error(self, exc: Exception) -> ContainerError:
+        return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {type(exc).__name__}: {exc}",
+                              self._path)
 
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
         """Decode at most :data:`BLOCK` normalised times into ``out``."""
-        n = u.shape[0]
-        if self._features is None:
-            first = np.asarray(self._decode_features(u[:1]))
-            self._features = np.empty((BLOCK, first.shape[1]), first.dtype)
-        features = self._decode_features(u, out=self._features[:n])
+        self._width()
+        features = self._features_at(u, self._features[:u.shape[0]])
         self._rep.decode_poses(features, self.skeleton, out)
         for name, index, values in self._fixed:
             getattr(out, name)[index] = values
@@ -195,7 +234,7 @@ class Clip:
 
 def _fixed_axes(skeleton: Skeleton) -> list:
     """``(Poses attribute, index, values)`` for every translation axis that has no position channel: set back to
-    the joint's OFFSET after decoding, as ``motionrep.compress.fixed_axes_restored`` does for a Motion."""
+    the joint's OFFSET after decoding, as ``motionrep.ops.fixed_axes_restored`` does for a Motion."""
     fixed = []
     root = [i for i, axis in enumerate("XYZ") if axis not in skeleton.position_axes[0]]
     if root:

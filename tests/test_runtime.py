@@ -17,7 +17,7 @@ from motionrep.errors import ContainerError, ValidationError
 from motionrep.kinematics import global_positions
 from motionrep.representation import empty_poses
 from motionrep.runtime import BLOCK, Clip
-from motionrep.testing import chain_skeleton, odd_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, odd_skeleton, synthetic_motion
 
 
 def _partial_axes_skeleton() -> Skeleton:

@@ -13,7 +13,7 @@ from motionrep.jit import jit
 from motionrep.kinematics import global_positions
 from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
                                       feature_layout, per_skeleton)
-from motionrep.rotations import quat_conjugate, quat_multiply
+from motionrep.rotations import quat_multiply
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
                        dualquat_multiply, dualquat_normalize, dualquat_to_rotation_translation)

@@ -114,7 +114,7 @@ def _elu_block(Z, m):
 def _forward_one(t, omega, b0, b1, b2, W0T, W1T, W2T, out):
     """The network at one time: the same sums as the block path (``affine_one``: bias first, inputs in order),
     vectorised over the units instead of the times."""
-    K, h, D = omega.shape[0], b0.shape[0], b2.shape[0]
+    K, h = omega.shape[0], b0.shape[0]
     x = np.empty(2 * K + 1, np.float32)
     x[0] = t
     for k in range(K):
