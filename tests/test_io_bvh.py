@@ -508,3 +508,36 @@ def test_cli_convert_bvh_to_bvh(tmp_path):
     m = read_bvh(out)
     assert_channels_match(m.skeleton, channel_values(m), values, atol=1e-6)
     assert_channels_match(m.skeleton, source_values(out.read_text()), values, atol=1e-6)
+
+
+def test_rotation_channels_between_position_channels():
+    """A joint's rotation channels need not be next to each other: each angle is read from its own column."""
+    text = """HIERARCHY
+ROOT Hips
+{
+\tOFFSET 0 0 0
+\tCHANNELS 6 Zrotation Xposition Xrotation Yposition Yrotation Zposition
+\tJOINT Arm
+\t{
+\t\tOFFSET 0 10 0
+\t\tCHANNELS 4 Yrotation Xposition Zrotation Xrotation
+\t\tEnd Site
+\t\t{
+\t\t\tOFFSET 0 5 0
+\t\t}
+\t}
+}
+MOTION
+Frames: 2
+Frame Time: 0.04
+10 1 20 2 30 3 40 0.5 50 60
+-15 4 25 5 -35 6 45 -0.5 55 -65
+"""
+    m = parse_bvh(text)
+    values = np.array([[10, 1, 20, 2, 30, 3, 40, 0.5, 50, 60], [-15, 4, 25, 5, -35, 6, 45, -0.5, 55, -65]], float)
+    want_root = Rotation.from_euler("ZXY", values[:, [0, 2, 4]], degrees=True).as_quat()
+    want_arm = Rotation.from_euler("YZX", values[:, [6, 8, 9]], degrees=True).as_quat()
+    for got, want in ((m.rotations[:, 0], want_root), (m.rotations[:, 1], want_arm)):
+        assert np.allclose(np.abs(np.sum(got * want, axis=-1)), 1.0, atol=1e-12)
+    np.testing.assert_array_equal(m.root_translation, values[:, [1, 3, 5]])
+    np.testing.assert_array_equal(m.joint_translations[:, 0], np.stack([values[:, 7], [10.0, 10.0], [0, 0]], 1))
