@@ -263,6 +263,17 @@ class FeatureLayout:
         """``(F, 3)`` root translation and ``(F, P, 3)`` joint translations of ``(F, D)`` features."""
         return features[:, :3], features[:, self.translation_columns]
 
+    def decode_into(self, features: ArrayLike, name: str, out: "Poses",
+                    rotations: Callable[[NDArray, NDArray], None]) -> None:
+        """``decode_poses`` for this layout: check the features (float32 kept, :func:`check_features`), the
+        identity for joints without a rotation block, ``rotations(features, out.rotations)`` for the others (a
+        ``motionrep.rotations`` column conversion, say), then the translations."""
+        f = check_features(features, self.width, name, float32=True)
+        if self.identity_joints.size:
+            out.rotations[:, self.identity_joints] = (0.0, 0.0, 0.0, 1.0)
+        rotations(f, out.rotations)
+        self.translations_into(f, out)
+
     def translations_into(self, features: NDArray, out: "Poses") -> None:
         """Copy the root and joint translations of ``(T, D)`` features into ``out`` (float64)."""
         np.copyto(out.root_translation, features[:, :3])

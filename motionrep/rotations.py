@@ -23,7 +23,8 @@ The other conversions delegate to ``scipy.spatial.transform.Rotation``; the alge
 
 Size: one concern, rotations on arrays; the length is the number of parameterisations (quaternion, matrix,
 Euler in every order, axis-angle, 6D) times the conversions between them, each short, documented with its
-shapes, and read next to its inverse.
+shapes, and read next to its inverse; the compiled conversions from columns (the decoding and BVH-reading hot
+path) sit at the end, each kernel beside the public function that checks its arguments.
 """
 
 from __future__ import annotations

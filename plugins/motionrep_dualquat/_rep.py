@@ -133,16 +133,14 @@ class DualQuaternion(Representation):
         return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
-
-    @staticmethod
-    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
-        lay = _layout(skeleton)
         columns, rotated = _decode_plan(skeleton)
-        if not _local_rotations(f, columns, skeleton.parents, rotated, out.rotations):
-            raise ValidationError("cannot normalise a dual quaternion whose real part has zero or non-finite "
-                                  "length")
-        lay.translations_into(f, out)
+
+        def rotations(f: NDArray, rotations: NDArray) -> None:
+            if not _local_rotations(f, columns, skeleton.parents, rotated, rotations):
+                raise ValidationError("cannot normalise a dual quaternion whose real part has zero or non-finite "
+                                      "length")
+
+        _layout(skeleton).decode_into(features, self.name, out, rotations)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations and dual parts; for a joint's real part, its longest bone to a

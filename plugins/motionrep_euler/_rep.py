@@ -84,16 +84,9 @@ class Euler(Representation):
         return decoded_motion(self, f, skeleton, fps, euler_branch=branch)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
-
-    @staticmethod
-    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
-        lay = _layout(skeleton)
-        if lay.identity_joints.size:
-            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
         columns, axes, joints = _decode_plan(skeleton)
-        euler_columns_to_quat(f, columns, axes, joints, out.rotations, degrees=True)
-        lay.translations_into(f, out)
+        _layout(skeleton).decode_into(features, self.name, out, lambda f, rotations: euler_columns_to_quat(
+            f, columns, axes, joints, rotations, degrees=True))
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations; for a joint's angles (degrees), its reach times pi / 180."""

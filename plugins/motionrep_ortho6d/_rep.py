@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+from motionrep.representation import (FeatureLayout, Poses, Representation, decoded_motion,
                                       feature_layout, joint_reach, per_skeleton)
 from motionrep.rotations import ortho6d_columns_to_quat, quat_to_ortho6d
 
@@ -54,15 +54,9 @@ class Ortho6D(Representation):
         return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
-
-    @staticmethod
-    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
         lay = _layout(skeleton)
-        if lay.identity_joints.size:
-            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
-        ortho6d_columns_to_quat(f, _columns(skeleton), lay.rotation_joints, out.rotations)
-        lay.translations_into(f, out)
+        lay.decode_into(features, self.name, out, lambda f, rotations: ortho6d_columns_to_quat(
+            f, _columns(skeleton), lay.rotation_joints, rotations))
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+from motionrep.representation import (FeatureLayout, Poses, Representation, decoded_motion,
                                       feature_layout, joint_reach, per_skeleton)
 from motionrep.rotations import (axis_angle_columns_to_quat, axis_angle_make_continuous, quat_columns_normalized,
                                  quat_make_continuous, quat_to_axis_angle)
@@ -93,17 +93,14 @@ class RootQuatAxisAngle(Representation):
         return decoded_motion(self, features, skeleton, fps)
 
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        self._decode(check_features(features, _layout(skeleton).width, self.name, float32=True), skeleton, out)
+        plan = _decode_plan(skeleton)
 
-    @staticmethod
-    def _decode(f: NDArray, skeleton: Skeleton, out: Poses) -> None:
-        lay, plan = _layout(skeleton), _decode_plan(skeleton)
-        if lay.identity_joints.size:  # joints without rotation channels: identity
-            out.rotations[:, lay.identity_joints] = (0.0, 0.0, 0.0, 1.0)
-        if plan.root_joint.size:
-            quat_columns_normalized(f, plan.root_columns, plan.root_joint, out.rotations)
-        axis_angle_columns_to_quat(f, plan.columns, plan.joints, out.rotations)
-        lay.translations_into(f, out)
+        def rotations(f: NDArray, rotations: NDArray) -> None:
+            if plan.root_joint.size:
+                quat_columns_normalized(f, plan.root_columns, plan.root_joint, rotations)
+            axis_angle_columns_to_quat(f, plan.columns, plan.joints, rotations)
+
+        _layout(skeleton).decode_into(features, self.name, out, rotations)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))
