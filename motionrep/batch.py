@@ -27,15 +27,24 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import os
-from dataclasses import dataclass
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Iterator, Sequence, TypeVar
 
 from ._model import Motion
 from .errors import FormatError, MotionrepError, ParameterError
 from .sources import ClipRef, Source, listing
 
-__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "compress_clips", "pair_clips",
-           "evaluate_clips", "THREAD_VARIABLES"]
+__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
+           "pair_refs", "evaluate_clips", "evaluate_refs",
+           "THREAD_VARIABLES", "SCHEDULER_VARIABLE", "dask_executor", "time_limit"]
+
+#: Environment variable naming a Dask scheduler (``tcp://host:8786``) when ``--scheduler`` is not given.
+SCHEDULER_VARIABLE = "MOTIONREP_SCHEDULER"
+#: How long the client tries to reach a Dask scheduler.
+CONNECT_TIMEOUT = "20s"
 
 _Item = TypeVar("_Item")
 _Result = TypeVar("_Result")
@@ -46,6 +55,12 @@ THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"
 _WORKER: dict[str, Any] = {"pid": None, "warmed": set(), "limits": None}
 
 
+def _ignore_interrupts() -> None:
+    """Worker processes leave Ctrl-C to the parent (which stops them): no worker prints a traceback."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _prepare_worker(parent: int, warm_up: tuple[str, ...]) -> None:
     """The thread policy and warm-up, once per worker process (nothing in the parent process)."""
     pid = os.getpid()
@@ -53,6 +68,7 @@ def _prepare_worker(parent: int, warm_up: tuple[str, ...]) -> None:
         return
     if _WORKER["pid"] != pid:
         _WORKER.update(pid=pid, warmed=set(), limits=None)
+        _ignore_interrupts()
         try:
             from threadpoolctl import threadpool_limits
 
@@ -92,58 +108,145 @@ def worker_threads(count: int = 1) -> Iterator[None]:
 
 def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs: int = 1,
               executor: cf.Executor | None = None, warm_up: Iterable[str] = (),
-              on_done: Callable[[int, _Item, _Result], None] | None = None) -> list[_Result]:
+              on_done: Callable[[int, _Item, _Result], None] | None = None,
+              window: int | None = None) -> list[_Result]:
     """``[work(item) for item in items]``, in this process, in ``jobs`` worker processes, or on ``executor``.
 
     Args:
         work: the function run on each item (module level when it runs in other processes).
-        items: the items.
+        items: the items (an iterator is consumed as the work goes, see ``window``).
         jobs: worker processes when no executor is given (1: in this process).
         executor: an executor to submit to instead (not shut down).
         warm_up: names of codecs whose ``warm_up()`` runs before the first item (once per worker process).
-        on_done: called as ``on_done(index, item, result)`` when an item finishes, in completion order.
+        on_done: called as ``on_done(index, item, result)`` when an item finishes, in completion order, in this
+            process.
+        window: at most this many items submitted and not finished at once (None: all at once); items are taken
+            from ``items`` only as they are submitted, so large items (clip bytes) are not all in memory.
 
     Returns:
         The results, in item order.
 
     Raises:
-        Whatever ``work`` raises (pending items are cancelled first).
+        Whatever ``work`` raises, and KeyboardInterrupt: pending items are cancelled first, and the worker
+        processes of the embedded pool are stopped at once.
     """
-    items = list(items)
     warm = tuple(dict.fromkeys(warm_up))
     results: dict[int, Any] = {}
+    workers = jobs
+    if window is None:
+        listed = list(items)
+        workers = min(jobs, len(listed))
+        source: Iterator[Any] = iter(listed)
+    else:
+        source = iter(items)
 
-    def done(index: int, result: Any) -> None:
-        results[index] = result
-        if on_done is not None:
-            on_done(index, items[index], result)
-
-    if executor is None and (jobs <= 1 or len(items) <= 1):
+    if executor is None and workers <= 1:
         if warm:
             from .plugins import get_codec
 
             for name in warm:
                 get_codec(name).warm_up()
-        for index, item in enumerate(items):
-            done(index, work(item))
-        return [results[i] for i in range(len(items))]
+        for index, item in enumerate(source):
+            results[index] = result = work(item)
+            if on_done is not None:
+                on_done(index, item, result)
+        return [results[i] for i in range(len(results))]
     with contextlib.ExitStack() as stack:
+        pool = None
         if executor is None:
-            import multiprocessing
-
             stack.enter_context(worker_threads(1))
-            executor = stack.enter_context(cf.ProcessPoolExecutor(
-                max_workers=min(jobs, len(items)), mp_context=multiprocessing.get_context("spawn")))
+            pool = executor = stack.enter_context(_process_pool(workers))
         parent = os.getpid()
-        futures = {executor.submit(_call, work, item, parent, warm): i for i, item in enumerate(items)}
+        pending: dict[cf.Future, tuple[int, Any]] = {}
+        next_index = 0
+
+        def submit_more() -> None:
+            nonlocal next_index
+            while window is None or len(pending) < window:
+                try:
+                    item = next(source)
+                except StopIteration:
+                    return
+                pending[executor.submit(_call, work, item, parent, warm)] = (next_index, item)
+                next_index += 1
+
         try:
-            for future in cf.as_completed(futures):
-                done(futures[future], future.result())
+            submit_more()
+            while pending:
+                finished, _ = cf.wait(list(pending), return_when=cf.FIRST_COMPLETED)
+                for future in finished:
+                    index, item = pending.pop(future)
+                    results[index] = result = future.result()
+                    if on_done is not None:
+                        on_done(index, item, result)
+                submit_more()
         except BaseException:
-            for future in futures:
+            for future in pending:
                 future.cancel()
+            if pool is not None:
+                _stop_pool(pool)
             raise
-    return [results[i] for i in range(len(items))]
+    return [results[i] for i in range(len(results))]
+
+
+@contextlib.contextmanager
+def _process_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
+    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback)."""
+    import multiprocessing
+
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=_ignore_interrupts)
+    try:
+        main = threading.current_thread() is threading.main_thread()
+        saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            for f in [pool.submit(os.getpid) for _ in range(workers)]:  # one submission starts one worker
+                f.cancel()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, saved)
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a pool's workers now (an interrupted run must not wait for the clips in progress)."""
+    processes = list(getattr(pool, "_processes", {}).values())  # no public way to stop running tasks
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(5)
+
+
+@contextlib.contextmanager
+def dask_executor(scheduler: Any) -> Iterator[cf.Executor]:
+    """A ``concurrent.futures`` executor on a Dask distributed cluster (``Client.get_executor``), closed at the end.
+
+    Args:
+        scheduler: the scheduler's address (``tcp://host:8786``), or a ``distributed`` cluster object (such as
+            a ``LocalCluster``).
+
+    Raises:
+        ParameterError: when ``dask[distributed]`` is not installed, or the scheduler cannot be reached.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ParameterError("a Dask scheduler needs dask[distributed]: pip install 'motionrep[dask]'") from None
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise ParameterError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+    try:
+        yield client.get_executor(pure=False)
+    finally:
+        with contextlib.suppress(Exception):
+            client.close(timeout=10)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -173,39 +276,171 @@ class ClipOutcome:
 
     Attributes:
         name: the clip's name.
-        data: the ``.mrc`` bytes, or None when it failed.
-        summary: ``CompressResult.as_dict()``, or ``{"error": message, "type": exception class name}``.
+        data: the ``.mrc`` bytes; None when it failed, or was skipped (``status``).
+        summary: ``CompressResult.as_dict()`` plus ``source``, ``source_sha256`` and ``cpu_seconds``; for a
+            failure ``{"error": message, "type": exception class name, "source": ...}``; for a skipped clip
+            ``{"skipped": True, "source": ...}``.
+        status: ``"done"``, ``"failed"`` or ``"skipped"`` (``--resume``: the output already holds this clip,
+            compressed from the same source with the same setting).
     """
 
     name: str
     data: bytes | None
     summary: dict[str, Any]
+    status: str = "done"
 
     @property
     def failed(self) -> bool:
-        return self.data is None
+        return self.status == "failed"
+
+    @property
+    def skipped(self) -> bool:
+        return self.status == "skipped"
 
 
-def _compress_one(job: tuple[ClipRef, Any]) -> ClipOutcome:
-    ref, pipeline = job
+@dataclass(frozen=True)
+class ClipJob:
+    """One clip to compress, as sent to a worker.
+
+    Attributes:
+        ref: the clip.
+        pipeline: the :class:`motionrep.compress.Pipeline`.
+        expect: with ``--resume``, the source checksum of the copy the output holds: the worker skips the clip
+            when its source still has it.
+        timeout: seconds the clip may take (None: no limit).
+        data: the bytes of the clip's file, sent by the client to workers that cannot read its path (None: the
+            worker reads ``ref.path``).
+    """
+
+    ref: ClipRef
+    pipeline: Any
+    expect: str | None = None
+    timeout: float | None = None
+    data: bytes | None = field(default=None, repr=False)
+
+
+class _TimeUp(BaseException):
+    """Raised asynchronously in the thread that exceeded its time limit (a BaseException, so that no codec's
+    ``except Exception`` swallows it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
+    """Raise :class:`~motionrep.errors.TimeLimitError` in this thread when the block runs longer than ``seconds``.
+
+    The exception is raised asynchronously in the running thread (``PyThreadState_SetAsyncExc``), so it works in
+    a worker process's main thread and in a Dask worker's task threads alike; like a signal, it is seen at the
+    next Python instruction (a long call into BLAS ends first).
+    """
+    if not seconds:
+        yield
+        return
+    import ctypes
+
+    from .errors import TimeLimitError
+
+    lock = threading.Lock()
+    state = {"done": False, "fired": False}
+    target = threading.get_ident()
+
+    def fire() -> None:
+        with lock:
+            if not state["done"]:
+                state["fired"] = True
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), ctypes.py_object(_TimeUp))
+
+    timer = threading.Timer(seconds, fire)
+    timer.daemon = True
     try:
-        result = pipeline.compress(read_clip(ref), source_bytes=ref.source_bytes)
+        try:
+            timer.start()
+            yield
+        finally:
+            with lock:
+                state["done"] = True
+            timer.cancel()
+    except _TimeUp:
+        raise TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (--timeout)",
+                             seconds) from None
+
+
+def _read_job(job: ClipJob) -> tuple[Motion, str]:
+    """The clip and its source checksum, from its path or from the bytes the client sent."""
+    if job.data is None:
+        return job.ref.read_with_checksum()
+    import tempfile
+    from pathlib import Path
+
+    suffix = Path(job.ref.path).suffix
+    with tempfile.TemporaryDirectory(prefix="motionrep-") as tmp:
+        local = Path(tmp) / f"clip{suffix}"
+        local.write_bytes(job.data)
+        motion, checksum = ClipRef(job.ref.name, str(local), job.ref.clip, job.ref.source_bytes).read_with_checksum()
+    return motion, checksum
+
+
+def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
+    from .store import SOURCE_CHECKSUM_KEY
+
+    if isinstance(job, tuple):
+        job = ClipJob(*job)
+    ref = job.ref
+    cpu = time.process_time()
+    try:
+        with time_limit(job.timeout):
+            motion, checksum = _read_job(job)
+            if job.expect is not None and checksum == job.expect:
+                return ClipOutcome(ref.name, None, {"skipped": True, "source": ref.source}, "skipped")
+            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes,
+                                           extra={SOURCE_CHECKSUM_KEY: checksum})
     except MotionrepError as exc:
-        return ClipOutcome(ref.name, None, {"error": str(exc), "type": type(exc).__name__})
-    return ClipOutcome(ref.name, result.data, result.as_dict())
+        message = str(exc)
+        if isinstance(exc, FormatError) and job.data is not None:  # name the user's file, not the worker's copy
+            message = FormatError(exc.message, ref.source, exc.line).args[0]
+        return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
+                                            "cpu_seconds": time.process_time() - cpu}, "failed")
+    summary = dict(result.as_dict(), source=ref.source, source_sha256=checksum,
+                   cpu_seconds=time.process_time() - cpu)
+    return ClipOutcome(ref.name, result.data, summary)
 
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
-                   on_done: Callable[[ClipOutcome], None] | None = None) -> list[ClipOutcome]:
+                   on_done: Callable[[ClipOutcome], None] | None = None, expect: dict[str, str] | None = None,
+                   timeout: float | None = None, send_data: bool = False) -> list[ClipOutcome]:
     """Compress every clip with ``pipeline`` (a :class:`motionrep.compress.Pipeline`); a clip that fails (bound
-    not met, unreadable) gives a failed :class:`ClipOutcome` and the others go on.
+    not met, unreadable, over its time limit) gives a failed :class:`ClipOutcome` and the others go on.
+
+    Args:
+        refs: the clips.
+        pipeline: the setting.
+        jobs, executor: where the work runs (:func:`run_batch`).
+        on_done: called as ``on_done(outcome)`` in this process as each clip finishes (to commit it).
+        expect: ``{name: source checksum}`` of clips the output already holds with this setting: such a clip is
+            skipped when its source is unchanged (``--resume``).
+        timeout: seconds each clip may take.
+        send_data: read each clip's file here and send its bytes to the worker (workers that do not share this
+            file system); by default workers read the clips by path.
 
     Returns:
-        One outcome per clip, in ``refs`` order; ``on_done(outcome)`` is called as each finishes.
+        One outcome per clip, in ``refs`` order.
     """
-    return run_batch(_compress_one, [(ref, pipeline) for ref in refs], jobs=jobs, executor=executor,
-                     warm_up=[pipeline.codec.name],
-                     on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)))
+    expect = expect or {}
+
+    def jobs_of() -> Iterator[ClipJob]:
+        for ref in refs:
+            data = None
+            if send_data and ref.clip is None:
+                with open(ref.path, "rb") as f:
+                    data = f.read()
+            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data)
+
+    if send_data and any(ref.clip is not None for ref in refs):
+        raise ParameterError("sending clips to the workers works for files of one clip (BVH, NPZ, .mrc); workers "
+                             "must read databases and archives by path")
+    window = None if not send_data else (64 if executor is not None else 4 * jobs)
+    return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
+                     on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
+                     window=window)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -230,18 +465,39 @@ def pair_clips(reference: Source, candidate: Source, clip: str | None = None) ->
     if len(ref_names) == 1 and len(cand_names) == 1:
         return [(ref_names[0], ref_names[0], cand_names[0])]
     if len(ref_names) > 1 and len(cand_names) > 1:
-        missing = [n for n in ref_names if n not in cand_names]
-        extra = [n for n in cand_names if n not in ref_names]
-        if missing or extra:
-            where = "; ".join(part for part in (
-                f"only in {reference.path}: {listing(missing)}" if missing else "",
-                f"only in {candidate.path}: {listing(extra)}" if extra else "") if part)
-            raise FormatError(f"the two files hold different clips ({where}); use --clip NAME to compare one",
-                              candidate.path)
+        _same_names(ref_names, cand_names, str(reference.path), str(candidate.path), "files", candidate.path)
         return [(n, n, n) for n in ref_names]
     many, found = (reference, ref_names) if len(ref_names) > 1 else (candidate, cand_names)
     raise ParameterError(f"{many.path} holds {len(found)} clips ({listing(found)}) and the other file one; "
                          "use --clip NAME")
+
+
+def pair_refs(reference: list[ClipRef], candidate: list[ClipRef]) -> list[tuple[str, ClipRef, ClipRef]]:
+    """The clips to compare between two collections of clips (:func:`~motionrep.sources.collect_clips` of each
+    side: files, directories, archives), as ``(name, reference clip, candidate clip)``: one clip with the other
+    side's one clip, else clip by clip, by name.
+
+    Raises:
+        FormatError: when the two sides hold different clips (naming those only on one side).
+    """
+    if len(reference) == 1 and len(candidate) == 1:
+        return [(reference[0].name, reference[0], candidate[0])]
+    ref, cand = {r.name: r for r in reference}, {r.name: r for r in candidate}
+    extra = [n for n in cand if n not in ref]
+    _same_names(list(ref), list(cand), "the reference", "the candidate", "sides",
+                candidate[0].path if extra else reference[0].path)
+    return [(n, ref[n], cand[n]) for n in sorted(ref)]
+
+
+def _same_names(ref: list[str], cand: list[str], ref_label: str, cand_label: str, what: str, path: Any) -> None:
+    """A FormatError naming the clips only one side holds, if any."""
+    missing = [n for n in ref if n not in cand]
+    extra = [n for n in cand if n not in ref]
+    if missing or extra:
+        where = "; ".join(part for part in (
+            f"only in {ref_label}: {listing(missing)}" if missing else "",
+            f"only in {cand_label}: {listing(extra)}" if extra else "") if part)
+        raise FormatError(f"the two {what} hold different clips ({where}); use --clip NAME to compare one", path)
 
 
 def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[str, str, str]],
@@ -260,3 +516,25 @@ def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[s
 
     return run_batch(work, pairs,
                      on_done=None if on_done is None else (lambda i, pair, result: on_done(*result)))
+
+
+def evaluate_refs(pairs: Sequence[tuple[str, ClipRef, ClipRef]],
+                  on_done: Callable[[str, Any], None] | None = None) -> list[tuple[str, Any]]:
+    """The shared error of every pair ``(name, reference clip, candidate clip)`` of clips gathered from files,
+    directories and archives (each file opened once for a run of its clips), in this process.
+
+    Returns:
+        ``[(name, ErrorReport)]`` in ``pairs`` order.
+    """
+    from .evaluate import max_joint_error
+    from .sources import read_refs
+
+    out = []
+    references = read_refs([a for _, a, _ in pairs])
+    candidates = read_refs([b for _, _, b in pairs])
+    for (name, _, _), (_, ref), (_, cand) in zip(pairs, references, candidates):
+        report = max_joint_error(ref, cand)
+        out.append((name, report))
+        if on_done is not None:
+            on_done(name, report)
+    return out

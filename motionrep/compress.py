@@ -237,13 +237,15 @@ class Pipeline:
         return None if self.max_error is None else self.max_error.bound(character_height(motion.skeleton))
 
     def compress(self, motion: Motion, *, progress: ProgressCallback | None = None,
-                 source_bytes: int | None = None) -> CompressResult:
+                 source_bytes: int | None = None, extra: Mapping[str, Any] | None = None) -> CompressResult:
         """Compress ``motion`` into ``.mrc`` bytes whose decoded motion meets the bound.
 
         Args:
             motion: the clip.
             progress: called as ``progress(stage, fields)`` while the codec works.
             source_bytes: size of the source file, for compression figure (d).
+            extra: more keys for the container's ``extra`` metadata (a batch records the source's checksum,
+                ``motionrep.store.SOURCE_CHECKSUM_KEY``); they cannot replace the keys written here.
 
         Raises:
             ParameterError: a bound in % of a character of height 0, or parameters the codec refuses.
@@ -272,7 +274,7 @@ class Pipeline:
             representation_plugin=provider_of(rep.name, "representation"),
             skeleton=motion.skeleton, fps=motion.fps, num_frames=motion.num_frames,
             arrays=dict(payload.arrays), evaluation=None,
-            extra={"motionrep_version": __version__, "seed": self.seed,
+            extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed,
                    "max_error": None if self.max_error is None else str(self.max_error)},
         )
         evaluator = context.evaluator

@@ -13,6 +13,7 @@ Hierarchy::
     │   ├── NPZFormatError
     │   ├── HDF5FormatError
     │   ├── ContainerError       a .mrc file is truncated, altered or of an unknown version
+    │   ├── OutputExistsError    an output exists and --force (or --resume) was not given
     │   └── PluginVersionError   (also a PluginError) a file was written by a version of a representation or
     │                            codec that the installed plugin cannot read
     ├── PluginError              plugin loading or registration went wrong
@@ -21,7 +22,8 @@ Hierarchy::
     └── CodecError               a codec failed
         ├── ParameterError       (also a ValueError) a codec parameter is invalid
         ├── PayloadError         (also a ValueError) a codec payload is damaged or inconsistent
-        └── BoundNotMetError     the requested error bound could not be reached
+        ├── BoundNotMetError     the requested error bound could not be reached
+        └── TimeLimitError       a clip took longer than its time limit (``--timeout``)
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ __all__ = [
     "NPZFormatError",
     "HDF5FormatError",
     "ContainerError",
+    "OutputExistsError",
     "PluginError",
     "DuplicateNameError",
     "UnknownPluginError",
@@ -43,6 +46,7 @@ __all__ = [
     "CodecError",
     "ParameterError",
     "BoundNotMetError",
+    "TimeLimitError",
     "PayloadError",
 ]
 
@@ -98,6 +102,11 @@ class ContainerError(FormatError):
     """A ``.mrc`` compressed-motion container is truncated, altered, or of an unknown version."""
 
 
+class OutputExistsError(FormatError):
+    """An output file (or a file of an output directory) exists and the command was not told to overwrite it
+    (``--force``) or to go on with it (``--resume``)."""
+
+
 class PluginError(MotionrepError):
     """Loading or registering a plugin went wrong."""
 
@@ -145,3 +154,18 @@ class BoundNotMetError(CodecError):
 
     def __reduce__(self):
         return (type(self), (self.args[0] if self.args else "", self.best_error, self.bound))
+
+
+class TimeLimitError(CodecError):
+    """Compressing one clip took longer than its time limit (``--timeout``); the other clips of a batch go on.
+
+    Attributes:
+        seconds: the limit.
+    """
+
+    def __init__(self, message: str, seconds: float | None = None):
+        self.seconds = seconds
+        super().__init__(message)
+
+    def __reduce__(self):
+        return (type(self), (self.args[0] if self.args else "", self.seconds))

@@ -49,6 +49,8 @@ __all__ = [
     "collect_clips",
     "read_refs",
     "listing",
+    "clip_checksum",
+    "content_digest",
 ]
 
 #: Suffixes :func:`open_source` opens.
@@ -319,10 +321,72 @@ class ClipRef:
         with self.open() as src:
             return src.read(self.clip)
 
+    def read_with_checksum(self) -> tuple[Motion, str]:
+        """The clip and its :func:`clip_checksum`, its file opened once."""
+        with self.open() as src:
+            return src.read(self.clip), clip_checksum(src, self.clip)
 
-def read_refs(refs: Iterable[ClipRef], stored: bool = False) -> Iterator[tuple[ClipRef, Any]]:
+    def checksum(self) -> str:
+        """:func:`clip_checksum` of the clip."""
+        with self.open() as src:
+            return clip_checksum(src, self.clip)
+
+
+def content_digest(value: Any, hasher: Any = None) -> Any:
+    """A SHA-256 over ``value``'s content, the same in every process and on every machine: dataclasses field by
+    field, arrays by dtype, shape and little-endian bytes, strings, numbers, None, tuples and lists.
+
+    Returns:
+        The ``hashlib`` object (``.hexdigest()``).
+    """
+    import dataclasses
+    import hashlib
+
+    import numpy as np
+
+    h = hashlib.sha256() if hasher is None else hasher
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        h.update(f"<{type(value).__name__}>".encode())
+        for f in dataclasses.fields(value):
+            h.update(f.name.encode() + b"=")
+            content_digest(getattr(value, f.name), h)
+    elif isinstance(value, np.ndarray):
+        a = np.ascontiguousarray(value)
+        h.update(f"<array {a.dtype.str[1:]} {a.shape}>".encode())
+        h.update(a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes())
+    elif isinstance(value, (tuple, list)):
+        h.update(f"<seq {len(value)}>".encode())
+        for v in value:
+            content_digest(v, h)
+    else:
+        h.update(f"<{type(value).__name__} {value!r}>".encode())
+    return h
+
+
+def clip_checksum(source: Source, name: str | None = None) -> str:
+    """The SHA-256 (hex) of clip ``name``'s source: of the file's bytes for a file of one clip (BVH, NPZ,
+    ``.mrc``), of the container's bytes for a clip of an archive, of the clip's content as stored
+    (:func:`content_digest`) for a clip of a database.  Recorded in every container a batch writes, so that
+    ``--resume`` knows a clip whose source has not changed."""
+    import hashlib
+
+    if source.kind == "archive":
+        return hashlib.sha256(source.archive.read_bytes(source.resolve(name))).hexdigest()
+    if source.kind == "database":
+        return "db-" + content_digest(source.read_stored(name)[1]).hexdigest()
+    source.resolve(name)
+    h = hashlib.sha256()
+    with open(source.path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def read_refs(refs: Iterable[ClipRef], stored: bool = False,
+              reader: Any = None) -> Iterator[tuple[ClipRef, Any]]:
     """``(ref, clip)`` for every ref, in order, each file opened once for a run of its clips: the clip is a
-    :class:`~motionrep.Motion`, or with ``stored`` as stored (see :meth:`Source.read_stored`)."""
+    :class:`~motionrep.Motion`, or with ``stored`` as stored (see :meth:`Source.read_stored`), or what
+    ``reader(source, ref)`` returns."""
     source: Source | None = None
     try:
         for ref in refs:
@@ -331,7 +395,10 @@ def read_refs(refs: Iterable[ClipRef], stored: bool = False) -> Iterator[tuple[C
                     source.close()
                 source = None
                 source = open_source(ref.path)
-            yield ref, (source.read_stored(ref.clip)[1] if stored else source.read(ref.clip))
+            if reader is not None:
+                yield ref, reader(source, ref)
+            else:
+                yield ref, (source.read_stored(ref.clip)[1] if stored else source.read(ref.clip))
     finally:
         if source is not None:
             source.close()
@@ -346,26 +413,29 @@ def _inside(path: Path, excluded: list[Path]) -> bool:
     return any(r == e or e in r.parents for e in excluded)
 
 
-def _scan(directory: Path, excluded: list[Path]) -> list[tuple[Path, str]]:
+def _scan(directory: Path, excluded: list[Path], suffixes: tuple[str, ...]) -> list[tuple[Path, str]]:
     found = []
     for p in sorted(directory.rglob("*")):
         rel = p.relative_to(directory)
-        if _hidden(rel) or p.suffix.lower() not in SCAN_SUFFIXES or not p.is_file() or _inside(p, excluded):
+        if _hidden(rel) or p.suffix.lower() not in suffixes or not p.is_file() or _inside(p, excluded):
             continue
         found.append((p, NAME_SEPARATOR.join(rel.with_suffix("").parts)))
     if not found:
-        raise FormatError("no " + ", ".join(SCAN_SUFFIXES) + " files in this directory", directory)
+        raise FormatError("no " + ", ".join(suffixes) + " files in this directory", directory)
     return found
 
 
 def collect_clips(inputs: Iterable[str | os.PathLike[str]], *, clip: str | None = None,
-                  exclude: Iterable[str | os.PathLike[str]] = ()) -> list[ClipRef]:
+                  exclude: Iterable[str | os.PathLike[str]] = (),
+                  scan: Iterable[str] = SCAN_SUFFIXES) -> list[ClipRef]:
     """The clips of files, directories, databases and archives, named by the rules of the module docstring.
 
     Args:
         inputs: paths as given on the command line.
         clip: take only this clip out of each database or archive (an error where one lacks it).
         exclude: paths never read back in (a command's own output, and everything below it).
+        scan: the suffixes a directory is searched for (default :data:`SCAN_SUFFIXES`; commands that read
+            compressed clips add ``.mrc``).
 
     Raises:
         ValidationError: for a file given twice, or of an unknown type (a problem with the inputs as given).
@@ -377,7 +447,7 @@ def collect_clips(inputs: Iterable[str | os.PathLike[str]], *, clip: str | None 
     for raw in inputs:
         p = Path(raw)
         if p.is_dir():
-            files.extend(_scan(p, excluded))
+            files.extend(_scan(p, excluded, tuple(scan)))
         elif not p.exists():
             raise FormatError("no such file or directory", p)
         else:

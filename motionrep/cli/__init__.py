@@ -1,7 +1,7 @@
 """The ``motionrep`` command line: one click group, one module per command.
 
 Each command lives in its own module of this package (``convert``, ``info``, ``compress``, ``decompress``,
-``evaluate``, ``bench``, ``render``, ``plugins``, ``example``) and is added to the group here with
+``evaluate``, ``merge``, ``bench``, ``render``, ``plugins``, ``example``) and is added to the group here with
 ``add_command``; command modules never import this one (no import circle), and share only
 :mod:`motionrep.cli._common`.  Commands parse each option once and pass the resulting objects (a
 :class:`~motionrep.compress.Pipeline`, open :class:`~motionrep.sources.Source` s) to the library; heavy
@@ -9,7 +9,9 @@ imports happen inside the commands.
 
 Library errors (:class:`~motionrep.errors.MotionrepError`) and operating-system errors are turned into one-line
 messages and exit code 1 here, in one place; ``--debug`` shows the traceback instead.  Bad flags exit with code
-2 (click's usage errors).
+2 (click's usage errors).  Ctrl-C, SIGTERM and SIGHUP end every command the same way: temporary files removed,
+finished work kept, one line on stderr (``Interrupted (Ctrl-C): ...``) and exit code ``128 + signal``: 130 for
+Ctrl-C, 143 for SIGTERM, 129 for SIGHUP (:mod:`motionrep.cli._common`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ import click
 
 from .. import __version__
 from ..errors import MotionrepError
-from . import bench, compress, convert, decompress, evaluate, example, info, plugins, render
+from . import bench, compress, convert, decompress, evaluate, example, info, merge, plugins, render
+from ._common import handling_signals, interrupt_line
 
 __all__ = ["cli", "main"]
 
@@ -30,7 +33,14 @@ class _Group(click.Group):
 
     def invoke(self, ctx: click.Context):
         try:
-            return super().invoke(ctx)
+            with handling_signals():
+                return super().invoke(ctx)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (Interrupted)
+            if ctx.obj and ctx.obj.get("debug"):
+                raise
+            line, code = interrupt_line(exc)
+            click.echo(line, err=True)
+            ctx.exit(code)
         except MotionrepError as exc:
             if ctx.obj and ctx.obj.get("debug"):
                 raise
@@ -57,6 +67,8 @@ def cli(ctx: click.Context, debug: bool) -> None:
       motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier --max-error 2%
       motionrep decompress walk.mrc -o walk2.bvh
       motionrep evaluate walk.bvh walk2.bvh
+      motionrep compress clips/ -o clips.h5 --codec svd --jobs 2 --resume
+      motionrep merge part1.h5 part2.h5 -o all.h5
       motionrep plugins
     """
     ctx.ensure_object(dict)
@@ -64,7 +76,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
 
 
 for _command in (convert.convert, info.info, compress.compress, decompress.decompress, evaluate.evaluate,
-                 bench.bench, render.render, plugins.plugins_command, example.example):
+                 merge.merge, bench.bench, render.render, plugins.plugins_command, example.example):
     cli.add_command(_command)
 
 

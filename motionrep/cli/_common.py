@@ -1,16 +1,32 @@
-"""What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks."""
+"""What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks, the one
+overwrite policy (``--force``) and the one way a run ends on a signal (:class:`Interrupted`).
+
+Overwrite policy, the same for every command: an output that exists is an error (exit 1, naming it and saying
+``--force``) unless ``--force`` is given; a command that can go on with what an interrupted run left
+(``compress --resume``) says so in the same message.  Use :func:`force_option` and :func:`check_overwrite`.
+
+Signals: SIGINT (Ctrl-C), SIGTERM and SIGHUP end a command the same way (:func:`handling_signals`, installed
+around every command by the group): the exception :class:`Interrupted` (a ``KeyboardInterrupt``) unwinds the
+command, so every ``atomic_path`` removes its temporary file and a batch keeps its finished clips; the group then
+prints one line and exits with ``128 + the signal's number`` (130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
+"""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import signal
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import click
 
-__all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix", "MOTION_OUT_SUFFIXES"]
+__all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
+           "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "Interrupted", "handling_signals",
+           "interrupt_line"]
 
 #: Suffixes of the motion files commands write (the format from the suffix).
 MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5")
@@ -54,6 +70,78 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
     return suffix
 
 
+def force_option(command: Callable) -> Callable:
+    """The ``--force`` flag of every command that writes an output (:func:`check_overwrite`)."""
+    return click.option("--force", is_flag=True,
+                        help="Overwrite an existing output (without it, an existing output is an error).")(command)
+
+
+def check_overwrite(path: str | os.PathLike[str], force: bool, *, resume: bool = False) -> None:
+    """The one overwrite policy: ``path`` may exist only with ``force``.
+
+    Args:
+        path: an output file (or one file of an output directory).
+        force: ``--force`` was given.
+        resume: the command has ``--resume``, which the message then mentions.
+
+    Raises:
+        OutputExistsError: naming ``path``, when it exists and ``force`` is False.
+    """
+    from ..errors import OutputExistsError
+
+    if force or not os.path.lexists(path):
+        return
+    how = "--force to overwrite it" + (" or --resume to keep what it holds and add the rest" if resume else "")
+    raise OutputExistsError(f"exists; use {how}", path)
+
+
+class Interrupted(KeyboardInterrupt):
+    """A command was stopped by a signal (SIGINT, SIGTERM or SIGHUP).
+
+    Attributes:
+        signum: the signal's number.
+        note: what was kept, for the one line the command line prints (set by the code that cleaned up).
+    """
+
+    def __init__(self, signum: int = signal.SIGINT, note: str = ""):
+        super().__init__(signum, note)
+        self.signum, self.note = int(signum), note
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def handling_signals() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`Interrupted` (like Ctrl-C's KeyboardInterrupt) while the block runs;
+    the previous handlers are restored afterwards.  Outside the main thread nothing is installed."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    wanted = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    saved = {s: signal.signal(s, _raise_interrupted) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)
+
+
+def interrupt_line(exc: BaseException) -> tuple[str, int]:
+    """The one line printed for an interrupted command and its exit code (``128 + signal``)."""
+    signum = exc.signum if isinstance(exc, Interrupted) else int(signal.SIGINT)
+    name = {int(signal.SIGINT): "Ctrl-C"}.get(signum) or signal.Signals(signum).name
+    note = exc.note if isinstance(exc, Interrupted) else ""
+    return f"Interrupted ({name})" + (f": {note}" if note else ""), 128 + signum
+
+
 class CodecProgress:
     """A codec's progress on stderr, in the codec's words (``Codec.describe_progress``): the first report of
     every stage, then at most one line every ``every`` seconds."""
@@ -72,29 +160,92 @@ class CodecProgress:
 
 
 class BatchProgress:
-    """Progress of many items on stderr: a bar with an ETA on a terminal, else one line per finished item
-    (``describe(item_result)``); nothing when ``quiet``.  Use as a context manager; call ``done(result)``."""
+    """Progress of many items on stderr; nothing when ``quiet``.  Use as a context manager; call
+    ``done(result, failed=...)`` as each item finishes (``skipped`` items, kept from an earlier run, are counted
+    apart and left out of the rate).
 
-    def __init__(self, total: int, label: str, describe: Callable[[Any], str] | None = None, quiet: bool = False):
-        self.total, self.count, self.describe, self.quiet = total, 0, describe, quiet
-        self.bar = None
-        if not quiet and sys.stderr.isatty():
-            self.bar = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True, show_eta=True)
+    On a terminal: one line redrawn in place, ``label [####    ] 120/2534, 2 failed, 3.1/s, ETA 13m02s``.
+    Otherwise: ``[120/2534] <describe(result)>; 2 failed, ETA 13m02s`` at most once every ``every`` seconds
+    (and for the first and last item); a failed item is always named on its own line.
+    """
+
+    def __init__(self, total: int, label: str, describe: Callable[[Any], str] | None = None, quiet: bool = False,
+                 every: float | None = None, stream: Any = None):
+        self.total, self.label, self.describe, self.quiet = total, label, describe, quiet
+        self.count = self.failed = self.skipped = 0
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        if every is None:
+            every = float(os.environ.get("MOTIONREP_PROGRESS_SECONDS", "0.2" if self.tty else "10"))
+        self.every = every
+        self.start = time.monotonic()
+        self.last = -float("inf")
 
     def __enter__(self) -> "BatchProgress":
-        if self.bar is not None:
-            self.bar.__enter__()
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(*exc)
+        if self.tty and not self.quiet and self.count:
+            self.stream.write("\n")
+            self.stream.flush()
 
-    def done(self, result: Any) -> None:
+    def eta(self) -> str:
+        """Time left at the rate so far (skipped items excluded), as ``1h02m``, ``3m05s`` or ``12s``."""
+        worked = self.count - self.skipped
+        elapsed = time.monotonic() - self.start
+        if worked <= 0 or elapsed <= 0:
+            return "?"
+        left = (self.total - self.count) * elapsed / worked
+        return _duration(left)
+
+    def status(self) -> str:
+        """``120/2534, 2 failed, 3.1/s, ETA 13m02s``."""
+        return ", ".join([f"{self.count}/{self.total}"] + self._details())
+
+    def _details(self) -> list[str]:
+        parts = []
+        if self.skipped:
+            parts.append(f"{self.skipped} kept")
+        if self.failed:
+            parts.append(f"{self.failed} failed")
+        elapsed = time.monotonic() - self.start
+        worked = self.count - self.skipped
+        if worked and elapsed > 0:
+            parts.append(f"{worked / elapsed:.3g}/s")
+        if self.count < self.total:
+            parts.append(f"ETA {self.eta()}")
+        return parts
+
+    def done(self, result: Any, failed: bool = False, skipped: bool = False) -> None:
         self.count += 1
+        self.failed += bool(failed)
+        self.skipped += bool(skipped)
         if self.quiet:
             return
-        if self.bar is not None:
-            self.bar.update(1)
-        elif self.describe is not None:
-            click.echo(f"[{self.count}/{self.total}] {self.describe(result)}", err=True)
+        now = time.monotonic()
+        last_item = self.count == self.total
+        if self.tty:
+            if failed and self.describe is not None:
+                self.stream.write("\r\033[K" + self.describe(result) + "\n")
+            if now - self.last >= self.every or last_item or failed:
+                width = 24
+                filled = int(width * self.count / max(self.total, 1))
+                self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}")
+                self.stream.flush()
+                self.last = now
+            return
+        if failed or last_item or self.count == 1 or now - self.last >= self.every:
+            what = [self.describe(result)] if self.describe is not None else []
+            line = "; ".join(what + [", ".join(self._details())] if self._details() else what)
+            self.stream.write(f"[{self.count}/{self.total}] {line}".rstrip() + "\n")
+            self.stream.flush()
+            self.last = now
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    if seconds >= 3600:
+        return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
+    if seconds >= 60:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds}s"

@@ -1,8 +1,14 @@
 """``motionrep compress``: one clip into a ``.mrc`` file, or many into an archive or a directory of them.
 
+Many clips run on the batch engine (:func:`motionrep.batch.compress_clips`): in this process, in ``--jobs``
+worker processes, or on a Dask cluster (``--scheduler``); each finished clip is committed to the output at once
+(:mod:`motionrep.store`), ``--resume`` skips the clips the output already holds from the same source and
+setting, and the run ends with its totals (:mod:`motionrep.totals`).
+
 Exit codes: 0 on success; 1 for a library error (unknown codec or representation, bad parameter, bound not
-met, malformed file; in a batch, after the report, when any clip failed), with one line on stderr and no
-output file for what failed; 2 for a usage error.
+met, malformed file, an output that exists without ``--force``; in a batch, after the totals, when any clip
+failed, every other clip kept), with one line on stderr and no output file for what failed; 2 for a usage
+error; 130 (Ctrl-C), 143 (SIGTERM) or 129 (SIGHUP) when interrupted, every finished clip kept.
 """
 
 from __future__ import annotations
@@ -12,7 +18,8 @@ from typing import Any
 
 import click
 
-from ._common import BatchProgress, CodecProgress, collect, echo_json, parse_params
+from ._common import (BatchProgress, CodecProgress, Interrupted, check_overwrite, collect, echo_json, force_option,
+                      parse_params)
 
 __all__ = ["compress"]
 
@@ -55,21 +62,48 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
 @click.option("--clip", metavar="NAME", help="Compress only this clip of an HDF5 database or archive.")
 @click.option("--jobs", "-j", default=1, show_default=True, type=click.IntRange(1, 256),
               help="Worker processes for many clips (spawned; each uses one BLAS thread).")
+@click.option("--scheduler", metavar="ADDRESS", envvar="MOTIONREP_SCHEDULER", show_envvar=True,
+              help="Run the clips on this Dask distributed scheduler (tcp://host:8786) instead of local worker "
+                   "processes; needs pip install 'motionrep[dask]'.")
+@click.option("--send-clips", is_flag=True,
+              help="With --scheduler: read each clip's file here and send its bytes to the workers (for workers "
+                   "that do not see this file system); by default they read the clips by path.")
+@click.option("--resume", is_flag=True,
+              help="Keep the clips the output already holds from the same source (SHA-256) with the same codec, "
+                   "parameters, representation, bound and seed; compress the others.")
+@force_option
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
+              help="Most seconds one clip may take; a clip over it fails and the others go on.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object; no progress.")
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
-             params: tuple[str, ...], seed: int, clip: str | None, jobs: int, as_json: bool) -> None:
+             params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
+             send_clips: bool, resume: bool, force: bool, timeout: float | None, as_json: bool) -> None:
     """Compress motion files IN into OUT.mrc, within --max-error of the original.
 
     IN may be files (.bvh, .npz, .h5 databases, archives), directories (searched
     recursively) or several of them; clips are named as by convert. One clip
     goes to OUT.mrc; several go to OUT.h5 (an archive of .mrc containers) or to
-    the directory OUT/, in --jobs worker processes.
+    the directory OUT/, in --jobs worker processes or on a Dask cluster
+    (--scheduler, or MOTIONREP_SCHEDULER).
+
+    \b
+    Many clips: each finished clip is committed to OUT at once, so an
+    interrupted run (Ctrl-C, a killed process) keeps every finished clip and
+    --resume finishes the rest. An existing OUT needs --force or --resume.
+    Progress (clips done, failures, ETA) goes to stderr, a line every 10 s when
+    it is not a terminal (MOTIONREP_PROGRESS_SECONDS); the run ends with its
+    totals: clips, every failure with its reason, raw and compressed MB, the
+    overall ratio, bits/bone/frame, the worst error and its clip, wall and CPU
+    time (--json: the same under "totals"). Exit code 1 when any clip failed
+    (the others are kept), 130 on Ctrl-C.
 
     \b
     Examples:
       motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier
       motionrep compress walk.bvh -o walk.mrc --codec svd -p rank=8 --max-error none
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2
+      motionrep compress clips/ -o clips.h5 --codec svd --jobs 2 --resume
+      motionrep compress clips/ -o clips.h5 --scheduler tcp://10.0.0.5:8786
     """
     from ..compress import Pipeline
 
@@ -79,7 +113,13 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
     if not (to_mrc or to_archive or not output.suffix):
         raise click.UsageError(f"output {output}: write one clip to OUT.mrc, many to OUT.h5 (one archive) or a "
                                "directory")
-    refs = collect(inputs, clip=clip, exclude=[output])
+    if scheduler and jobs > 1:
+        raise click.UsageError("--jobs runs local worker processes and --scheduler a Dask cluster: give one")
+    if send_clips and not scheduler:
+        raise click.UsageError("--send-clips applies with --scheduler")
+    if resume and force:
+        raise click.UsageError("--resume keeps what the output holds and --force overwrites it: give one")
+    refs = collect(inputs, clip=clip, exclude=[output, journal_of(output)])
     if to_mrc:
         if len(refs) != 1:
             from ..sources import listing
@@ -87,19 +127,31 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
             raise click.UsageError(f"output {output}: the inputs hold {len(refs)} clips "
                                    f"({listing([r.name for r in refs])}); a .mrc file holds one: write them to "
                                    "OUT.h5 or a directory, or pick one with --clip")
-        _compress_one(refs[0], output, pipeline, as_json)
+        if resume:
+            raise click.UsageError("--resume applies to many clips (OUT.h5 or a directory)")
+        check_overwrite(output, force)
+        _compress_one(refs[0], output, pipeline, as_json, timeout)
     else:
-        _compress_many(refs, output, to_archive, pipeline, jobs, as_json)
+        _compress_many(refs, output, pipeline, as_json, jobs=jobs, scheduler=scheduler, send_clips=send_clips,
+                       resume=resume, force=force, timeout=timeout)
 
 
-def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool) -> None:
+def journal_of(output: Path) -> Path:
+    from ..store import journal_path
+
+    return journal_path(output)
+
+
+def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None) -> None:
+    from ..batch import time_limit
     from ..container import write_container
     from ..sources import open_source
 
-    with open_source(ref.path) as src:
-        motion = src.read(ref.clip)
-    progress = None if as_json else CodecProgress(pipeline.codec)
-    result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
+    with time_limit(timeout, f"{ref.source}"):
+        with open_source(ref.path) as src:
+            motion = src.read(ref.clip)
+        progress = None if as_json else CodecProgress(pipeline.codec)
+        result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
     write_container(result.data, output)
     if as_json:
         echo_json(dict(result.as_dict(), input=ref.source, output=str(output)))
@@ -108,42 +160,85 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool) -> None:
             click.echo(line)
 
 
-def _compress_many(refs: list, output: Path, to_archive: bool, pipeline: Any, jobs: int, as_json: bool) -> None:
-    from ..archive import write_archive
-    from ..batch import compress_clips
-    from ..container import write_container
+def _clip_line(o: Any) -> str:
+    s = o.summary
+    if o.failed:
+        return f"{o.name}: FAILED: {s['error']}"
+    if o.skipped:
+        return f"{o.name}: kept (compressed by an earlier run from the same source and setting)"
+    ev, fig = s["evaluation"], s["figures"]
+    return (f"{o.name}: {s['bytes']} bytes, L-inf {ev['max_error']:.4g} ({ev['max_error_percent']:.3g}%), "
+            f"paper ratio {fig['paper_ratio']:.1f}x, {s['outcome']}")
 
-    if not to_archive:
-        output.mkdir(parents=True, exist_ok=True)
 
-    def describe(outcome: Any) -> str:
-        return f"{outcome.name}: " + ("FAILED" if outcome.failed else outcome.summary["outcome"])
+def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jobs: int, scheduler: str | None,
+                   send_clips: bool, resume: bool, force: bool, timeout: float | None) -> None:
+    import contextlib
+    import time
 
-    with BatchProgress(len(refs), f"compressing {len(refs)} clips", describe, quiet=as_json) as bar:
+    from ..batch import compress_clips, dask_executor
+    from ..errors import OutputExistsError
+    from ..sources import listing
+    from ..store import open_store, resume_key
+    from ..totals import BatchTotals, container_summary
+
+    start, cpu = time.monotonic(), time.process_time()
+    store = open_store(output, force=force, resume=resume)
+    names = [r.name for r in refs]
+    if not (force or resume):
+        clash = store.conflicts(names)
+        if clash:
+            raise OutputExistsError(f"already holds {len(clash)} of these clips ({listing(clash)}); use --force "
+                                    "to overwrite them or --resume to keep them and add the rest", output)
+    expect: dict[str, str] = {}
+    kept: dict[str, dict[str, Any]] = {}
+    if resume:
+        existing = store.existing()
+        for ref in refs:
+            container = existing.get(ref.name)
+            key = None if container is None else resume_key(container, pipeline)
+            if key is not None:
+                expect[ref.name] = key
+                kept[ref.name] = container_summary(container, store.sizes[ref.name], ref.source)
+    outcomes: list = []
+    with contextlib.ExitStack() as stack:
+        executor = stack.enter_context(dask_executor(scheduler)) if scheduler else None
+        bar = stack.enter_context(BatchProgress(len(refs), f"compressing {len(refs)} clips", _clip_line,
+                                                quiet=as_json))
+
         def done(outcome: Any) -> None:
-            if not to_archive and not outcome.failed:
-                write_container(outcome.data, output / f"{outcome.name}.mrc")
-            bar.done(outcome)
+            if outcome.status == "done":
+                store.commit(outcome.name, outcome.data)
+            outcomes.append(outcome)
+            bar.done(outcome, failed=outcome.failed, skipped=outcome.skipped)
 
-        outcomes = compress_clips(refs, pipeline, jobs=jobs, on_done=done)
-    good = [o for o in outcomes if not o.failed]
-    if to_archive and good:
-        write_archive([(o.name, o.data) for o in good], output)
+        try:
+            compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
+                           timeout=timeout, send_data=send_clips)
+        except KeyboardInterrupt as exc:
+            store.close()
+            finished = sum(1 for o in outcomes if not o.failed)
+            signum = exc.signum if isinstance(exc, Interrupted) else 2
+            raise Interrupted(signum, f"{finished} of {len(refs)} clips finished and kept in {output}; run the "
+                                      "same command with --resume to compress the rest") from None
+        finally:
+            store.close()
+    order = {n: i for i, n in enumerate(names)}
+    outcomes.sort(key=lambda o: order[o.name])
+    totals = BatchTotals.of(outcomes, kept, wall_seconds=time.monotonic() - start,
+                            client_cpu_seconds=time.process_time() - cpu)
     failed = [o for o in outcomes if o.failed]
     if as_json:
         echo_json({"input": [r.source for r in refs], "output": str(output),
-                   "clips": {o.name: o.summary for o in outcomes}})
+                   "clips": {o.name: dict(o.summary, status=o.status) for o in outcomes},
+                   "totals": totals.as_dict()})
     else:
         for o in outcomes:
-            s = o.summary
-            if o.failed:
-                click.echo(f"{o.name}: FAILED: {s['error']}")
-            else:
-                ev, fig = s["evaluation"], s["figures"]
-                click.echo(f"{o.name}: {s['bytes']} bytes, L-inf {ev['max_error']:.4g} "
-                           f"({ev['max_error_percent']:.3g}%), paper ratio {fig['paper_ratio']:.1f}x, "
-                           f"{s['outcome']}")
-        click.echo(f"wrote {len(good)} of {len(outcomes)} clips to {output}")
+            click.echo(_clip_line(o))
+        stored = len(outcomes) - len(failed)
+        click.echo(f"wrote {stored} of {len(outcomes)} clips to {output}")
+        for line in totals.lines():
+            click.echo(line)
     if failed:
-        raise click.ClickException(f"{len(failed)} of {len(outcomes)} clips failed (first: {failed[0].name}: "
-                                   f"{failed[0].summary['error']})")
+        raise click.ClickException(f"{len(failed)} of {len(outcomes)} clips failed (listed above); the other "
+                                   f"{len(outcomes) - len(failed)} are in {output}")

@@ -1,68 +1,96 @@
-"""``motionrep decompress``: a ``.mrc`` file (or an archive of them) back to motion files.
+"""``motionrep decompress``: compressed clips (``.mrc`` files, archives, directories of them) back to motion files.
 
-Exit codes: 0 on success; 1 for a file problem (malformed or altered file, codec not installed), with one line
-on stderr and no output file; 2 for a usage error.
+Exit codes: 0 on success; 1 for a file problem (malformed or altered file, codec not installed, an output that
+exists without ``--force``), with one line on stderr and no output file; 2 for a usage error; 130 on Ctrl-C.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any, Iterator
 
 import click
 
-from ._common import MOTION_OUT_SUFFIXES, usage_suffix
+from ._common import MOTION_OUT_SUFFIXES, check_overwrite, collect, force_option, usage_suffix
 
 __all__ = ["decompress"]
 
+#: What decompress reads from a directory: .mrc files and archives.
+COMPRESSED_SUFFIXES = (".mrc", ".h5", ".hdf5")
+
+
+def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
+    """``(ref, motion)`` for compressed clips, each file opened once for a run of its clips.
+
+    Raises:
+        FormatError: naming the file, for one that holds motions rather than compressed clips.
+    """
+    from ..compress import decompress as decode
+    from ..errors import FormatError
+    from ..sources import read_refs
+
+    def decoded(src: Any, ref: Any) -> Any:
+        if src.kind not in ("compressed", "archive"):
+            raise FormatError("holds motions, not compressed clips: use 'motionrep convert'", ref.path)
+        return decode(src.container(ref.clip), fps, path=ref.source)
+
+    return read_refs(refs, reader=decoded)
+
 
 @click.command("decompress")
-@click.argument("source", metavar="IN", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("inputs", metavar="IN...", nargs=-1, required=True,
+                type=click.Path(exists=True, path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(path_type=Path),
-              help="OUT.bvh, OUT.npz or OUT.h5 (an archive decompresses to an .h5 database or a directory).")
+              help="OUT.bvh, OUT.npz or OUT.h5 for one clip; for several, OUT.h5 (a motion database) or a "
+                   "directory (one .bvh per clip).")
 @click.option("--fps", type=float, default=None, help="Resample to this frame rate (decoded at the new times).")
 @click.option("--clip", metavar="NAME", help="Only this clip of an archive.")
-def decompress(source: Path, output: Path, fps: float | None, clip: str | None) -> None:
-    """Decode a compressed IN.mrc (or an archive of them) into a motion file.
+@force_option
+def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, force: bool) -> None:
+    """Decode compressed clips IN (.mrc files, archives, or directories of them) into motion files.
+
+    Clips are named as compress named them (a directory's .mrc files by their
+    path relative to it, an archive's by its clip names). One clip goes to
+    OUT.bvh / OUT.npz / OUT.h5; several to OUT.h5 (a database) or the
+    directory OUT/ (one .bvh per clip). An existing output needs --force.
 
     \b
     Examples:
       motionrep decompress walk.mrc -o walk2.bvh
       motionrep decompress walk.mrc -o walk60.bvh --fps 60
       motionrep decompress clips.h5 -o clips_decoded.h5
+      motionrep decompress clips_mrc/ -o clips_decoded/
     """
-    from ..compress import decompress as decode
     from ..compress import write_decoded
-    from ..sources import open_source
 
     if fps is not None and not fps > 0:
         raise click.BadParameter("must be > 0", param_hint="--fps")
-    usage_suffix(source, (".mrc", ".h5", ".hdf5"), "input")
-    with open_source(source) as src:
-        if src.kind not in ("compressed", "archive"):
-            raise click.UsageError(f"input {source} holds motions, not compressed clips: use 'motionrep convert'")
-        names = [src.resolve(clip)] if clip is not None else src.names
-        single = len(names) == 1 and (src.kind == "compressed" or output.suffix.lower() in MOTION_OUT_SUFFIXES)
-        if single:
-            usage_suffix(output, MOTION_OUT_SUFFIXES, "output")
-            motion = decode(src.container(names[0]), fps, path=source)
-            write_decoded(motion, output)
-            which = f" (clip {names[0]})" if src.kind == "archive" else ""
-            click.echo(f"wrote {output}{which}: {motion.num_frames} frames at {motion.fps:g} fps")
-            return
+    for p in inputs:
+        if not p.is_dir():
+            usage_suffix(p, COMPRESSED_SUFFIXES, "input")
+    refs = collect(inputs, clip=clip, exclude=[output], scan=COMPRESSED_SUFFIXES)
+    to_file = output.suffix.lower() in MOTION_OUT_SUFFIXES
+    if len(refs) == 1 and to_file:
+        check_overwrite(output, force)
+        ref, motion = next(decoded_clips(refs, fps))
+        write_decoded(motion, output)
+        which = f" (clip {ref.clip})" if ref.clip is not None else ""
+        click.echo(f"wrote {output}{which}: {motion.num_frames} frames at {motion.fps:g} fps")
+        return
+    if output.suffix.lower() in (".h5", ".hdf5"):
+        from ..io import write_database
 
-        def decoded():
-            for name in names:
-                yield name, decode(src.container(name), fps, path=f"{source}[{name}]")
-
-        if output.suffix.lower() in (".h5", ".hdf5"):
-            from ..io import write_database
-
-            write_database(decoded(), output)
-        elif not output.suffix:
-            output.mkdir(parents=True, exist_ok=True)
-            for name, motion in decoded():
-                write_decoded(motion, output / f"{name}.bvh")
-        else:
-            raise click.UsageError(f"output {output}: an archive of {len(names)} clips decompresses to OUT.h5 or a "
-                                   "directory (or pick one with --clip)")
-    click.echo(f"wrote {len(names)} clips to {output}")
+        check_overwrite(output, force)
+        write_database(((ref.name, motion) for ref, motion in decoded_clips(refs, fps)), output)
+    elif not output.suffix:
+        if output.exists() and not output.is_dir():
+            raise click.UsageError(f"output {output} exists and is not a directory")
+        for ref in refs:
+            check_overwrite(output / f"{ref.name}.bvh", force)
+        output.mkdir(parents=True, exist_ok=True)
+        for ref, motion in decoded_clips(refs, fps):
+            write_decoded(motion, output / f"{ref.name}.bvh")
+    else:
+        raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "
+                               "one with --clip)")
+    click.echo(f"wrote {len(refs)} clips to {output}")

@@ -10,22 +10,23 @@ from pathlib import Path
 
 import click
 
-from ._common import echo_json
+from ._common import collect, echo_json
 
 __all__ = ["evaluate"]
 
 
 @click.command("evaluate")
-@click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.argument("candidate", metavar="CAND", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("reference", metavar="REF", type=click.Path(exists=True, path_type=Path))
+@click.argument("candidate", metavar="CAND", type=click.Path(exists=True, path_type=Path))
 @click.option("--clip", metavar="NAME", help="Compare only this clip of a database or archive.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) -> None:
     """Compare two motion files of one skeleton with the shared L-inf joint-position error.
 
     Either file may be a .mrc, which is decoded first. REF and CAND may also
-    be HDF5 databases or archives of compressed clips (as written by
-    convert and compress): their clips are compared by name, one report per
+    be HDF5 databases, archives of compressed clips, or directories of motion
+    files and .mrc files (as written by convert and compress): their clips are
+    compared by name (clips named as every command names them), one report per
     clip and the worst of them; --clip NAME compares one clip. Each file is
     opened once.
 
@@ -39,20 +40,35 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     Examples:
       motionrep evaluate walk.bvh walk.mrc
       motionrep evaluate db.h5 db_compressed.h5 --json
+      motionrep evaluate clips/ clips_mrc/
     """
-    from ..batch import evaluate_clips
+    from ..batch import evaluate_clips, pair_clips
     from ..errors import ParameterError
-    from ..batch import pair_clips
     from ..sources import open_source
 
-    if clip is not None and not any(p.suffix.lower() in (".h5", ".hdf5") for p in (reference, candidate)):
-        raise click.UsageError("--clip applies to HDF5 databases and archives")
-    with open_source(reference) as ref, open_source(candidate) as cand:
-        try:
-            pairs = pair_clips(ref, cand, clip)
-        except ParameterError as exc:
-            raise click.UsageError(str(exc)) from None
-        reports = evaluate_clips(ref, cand, pairs)
+    if clip is not None and not any(p.suffix.lower() in (".h5", ".hdf5") or p.is_dir()
+                                    for p in (reference, candidate)):
+        raise click.UsageError("--clip applies to HDF5 databases, archives and directories")
+    if reference.is_dir() or candidate.is_dir():
+        from ..batch import evaluate_refs, pair_refs
+        from ..errors import FormatError
+        from ..sources import SOURCE_SUFFIXES, listing
+
+        sides = [collect([p], scan=SOURCE_SUFFIXES) for p in (reference, candidate)]
+        if clip is not None:
+            for i, p in enumerate((reference, candidate)):
+                chosen = [r for r in sides[i] if len(sides[i]) > 1 and clip in (r.name, r.clip)] or sides[i]
+                if len(chosen) > 1:
+                    raise FormatError(f"no clip named {clip!r}; clips: {listing([r.name for r in sides[i]])}", p)
+                sides[i] = chosen
+        reports = evaluate_refs(pair_refs(*sides))
+    else:
+        with open_source(reference) as ref, open_source(candidate) as cand:
+            try:
+                pairs = pair_clips(ref, cand, clip)
+            except ParameterError as exc:
+                raise click.UsageError(str(exc)) from None
+            reports = evaluate_clips(ref, cand, pairs)
     if len(reports) == 1:
         report = reports[0][1]
         if as_json:
