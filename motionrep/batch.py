@@ -5,9 +5,13 @@ two databases), with one worker pool and one thread policy.
 
 * ``jobs=1`` (and no executor): in this process, one item after the other;
 * ``jobs=N``: in ``N`` worker processes (a ``ProcessPoolExecutor`` with the ``spawn`` start method, the same on
-  every platform);
+  every platform, its workers started with Ctrl-C ignored and stopped at once when the run is interrupted);
 * ``executor=``: on any :class:`concurrent.futures.Executor` the caller owns (a Dask cluster's
-  ``Client.get_executor()``, a pool shared by several runs); it is not shut down.
+  ``Client.get_executor()``, :func:`motionrep.executors.dask_executor`; a pool shared by several runs); it is
+  not shut down.
+
+Results come back to the calling process, in completion order, through ``on_done``: the one writer of a batch's
+output (:mod:`motionrep.store`) lives there.
 
 ``work`` and the items must pickle when they run in other processes (``work`` a module-level function).
 
@@ -18,8 +22,8 @@ in ``warm_up`` (``Codec.warm_up``: imports that would otherwise be counted in th
 before its first item.  ``jobs`` workers of one thread each use ``jobs`` cores, and a result never depends on
 how many threads computed it.
 
-:func:`compress_clips` and :func:`evaluate_clips` are the batch jobs of ``motionrep compress`` and ``motionrep
-evaluate``; ``motionrep bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
+:func:`compress_clips` (with ``--resume`` checksums and ``--timeout``) and :func:`evaluate_clips` /
+:func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
 """
 
 from __future__ import annotations
@@ -27,24 +31,19 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import os
-import signal
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Iterator, Sequence, TypeVar
 
 from ._model import Motion
 from .errors import FormatError, MotionrepError, ParameterError
+from .executors import _ignore_interrupts, _process_pool, _stop_pool, dask_executor, time_limit
 from .sources import ClipRef, Source, listing
 
 __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
            "pair_refs", "evaluate_clips", "evaluate_refs",
-           "THREAD_VARIABLES", "SCHEDULER_VARIABLE", "dask_executor", "time_limit"]
+           "THREAD_VARIABLES", "dask_executor", "time_limit"]
 
-#: Environment variable naming a Dask scheduler (``tcp://host:8786``) when ``--scheduler`` is not given.
-SCHEDULER_VARIABLE = "MOTIONREP_SCHEDULER"
-#: How long the client tries to reach a Dask scheduler.
-CONNECT_TIMEOUT = "20s"
 
 _Item = TypeVar("_Item")
 _Result = TypeVar("_Result")
@@ -53,12 +52,6 @@ _Result = TypeVar("_Result")
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 _WORKER: dict[str, Any] = {"pid": None, "warmed": set(), "limits": None}
-
-
-def _ignore_interrupts() -> None:
-    """Worker processes leave Ctrl-C to the parent (which stops them): no worker prints a traceback."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _prepare_worker(parent: int, warm_up: tuple[str, ...]) -> None:
@@ -189,66 +182,6 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
     return [results[i] for i in range(len(results))]
 
 
-@contextlib.contextmanager
-def _process_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
-    """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
-    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback)."""
-    import multiprocessing
-
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_ignore_interrupts)
-    try:
-        main = threading.current_thread() is threading.main_thread()
-        saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-        try:
-            for f in [pool.submit(os.getpid) for _ in range(workers)]:  # one submission starts one worker
-                f.cancel()
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, saved)
-        yield pool
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
-    """Stop a pool's workers now (an interrupted run must not wait for the clips in progress)."""
-    processes = list(getattr(pool, "_processes", {}).values())  # no public way to stop running tasks
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in processes:
-        with contextlib.suppress(Exception):
-            p.terminate()
-    for p in processes:
-        with contextlib.suppress(Exception):
-            p.join(5)
-
-
-@contextlib.contextmanager
-def dask_executor(scheduler: Any) -> Iterator[cf.Executor]:
-    """A ``concurrent.futures`` executor on a Dask distributed cluster (``Client.get_executor``), closed at the end.
-
-    Args:
-        scheduler: the scheduler's address (``tcp://host:8786``), or a ``distributed`` cluster object (such as
-            a ``LocalCluster``).
-
-    Raises:
-        ParameterError: when ``dask[distributed]`` is not installed, or the scheduler cannot be reached.
-    """
-    try:
-        from distributed import Client
-    except ImportError:
-        raise ParameterError("a Dask scheduler needs dask[distributed]: pip install 'motionrep[dask]'") from None
-    try:
-        client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
-    except (OSError, TimeoutError) as exc:
-        raise ParameterError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
-    try:
-        yield client.get_executor(pure=False)
-    finally:
-        with contextlib.suppress(Exception):
-            client.close(timeout=10)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # reading clips in workers
 # ---------------------------------------------------------------------------------------------------------------
@@ -317,51 +250,6 @@ class ClipJob:
     expect: str | None = None
     timeout: float | None = None
     data: bytes | None = field(default=None, repr=False)
-
-
-class _TimeUp(BaseException):
-    """Raised asynchronously in the thread that exceeded its time limit (a BaseException, so that no codec's
-    ``except Exception`` swallows it)."""
-
-
-@contextlib.contextmanager
-def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
-    """Raise :class:`~motionrep.errors.TimeLimitError` in this thread when the block runs longer than ``seconds``.
-
-    The exception is raised asynchronously in the running thread (``PyThreadState_SetAsyncExc``), so it works in
-    a worker process's main thread and in a Dask worker's task threads alike; like a signal, it is seen at the
-    next Python instruction (a long call into BLAS ends first).
-    """
-    if not seconds:
-        yield
-        return
-    import ctypes
-
-    from .errors import TimeLimitError
-
-    lock = threading.Lock()
-    state = {"done": False, "fired": False}
-    target = threading.get_ident()
-
-    def fire() -> None:
-        with lock:
-            if not state["done"]:
-                state["fired"] = True
-                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), ctypes.py_object(_TimeUp))
-
-    timer = threading.Timer(seconds, fire)
-    timer.daemon = True
-    try:
-        try:
-            timer.start()
-            yield
-        finally:
-            with lock:
-                state["done"] = True
-            timer.cancel()
-    except _TimeUp:
-        raise TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (--timeout)",
-                             seconds) from None
 
 
 def _read_job(job: ClipJob) -> tuple[Motion, str]:

@@ -15,7 +15,7 @@ finishes and :meth:`ClipStore.close` at the end, however the run ends (finished,
   reads it, ``--force`` discards it.
 
 Resume: every container ``motionrep compress`` writes records the SHA-256 of the clip's source
-(``extra.source_sha256``, see :func:`motionrep.sources.ClipRef.checksum`) next to the codec, its version and
+(``extra.source_sha256``, see :func:`motionrep.checksum.clip_checksum`) next to the codec, its version and
 parameters, the representation and its version, the bound and the seed.  :func:`resume_key` gives the stored
 checksum of a container written with the same setting as a pipeline (None otherwise); a worker skips the clip
 when its source still has that checksum.

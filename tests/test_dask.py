@@ -86,7 +86,7 @@ def test_the_cluster_runs_a_batch(cluster, tmp_path):
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
-    monkeypatch.setattr("motionrep.batch.CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr("motionrep.executors.CONNECT_TIMEOUT", "1s")
     src, _ = _inputs(tmp_path)
     r = run("compress", src, "-o", tmp_path / "out.h5", "--codec", "svd", "--scheduler", "tcp://127.0.0.1:9")
     assert r.exit_code == 1 and "cannot reach the Dask scheduler tcp://127.0.0.1:9" in r.output

@@ -1,0 +1,136 @@
+"""Where batch work runs, and for how long: the embedded local process pool, a Dask distributed cluster, and a
+time limit for one item (:mod:`motionrep.batch` runs its work through these).
+
+* :func:`_process_pool`: ``jobs`` spawned worker processes that start with Ctrl-C ignored (the parent stops them,
+  :func:`_stop_pool`, so no worker prints a traceback);
+* :func:`dask_executor`: a ``concurrent.futures`` executor on a Dask cluster (``Client.get_executor``), for
+  ``--scheduler ADDRESS`` or ``MOTIONREP_SCHEDULER``; ``dask[distributed]`` is the optional extra ``dask``;
+* :func:`time_limit`: ``--timeout``, raised in the thread doing the work, in any process.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import os
+import signal
+import threading
+from typing import Any, Iterator
+
+from .errors import ParameterError, TimeLimitError
+
+__all__ = ["dask_executor", "time_limit", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT"]
+
+#: Environment variable naming a Dask scheduler (``tcp://host:8786``) when ``--scheduler`` is not given.
+SCHEDULER_VARIABLE = "MOTIONREP_SCHEDULER"
+#: How long the client tries to reach a Dask scheduler.
+CONNECT_TIMEOUT = "20s"
+
+
+def _ignore_interrupts() -> None:
+    """Worker processes leave Ctrl-C to the parent (which stops them): no worker prints a traceback."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _process_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
+    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback)."""
+    import multiprocessing
+
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=_ignore_interrupts)
+    try:
+        main = threading.current_thread() is threading.main_thread()
+        saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            for f in [pool.submit(os.getpid) for _ in range(workers)]:  # one submission starts one worker
+                f.cancel()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, saved)
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a pool's workers now (an interrupted run must not wait for the clips in progress)."""
+    processes = list(getattr(pool, "_processes", {}).values())  # no public way to stop running tasks
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(5)
+
+
+@contextlib.contextmanager
+def dask_executor(scheduler: Any) -> Iterator[cf.Executor]:
+    """A ``concurrent.futures`` executor on a Dask distributed cluster (``Client.get_executor``), closed at the end.
+
+    Args:
+        scheduler: the scheduler's address (``tcp://host:8786``), or a ``distributed`` cluster object (such as
+            a ``LocalCluster``).
+
+    Raises:
+        ParameterError: when ``dask[distributed]`` is not installed, or the scheduler cannot be reached.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ParameterError("a Dask scheduler needs dask[distributed]: pip install 'motionrep[dask]'") from None
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise ParameterError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+    try:
+        yield client.get_executor(pure=False)
+    finally:
+        with contextlib.suppress(Exception):
+            client.close(timeout=10)
+
+
+class _TimeUp(BaseException):
+    """Raised asynchronously in the thread that exceeded its time limit (a BaseException, so that no codec's
+    ``except Exception`` swallows it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
+    """Raise :class:`~motionrep.errors.TimeLimitError` in this thread when the block runs longer than ``seconds``.
+
+    The exception is raised asynchronously in the running thread (``PyThreadState_SetAsyncExc``), so it works in
+    a worker process's main thread and in a Dask worker's task threads alike; like a signal, it is seen at the
+    next Python instruction (a long call into BLAS ends first).
+    """
+    if not seconds:
+        yield
+        return
+    import ctypes
+
+    lock = threading.Lock()
+    state = {"done": False, "fired": False}
+    target = threading.get_ident()
+
+    def fire() -> None:
+        with lock:
+            if not state["done"]:
+                state["fired"] = True
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), ctypes.py_object(_TimeUp))
+
+    timer = threading.Timer(seconds, fire)
+    timer.daemon = True
+    try:
+        try:
+            timer.start()
+            yield
+        finally:
+            with lock:
+                state["done"] = True
+            timer.cancel()
+    except _TimeUp:
+        raise TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (--timeout)",
+                             seconds) from None
