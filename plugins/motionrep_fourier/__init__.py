@@ -4,7 +4,7 @@
   principal component, the network grown with a warm start;
 * ``naive-fourier``: the §4.1 baseline, frequencies ``1, 2, ..., K`` cycles over the clip.
 
-Training uses torch (imported inside ``encode`` only); decoding is numpy.  See ``specs/codecs.md``.
+Training is numpy (imported inside ``encode`` only, one BLAS thread); decoding is numpy.  See ``specs/codecs.md``.
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal, Mapping
+from typing import Any, Callable, Literal, Mapping, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -11,13 +12,24 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 
-from ._network import Network, network_forward
-from ._windows import Windows, join_windows, local_times, window_edges
+from ._network import Network
+from ._windows import Windows, join_windows, window_edges
+from ._workers import Runner, Task, WindowJob, worker_count
 
-__all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec", "MIN_SPLIT"]
+__all__ = ["FourierParams", "AdaptiveFourierCodec", "NaiveFourierCodec", "MIN_SPLIT", "AUTO_WINDOW",
+           "AUTO_LONGEST", "AUTO_MAX_K"]
 
 #: A window that misses the bound is split in two while it spans at least twice this many frame steps.
 MIN_SPLIT = 8
+#: ``window`` unset: a clip of up to ``2 AUTO_LONGEST`` frame steps is coded as one window, a longer one in
+#: windows of at most ``AUTO_LONGEST`` steps...
+AUTO_LONGEST = 250
+#: ... each with at most ``AUTO_MAX_K`` frequencies while it is longer than ``AUTO_WINDOW`` steps (a window
+#: that needs more is split in two; one of up to ``AUTO_WINDOW`` steps may use up to ``max_k``).
+AUTO_MAX_K = 10
+AUTO_WINDOW = 125
+
+_SVD_HINT = "or use --codec svd (it meets any bound)"
 
 
 @dataclass(frozen=True)
@@ -34,10 +46,15 @@ class FourierParams:
         "help": "most L-BFGS iterations per stage (per K)"})
     tol: float = field(default=0.01, metadata={
         "help": "a stage ends when the loss improved by less than this fraction over the last 100 iterations"})
-    window: int = field(default=0, metadata={
-        "help": "0: one network for the whole clip (the paper's Algorithm 1); N >= 8: the clip is cut into "
-                "windows of about N frames (neighbours share a frame), each coded by its own network and "
-                "frequencies within the same bound; a window that misses it is split in two (payload version 2)"})
+    window: int | None = field(default=None, metadata={
+        "help": "none: chosen by measurement (a clip of up to 500 frames whole, a longer one in windows of "
+                "about 250; a window that needs more than 10 frequencies is split in two, down to 125 frames); "
+                "0: one network for the whole clip (the paper's Algorithm 1); N >= 8: windows of about N frames "
+                "(neighbours share a frame), each coded by its own network and frequencies within the same bound; "
+                "a window that misses it is split in two (payload version 2)"})
+    jobs: int = field(default=0, metadata={
+        "help": "processes that code windows side by side (the result is the same for any number); 0: one per "
+                "CPU this process may use (1 inside a worker of motionrep compress --jobs)"})
 
     def __post_init__(self) -> None:
         if self.k is not None and (not isinstance(self.k, int) or self.k < 0):
@@ -50,8 +67,12 @@ class FourierParams:
             raise ParameterError(f"fourier: iters must be an integer >= 25, got {self.iters!r}")
         if not (0.0 <= self.tol < 1.0):
             raise ParameterError(f"fourier: tol must be in [0, 1), got {self.tol!r}")
-        if not isinstance(self.window, int) or not (self.window == 0 or self.window >= 8):
-            raise ParameterError(f"fourier: window must be 0 (whole clip) or an integer >= 8, got {self.window!r}")
+        if self.window is not None and (not isinstance(self.window, int) or not (self.window == 0
+                                                                                 or self.window >= 8)):
+            raise ParameterError(f"fourier: window must be none (chosen by measurement), 0 (whole clip) or an "
+                                 f"integer >= 8, got {self.window!r}")
+        if not isinstance(self.jobs, int) or not 0 <= self.jobs <= 256:
+            raise ParameterError(f"fourier: jobs must be an integer in [0, 256], got {self.jobs!r}")
 
 
 class _FourierCodec(Codec):
@@ -67,34 +88,34 @@ class _FourierCodec(Codec):
         params: FourierParams = context.params
         if params.k is None and context.bound is None:
             raise ParameterError(f"{self.name}: give k=K when there is no error bound (--max-error none)")
-        from ._train import fit  # torch is imported here, never when decoding
+        from ._train import fit  # the training code is imported here, never when decoding
 
-        edges = window_edges(features.shape[0], params.window)
-        if edges.size <= 2:
-            return fit(features, weights, context, schedule=self.schedule, name=self.name)
-        return self._encode_windows(features, weights, context, edges, fit)
-
-    def _encode_windows(self, features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext,
-                        edges: NDArray[np.int64], fit: Callable[..., Payload]) -> Payload:
-        """Each window in turn; a window that cannot meet the bound is split at its middle frame and its halves
-        are coded instead, down to :data:`MIN_SPLIT` frame steps (below that its error is final)."""
-        todo = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
-        done: list[tuple[int, int, Payload]] = []
-        while todo:
-            first, last = todo.pop(0)
-            where = f"{self.name} (window of frames {first}-{last})"
-            sub = _WindowContext(context, features, first, last)
+        if params.window == 0:  # the paper's Algorithm 1: one network
             try:
-                done.append((first, last, fit(features[first:last + 1], weights, sub, schedule=self.schedule,
-                                              name=where)))
+                return fit(features, weights, context, schedule=self.schedule, name=self.name)
             except BoundNotMetError as exc:
-                if last - first < 2 * MIN_SPLIT:
+                if params.k is not None:
                     raise
-                middle = (first + last) // 2
-                context.progress("split", window=f"{first}-{last}", best_error=exc.best_error)
-                todo[0:0] = [(first, middle), (middle, last)]
-        joined = np.array([first for first, _, _ in done] + [done[-1][1]], dtype=np.int64)
-        return join_windows([payload for _, _, payload in done], joined)
+                raise BoundNotMetError(f"{exc}; raise max_k, or code the clip in windows (leave window unset to "
+                                       f"let the codec choose, or -p window={AUTO_WINDOW}), {_SVD_HINT}",
+                                       exc.best_error, exc.bound) from None
+        if params.window is None:  # chosen by measurement: long windows where few frequencies do, else halves
+            steps = features.shape[0] - 1
+            edges = window_edges(features.shape[0], steps if steps <= 2 * AUTO_LONGEST else AUTO_LONGEST)
+
+            def max_k(first: int, last: int) -> int:
+                return min(params.max_k, AUTO_MAX_K) if last - first > AUTO_WINDOW else params.max_k
+        else:
+            edges = window_edges(features.shape[0], params.window)
+
+            def max_k(first: int, last: int) -> int:
+                return params.max_k
+        plan = _Plan(self, features, weights, context, fit, max_k)
+        pieces = plan.code([(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])])
+        if len(pieces) == 1:
+            return pieces[0].payload
+        edges = np.array([p.first for p in pieces] + [pieces[-1].last], dtype=np.int64)
+        return join_windows([p.payload for p in pieces], edges)
 
     def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
         """``K=5`` (with ``detail``: the frequencies and hidden width); in windows ``3 windows, K=4-6`` (with
@@ -115,12 +136,9 @@ class _FourierCodec(Codec):
         return f"K={K}, omega=[{omega}] cycles/clip, hidden {info.get('hidden')}"
 
     def warm_up(self) -> None:
-        """Import torch and the adaptive codec's scipy modules: 3-6 s on the first encode of a process, which
-        would otherwise be counted in the encode time of whichever clip comes first."""
-        import scipy.fft  # noqa: F401  (the adaptive codec's DCT and line search)
-        import scipy.optimize  # noqa: F401
-
-        from . import _train  # noqa: F401  (imports torch)
+        """Import the training code and the scipy and threadpoolctl modules it uses, so that the first encode of
+        a process is not charged for them."""
+        from . import _train  # noqa: F401  (scipy.fft, scipy.linalg.lapack, threadpoolctl)
 
     def decoder(self, payload: Payload) -> Network | Windows:
         """The payload's network (or windows of networks), converted once; decodes in float32."""
@@ -132,31 +150,54 @@ class _FourierCodec(Codec):
         return self.decoder(payload)(times).astype(np.float64)
 
 
-class _WindowContext:
-    """The :class:`~motionrep.codec.EncodeContext` of one window: its frames' local times, and the shared
-    evaluation of a candidate on the window's frames (``context.evaluate_frames``; frames are measured
-    independently, so this is the error they have in the whole clip), or, from a context without it, on the
-    whole clip with every other frame exact."""
+class _Piece(NamedTuple):
+    """A coded window: frames ``first .. last`` and their payload."""
 
-    def __init__(self, context: EncodeContext, features: NDArray[np.float64], first: int, last: int):
-        self._context, self._features, self._first, self._last = context, features, first, last
-        self.params, self.bound, self.seed = context.params, context.bound, context.seed
-        times = np.asarray(context.times, np.float64)[first:last + 1]
-        self.times = local_times(times, features.shape[0], first, last)
+    first: int
+    last: int
+    payload: Payload
 
-    def evaluate(self, features: ArrayLike) -> Any:
-        measure = getattr(self._context, "evaluate_frames", None)
-        if measure is not None:  # only this window's frames
-            return measure(np.asarray(features, np.float64), self._first)
-        full = self._features.copy()
-        full[self._first:self._last + 1] = features
-        return self._context.evaluate(full)
 
-    def evaluate_payload(self, payload: Payload) -> Any:
-        return self.evaluate(network_forward(payload.arrays, self.times))
+class _Plan:
+    """Codes a clip in windows, in worker processes; a window that misses the bound is split in two."""
 
-    def progress(self, stage: str, **fields: Any) -> None:
-        self._context.progress(stage, window=f"{self._first}-{self._last}", **fields)
+    def __init__(self, codec: _FourierCodec, features: NDArray[np.float64], weights: NDArray[np.float64],
+                 context: EncodeContext, fit: Callable[..., Payload], max_k: Callable[[int, int], int]):
+        self.codec, self.features, self.weights, self.context, self.fit = codec, features, weights, context, fit
+        self.max_k = max_k
+
+    def task(self, first: int, last: int) -> Task:
+        return Task(first, last, self.max_k(first, last))
+
+    def code(self, spans: list[tuple[int, int]]) -> list[_Piece]:
+        """Each window coded; one that cannot meet the bound is split at its middle frame and its halves are
+        coded instead, down to :data:`MIN_SPLIT` frame steps (below that its error is final and the earliest
+        such window is raised, once every window before it is coded or failed too, so that it is the same
+        window for any number of processes).  Returns the coded windows in order."""
+        done: dict[int, _Piece] = {}
+        final: dict[int, BoundNotMetError] = {}
+        jobs = worker_count(self.context.params.jobs, len(spans))
+        run = Runner(WindowJob(self.codec.name, self.codec.schedule, self.features, self.weights, self.context,
+                               self.fit, quiet=jobs > 1), jobs)
+        with contextlib.closing(run([self.task(a, b) for a, b in spans])) as outcomes:
+            for task, outcome in outcomes:
+                first, last = task.first, task.last
+                if isinstance(outcome.result, Payload):
+                    done[first] = _Piece(first, last, outcome.result)
+                    self.context.progress("window", window=f"{first}-{last}", K=outcome.result.info["K"],
+                                          windows_done=len(done))
+                elif last - first < 2 * MIN_SPLIT:
+                    final[first] = outcome.result
+                    run.drop_from(first)  # the encoding fails: only earlier windows are still coded
+                else:
+                    middle = (first + last) // 2
+                    self.context.progress("split", window=f"{first}-{last}", best_error=outcome.result.best_error)
+                    run.submit([self.task(first, middle), self.task(middle, last)])
+        if final:
+            exc = final[min(final)]
+            raise BoundNotMetError(f"{exc}; raise max_k or the bound, {_SVD_HINT}", exc.best_error,
+                                   exc.bound) from None
+        return [done[first] for first in sorted(done)]
 
 
 class AdaptiveFourierCodec(_FourierCodec):
@@ -169,7 +210,7 @@ class AdaptiveFourierCodec(_FourierCodec):
 
     Payload (format version 2; version 1 is read too): ``omega (K,)`` float32 (cycles over the clip, multiples
     of 1/2), ``W0 (h, 2K+1)``, ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)``
-    float32; with ``window=N``, one such network per window of about ``N`` frames, in the layout of
+    float32; in windows (``window`` unset or ``N``), one such network per window, in the layout of
     :func:`motionrep_fourier._windows.join_windows` (``specs/codecs.md``).
     """
 

@@ -1,4 +1,4 @@
-"""Training of the Fourier-feature network with torch (CPU, full batch, float32, deterministic for a seed).
+"""Training of the Fourier-feature network with numpy (CPU, full batch, float32, one BLAS thread, deterministic for a seed).
 
 Only ``_FourierCodec.encode`` imports this module.
 
@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import scipy.fft
-import torch
-from scipy.linalg.lapack import dtrtrs
+from threadpoolctl import threadpool_limits
+from scipy.linalg.lapack import dpotrf, dpotrs, dtrtrs
 from numpy.typing import NDArray
 
 from motionrep.codec import EncodeContext, Payload
@@ -48,20 +48,50 @@ LossAndGrad = Callable[[NDArray[np.float64]], "tuple[float, NDArray[np.float64]]
 
 
 @contextlib.contextmanager
-def _torch_settings(threads: int = 1) -> Iterator[None]:
-    """A fixed number of intra-op threads while training (the result must not depend on the machine's load);
-    restored afterwards.
-
-    ``torch.use_deterministic_algorithms`` is not needed: on the CPU, with a fixed thread count, the dense
-    products and reductions used here give the same bits on every run (and enabling it imports
-    ``torch._dynamo``, seconds per process).
-    """
-    old = torch.get_num_threads()
-    torch.set_num_threads(threads)
-    try:
+def _one_blas_thread() -> Iterator[None]:
+    """One BLAS thread while training (restored afterwards): the result must not depend on the machine's load or
+    core count, and at these matrix sizes a second thread costs more in waiting than it gains (OpenBLAS's idle
+    threads spin)."""
+    with threadpool_limits(limits=1, user_api="blas"):
         yield
-    finally:
-        torch.set_num_threads(old)
+
+
+def _elu_slope_(z: NDArray[np.float32], slope: NDArray[np.float32]) -> None:
+    """ELU (alpha 1) of ``z`` in place, and its slope into ``slope``: ``exp(min(z, 0))`` is the slope, and
+    ``max(z, 0) + slope - 1`` the value (``exp`` has vectorised float32 loops where ``expm1`` may not; the
+    cancellation near 0 is below float32 resolution of values of order 1)."""
+    np.minimum(z, 0.0, out=slope)
+    np.exp(slope, out=slope)
+    np.maximum(z, 0.0, out=z)
+    z += slope
+    z -= 1.0
+
+
+#: Ridge weight of the output layer's least-squares fit, per unit of the mean squared error: the loss is
+#: ``mean((net - target)^2) + RIDGE * |W2|^2``.  It keeps the fit unique when hidden units are (nearly) collinear
+#: and the weights small enough for float16 and quantised storage, at a cost far below the errors that matter.
+RIDGE = 1e-9
+
+
+def _solve_output(a1T: NDArray[np.float32], targetT: NDArray[np.float32], count: int,
+                  out: NDArray[np.float32]) -> float:
+    """``out (d, h + 1) = [W2 | b2]`` minimising ``|[W2 | b2] a1T - target^T|^2 / count + RIDGE |W2|^2`` for
+    activations ``a1T (h + 1, N)`` (last row ones); returns the ridge term.  Normal equations in float64 (the
+    right-hand side accumulated in the network's precision), Cholesky through LAPACK directly (the bias is not
+    penalised; a singular system falls back to lstsq)."""
+    a = a1T.astype(np.float64)
+    G = a @ a.T
+    h = G.shape[0] - 1
+    G.flat[:h * (h + 2):h + 2] += RIDGE * count
+    B = (targetT @ a1T.T).astype(np.float64)  # (d, h + 1): solve G X = B^T, i.e. X^T = B G^-1 (G symmetric)
+    factor, info = dpotrf(G, lower=1, clean=0, overwrite_a=1)
+    if info == 0:
+        solution, info = dpotrs(factor, B.T, lower=1)
+    if info != 0:
+        solution = np.linalg.lstsq(a @ a.T, B.T, rcond=None)[0]
+    out[:] = solution.T
+    W2 = out[:, :h]
+    return float(RIDGE * np.vdot(W2, W2))
 
 
 class _Net:
@@ -72,11 +102,11 @@ class _Net:
     one matrix product each; :meth:`views` gives the six arrays of eq. 2.
     """
 
-    def __init__(self, inputs: int, hidden: int, width: int, theta: torch.Tensor):
-        self.inputs, self.hidden, self.width = inputs, hidden, width
-        self.theta = theta
-        self._x = torch.empty_like(theta)  # evaluation point and gradient buffers with fixed views
-        self._g = torch.empty_like(theta)
+    def __init__(self, inputs: int, hidden: int, width: int, theta: NDArray[np.float32], dtype: type = np.float32):
+        self.inputs, self.hidden, self.width, self.dtype = inputs, hidden, width, dtype
+        self.theta = np.ascontiguousarray(theta, dtype=dtype)
+        self._x = np.empty_like(self.theta)  # evaluation point and gradient buffers with fixed views
+        self._g = np.empty_like(self.theta)
         self._x_layers = self.layers(self._x)
         self._g_layers = self.layers(self._g)
         self._batch: tuple | None = None
@@ -86,71 +116,97 @@ class _Net:
         """Shapes of the three layer matrices ``[W | b]``."""
         return [(h, i + 1), (h, h + 1), (d, h + 1)]
 
-    def layers(self, theta: torch.Tensor | None = None) -> list[torch.Tensor]:
+    def layers(self, theta: NDArray[np.float32] | None = None) -> list[NDArray[np.float32]]:
         """The layer matrices ``A0, A1, A2`` (views of ``theta``)."""
         theta = self.theta if theta is None else theta
         out, off = [], 0
         for shape in self.shapes(self.inputs, self.hidden, self.width):
             n = math.prod(shape)
-            out.append(theta[off:off + n].view(shape))
+            out.append(theta[off:off + n].reshape(shape))
             off += n
         return out
 
-    def views(self, theta: torch.Tensor | None = None) -> list[torch.Tensor]:
+    def views(self, theta: NDArray[np.float32] | None = None) -> list[NDArray[np.float32]]:
         """``W0 (h, i), b0 (h,), W1 (h, h), b1 (h,), W2 (d, h), b2 (d,)`` (views of ``theta``)."""
         out = []
         for A in self.layers(theta):
             out += [A[:, :-1], A[:, -1]]
         return out
 
-    def _buffers(self, x: torch.Tensor, target: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        """Feature-major inputs and activations with a last row of ones (the bias input), and ``-target^T``;
-        made once per ``(x, target)`` pair (once per stage)."""
+    @property
+    def nonlinear_size(self) -> int:
+        """Length of the first two layers' part of the parameter vector (what the optimiser moves)."""
+        return self.hidden * (self.inputs + 1) + self.hidden * (self.hidden + 1)
+
+    def _buffers(self, x: NDArray[np.float32], target: NDArray[np.float32]) -> tuple[NDArray, ...]:
+        """Feature-major inputs and activations with a last row of ones (the bias input), ``target^T``, and
+        scratch arrays; made once per ``(x, target)`` pair (once per stage)."""
         if self._batch is None or self._batch[0] is not x or self._batch[1] is not target:
-            N = x.shape[0]
-            xT = torch.ones(self.inputs + 1, N)
+            N, h = x.shape[0], self.hidden
+            dtype = self.dtype
+            xT = np.ones((self.inputs + 1, N), dtype)
             xT[:-1] = x.T
-            a0T = torch.ones(self.hidden + 1, N)
-            a1T = torch.ones(self.hidden + 1, N)
-            self._batch = (x, target, xT, a0T, a1T, -target.T.contiguous())
+            a0T = np.ones((h + 1, N), dtype)
+            a1T = np.ones((h + 1, N), dtype)
+            scratch = [np.empty((h, N), dtype) for _ in range(3)]
+            rT = np.empty((self.width, N), dtype)
+            targetT = np.ascontiguousarray(target.T, dtype=dtype)
+            self._batch = (x, target, xT, a0T, a1T, targetT, rT, *scratch)
         return self._batch[2:]
 
-    def loss_and_grad(self, x: torch.Tensor, target: torch.Tensor,
+    def loss_and_grad(self, x: NDArray[np.float32], target: NDArray[np.float32],
                       theta: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
-        """Mean squared error of the network on ``(x (N, i), target (N, d))`` and its gradient with respect to
-        ``theta``.
+        """The training loss as a function of the first two layers alone, and its gradient (variable
+        projection).
 
-        Backpropagation written out for this fixed three-layer network (autograd's per-call overhead is larger than
-        the whole computation at these sizes), on feature-major activations ``(h + 1, N)`` whose last row is ones
-        so that each layer's product includes its bias: 13 torch calls in all.  ``tests/test_codecs.py`` checks it
-        against autograd.
+        ``theta`` holds ``A0`` and ``A1`` (:attr:`nonlinear_size` values); the output layer ``A2`` is linear in
+        the network's output, so for each ``theta`` it is solved for exactly: the ridge least-squares fit of
+        ``target`` on the second layer's activations (:func:`_solve_output`), written into the evaluation
+        buffer (:meth:`weights_at` reads it back).  The loss is the mean squared error of that network on
+        ``(x (N, i), target (N, d))`` plus the ridge term; because ``A2`` minimises it, its gradient with
+        respect to ``theta`` is the partial gradient at the solved ``A2`` (Golub and Pereyra 1973), computed by
+        backpropagation written out for this fixed network, on feature-major activations ``(h + 1, N)`` whose
+        last row is ones so that each layer's product includes its bias.  float32, except the ``(h + 1)^2``
+        normal equations (float64).  ``tests/test_codecs.py`` checks it against central differences.
         """
-        xT, a0T, a1T, minus_targetT = self._buffers(x, target)
-        h = self.hidden
-        # no tensor here requires grad, so torch records nothing for autograd (no torch.no_grad() needed)
-        self._x.copy_(torch.from_numpy(theta))
+        xT, a0T, a1T, targetT, rT, slope0, slope1, back = self._buffers(x, target)
+        h, n0 = self.hidden, self.nonlinear_size
+        self._x[:n0] = theta
         A0, A1, A2 = self._x_layers
-        gA0, gA1, gA2 = self._g_layers
-        a0 = torch.nn.functional.elu_(torch.mm(A0, xT, out=a0T[:h]))
-        a1 = torch.nn.functional.elu_(torch.mm(A1, a0T, out=a1T[:h]))
-        rT = torch.addmm(minus_targetT, A2, a1T)  # (d, N): network minus target
-        count = rT.numel()
-        flat = rT.view(-1)
-        loss = torch.vdot(flat, flat).item() / count
+        gA0, gA1, _ = self._g_layers
+        a0 = np.matmul(A0, xT, out=a0T[:h])
+        _elu_slope_(a0, slope0)
+        a1 = np.matmul(A1, a0T, out=a1T[:h])
+        _elu_slope_(a1, slope1)
+        count = rT.size
+        penalty = _solve_output(a1T, targetT, count, out=A2)
+        np.matmul(A2, a1T, out=rT)  # (d, N): network minus target
+        rT -= targetT
+        flat = rT.reshape(-1)
+        loss = float(np.dot(flat, flat)) / count + penalty
         rT *= 2.0 / count
-        torch.mm(rT, a1T.T, out=gA2)
-        # elu_backward with is_result=True: the gradient times ELU's slope, computed from ELU's output
-        g1 = torch.ops.aten.elu_backward(torch.mm(A2[:, :h].T, rT), 1.0, 1, 1, True, a1)
-        torch.mm(g1, a0T.T, out=gA1)
-        g0 = torch.ops.aten.elu_backward(torch.mm(A1[:, :h].T, g1), 1.0, 1, 1, True, a0)
-        torch.mm(g0, xT.T, out=gA0)
-        return loss, self._g.numpy().astype(np.float64)
+        g1 = np.matmul(A2[:, :h].T, rT, out=back)
+        g1 *= slope1
+        np.matmul(g1, a0T.T, out=gA1)
+        g0 = np.matmul(A1[:, :h].T, g1, out=slope1)  # slope1 is no longer needed
+        g0 *= slope0
+        np.matmul(g0, xT.T, out=gA0)
+        return loss, self._g[:n0].astype(np.float64)
 
-    def forward(self, x: torch.Tensor, theta: torch.Tensor | None = None) -> torch.Tensor:
+    def weights_at(self, x: NDArray[np.float32], target: NDArray[np.float32],
+                   theta: NDArray[np.float64]) -> NDArray[np.float32]:
+        """The full parameter vector for first-two-layer parameters ``theta``: those, and the solved output layer."""
+        self.loss_and_grad(x, target, theta)
+        return self._x.copy()
+
+    def forward(self, x: NDArray[np.float32], theta: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
+        """``(N, d)`` outputs at inputs ``x (N, i)`` (float32; for tests and checks)."""
         W0, b0, W1, b1, W2, b2 = self.views(theta)
-        a = torch.nn.functional.elu(torch.addmm(b0, x, W0.T))
-        a = torch.nn.functional.elu(torch.addmm(b1, a, W1.T))
-        return torch.addmm(b2, a, W2.T)
+        a = np.asarray(x, self.dtype) @ W0.T + b0
+        a = np.where(a > 0, a, np.expm1(np.minimum(a, 0)))
+        a = a @ W1.T + b1
+        a = np.where(a > 0, a, np.expm1(np.minimum(a, 0)))
+        return a @ W2.T + b2
 
 
 # -----------------------------------------------------------------------------------------------------------------
@@ -179,7 +235,7 @@ def _cubic_min(t1: float, f1: float, d1: float, t2: float, f2: float, d2: float,
 class _LBFGS:
     """Limited-memory BFGS with a strong-Wolfe line search, on a float64 numpy vector.
 
-    ``fg(x)`` returns the loss and its gradient (the network itself runs in torch, float32).  The direction uses
+    ``fg(x)`` returns the loss and its gradient (the network itself runs in float32).  The direction uses
     the compact representation of the inverse-Hessian approximation (Byrd, Nocedal and Schnabel 1994): the
     memory is one ``(2 m, n)`` array of the last ``m`` steps ``s`` and gradient changes ``y``, so a direction
     costs two matrix-vector products and a few ``m x m`` solves instead of ``4 m`` vector operations.  It is the
@@ -341,27 +397,27 @@ class _LBFGS:
 # -----------------------------------------------------------------------------------------------------------------
 # network construction and growth
 # -----------------------------------------------------------------------------------------------------------------
-def _uniform(gen: torch.Generator, shape: tuple[int, ...], fan_in: int) -> torch.Tensor:
+def _uniform(gen: np.random.Generator, shape: tuple[int, ...], fan_in: int) -> NDArray[np.float32]:
     bound = 1.0 / math.sqrt(fan_in)
-    return (torch.rand(shape, generator=gen, dtype=torch.float32) * 2.0 - 1.0) * bound
+    return ((gen.random(shape, dtype=np.float32) * 2.0 - 1.0) * bound).astype(np.float32)
 
 
-def _initial(gen: torch.Generator, i: int, h: int, d: int) -> _Net:
-    """A fresh network with torch's default Linear initialisation (uniform in +-1/sqrt(fan_in))."""
+def _initial(gen: np.random.Generator, i: int, h: int, d: int) -> _Net:
+    """A fresh network with the usual Linear initialisation (uniform in +-1/sqrt(fan_in), as torch's)."""
     W0, b0 = _uniform(gen, (h, i), i), _uniform(gen, (h,), i)
     W1, b1 = _uniform(gen, (h, h), h), _uniform(gen, (h,), h)
     W2, b2 = _uniform(gen, (d, h), h), _uniform(gen, (d,), h)
     return _net_of(W0, b0, W1, b1, W2, b2)
 
 
-def _net_of(W0: torch.Tensor, b0: torch.Tensor, W1: torch.Tensor, b1: torch.Tensor, W2: torch.Tensor,
-            b2: torch.Tensor) -> _Net:
+def _net_of(W0: NDArray[np.float32], b0: NDArray[np.float32], W1: NDArray[np.float32], b1: NDArray[np.float32],
+            W2: NDArray[np.float32], b2: NDArray[np.float32]) -> _Net:
     """The network with these weights (copied into one parameter vector)."""
-    layers = [torch.cat([W, b[:, None]], dim=1).reshape(-1) for W, b in ((W0, b0), (W1, b1), (W2, b2))]
-    return _Net(W0.shape[1], W0.shape[0], W2.shape[0], torch.cat(layers))
+    layers = [np.concatenate([W, b[:, None]], axis=1).reshape(-1) for W, b in ((W0, b0), (W1, b1), (W2, b2))]
+    return _Net(W0.shape[1], W0.shape[0], W2.shape[0], np.concatenate(layers).astype(np.float32))
 
 
-def _grow(net: _Net, gen: torch.Generator) -> _Net:
+def _grow(net: _Net, gen: np.random.Generator) -> _Net:
     """The network for one more frequency (2 more inputs, 4 more hidden units per layer), same function.
 
     Old units keep their weights and ignore the new inputs and units (zeros); new hidden units get fresh random
@@ -372,17 +428,17 @@ def _grow(net: _Net, gen: torch.Generator) -> _Net:
     i1 = i0 + 2
     h1 = 2 * i1
     fresh = _initial(gen, i1, h1, d).views()
-    W0, b0, W1, b1, W2, b2 = (v.detach() for v in net.views())
-    nW0, nb0, nW1, nb1, nW2, nb2 = (v.detach().clone() for v in fresh)
+    W0, b0, W1, b1, W2, b2 = net.views()
+    nW0, nb0, nW1, nb1, nW2, nb2 = (v.copy() for v in fresh)
     nW0[:h0] = 0.0
     nW0[:h0, :i0] = W0
     nb0[:h0] = b0
     nW1[:h0] = 0.0
     nW1[:h0, :h0] = W1
     nb1[:h0] = b1
-    nW2.zero_()
+    nW2[:] = 0.0
     nW2[:, :h0] = W2
-    nb2.copy_(b2)
+    nb2[:] = b2
     return _net_of(nW0, nb0, nW1, nb1, nW2, nb2)
 
 
@@ -419,14 +475,17 @@ def next_adaptive_frequency(residual: NDArray[np.float64], weights: NDArray[np.f
 # Algorithm 1
 # -----------------------------------------------------------------------------------------------------------------
 def fit(features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext, *,
-        schedule: str, name: str) -> Payload:
-    """Train the network for the codec ``name`` with the frequency ``schedule`` (``"adaptive"``/``"naive"``)."""
-    with _torch_settings():
-        return _fit(np.asarray(features, np.float64), np.asarray(weights, np.float64), context, schedule, name)
+        schedule: str, name: str, meter: Any = None) -> Payload:
+    """Train the network for the codec ``name`` with the frequency ``schedule`` (``"adaptive"``/``"naive"``).
+    ``meter``: an object whose ``work`` is increased by each loss evaluation's frames times parameters; training
+    stops (the bound not met) once it reaches the meter's ``limit``."""
+    with _one_blas_thread():
+        return _fit(np.asarray(features, np.float64), np.asarray(weights, np.float64), context, schedule, name,
+                    meter)
 
 
 def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext, schedule: str,
-         name: str) -> Payload:
+         name: str, meter: Any) -> Payload:
     params = context.params
     bound = context.bound
     N, D = Y.shape
@@ -437,10 +496,10 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
     centred = (Y - mean) * s
     c = float(np.sqrt(np.mean(centred ** 2)))
     c = c if c > 0 else 1.0
-    target = torch.tensor(centred / c, dtype=torch.float32)
+    target = (centred / c).astype(np.float32)
     unscale = c / s  # output = mean + unscale * network
     store = _DTYPES[params.dtype]
-    gen = torch.Generator().manual_seed(int(context.seed))
+    gen = np.random.default_rng(int(context.seed))
 
     target_k = params.k if params.k is not None else params.max_k
     omega: list[float] = []
@@ -450,7 +509,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
     total_iters = 0
 
     def payload_of(net: _Net) -> Payload:
-        W0, b0, W1, b1, W2, b2 = (v.detach().double().numpy() for v in net.views())
+        W0, b0, W1, b1, W2, b2 = (v.astype(np.float64) for v in net.views())
         arrays = {
             "omega": np.asarray(omega, dtype=np.float32),
             "W0": W0.astype(store), "b0": b0.astype(store), "W1": W1.astype(store), "b1": b1.astype(store),
@@ -462,6 +521,9 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
         info = {"K": len(omega), "omega": [float(o) for o in omega], "hidden": net.hidden,
                 "iterations": total_iters}
         return Payload(arrays, info)
+
+    def spent() -> bool:
+        return meter is not None and meter.work >= meter.limit
 
     payload = payload_of(net)
     ratio = math.nan  # measured error / sqrt(loss) at the last measurement: predicts the error from the loss
@@ -476,20 +538,22 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 break
             omega.append(new)
             net = _grow(net, gen)
-        x = torch.tensor(fourier_features(times, omega), dtype=torch.float32)
+        x = fourier_features(times, omega).astype(np.float32)
         check = bound is not None and (params.k is None or K == params.k)
 
         def loss_and_grad(theta: NDArray[np.float64], net: _Net = net,
-                          x: torch.Tensor = x) -> tuple[float, NDArray[np.float64]]:
+                          x: NDArray[np.float32] = x) -> tuple[float, NDArray[np.float64]]:
             return net.loss_and_grad(x, target, theta)
 
-        optimizer = _LBFGS(loss_and_grad, net.theta.numpy().astype(np.float64))
+        optimizer = _LBFGS(loss_and_grad, net.theta[:net.nonlinear_size].astype(np.float64))
         losses = [optimizer.f]  # the loss after each chunk (and at the start)
         stage = unmeasured = 0
         while True:
-            done = optimizer.iterations
+            done, evaluations = optimizer.iterations, optimizer.evaluations
             loss = optimizer.run(min(CHUNK, params.iters - stage))
-            net.theta = torch.from_numpy(optimizer.x.astype(np.float32))
+            if meter is not None:
+                meter.work += float(optimizer.evaluations - evaluations) * N * net.theta.size
+            net.theta = net.weights_at(x, target, optimizer.x)
             stage += optimizer.iterations - done
             total_iters += optimizer.iterations - done
             losses.append(loss)
@@ -516,16 +580,18 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                     return payload
             else:
                 context.progress("train", **fields)
-            if last:
+            if last or spent():
                 break
         payload = payload_of(net)
+        if spent():
+            break
     if bound is None:
         return payload
     reached = f"K={len(omega)}" if params.k is not None else f"max_k={params.max_k} (K={len(omega)})"
+    if spent():
+        reached = f"the work limit (K={len(omega)})"
     def pct(value: float) -> str:
         return f" ({value * percent_per_unit:.3g}% of height)" if math.isfinite(value * percent_per_unit) else ""
 
     raise BoundNotMetError(f"{name}: the bound {bound:.4g}{pct(bound)} was not met with {reached}; best L-inf error "
-                           f"reached {best:.4g}{pct(best)}"
-                           + ("" if params.k is not None else "; raise max_k or the bound (svd meets any bound)"),
-                           best if math.isfinite(best) else None, bound)
+                           f"reached {best:.4g}{pct(best)}", best if math.isfinite(best) else None, bound)
