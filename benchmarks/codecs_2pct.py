@@ -54,9 +54,6 @@ def clips() -> list[Path]:
 
 
 def run_one(path: str, codec: str, workdir: str) -> dict:
-    import torch
-
-    torch.set_num_threads(1)
     from motionrep.compress import compress_file
     from motionrep.errors import BoundNotMetError
 

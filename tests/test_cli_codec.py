@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -293,7 +294,8 @@ def test_a_codec_outcome_reads_the_same_in_every_command(tmp_path):
     r = run("compress", src / "c0.bvh", "-o", mrc, *fourier)
     assert r.exit_code == 0, r.output
     assert f"codec naive-fourier: {detail}" in r.stdout
-    assert "  train window=0-10 K=" in r.stderr  # progress, in the codec's words
+    assert re.search(r"^  train window=\d+-\d+ K=", r.stderr, re.M)  # progress, in the codec's words (windows
+    # are coded side by side in worker processes, so which one reports first depends on timing)
     assert f"outcome:    {detail}" in run("info", mrc).output
     assert json.loads(run("info", mrc, "--json").output)["codec"]["description"] == detail
     archive = tmp_path / "all.h5"

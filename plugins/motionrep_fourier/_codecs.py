@@ -176,9 +176,8 @@ class _Plan:
         window for any number of processes).  Returns the coded windows in order."""
         done: dict[int, _Piece] = {}
         final: dict[int, BoundNotMetError] = {}
-        jobs = worker_count(self.context.params.jobs, len(spans))
         run = Runner(WindowJob(self.codec.name, self.codec.schedule, self.features, self.weights, self.context,
-                               self.fit, quiet=jobs > 1), jobs)
+                               self.fit), worker_count(self.context.params.jobs, len(spans)))
         with contextlib.closing(run([self.task(a, b) for a, b in spans])) as outcomes:
             for task, outcome in outcomes:
                 first, last = task.first, task.last

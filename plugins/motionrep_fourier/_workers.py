@@ -67,16 +67,16 @@ class WindowContext:
     """The :class:`~motionrep.codec.EncodeContext` of one window: its frames' local times, its ``max_k``, and
     the shared evaluation of a candidate on the window's frames (``context.evaluate_frames``; frames are measured
     independently, so this is the error they have in the whole clip), or, from a context without it, on the
-    whole clip with every other frame exact.  ``quiet``: no progress (a forked worker's would interleave with
-    the others')."""
+    whole clip with every other frame exact.  Progress goes to ``relay`` when given (a forked worker's, read by
+    the parent), else to the context."""
 
-    def __init__(self, context: EncodeContext, features: NDArray[np.float64], task: Task, quiet: bool = False):
+    def __init__(self, context: EncodeContext, features: NDArray[np.float64], task: Task, relay: Any = None):
         self._context, self._features = context, features
         self._first, self._last = task.first, task.last
         self.params = context.params if context.params.max_k == task.max_k else \
             dataclasses.replace(context.params, max_k=task.max_k)
         self.bound, self.seed = context.bound, context.seed
-        self.quiet = quiet
+        self.relay = relay
         self.evaluations = 0
         times = np.asarray(context.times, np.float64)[task.first:task.last + 1]
         self.times = local_times(times, features.shape[0], task.first, task.last)
@@ -94,8 +94,11 @@ class WindowContext:
         return self.evaluate(network_forward(payload.arrays, self.times))
 
     def progress(self, stage: str, **fields: Any) -> None:
-        if not self.quiet:
-            self._context.progress(stage, window=f"{self._first}-{self._last}", **fields)
+        fields = {"window": f"{self._first}-{self._last}", **fields}
+        if self.relay is not None:
+            self.relay.put((stage, fields))
+        else:
+            self._context.progress(stage, **fields)
 
 
 class Meter:
@@ -109,12 +112,13 @@ class WindowJob:
     """What coding one window needs: everything but its task."""
 
     def __init__(self, name: str, schedule: str, features: NDArray[np.float64], weights: NDArray[np.float64],
-                 context: EncodeContext, fit: Callable[..., Payload], quiet: bool):
+                 context: EncodeContext, fit: Callable[..., Payload]):
         self.name, self.schedule, self.features, self.weights = name, schedule, features, weights
-        self.context, self.fit, self.quiet = context, fit, quiet
+        self.context, self.fit = context, fit
+        self.relay: Any = None  # set while worker processes run: where their progress goes
 
     def __call__(self, task: Task) -> Outcome:
-        sub = WindowContext(self.context, self.features, task, quiet=self.quiet)
+        sub = WindowContext(self.context, self.features, task, relay=self.relay)
         meter = Meter(task.max_work)
         try:
             result: Payload | BoundNotMetError = self.fit(
@@ -125,6 +129,8 @@ class WindowJob:
         return Outcome(result, sub.evaluations, meter.work)
 
 
+#: Seconds between two looks at the workers' progress.
+PROGRESS_SECONDS = 0.1
 #: The job of the forked worker processes (set in the parent just before they are forked).
 _JOB: WindowJob | None = None
 
@@ -165,24 +171,34 @@ class Runner:
                 yield task, self.job(task)  # the context counted this task's evaluations itself
             return
         global _JOB
+        fork = multiprocessing.get_context("fork")
+        self.job.relay = relay = fork.SimpleQueue()  # the workers' progress, passed on here
         _JOB = self.job
-        pool = ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("fork"))
+        pool = ProcessPoolExecutor(self.jobs, mp_context=fork)
         running: dict[Future, Task] = {}
+
+        def pass_on() -> None:
+            while not relay.empty():
+                stage, fields = relay.get()
+                self.job.context.progress(stage, **fields)
+
         try:
             while True:
                 while len(running) < self.jobs and (task := self._next()) is not None:
                     running[pool.submit(_run_forked, task)] = task
                 if not running:
                     break
-                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                finished, _ = wait(running, timeout=PROGRESS_SECONDS, return_when=FIRST_COMPLETED)
+                pass_on()
                 for future in sorted(finished, key=running.__getitem__):
                     task = running.pop(future)
                     outcome = future.result()
                     _count_evaluations(self.job.context, outcome.evaluations)
                     yield task, outcome
         finally:
-            _JOB = None
+            _JOB = self.job.relay = None
             pool.shutdown(wait=True, cancel_futures=True)
+            relay.close()
 
 
 def _count_evaluations(context: EncodeContext, evaluations: int) -> None:
