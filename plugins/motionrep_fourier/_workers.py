@@ -13,6 +13,7 @@ import dataclasses
 import math
 import multiprocessing
 import os
+import threading
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Callable, Iterable, Iterator, NamedTuple
 
@@ -49,8 +50,12 @@ class Outcome(NamedTuple):
 
 def worker_count(jobs: int, tasks: int) -> int:
     """Processes to run ``tasks`` tasks with: ``jobs``, or for 0 the CPUs this process may use; never more than
-    the tasks, and 1 where processes cannot be forked (no ``fork`` start method) or inside a worker process
-    (``motionrep compress --jobs`` already spreads the clips over the CPUs)."""
+    the tasks, and 1 where processes cannot be forked safely: no ``fork`` start method, or other Python threads
+    running (a threaded scheduler: a forked child gets only this thread, and the locks of the others as they
+    were); for 0 also inside a worker process (``motionrep compress --jobs`` already spreads the clips over the
+    CPUs)."""
+    if threading.active_count() > 1:
+        return 1
     if jobs == 0:
         if multiprocessing.parent_process() is not None:
             return 1

@@ -312,6 +312,18 @@ def test_worker_count():
 
     assert worker_count(4, 2) == 2 and worker_count(1, 9) == 1 and worker_count(3, 9) == 3
     assert 1 <= worker_count(0, 100) <= os.cpu_count()
+    # never forked from a process with other threads running (a threaded scheduler)
+    import threading
+
+    seen, release = [], threading.Event()
+    thread = threading.Thread(target=release.wait)
+    thread.start()
+    try:
+        seen.append(worker_count(4, 9))
+    finally:
+        release.set()
+        thread.join()
+    assert seen == [1]
 
 
 def test_version_1_payloads_still_decode(chain_motion):
