@@ -12,6 +12,7 @@ Hierarchy::
     │   ├── BVHFormatError
     │   ├── NPZFormatError
     │   ├── HDF5FormatError
+    │   ├── GLTFFormatError
     │   ├── ContainerError       a .mrc file is truncated, altered or of an unknown version
     │   ├── OutputExistsError    an output exists and --force (or --resume) was not given
     │   └── PluginVersionError   (also a PluginError) a file was written by a version of a representation or
@@ -37,6 +38,7 @@ __all__ = [
     "BVHFormatError",
     "NPZFormatError",
     "HDF5FormatError",
+    "GLTFFormatError",
     "ContainerError",
     "OutputExistsError",
     "PluginError",
@@ -96,6 +98,10 @@ class NPZFormatError(FormatError):
 
 class HDF5FormatError(FormatError):
     """An HDF5 motion file or database is malformed, of an unsupported version, or lacks the clip asked for."""
+
+
+class GLTFFormatError(FormatError):
+    """A glTF (``.gltf`` / ``.glb``) file is malformed, unsafe, or animates what motionrep's pose model cannot hold."""
 
 
 class ContainerError(FormatError):

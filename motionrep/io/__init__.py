@@ -6,6 +6,7 @@ suffix             format
 ``.bvh``           Biovision hierarchy (text), one clip          -- ``specs/formats/bvh.md``
 ``.npz``           numpy archive, one clip                       -- ``specs/formats/npz.md``
 ``.h5``/``.hdf5``  HDF5, one clip or a database of named clips   -- ``specs/formats/hdf5.md``
+``.gltf``/``.glb`` glTF 2.0, a skeleton and its named animations   -- ``specs/formats/gltf.md``
 =================  ==========================================================================
 
 Every write is atomic: the file is written under a temporary name in the same directory and renamed at the
@@ -15,7 +16,10 @@ NPZ and HDF5 files hold either a :class:`~motionrep.Motion` or a representation'
 (:class:`FeatureClip`, written by :func:`write_features`); :func:`read` decodes features through the registered
 representation, :func:`read_features` returns them as stored.  An HDF5 file is a database of named clips
 (:func:`write_database`, :func:`list_clips`, :func:`read_clips`); a file written by :func:`write` is a database
-with one clip, named after the file's stem.  BVH and NPZ files hold one clip, named after the file's stem.
+with one clip, named after the file's stem.  BVH and NPZ files hold one clip, named after the file's stem.  A glTF
+file holds one skeleton and one or more animations; each animation is a clip, named by the animation's name
+(:func:`write` writes one, named after the file's stem).  glTF stores float32 values: a round trip through it
+agrees within float32 rounding, not bit for bit.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from .._model import Motion
-from ..errors import BVHFormatError, FormatError, HDF5FormatError, NPZFormatError, ValidationError
+from ..errors import BVHFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError, ValidationError
 from ._atomic import atomic_path
 from ._bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from ._features import FeatureClip, features_from_motion, motion_from_features
@@ -38,6 +42,7 @@ from ._hdf5 import (
     write_hdf5,
     write_hdf5_features,
 )
+from ._gltf import gltf_bytes, iter_gltf_clips, list_gltf_clips, read_gltf, read_gltf_clip, write_gltf
 from ._npz import read_npz, read_npz_clip, write_npz, write_npz_features
 
 __all__ = [
@@ -62,17 +67,22 @@ __all__ = [
     "write_npz",
     "read_hdf5",
     "write_hdf5",
+    "read_gltf",
+    "write_gltf",
+    "gltf_bytes",
     "atomic_path",
 ]
 
 #: Known suffixes and the format each selects.
-SUFFIXES: dict[str, str] = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5"}
+SUFFIXES: dict[str, str] = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf",
+                            ".glb": "gltf"}
 
-_ERRORS: dict[str, type[FormatError]] = {"bvh": BVHFormatError, "npz": NPZFormatError, "hdf5": HDF5FormatError}
+_ERRORS: dict[str, type[FormatError]] = {"bvh": BVHFormatError, "npz": NPZFormatError, "hdf5": HDF5FormatError,
+                                         "gltf": GLTFFormatError}
 
 
 def format_of(path: str | os.PathLike[str]) -> str:
-    """The format (``"bvh"``, ``"npz"`` or ``"hdf5"``) selected by ``path``'s suffix.
+    """The format (``"bvh"``, ``"npz"``, ``"hdf5"`` or ``"gltf"``) selected by ``path``'s suffix.
 
     Raises:
         FormatError: for an unknown suffix.
@@ -87,16 +97,17 @@ def format_of(path: str | os.PathLike[str]) -> str:
 
 def _no_clip(fmt: str, path, clip: str | None) -> None:
     if clip is not None:
-        raise _ERRORS[fmt](f"a {fmt.upper()} file holds one clip; clip= (--clip) applies to HDF5 databases", path)
+        raise _ERRORS[fmt](f"a {fmt.upper()} file holds one clip; clip= (--clip) applies to HDF5 databases and "
+                           "glTF files", path)
 
 
 def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
     """Read one clip as stored, without decoding features.
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5`` or ``.hdf5`` file.
-        clip: for an HDF5 database, the clip to read (only that clip is read); may be omitted when the file holds
-            exactly one clip.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
+        clip: for an HDF5 database, the clip to read (only that clip is read), for a glTF file the animation; may
+            be omitted when the file holds exactly one clip.
 
     Returns:
         ``(name, clip)``: the clip's name (for BVH and NPZ, the file's stem) and a :class:`~motionrep.Motion` or,
@@ -109,6 +120,8 @@ def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[
     fmt = format_of(path)
     if fmt == "hdf5":
         return read_hdf5_clip(path, clip)
+    if fmt == "gltf":
+        return read_gltf_clip(path, clip)
     _no_clip(fmt, path, clip)
     return Path(path).stem, (read_bvh(path) if fmt == "bvh" else read_npz_clip(path))
 
@@ -120,9 +133,9 @@ def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
     (``get_representation(name).from_features(features, skeleton, fps)``).
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5`` or ``.hdf5`` file.
-        clip: for an HDF5 database, the name of the clip to read (only that clip is read); may be omitted
-            when the file holds exactly one clip.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
+        clip: for an HDF5 database, the name of the clip to read (only that clip is read), for a glTF file the
+            animation's name; may be omitted when the file holds exactly one clip.
 
     Raises:
         FormatError: (a subclass naming the file, and the line for BVH or the clip for HDF5) if the file is
@@ -145,7 +158,8 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
         motion: the clip.
         path: target file; an existing file is replaced only once the new one is complete.
         **options: format options: BVH ``decimals`` (default 6); NPZ ``compress`` (default False); HDF5 ``clip``,
-            the clip's name (default: the file's stem).
+            the clip's name (default: the file's stem); glTF ``clip`` (the animation's name), ``scale`` (metres
+            per file unit) and ``up`` (``"y"``, ``"z"`` or ``"auto"``), see :func:`write_gltf`.
 
     Raises:
         FormatError: for an unknown suffix.
@@ -159,6 +173,8 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
         write_bvh(motion, path, **options)
     elif fmt == "npz":
         write_npz(motion, path, **options)
+    elif fmt == "gltf":
+        write_gltf(motion, path, **options)
     else:
         write_hdf5(motion, path, **options)
 
@@ -189,8 +205,8 @@ def write_features(features: FeatureClip, path: str | os.PathLike[str], **option
         FormatError: for a ``.bvh`` or unknown suffix.
     """
     fmt = format_of(path)
-    if fmt == "bvh":
-        raise BVHFormatError("BVH files hold motions, not features; write features to .npz or .h5", path)
+    if fmt in ("bvh", "gltf"):
+        raise _ERRORS[fmt](f"{fmt.upper()} files hold motions, not features; write features to .npz or .h5", path)
     if fmt == "npz":
         write_npz_features(features, path, **options)
     else:
@@ -198,8 +214,9 @@ def write_features(features: FeatureClip, path: str | os.PathLike[str], **option
 
 
 def list_clips(path: str | os.PathLike[str]) -> list[str]:
-    """Names of the clips in ``path``: an HDF5 database's clip names in stored order (no clip data is read);
-    for a BVH or NPZ file, the one clip's name, the file's stem (the file is not read).
+    """Names of the clips in ``path``: an HDF5 database's clip names in stored order (no clip data is read), a
+    glTF file's animation names; for a BVH or NPZ file, the one clip's name, the file's stem (the file is not
+    read).
 
     Raises:
         FormatError: for an unknown suffix, or an HDF5 file that is missing or not a motionrep file.
@@ -207,6 +224,8 @@ def list_clips(path: str | os.PathLike[str]) -> list[str]:
     fmt = format_of(path)
     if fmt == "hdf5":
         return list_hdf5_clips(path)
+    if fmt == "gltf":
+        return list_gltf_clips(path)
     return [Path(path).stem]
 
 
@@ -222,5 +241,7 @@ def read_clips(path: str | os.PathLike[str]) -> Iterator[tuple[str, Motion]]:
     fmt = format_of(path)
     if fmt == "hdf5":
         yield from iter_hdf5_clips(path, decode=True)
+    elif fmt == "gltf":
+        yield from iter_gltf_clips(path)
     else:
         yield Path(path).stem, read(path)
