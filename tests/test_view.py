@@ -1,0 +1,203 @@
+"""motionrep view: the self-contained HTML viewer, checked as text and in a real (headless) browser."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionrep import character_height, global_positions
+from motionrep.errors import ValidationError
+from motionrep.io import read, write
+from motionrep.rotations import euler_to_quat, quat_multiply
+from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.view import CANDIDATE_COLORS, REFERENCE_COLOR, ViewClip, view_html, write_view
+
+
+def perturbed(motion, joint: int, first: int, count: int, radians: float = 0.4):
+    rot = np.array(motion.rotations)
+    turn = euler_to_quat(np.array([[radians, 0.0, 0.0]]), "XYZ")
+    rot[first:first + count, joint] = quat_multiply(rot[first:first + count, joint], turn)
+    return motion.replace(rotations=rot)
+
+
+def page_data(page: str) -> dict:
+    text = re.search(r'<script type="application/json" id="motionrep-data">(.*?)</script>', page, re.S).group(1)
+    return json.loads(text)
+
+
+@pytest.fixture(scope="module")
+def walk():
+    reference = synthetic_motion(humanoid_skeleton(), frames=90, fps=30.0)
+    return reference, perturbed(reference, 8, 60, 6)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the page as text
+# ---------------------------------------------------------------------------------------------------------------
+def test_page_is_one_self_contained_file(tmp_path, walk):
+    reference, candidate = walk
+    result = write_view(tmp_path / "view.html", ViewClip(reference, "walk.bvh"),
+                        [ViewClip(candidate, "walk.mrc", (("codec", "svd"),))], bound=3.0)
+    page = (tmp_path / "view.html").read_text()
+    assert result.bytes == len(page.encode()) and result.path == tmp_path / "view.html"
+    assert not re.search(r"<(script|link|img|iframe)[^>]*\s(src|href)=", page)  # nothing loaded from elsewhere
+    assert "Content-Security-Policy" in page and "default-src 'none'" in page
+    assert "Copyright 2010-2026 Three.js Authors" in page  # the licence notice travels with three.js
+    data = page_data(page)
+    assert [c["label"] for c in data["clips"]] == ["walk.bvh", "walk.mrc"]
+    assert data["clips"][0]["color"] == REFERENCE_COLOR and data["clips"][1]["color"] == CANDIDATE_COLORS[0]
+    cand = data["clips"][1]
+    assert cand["error"]["frame"] == result.worst_frame == result.errors[0].frame
+    assert 60 <= result.worst_frame < 66 and len(cand["perFrame"]) == 90
+    assert max(cand["perFrame"]) == pytest.approx(result.errors[0].max_error, rel=1e-5)
+    assert cand["facts"] == [["codec", "svd"]]
+    assert data["bound"] == 3.0 and data["boundText"].startswith("3 cm = ")
+
+
+def test_embedded_clips_are_motionreps_gltf(tmp_path, walk):
+    reference, candidate = walk
+    page, _ = view_html(reference, [candidate], up="y")
+    for clip, motion in zip(page_data(page)["clips"], (reference, candidate)):
+        path = tmp_path / "clip.glb"
+        path.write_bytes(base64.b64decode(clip["glb"]))
+        back = read(path)
+        assert np.abs(global_positions(back) - global_positions(motion)).max() < 1e-6 * character_height(
+            motion.skeleton)
+
+
+def test_text_from_files_cannot_break_out_of_the_page(walk):
+    reference, candidate = walk
+    label = "</script><script>alert(1)</script><!--"
+    page, _ = view_html(ViewClip(reference, label), [ViewClip(candidate, "b", (("x", label),))], title=label)
+    assert "<script>alert(1)" not in page and page.count("</script>") == 3
+    data = page_data(page)
+    assert data["clips"][0]["label"] == label and data["title"] == label
+
+
+def test_candidate_at_another_rate_is_resampled(walk):
+    reference, _ = walk
+    coarse = synthetic_motion(humanoid_skeleton(), frames=46, fps=15.0)
+    page, result = view_html(reference, [coarse])
+    assert result.notes and "resampled" in result.notes[0]
+    assert page_data(page)["clips"][1]["frames"] == 90
+
+
+def test_refusals(walk):
+    reference, candidate = walk
+    with pytest.raises(ValidationError, match="do not share a skeleton"):
+        view_html(reference, [synthetic_motion(chain_skeleton(5), frames=90, fps=30.0)])
+    with pytest.raises(ValidationError, match="at most 6 candidates"):
+        view_html(reference, [candidate] * 7)
+    with pytest.raises(ValidationError, match="bound"):
+        view_html(reference, [candidate], bound=-1.0)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# in a real browser: headless Chromium through its WebDriver (skipped where either is not installed)
+# ---------------------------------------------------------------------------------------------------------------
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    if not (CHROMIUM and CHROMEDRIVER):
+        pytest.skip("no Chromium and ChromeDriver installed (Debian: apt-get install chromium chromium-driver)")
+    webdriver = pytest.importorskip("selenium.webdriver")
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 "--enable-unsafe-swiftshader", "--use-angle=swiftshader", "--window-size=1280,900",
+                 f"--user-data-dir={tmp_path_factory.mktemp('chromium')}"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    yield driver
+    driver.quit()
+
+
+def open_page(driver, path: Path) -> None:
+    driver.get_log("browser")  # forget what earlier pages said
+    driver.get(path.resolve().as_uri())
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        state = driver.execute_script("const v = window.motionrepViewer; return v && [v.ready, v.failed];")
+        if state and (state[0] or state[1]):
+            assert state[1] is None, state[1]
+            return
+        time.sleep(0.2)
+    raise AssertionError("the viewer did not get ready in 120 s")
+
+
+def errors_logged(driver) -> list[str]:
+    return [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def colour_pixels(png: bytes, colour: str, tolerance: int = 40) -> int:
+    from io import BytesIO
+
+    from PIL import Image
+
+    image = np.asarray(Image.open(BytesIO(png)).convert("RGB")).astype(int)
+    want = np.array([int(colour[i:i + 2], 16) for i in (1, 3, 5)])
+    return int((np.abs(image - want).max(axis=-1) <= tolerance).sum())
+
+
+def test_viewer_in_a_browser(browser, tmp_path, walk):
+    """Opens the page, checks the console, seeks to the worst frame, screenshots it and finds both skeletons; the
+    candidate comes from a .glb file and three.js poses both clips as motionrep's FK does."""
+    from selenium.webdriver.common.by import By
+
+    reference, candidate = walk
+    write(candidate, tmp_path / "decoded.glb")
+    decoded = read(tmp_path / "decoded.glb")
+    result = write_view(tmp_path / "view.html", ViewClip(reference, "walk.bvh"),
+                        [ViewClip(decoded, "decoded.glb")], bound=2.0, up="y")
+    open_page(browser, tmp_path / "view.html")
+    assert errors_logged(browser) == []
+    viewer = "return window.motionrepViewer"
+    assert browser.execute_script(viewer + ".three") == "187"
+    # three.js read the embedded .glb files: every joint and end site is a bone where motionrep's FK puts it
+    height = character_height(reference.skeleton)
+    for i, motion in enumerate((reference, decoded)):
+        bones = browser.execute_script(viewer + f".positions({i})")
+        assert len(bones) == motion.num_joints + motion.skeleton.num_end_sites
+        assert np.abs(np.array(bones) - global_positions(motion)[0]).max() < 1e-5 * height  # float32 in WebGL
+    browser.find_element(By.ID, "worst").click()
+    assert browser.execute_script(viewer + ".frame()") == result.worst_frame
+    hud = browser.find_element(By.ID, "hud").text
+    assert f"frame {result.worst_frame} / 89" in hud
+    bones = browser.execute_script(viewer + ".positions(1)")
+    assert np.abs(np.array(bones) - global_positions(decoded)[result.worst_frame]).max() < 1e-5 * height
+    png = browser.get_screenshot_as_png()
+    (tmp_path / "worst.png").write_bytes(png)
+    assert colour_pixels(png, REFERENCE_COLOR) > 150, "the reference skeleton is not on the screenshot"
+    assert colour_pixels(png, CANDIDATE_COLORS[0]) > 150, "the decoded skeleton is not on the screenshot"
+    # scrubbing with the keyboard and clicking on the curve move the frame
+    browser.find_element(By.TAG_NAME, "body").send_keys("\ue012")  # arrow left
+    assert browser.execute_script(viewer + ".frame()") == result.worst_frame - 1
+    curve = browser.find_element(By.ID, "curve")
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    ActionChains(browser).move_to_element_with_offset(curve, -curve.size["width"] // 2 + 64 + 1, 0).click().perform()
+    assert browser.execute_script(viewer + ".frame()") == 0
+    assert errors_logged(browser) == []
+
+
+def test_viewer_of_one_clip_in_a_browser(browser, tmp_path):
+    motion = synthetic_motion(humanoid_skeleton(), frames=20, fps=10.0)
+    write_view(tmp_path / "one.html", motion)
+    open_page(browser, tmp_path / "one.html")
+    assert browser.execute_script("return window.motionrepViewer.frames") == 20
+    assert colour_pixels(browser.get_screenshot_as_png(), REFERENCE_COLOR) > 150
+    assert errors_logged(browser) == []
