@@ -326,7 +326,7 @@ def test_info_usage_errors(tmp_path, walk):
 def test_empty_directory(tmp_path):
     (tmp_path / "empty").mkdir()
     r = run("convert", tmp_path / "empty", tmp_path / "db.h5")
-    assert r.exit_code == 1 and "no .bvh, .npz, .h5, .hdf5 files" in error_line(r)
+    assert r.exit_code == 1 and "no .bvh, .npz, .h5, .hdf5, .gltf, .glb files" in error_line(r)
     assert not (tmp_path / "db.h5").exists()
 
 
