@@ -8,6 +8,7 @@ suffix             ``kind``        clips
 ``.bvh``, ``.npz``  ``"motion"``    one, named after the file's stem (an NPZ may hold features)
 ``.h5``/``.hdf5``  ``"database"``  the clips of a motionrep HDF5 file (motions or features)
 ``.h5``/``.hdf5``  ``"archive"``   the compressed clips of an archive of ``.mrc`` containers
+``.gltf``/``.glb`` ``"database"``  the animations of a glTF file, by name
 ``.mrc``           ``"compressed"``  one compressed clip, named after the file's stem
 =================  ==============  =============================================================
 
@@ -42,6 +43,7 @@ from .errors import FormatError, ValidationError
 __all__ = [
     "SOURCE_SUFFIXES",
     "SCAN_SUFFIXES",
+    "CLIP_SUFFIXES",
     "NAME_SEPARATOR",
     "Source",
     "open_source",
@@ -52,9 +54,11 @@ __all__ = [
 ]
 
 #: Suffixes :func:`open_source` opens.
-SOURCE_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".mrc")
+SOURCE_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".mrc")
 #: Suffixes picked up when a directory is searched (compressed ``.mrc`` files are not: they are outputs).
-SCAN_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5")
+SCAN_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+#: Suffixes of files that may hold several named clips (``--clip NAME`` chooses one).
+CLIP_SUFFIXES: tuple[str, ...] = (".h5", ".hdf5", ".gltf", ".glb")
 #: Replaces ``/`` when a path relative to a directory becomes a clip name.
 NAME_SEPARATOR = "__"
 _MAX_LISTED = 10
@@ -191,6 +195,29 @@ class _Database(Source):
         self.database.close()
 
 
+class _GLTF(Source):
+    """A glTF file: its animations are named clips, like a database's (parsed once, each read when asked for)."""
+
+    kind = "database"
+
+    def __init__(self, path: str | os.PathLike[str]):
+        from .io._gltf import GLTFFile
+
+        super().__init__(path)
+        self.file = GLTFFile(path)
+
+    @property
+    def names(self) -> list[str]:
+        return self.file.names
+
+    def read_stored(self, name: str | None = None) -> tuple[str, Any]:
+        return self.file.read_clip(name)
+
+    def summaries(self) -> list[dict[str, Any]]:
+        """Per clip: name, kind, frames, fps, duration, joints."""
+        return self.file.summaries()
+
+
 class _Compressed(Source):
     """One ``.mrc`` file, verified when first used; decoded at its own frame rate."""
 
@@ -271,6 +298,8 @@ def open_source(path: str | os.PathLike[str]) -> Source:
         raise FormatError("is a directory, not a file", p)
     if suffix == ".mrc":
         return _Compressed(p)
+    if suffix in (".gltf", ".glb"):
+        return _GLTF(p)
     if suffix not in (".h5", ".hdf5"):
         return _MotionFile(p)
     from .archive import ARCHIVE_FORMAT, Archive

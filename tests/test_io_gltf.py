@@ -17,9 +17,9 @@ from motionrep import Motion, Skeleton, character_height, global_positions
 from motionrep.errors import GLTFFormatError
 from motionrep.io import gltf_bytes, list_clips, read, read_clips, read_stored, write
 from motionrep.io._bvh import channel_values
-from motionrep.testing import humanoid_skeleton, odd_skeleton, synthetic_motion
+from motionrep.synthetic import humanoid_skeleton, odd_skeleton, synthetic_motion
 
-from conftest import real_params
+from helpers import real_params
 
 #: glTF stores float32: a round trip agrees within float32 rounding; the promise is 1e-6 of the height.
 TOLERANCE = 1e-6
@@ -624,3 +624,36 @@ def test_blender_opens_what_motionrep_writes(tmp_path):
         # Blender poses in float32, composing matrices: 1e-5 of the height
         assert np.abs(got - pos[int(frame), :motion.num_joints]).max() < 1e-5 * 0.01 * character_height(
             motion.skeleton)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# on the command line
+# ---------------------------------------------------------------------------------------------------------------
+def test_command_line_converts_evaluates_and_describes_gltf(tmp_path):
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    def run(*args):
+        return CliRunner().invoke(cli, [str(a) for a in args])
+
+    write(synthetic_motion(humanoid_skeleton(), frames=30), tmp_path / "walk.bvh")
+    r = run("convert", tmp_path / "walk.bvh", tmp_path / "walk.glb")
+    assert r.exit_code == 0, r.output
+    r = run("evaluate", tmp_path / "walk.bvh", tmp_path / "walk.glb", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["max_error_percent"] < 1e-4
+    # a glTF file of several animations: --clip picks one, info lists them
+    path = DATA / "blender_rig.glb"
+    r = run("convert", path, tmp_path / "wave.bvh", "--clip", "Wave")
+    assert r.exit_code == 0, r.output
+    assert read(tmp_path / "wave.bvh").num_frames == 31
+    r = run("convert", path, tmp_path / "x.bvh")
+    assert r.exit_code == 2 and "use --clip NAME" in r.output
+    r = run("info", path, "--json")
+    assert r.exit_code == 0, r.output
+    info = json.loads(r.output)
+    assert info["format"] == "gltf" and [c["name"] for c in info["clips"]] == ["Hold", "Wave"]
+    r = run("convert", path, tmp_path / "both")  # a directory: one file per animation
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "both").iterdir()) == ["Hold.bvh", "Wave.bvh"]

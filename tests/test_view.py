@@ -16,7 +16,7 @@ from motionrep import character_height, global_positions
 from motionrep.errors import ValidationError
 from motionrep.io import read, write
 from motionrep.rotations import euler_to_quat, quat_multiply
-from motionrep.testing import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 from motionrep.view import CANDIDATE_COLORS, REFERENCE_COLOR, ViewClip, view_html, write_view
 
 

@@ -29,7 +29,7 @@ __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgre
            "interrupt_line"]
 
 #: Suffixes of the motion files commands write (the format from the suffix).
-MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5")
+MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
 
 
 def parse_params(pairs: Iterable[str]) -> dict[str, str]:

@@ -1,4 +1,4 @@
-"""``motionrep convert``: BVH / NPZ / HDF5, one clip or many, motions or a representation's features.
+"""``motionrep convert``: BVH / NPZ / HDF5 / glTF, one clip or many, motions or a representation's features.
 
 Exit codes: 0 on success; 1 for a file problem (missing, malformed, unknown clip, a clip that cannot be written
 in the target format), with one line on stderr naming the file (and the line for BVH, the clip for HDF5) and no
@@ -20,8 +20,8 @@ from ._common import collect
 
 __all__ = ["convert"]
 
-_OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5"}
-_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5")
+_OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5", "glb": ".glb", "gltf": ".gltf"}
+_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
 
 
 def _format_or_usage(path: Path, what: str) -> str:
@@ -35,7 +35,7 @@ def _format_or_usage(path: Path, what: str) -> str:
     if suffix not in _MOTION_SUFFIXES:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(_MOTION_SUFFIXES))
-    return {".h5": "hdf5", ".hdf5": "hdf5"}.get(suffix, suffix[1:])
+    return {".h5": "hdf5", ".hdf5": "hdf5", ".glb": "gltf"}.get(suffix, suffix[1:])
 
 
 def _in_file_error(exc: Exception, path: Path) -> Exception:
@@ -76,7 +76,7 @@ def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | Non
     fmt = format_of(path)
     if fmt == "bvh" and decimals is not None:
         options["decimals"] = decimals
-    if fmt == "hdf5" and clip_name is not None:
+    if fmt in ("hdf5", "gltf") and clip_name is not None:
         options["clip"] = clip_name
     try:
         if isinstance(item, FeatureClip):
@@ -99,7 +99,8 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 
 @click.command("convert")
 @click.argument("paths", nargs=-1, required=True, metavar="IN... OUT")
-@click.option("--clip", metavar="NAME", help="Take only this clip out of the (single) HDF5 database given.")
+@click.option("--clip", metavar="NAME",
+              help="Take only this clip out of the (single) HDF5 database or glTF file given.")
 @click.option("--format", "out_format", type=click.Choice(sorted(_OUT_FORMATS)), default=None,
               help="File format written when OUT is a directory (default: bvh).")
 @click.option("--representation", "-r", metavar="NAME",
@@ -108,12 +109,14 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
               help="Digits after the decimal point in BVH output (default 6).")
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
             decimals: int | None) -> None:
-    """Convert motion files between BVH, NPZ and HDF5 (format from the suffix).
+    """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
-    IN... are files (.bvh, .npz, .h5/.hdf5) or directories (searched recursively
-    for those suffixes, in sorted order; hidden files are skipped). OUT is:
-      - a .bvh or .npz file: exactly one clip goes in (use --clip for a database);
+    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb) or directories (searched
+    recursively for those suffixes, in sorted order; hidden files are skipped).
+    OUT is:
+      - a .bvh, .npz, .glb or .gltf file: exactly one clip goes in (use --clip for
+        a database or a glTF file of several animations);
       - a .h5/.hdf5 file: a database of every clip given, written atomically;
       - a directory (existing, ending in '/', or without suffix): one file per
         clip, <clip name>.<--format>, the directory created if needed.
@@ -143,6 +146,8 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
       motionrep convert clips.h5 out/ --format npz
       motionrep convert clips.h5 walk.bvh --clip walk --decimals 4
       motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
+      motionrep convert walk.bvh walk.glb
+      motionrep convert robot.glb dance.bvh --clip Dance
     """
     if len(paths) < 2:
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
@@ -163,11 +168,12 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
             _format_or_usage(p, "input")
     if decimals is not None and out_fmt != "bvh":
         raise click.UsageError("--decimals applies only to BVH output")
-    if representation is not None and out_fmt == "bvh":
-        raise click.UsageError("--representation needs .npz or .h5 output: BVH holds motions, not features")
+    if representation is not None and out_fmt in ("bvh", "gltf"):
+        raise click.UsageError(f"--representation needs .npz or .h5 output: {out_fmt.upper() if out_fmt == 'bvh' else 'glTF'} "
+                               "holds motions, not features")
     if clip is not None and (len(inputs) != 1 or inputs[0].is_dir() or _format_or_usage(inputs[0], "input")
-                             != "hdf5"):
-        raise click.UsageError("--clip takes one clip out of a single HDF5 database input")
+                             not in ("hdf5", "gltf")):
+        raise click.UsageError("--clip takes one clip out of a single HDF5 database or glTF file input")
     rep = None
     if representation is not None:
         from ..plugins import get_representation

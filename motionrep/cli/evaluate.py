@@ -44,11 +44,11 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     """
     from ..batch import evaluate_clips, pair_clips
     from ..errors import ParameterError
-    from ..sources import open_source
+    from ..sources import CLIP_SUFFIXES, open_source
 
-    if clip is not None and not any(p.suffix.lower() in (".h5", ".hdf5") or p.is_dir()
+    if clip is not None and not any(p.suffix.lower() in CLIP_SUFFIXES or p.is_dir()
                                     for p in (reference, candidate)):
-        raise click.UsageError("--clip applies to HDF5 databases, archives and directories")
+        raise click.UsageError("--clip applies to HDF5 databases, archives, glTF files and directories")
     if reference.is_dir() or candidate.is_dir():
         from ..batch import evaluate_refs, pair_refs
         from ..errors import FormatError

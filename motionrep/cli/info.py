@@ -122,12 +122,12 @@ def info(file: str, clip: str | None, as_json: bool) -> None:
     parameters, arrays, evaluation, figures.
     """
     from ..info import info_dict
-    from ..sources import SOURCE_SUFFIXES
+    from ..sources import CLIP_SUFFIXES, SOURCE_SUFFIXES
 
     path = Path(file)
     suffix = usage_suffix(path, SOURCE_SUFFIXES, "file")
-    if clip is not None and suffix not in (".h5", ".hdf5"):
-        raise click.UsageError("--clip applies to HDF5 databases and archives")
+    if clip is not None and suffix not in CLIP_SUFFIXES:
+        raise click.UsageError("--clip applies to HDF5 databases and archives and to glTF files")
     d = info_dict(path, clip)
     if as_json:
         echo_json(d)

@@ -39,7 +39,6 @@ from urllib.parse import unquote
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import __version__
 from .._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, Motion, Skeleton
 from ..errors import GLTFFormatError, MotionrepError, ValidationError
 from ._atomic import atomic_path
@@ -48,6 +47,7 @@ __all__ = [
     "GLTF_FORMAT",
     "GLTF_FORMAT_VERSION",
     "UNIT_METRES",
+    "GLTFFile",
     "gltf_bytes",
     "write_gltf",
     "read_gltf",
@@ -134,6 +134,7 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
     """The pygltflib document and its binary buffer for ``motion``."""
     import pygltflib as g
 
+    from .. import __version__
     from ..rotations import quat_make_continuous
 
     sk = motion.skeleton
@@ -1029,51 +1030,85 @@ def _assemble(doc: _Doc, where: str, names: list[str], parents: NDArray, offsets
 # public reading API
 # ---------------------------------------------------------------------------------------------------------------
 
-def list_gltf_clips(path: str | os.PathLike[str]) -> list[str]:
-    """Names of the clips (animations) in a glTF file; see :func:`read_gltf_clip`."""
-    return [name for name, _ in _clips(_Doc(path))]
-
-
-def read_gltf_clip(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion]:
-    """Read one animation of a ``.gltf`` / ``.glb`` file as ``(name, motion)``.
+class GLTFFile:
+    """A glTF file, parsed once: the names of its clips, each clip read when asked for.
 
     Each named animation is a clip; unnamed ones are ``animation0``, ``animation1``..., except that unnamed
     animations of different nodes are read together as one clip, ``animation`` (converters such as COLLADA2GLTF
     write one animation per joint).
 
-    Args:
-        path: the file.
-        clip: the animation's name; may be omitted when the file holds exactly one clip.
+    Raises:
+        GLTFFormatError: naming the file, when it is missing, malformed or unsafe (see ``specs/formats/gltf.md``).
+    """
+
+    def __init__(self, path: str | os.PathLike[str]):
+        self.path = path
+        self._doc = _Doc(path)
+        self._clips = _clips(self._doc)
+
+    @property
+    def names(self) -> list[str]:
+        """The clips' names, in the file's order."""
+        return [name for name, _ in self._clips]
+
+    def read_clip(self, clip: str | None = None) -> tuple[str, Motion]:
+        """``(name, motion)`` of clip ``clip`` (may be omitted when the file holds exactly one).
+
+        Raises:
+            GLTFFormatError: naming the file: no animation, several and none chosen, no such clip, or an
+                animation motionrep's pose model cannot hold (non-uniform or animated scale...).
+        """
+        names = self.names
+        if not names:
+            raise self._doc.fail("the file holds no animation (motionrep reads animated skeletons)")
+        if clip is None:
+            if len(names) > 1:
+                raise self._doc.fail(f"the file holds {len(names)} animations; choose one with clip=NAME (--clip "
+                                     "NAME): " + ", ".join(names[:20]) + (" ..." if len(names) > 20 else ""))
+            index = 0
+        elif clip in names:
+            index = names.index(clip)
+        else:
+            raise self._doc.fail(f"no animation named {clip!r}; animations in this file: " + ", ".join(names[:20]))
+        name, indices = self._clips[index]
+        return name, _read_animation(self._doc, indices, name)
+
+    def read(self, clip: str | None = None) -> Motion:
+        """Clip ``clip`` as a :class:`~motionrep.Motion` (see :meth:`read_clip`)."""
+        return self.read_clip(clip)[1]
+
+    def summaries(self) -> list[dict[str, Any]]:
+        """Per clip: ``name``, ``kind`` (``"motion"``), ``frames``, ``fps``, ``duration``, ``joints``."""
+        out = []
+        for name in self.names:
+            m = self.read(name)
+            out.append({"name": name, "kind": "motion", "frames": m.num_frames, "fps": m.fps,
+                        "duration": m.duration, "joints": m.num_joints})
+        return out
+
+
+def list_gltf_clips(path: str | os.PathLike[str]) -> list[str]:
+    """Names of the clips (animations) in a glTF file; see :class:`GLTFFile`."""
+    return GLTFFile(path).names
+
+
+def read_gltf_clip(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion]:
+    """Read one animation of a ``.gltf`` / ``.glb`` file as ``(name, motion)`` (see :class:`GLTFFile`).
 
     Raises:
         GLTFFormatError: naming the file: malformed or unsafe content, an animation that cannot be held by
             motionrep's pose model (non-uniform or animated scale), no animation, or several and none chosen.
     """
-    doc = _Doc(path)
-    clips = _clips(doc)
-    names = [name for name, _ in clips]
-    if not clips:
-        raise doc.fail("the file holds no animation (motionrep reads animated skeletons)")
-    if clip is None:
-        if len(clips) > 1:
-            raise doc.fail(f"the file holds {len(clips)} animations; choose one with clip=NAME (--clip NAME): "
-                           + ", ".join(names[:20]) + (" ..." if len(names) > 20 else ""))
-        index = 0
-    elif clip in names:
-        index = names.index(clip)
-    else:
-        raise doc.fail(f"no animation named {clip!r}; animations in this file: " + ", ".join(names[:20]))
-    name, indices = clips[index]
-    return name, _read_animation(doc, indices, name)
+    return GLTFFile(path).read_clip(clip)
 
 
 def read_gltf(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
-    """Read one animation of a glTF file as a :class:`~motionrep.Motion` (see :func:`read_gltf_clip`)."""
+    """Read one animation of a glTF file as a :class:`~motionrep.Motion` (see :class:`GLTFFile`)."""
     return read_gltf_clip(path, clip)[1]
 
 
 def iter_gltf_clips(path: str | os.PathLike[str]) -> Iterator[tuple[str, Motion]]:
     """Yield ``(name, motion)`` for every clip of a glTF file, one at a time."""
-    doc = _Doc(path)
-    for name, indices in _clips(doc):
-        yield name, _read_animation(doc, indices, name)
+    f = GLTFFile(path)
+    for name in f.names:
+        yield f.read_clip(name)
