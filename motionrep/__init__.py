@@ -8,22 +8,6 @@ Quaternions are ``(..., 4)`` arrays in **xyzw** order everywhere; arrays are ``(
 
 __version__ = "0.1.0"
 
-from ._model import Motion, Skeleton  # noqa: E402
-from .errors import MotionrepError  # noqa: E402
-from .hookspecs import hookimpl  # noqa: E402
-from .io import FeatureClip, read, write  # noqa: E402
-from .kinematics import character_height, forward_kinematics, global_positions  # noqa: E402
-
-
-
-def open(source):  # noqa: A001 - motionrep.open, like io.open: the runtime entry point
-    """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.runtime.Clip`
-    (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.runtime``)."""
-    from .runtime import open_clip
-
-    return open_clip(source)
-
-
 __all__ = [
     "open",
     "Skeleton",
@@ -38,3 +22,34 @@ __all__ = [
     "character_height",
     "__version__",
 ]
+
+# The public names are imported on first use (PEP 562), so `import motionrep` -- and `motionrep --help`, which
+# only needs the version -- starts without numpy.
+_PUBLIC = {
+    "Skeleton": "._model", "Motion": "._model", "MotionrepError": ".errors", "hookimpl": ".hookspecs",
+    "FeatureClip": ".io", "read": ".io", "write": ".io", "forward_kinematics": ".kinematics",
+    "global_positions": ".kinematics", "character_height": ".kinematics",
+}
+
+
+def open(source):  # noqa: A001 - motionrep.open, like io.open: the runtime entry point
+    """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.runtime.Clip`
+    (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.runtime``)."""
+    from .runtime import open_clip
+
+    return open_clip(source)
+
+
+def __getattr__(name: str):
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -396,11 +396,15 @@ def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[s
     Returns:
         ``[(name, ErrorReport)]`` in ``pairs`` order.
     """
+    from .errors import ValidationError
     from .evaluate import max_joint_error
 
     def work(pair: tuple[str, str, str]) -> tuple[str, Any]:
         name, ref_clip, cand_clip = pair
-        return name, max_joint_error(reference.read(ref_clip), candidate.read(cand_clip))
+        try:
+            return name, max_joint_error(reference.read(ref_clip), candidate.read(cand_clip))
+        except ValidationError as exc:  # which files, then what differs
+            raise ValidationError(f"{reference.path} vs {candidate.path}: {exc}") from None
 
     return run_batch(work, pairs,
                      on_done=None if on_done is None else (lambda i, pair, result: on_done(*result)))

@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from .codec import Codec
     from .representation import Representation
 
-__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "MotionContext", "ProgressCallback", "CompressionFigures",
+__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "skeleton_difference", "MotionContext", "ProgressCallback", "CompressionFigures",
            "compression_figures"]
 
 
@@ -89,6 +89,36 @@ class ErrorReport:
                 f"worst at frame {self.frame}, {self.joint}")
 
 
+def skeleton_difference(a: Skeleton, b: Skeleton, a_name: str = "the reference",
+                        b_name: str = "the candidate") -> str | None:
+    """The first way two skeletons' structures differ, in words naming the first differing joint, or None when
+    they share joint names, parents and end sites (offsets may differ).
+
+    ``"joint 3 is 'LowerBack' in walk.bvh but 'lowerback' in walk.mrc (the names differ only in case)"``.
+    """
+    if a.same_structure(b):
+        return None
+    count = "" if a.num_joints == b.num_joints else f"{a.num_joints} joints in {a_name} but {b.num_joints} in " \
+                                                      f"{b_name}; "
+    for j, (x, y) in enumerate(zip(a.names, b.names)):
+        if x != y:
+            case = " (the names differ only in case)" if x.lower() == y.lower() else ""
+            return f"{count}joint {j} is {x!r} in {a_name} but {y!r} in {b_name}{case}"
+    if count:
+        longer, name = (a, a_name) if a.num_joints > b.num_joints else (b, b_name)
+        j = min(a.num_joints, b.num_joints)
+        return f"{count}the first joint only {name} has is joint {j}, {longer.names[j]!r}"
+    if not np.array_equal(a.parents, b.parents):
+        j = int(np.nonzero(a.parents != b.parents)[0][0])
+        return (f"joint {a.names[j]!r} has parent {a.names[a.parents[j]]!r} in {a_name} but "
+                f"{b.names[b.parents[j]]!r} in {b_name}")
+    if a.num_end_sites != b.num_end_sites:
+        return f"{a.num_end_sites} end sites in {a_name} but {b.num_end_sites} in {b_name}"
+    k = int(np.nonzero(a.end_site_parents != b.end_site_parents)[0][0])
+    return (f"end site {k} hangs from {a.names[a.end_site_parents[k]]!r} in {a_name} but from "
+            f"{b.names[b.end_site_parents[k]]!r} in {b_name}")
+
+
 def _percent(value: float, height: float) -> float:
     if height > 0:
         return 100.0 * value / height
@@ -127,9 +157,9 @@ class Evaluator:
                 frame rates differ.
         """
         ref = self.reference
-        if not candidate.skeleton.same_structure(self.skeleton):
-            raise ValidationError("cannot compare motions of different skeletons (joint names, parents or end "
-                                  f"sites differ): {self.skeleton!r} vs {candidate.skeleton!r}")
+        what = skeleton_difference(self.skeleton, candidate.skeleton)
+        if what is not None:
+            raise ValidationError(f"cannot compare motions of different skeletons: {what}")
         if candidate.num_frames != ref.num_frames:
             rates = ("" if math.isclose(candidate.fps, ref.fps, rel_tol=1e-6) else
                      f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: --fps {ref.fps:g})")

@@ -33,8 +33,6 @@ import warnings
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
-
 from .errors import ValidationError
 from .jit import jit, jit_inline, sincos
 
@@ -134,8 +132,16 @@ def quat_apply(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     return v + w * t + np.cross(u, t)
 
 
-def _flat_rotation_from_quat(q: NDArray) -> Rotation:
-    return Rotation.from_quat(q.reshape(-1, 4))
+def _scipy_rotation():
+    """scipy's ``Rotation``, imported on first use: scipy.spatial takes most of a second to import, and reading a
+    BVH file or starting the command line never needs it."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
+
+
+def _flat_rotation_from_quat(q: NDArray):
+    return _scipy_rotation().from_quat(q.reshape(-1, 4))
 
 
 def quat_to_matrix(q: ArrayLike) -> NDArray[np.float64]:
@@ -156,7 +162,7 @@ def matrix_to_quat(m: ArrayLike) -> NDArray[np.float64]:
         raise ValidationError(f"m must have shape (..., 3, 3), got {m.shape}")
     if m.size == 0:
         return np.zeros(m.shape[:-2] + (4,))
-    q = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat(canonical=True)
+    q = _scipy_rotation().from_matrix(m.reshape(-1, 3, 3)).as_quat(canonical=True)
     return q.reshape(m.shape[:-2] + (4,))
 
 
@@ -187,7 +193,7 @@ def euler_to_matrix(angles: ArrayLike, order: str, degrees: bool = False) -> NDA
     angles = _last_dim(angles, len(order), "angles")
     if angles.size == 0:
         return np.zeros(angles.shape[:-1] + (3, 3))
-    m = Rotation.from_euler(order, angles.reshape(-1, len(order)), degrees=degrees).as_matrix()
+    m = _scipy_rotation().from_euler(order, angles.reshape(-1, len(order)), degrees=degrees).as_matrix()
     return m.reshape(angles.shape[:-1] + (3, 3))
 
 
@@ -208,7 +214,7 @@ def _euler_candidates(q: NDArray, order: str, degrees: bool) -> tuple[NDArray, N
     flat = q.reshape(-1, 4)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # gimbal lock: scipy picks a valid solution and warns
-        e1 = Rotation.from_quat(flat).as_euler(full, degrees=degrees)
+        e1 = _scipy_rotation().from_quat(flat).as_euler(full, degrees=degrees)
     half = 180.0 if degrees else np.pi
     # The other solution of the same rotation: (a + pi, pi - b, c + pi) for Tait-Bryan orders (three different
     # axes), (a + pi, -b, c + pi) for proper Euler orders (first axis repeated last).

@@ -231,7 +231,7 @@ def test_batch_failure_into_database_leaves_no_file_and_keeps_the_old_one(tmp_pa
     (clip_dir / "sub" / "broken.bvh").write_text(BAD_BVH)
     db = tmp_path / "db.h5"
     db.write_bytes(b"previous database")
-    r = run("convert", clip_dir, db)
+    r = run("convert", clip_dir, db, "--force")
     assert r.exit_code == 1
     assert error_line(r).startswith(f"Error: {clip_dir / 'sub' / 'broken.bvh'}:15: ")
     assert db.read_bytes() == b"previous database"
@@ -332,7 +332,7 @@ def test_empty_directory(tmp_path):
 
 def test_output_inside_the_input_directory_is_not_read_back(tmp_path, clip_dir):
     assert run("convert", clip_dir, clip_dir / "all.h5").exit_code == 0
-    assert run("convert", clip_dir, clip_dir / "all.h5").exit_code == 0  # again: the old all.h5 is skipped
+    assert run("convert", clip_dir, clip_dir / "all.h5", "--force").exit_code == 0  # the old all.h5 is skipped
     assert list_clips(clip_dir / "all.h5") == ["a", "sub__b", "sub__c"]
 
 

@@ -1,5 +1,6 @@
 """What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks, the one
-overwrite policy (``--force``) and the one way a run ends on a signal (:class:`Interrupted`).
+overwrite policy (``--force``), the one way a run ends on a signal (:class:`Interrupted`), ``-`` for
+standard input and output, glob patterns in inputs, and how ``--max-error`` was read.
 
 Overwrite policy, the same for every command: an output that exists is an error (exit 1, naming it and saying
 ``--force``) unless ``--force`` is given; a command that can go on with what an interrupted run left
@@ -14,22 +15,193 @@ prints one line and exits with ``128 + the signal's number`` (130 for Ctrl-C, 14
 from __future__ import annotations
 
 import contextlib
+import glob
 import json
 import os
+import shutil
 import signal
 import sys
+import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Mapping
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import click
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
-           "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "Interrupted", "handling_signals",
-           "interrupt_line"]
+           "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
+           "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
+           "expand_globs", "display_name", "STDIN_NAME", "bound_for", "describe_bound"]
+
+#: A path given as ``-``: standard input (an input) or standard output (an output).
+STDIO = "-"
+#: How messages name standard input.
+STDIN_NAME = "<stdin>"
+# temporary files standing for standard input, and how messages should name them
+_DISPLAY: dict[str, str] = {}
 
 #: Suffixes of the motion files commands write (the format from the suffix).
 MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+
+
+def is_stdio(path: Any) -> bool:
+    """True for ``-`` (standard input or output)."""
+    return str(path) == STDIO
+
+
+def display_name(text: str) -> str:
+    """``text`` with the temporary files standing for standard input named ``<stdin>``."""
+    for tmp, shown in _DISPLAY.items():
+        text = text.replace(tmp, shown)
+    return text
+
+
+# ---- several outputs --------------------------------------------------------------------------------------------
+def check_outputs(paths: Iterable[Any], force: bool) -> None:
+    """:func:`check_overwrite` for each of ``paths`` (standard output, ``-``, is never refused)."""
+    for p in paths:
+        if p is not None and not is_stdio(p):
+            check_overwrite(p, force)
+
+
+# ---- standard input and output -----------------------------------------------------------------------------------
+def _sniff(data: bytes) -> str | None:
+    """The suffix of what ``data`` holds: ``.mrc`` (its magic) or ``.bvh`` (text starting with HIERARCHY)."""
+    from ..container import MAGIC
+
+    if data.startswith(MAGIC):
+        return ".mrc"
+    head = data[:64].lstrip(b"\xef\xbb\xbf \t\r\n")
+    if head[:9].upper() == b"HIERARCHY":
+        return ".bvh"
+    return None
+
+
+@contextlib.contextmanager
+def stdin_inputs(paths: Sequence[Any], allowed: Iterable[str] = (".bvh", ".mrc")) -> Iterator[list[Any]]:
+    """``paths`` with ``-`` replaced by a temporary file holding standard input, its format told by its first
+    bytes (BVH text, or a ``.mrc`` container); messages name it ``<stdin>``.  At most one ``-``.
+
+    Raises:
+        click.UsageError: for two ``-``, or standard input that is not one of the ``allowed`` formats.
+    """
+    dashes = [i for i, p in enumerate(paths) if is_stdio(p)]
+    if not dashes:
+        yield list(paths)
+        return
+    if len(dashes) > 1:
+        raise click.UsageError("standard input ('-') can be read only once")
+    allowed = tuple(allowed)
+    if sys.stdin is None or sys.stdin.isatty():
+        raise click.UsageError("'-' reads standard input, but nothing is piped into it")
+    data = sys.stdin.buffer.read()
+    suffix = _sniff(data)
+    if suffix not in allowed:
+        what = " or ".join({".bvh": "BVH text", ".mrc": "a .mrc file"}[a] for a in allowed)
+        found = "is empty" if not data else f"is not {what}"
+        raise click.UsageError(f"standard input {found}: this command reads {what} from '-'")
+    folder = tempfile.mkdtemp(prefix="motionrep-stdin-")
+    tmp = Path(folder) / f"stdin{suffix}"
+    tmp.write_bytes(data)
+    _DISPLAY[str(tmp)] = STDIN_NAME
+    try:
+        out = list(paths)
+        out[dashes[0]] = tmp
+        yield out
+    finally:  # the name stays known: the error being raised, if any, is printed after this
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def stdout_output(path: Any, suffix: str) -> Iterator[Path]:
+    """The file to write: ``path`` itself, or for ``-`` a temporary ``stdout<suffix>`` file that is copied to
+    standard output once the command has written it completely (a failure writes nothing there)."""
+    if not is_stdio(path):
+        yield Path(path)
+        return
+    folder = tempfile.mkdtemp(prefix="motionrep-stdout-")
+    tmp = Path(folder) / f"stdout{suffix}"
+    try:
+        yield tmp
+        with open(tmp, "rb") as fh:
+            shutil.copyfileobj(fh, sys.stdout.buffer)
+        sys.stdout.buffer.flush()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+# ---- several inputs ---------------------------------------------------------------------------------------------
+def expand_globs(inputs: Iterable[Any]) -> list[Any]:
+    """Inputs with glob patterns (``clips/*.bvh``, ``**`` for any depth) expanded in sorted order, for shells that
+    do not expand them (and quoted patterns); a path that exists is taken as it is.
+
+    Raises:
+        click.UsageError: for a pattern that matches nothing.
+    """
+    out: list[Any] = []
+    for raw in inputs:
+        text = str(raw)
+        if is_stdio(text) or Path(text).exists() or not glob.has_magic(text):
+            out.append(raw)
+            continue
+        found = sorted(glob.glob(text, recursive=True))
+        if not found:
+            raise click.UsageError(f"no file matches {text!r}")
+        out.extend(Path(f) for f in found)
+    return out
+
+
+# ---- the bound, and how it was read --------------------------------------------------------------------------
+def describe_bound(max_error: Any, bound: float, height: float, units: str | None) -> str:
+    """How ``--max-error`` was read, in one phrase every report uses: ``2% of height 152 = 3.04 cm`` or
+    ``1.5 cm = 0.99% of height (read as a distance in file units; write 1.5% for a percentage)``."""
+    unit = units or "file units"
+    text = str(max_error)
+    if getattr(max_error, "percent", text.strip().endswith("%")):
+        return f"{text} of height {height:.4g} = {bound:.4g} {unit}"
+    pct = f" = {100 * bound / height:.3g}% of height" if height > 0 else ""
+    return (f"{bound:.4g} {unit}{pct} (read as a distance in file units; write {text.strip()}% for a "
+            "percentage)")
+
+
+def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
+              ) -> tuple[float | None, str | None]:
+    """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
+    ``.mrc`` candidate (or archive clip) was compressed within, if it says.
+
+    Raises:
+        click.BadParameter: for a ``--max-error`` that does not parse.
+    """
+    from ..compress import parse_max_error
+    from ..errors import ParameterError
+    from ..kinematics import character_height
+    from ..sources import open_source
+
+    height = character_height(reference.skeleton)
+    units = reference.skeleton.units
+    if max_error is not None:
+        try:
+            parsed = parse_max_error(max_error)
+        except ParameterError as exc:
+            raise click.BadParameter(str(exc), param_hint="--max-error") from None
+        if parsed is None:
+            return None, None
+        bound = parsed.bound(height)
+        return bound, f"--max-error {describe_bound(parsed, bound, height, units)}"
+    for path in candidates:
+        with open_source(path) as src:
+            if src.kind not in ("compressed", "archive"):
+                continue
+            c = src.container(src.resolve(clip if src.kind == "archive" else None))
+        asked = c.extra.get("max_error")
+        parsed = parse_max_error(asked) if asked is not None else None
+        if parsed is None:
+            continue
+        h = character_height(c.skeleton)
+        bound = parsed.bound(h)
+        return bound, f"{describe_bound(parsed, bound, h, c.skeleton.units)}, as {display_name(str(path))} was " \
+                      "compressed"
+    return None, None
 
 
 def parse_params(pairs: Iterable[str]) -> dict[str, str]:
@@ -50,7 +222,7 @@ def collect(inputs: Iterable[Any], **options: Any) -> list[Any]:
     from ..sources import collect_clips
 
     try:
-        return collect_clips(inputs, **options)
+        return collect_clips(expand_globs(inputs), **options)
     except ValidationError as exc:
         raise click.UsageError(str(exc)) from None
 

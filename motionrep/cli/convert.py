@@ -16,7 +16,8 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import collect
+from ._common import (STDIO, check_outputs, collect, expand_globs, force_option, is_stdio, stdin_inputs,
+                      stdout_output)
 
 __all__ = ["convert"]
 
@@ -107,8 +108,9 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
               help="Store the features of this registered representation instead of the motion (.npz/.h5).")
 @click.option("--decimals", type=click.IntRange(0, 17), default=None,
               help="Digits after the decimal point in BVH output (default 6).")
+@force_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
-            decimals: int | None) -> None:
+            decimals: int | None, force: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
@@ -134,6 +136,12 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     An archive of compressed clips (written by compress) is decoded.
 
     \b
+    Standard input and output: IN '-' reads BVH text from standard input;
+    OUT '-' writes one clip to standard output, as BVH (or --format npz/h5/glb).
+    IN may also be a quoted glob pattern ('clips/*.bvh', 'mocap/**/*.bvh').
+    An OUT that exists (or a file OUT/ would replace) needs --force.
+
+    \b
     Errors: a bad input stops the run with one line naming the file (exit 1)
     and no output file; for directory output the message says which files were
     already written. An unknown suffix, options that do not apply, an input
@@ -148,29 +156,41 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
       motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
       motionrep convert walk.bvh walk.glb
       motionrep convert robot.glb dance.bvh --clip Dance
+      motionrep convert walk.npz - | head
+      cat walk.bvh | motionrep convert - walk.glb
     """
     if len(paths) < 2:
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
     raw_out = paths[-1]
+    with stdin_inputs(expand_globs(paths[:-1]), allowed=(".bvh",)) as inputs:
+        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force)
+
+
+def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str | None,
+             representation: str | None, decimals: int | None, force: bool) -> None:
     out = Path(raw_out)
-    inputs = [Path(p) for p in paths[:-1]]
-    to_directory = out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == ""
+    to_stdout = is_stdio(raw_out)
+    to_directory = not to_stdout and (out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == "")
     if to_directory and out.exists() and not out.is_dir():
         raise click.UsageError(f"output {out} exists and is not a directory")
+    if to_stdout:
+        out = Path(f"stdout{_OUT_FORMATS[out_format or 'bvh']}")
     out_fmt = {"h5": "hdf5"}.get(out_format or "bvh", out_format or "bvh") if to_directory else \
         _format_or_usage(out, "output")
-    if out_format is not None and not to_directory:
-        raise click.UsageError("--format applies only when OUT is a directory; otherwise the suffix decides")
+    if out_format is not None and not (to_directory or to_stdout):
+        raise click.UsageError("--format applies only when OUT is a directory or '-'; otherwise the suffix decides")
     for p in inputs:
         if p.exists() and out.exists() and p.resolve() == out.resolve():
             raise click.UsageError(f"input and output are the same: {p}")
         if not p.is_dir():
             _format_or_usage(p, "input")
+    if not to_directory:
+        check_outputs([raw_out], force)
     if decimals is not None and out_fmt != "bvh":
         raise click.UsageError("--decimals applies only to BVH output")
     if representation is not None and out_fmt in ("bvh", "gltf"):
-        raise click.UsageError(f"--representation needs .npz or .h5 output: {out_fmt.upper() if out_fmt == 'bvh' else 'glTF'} "
-                               "holds motions, not features")
+        kind = "BVH" if out_fmt == "bvh" else "glTF"
+        raise click.UsageError(f"--representation needs .npz or .h5 output: {kind} holds motions, not features")
     if clip is not None and (len(inputs) != 1 or inputs[0].is_dir() or _format_or_usage(inputs[0], "input")
                              not in ("hdf5", "gltf")):
         raise click.UsageError("--clip takes one clip out of a single HDF5 database or glTF file input")
@@ -180,19 +200,23 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
 
         rep = get_representation(representation)  # an unknown name fails before any work (exit 1, lists names)
 
-    refs = collect(inputs, clip=clip, exclude=[out])
+    refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [out])
     if to_directory:
-        _to_directory(refs, out, _OUT_FORMATS[out_format or "bvh"], rep, decimals)
-    elif out_fmt == "hdf5":
-        _to_database(refs, out, rep)
-    else:
-        if len(refs) != 1:
-            from ..sources import listing
+        suffix = _OUT_FORMATS[out_format or "bvh"]
+        check_outputs([out / (r.name + suffix) for r in refs], force)
+        _to_directory(refs, out, suffix, rep, decimals)
+        return
+    if len(refs) != 1 and out_fmt != "hdf5":
+        from ..sources import listing
 
-            raise click.UsageError(f"{out} holds one clip but the inputs hold {len(refs)} "
-                                   f"({listing([r.name for r in refs])}); use --clip NAME, an .h5 output or "
-                                   "a directory")
-        _write_one(next(_converted(refs, rep))[1], out, decimals)
+        raise click.UsageError(f"{STDIO if to_stdout else out} holds one clip but the inputs hold {len(refs)} "
+                               f"({listing([r.name for r in refs])}); use --clip NAME, an .h5 output or a "
+                               "directory")
+    with stdout_output(raw_out, out.suffix) as target:
+        if out_fmt == "hdf5":
+            _to_database(refs, target, rep)
+        else:
+            _write_one(next(_converted(refs, rep))[1], target, decimals)
 
 
 def _to_database(refs: list, out: Path, representation: Any) -> None:

@@ -75,7 +75,7 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
             echo_json(dict(report.as_dict(), reference=str(reference), candidate=str(candidate)))
         else:
             which = f" (clip {clip})" if clip is not None else ""
-            click.echo(f"{candidate} vs {reference}{which}: {report.num_frames} frames, {report.num_points} points")
+            click.echo(f"{reference} vs {candidate}{which}: {report.num_frames} frames, {report.num_points} points")
             click.echo(report.summary())
         return
     worst_name, worst = max(reports, key=lambda item: item[1].max_error_percent)
@@ -84,7 +84,7 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
                    "clips": [dict(r.as_dict(), clip=n) for n, r in reports],
                    "worst": dict(worst.as_dict(), clip=worst_name)})
         return
-    click.echo(f"{candidate} vs {reference}: {len(reports)} clips")
+    click.echo(f"{reference} vs {candidate}: {len(reports)} clips")
     width = max(4, *(len(n) for n, _ in reports))
     click.echo(f"  {'clip':<{width}}  {'frames':>7}  {'L-inf':>10}  {'% height':>8}  {'mean':>10}  worst at")
     for n, r in reports:

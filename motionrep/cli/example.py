@@ -7,12 +7,15 @@ from pathlib import Path
 
 import click
 
+from ._common import check_outputs, force_option
+
 __all__ = ["example"]
 
 
 @click.command("example")
 @click.argument("output", metavar="OUT.bvh", type=click.Path(dir_okay=False, path_type=Path))
-def example(output: Path) -> None:
+@force_option
+def example(output: Path, force: bool) -> None:
     """Write the demo clip shipped with motionrep (a synthetic 450-frame walk) to OUT.bvh.
 
     \b
@@ -25,6 +28,7 @@ def example(output: Path) -> None:
 
     if output.suffix.lower() != ".bvh":
         raise click.UsageError(f"output {output}: the demo clip is a .bvh file")
+    check_outputs([output], force)
     with atomic_path(output) as tmp:
         shutil.copyfile(demo_path(), tmp)
     click.echo(f"wrote {output} (synthetic walk, 450 frames at 30 fps, 15 joints)")

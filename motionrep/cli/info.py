@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from ._common import echo_json, usage_suffix
+from ._common import STDIN_NAME, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
 
 __all__ = ["info"]
 
@@ -93,11 +93,17 @@ def _info_text(d: dict[str, Any]) -> str:
 
 
 @click.command("info")
-@click.argument("file", metavar="FILE")
-@click.option("--clip", metavar="NAME", help="The clip to describe in an HDF5 database or archive.")
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object (keys: specs/formats/info-json.md).")
-def info(file: str, clip: str | None, as_json: bool) -> None:
-    """Describe a motion file: skeleton, frames, fps, duration, height, channel layout.
+@click.argument("files", metavar="FILE...", nargs=-1, required=True)
+@click.option("--clip", metavar="NAME",
+              help="The clip to describe in an HDF5 database or archive, or a glTF file's animation.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print one JSON object (a list of them for several files; keys: specs/formats/info-json.md).")
+def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
+    """Describe motion files: skeleton, frames, fps, duration, height, channel layout.
+
+    \b
+    FILE may be several files, quoted glob patterns ('clips/*.bvh'), or '-'
+    (BVH text or a .mrc file from standard input); each is described in turn.
 
     \b
     For an HDF5 database of several clips (without --clip): each clip's name,
@@ -124,12 +130,23 @@ def info(file: str, clip: str | None, as_json: bool) -> None:
     from ..info import info_dict
     from ..sources import CLIP_SUFFIXES, SOURCE_SUFFIXES
 
-    path = Path(file)
-    suffix = usage_suffix(path, SOURCE_SUFFIXES, "file")
-    if clip is not None and suffix not in CLIP_SUFFIXES:
-        raise click.UsageError("--clip applies to HDF5 databases and archives and to glTF files")
-    d = info_dict(path, clip)
+    given = expand_globs(files)
+    for f in given:
+        if is_stdio(f):
+            continue
+        suffix = usage_suffix(Path(f), SOURCE_SUFFIXES, "file")
+        if clip is not None and suffix not in CLIP_SUFFIXES:
+            raise click.UsageError("--clip applies to HDF5 databases and archives and to glTF files")
+    with stdin_inputs(given) as paths:
+        described = []
+        for f, path in zip(given, paths):
+            d = info_dict(Path(path), clip)
+            if is_stdio(f):
+                d["file"] = STDIN_NAME
+            described.append(d)
+            if not as_json:
+                if len(described) > 1:
+                    click.echo()
+                click.echo(_info_text(d))
     if as_json:
-        echo_json(d)
-    else:
-        click.echo(_info_text(d))
+        echo_json(described[0] if len(described) == 1 else described)

@@ -14,6 +14,7 @@ from typing import Any
 import click
 
 from ..errors import ValidationError
+from ._common import STDIN_NAME, bound_for, check_outputs, force_option, is_stdio, stdin_inputs
 
 __all__ = ["render"]
 
@@ -57,9 +58,10 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
 
 
 @click.command("render")
-@click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("reference", metavar="REF", type=click.Path(exists=True, dir_okay=False, allow_dash=True,
+                                                            path_type=Path))
 @click.argument("candidate", metavar="[CAND]", required=False,
-                type=click.Path(exists=True, dir_okay=False, path_type=Path))
+                type=click.Path(exists=True, dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="OUT.gif (animation), OUT.png (filmstrip) or OUT.mp4 (animation; needs ffmpeg).")
 @click.option("--frames", metavar="A:B[:STEP]", callback=_frames_option,
@@ -78,13 +80,20 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
               help="Output size in pixels (the whole filmstrip for PNG).  Default: fitted to the motion.")
 @click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
-@click.option("--clip", metavar="NAME", help="The clip to read from HDF5 databases or archives (both files).")
+@click.option("--clip", metavar="NAME",
+              help="The clip to read from HDF5 databases, archives or glTF files (both files).")
+@click.option("--max-error", "max_error", metavar="BOUND",
+              help="Bound to draw on the error panel: '2%' of the character height or a distance in file units. "
+                   "Default: the bound a .mrc candidate was compressed within, if it says.")
+@force_option
 def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
-           count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None) -> None:
+           count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
+           max_error: str | None, force: bool) -> None:
     """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, the worst joint circled.
 
-    REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton.  A CAND at
-    another frame rate is resampled at REF's frame times when both span the same time.
+    REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH or .mrc
+    from standard input).  A CAND at another frame rate is resampled at REF's frame times when both span the
+    same time.  A panel under the pictures shows the error over time and the bound.
 
     \b
     Examples:
@@ -100,10 +109,17 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
         raise click.UsageError(f"output {output}: cannot draw to {output.suffix or '(no suffix)'!r} files; use one "
                                "of " + ", ".join(OUTPUT_SUFFIXES))
     check_output(output)  # fail before reading anything (e.g. .mp4 without ffmpeg)
-    ref = _read(reference, clip)
-    cand = None if candidate is None else _read(candidate, clip)
-    result = draw(output, ref, cand, names=_labels(reference, candidate), frames=frames, fps=fps, count=count,
-                  max_frames=max_frames, size=size, up=up)
+    check_outputs([output], force)
+    with stdin_inputs([reference] + ([] if candidate is None else [candidate])) as paths:
+        ref = _read(paths[0], clip)
+        cand = None if candidate is None else _read(paths[1], clip)
+        bound, how = bound_for(max_error, ref, paths[1:], clip)
+    if how:
+        click.echo(f"bound: {how}", err=True)
+    names = _labels(reference, candidate)
+    names = tuple(STDIN_NAME if is_stdio(p) else n for p, n in zip((reference, candidate), names))
+    result = draw(output, ref, cand, names=names, frames=frames, fps=fps, count=count,
+                  max_frames=max_frames, size=size, up=up, bound=bound)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)
     n = len(result.frames)

@@ -33,17 +33,28 @@ from ..errors import BVHFormatError, FormatError, GLTFFormatError, HDF5FormatErr
 from ._atomic import atomic_path
 from ._bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from ._features import FeatureClip, features_from_motion, motion_from_features
-from ._hdf5 import (
-    iter_hdf5_clips,
-    list_hdf5_clips,
-    read_hdf5,
-    read_hdf5_clip,
-    write_database,
-    write_hdf5,
-    write_hdf5_features,
-)
-from ._gltf import gltf_bytes, iter_gltf_clips, list_gltf_clips, read_gltf, read_gltf_clip, write_gltf
-from ._npz import read_npz, read_npz_clip, write_npz, write_npz_features
+
+# The other formats' modules are imported when first used: h5py, pygltflib and zipfile cost start-up time that
+# a BVH-only command (``motionrep info walk.bvh``) should not pay.
+_LAZY = {
+    "iter_hdf5_clips": "_hdf5", "list_hdf5_clips": "_hdf5", "read_hdf5": "_hdf5", "read_hdf5_clip": "_hdf5",
+    "write_database": "_hdf5", "write_hdf5": "_hdf5", "write_hdf5_features": "_hdf5",
+    "gltf_bytes": "_gltf", "iter_gltf_clips": "_gltf", "list_gltf_clips": "_gltf", "read_gltf": "_gltf",
+    "read_gltf_clip": "_gltf", "write_gltf": "_gltf",
+    "read_npz": "_npz", "read_npz_clip": "_npz", "write_npz": "_npz", "write_npz_features": "_npz",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "read",
@@ -119,11 +130,19 @@ def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[
     """
     fmt = format_of(path)
     if fmt == "hdf5":
+        from ._hdf5 import read_hdf5_clip
+
         return read_hdf5_clip(path, clip)
     if fmt == "gltf":
+        from ._gltf import read_gltf_clip
+
         return read_gltf_clip(path, clip)
     _no_clip(fmt, path, clip)
-    return Path(path).stem, (read_bvh(path) if fmt == "bvh" else read_npz_clip(path))
+    if fmt == "bvh":
+        return Path(path).stem, read_bvh(path)
+    from ._npz import read_npz_clip
+
+    return Path(path).stem, read_npz_clip(path)
 
 
 def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
@@ -172,10 +191,16 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
     if fmt == "bvh":
         write_bvh(motion, path, **options)
     elif fmt == "npz":
+        from ._npz import write_npz
+
         write_npz(motion, path, **options)
     elif fmt == "gltf":
+        from ._gltf import write_gltf
+
         write_gltf(motion, path, **options)
     else:
+        from ._hdf5 import write_hdf5
+
         write_hdf5(motion, path, **options)
 
 
@@ -208,8 +233,12 @@ def write_features(features: FeatureClip, path: str | os.PathLike[str], **option
     if fmt in ("bvh", "gltf"):
         raise _ERRORS[fmt](f"{fmt.upper()} files hold motions, not features; write features to .npz or .h5", path)
     if fmt == "npz":
+        from ._npz import write_npz_features
+
         write_npz_features(features, path, **options)
     else:
+        from ._hdf5 import write_hdf5_features
+
         write_hdf5_features(features, path, **options)
 
 
@@ -223,8 +252,12 @@ def list_clips(path: str | os.PathLike[str]) -> list[str]:
     """
     fmt = format_of(path)
     if fmt == "hdf5":
+        from ._hdf5 import list_hdf5_clips
+
         return list_hdf5_clips(path)
     if fmt == "gltf":
+        from ._gltf import list_gltf_clips
+
         return list_gltf_clips(path)
     return [Path(path).stem]
 
@@ -240,8 +273,12 @@ def read_clips(path: str | os.PathLike[str]) -> Iterator[tuple[str, Motion]]:
     """
     fmt = format_of(path)
     if fmt == "hdf5":
+        from ._hdf5 import iter_hdf5_clips
+
         yield from iter_hdf5_clips(path, decode=True)
     elif fmt == "gltf":
+        from ._gltf import iter_gltf_clips
+
         yield from iter_gltf_clips(path)
     else:
         yield Path(path).stem, read(path)

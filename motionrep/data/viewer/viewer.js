@@ -312,7 +312,8 @@
       g.setLineDash([]);
       g.fillStyle = "#b00";
       g.textAlign = "left";
-      g.fillText("bound " + data.boundText, margin.left + 6, y(data.bound) - 4);
+      g.fillText("bound " + fmt(data.bound, 3) + unit + (data.height > 0 ? " (" + percent(data.bound) + ")" : ""),
+        margin.left + 6, y(data.bound) - 4);
     }
     for (const figure of candidates()) {
       const e = figure.clip.perFrame;
@@ -415,8 +416,19 @@
     camera.near = distance / 100;
     camera.far = distance * 20 + Math.max(size.x, size.y, size.z) * 4;
     centerY = center.y;
+    // look across the main direction of travel (a walk is seen from the side), a little from the front and above
+    pose(figures[0], 0);
+    const start = figures[0].positions[0].clone();
+    pose(figures[0], F - 1);
+    const along = figures[0].positions[0].clone().sub(start).setY(0);
+    const side = new T.Vector3(0.55, 0, 0.8);
+    if (along.length() > 0.5 * tall) {
+      along.normalize();
+      side.set(-along.z, 0, along.x).multiplyScalar(0.9).addScaledVector(along, 0.4);
+    }
+    side.normalize().multiplyScalar(distance);
     controls.target.copy(center);
-    camera.position.set(center.x + distance * 0.55, center.y + extent * 0.2, center.z + distance * 0.8);
+    camera.position.set(center.x + side.x, center.y + distance * 0.25, center.z + side.z);
     controls.update();
     const span = Math.max(size.x, size.z) + 2 * tall;
     const grid = new T.GridHelper(span, Math.max(4, Math.min(200, Math.round(span / (tall / 2)))), 0xbbbbbb, 0xe2e2e2);

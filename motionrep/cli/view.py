@@ -1,0 +1,117 @@
+"""``motionrep view``: one self-contained HTML page with a clip and its decoded copies in 3D.
+
+Exit codes: 0 on success; 1 when the page cannot be made (unreadable input, skeletons that differ, clips of
+different length), with one line on stderr and no output file left behind; 2 for a usage error (an output that
+is not ``.html``, one that exists without ``--force``, ``--clip`` for files of one clip).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ._common import STDIN_NAME, bound_for, check_outputs, expand_globs, force_option, is_stdio, stdin_inputs
+
+__all__ = ["view"]
+
+
+def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
+    """What a compressed clip says about itself: codec and outcome, representation, sizes, ratios, the bound it
+    was made for and the error stored with it."""
+    from ..compress import describe_outcome
+    from ..evaluate import compression_figures
+    from ..plugins import get_representation
+
+    c = src.container(name)
+    size = src.size(name)
+    facts = [("codec", f"{c.codec} (payload format {c.codec_version}): {describe_outcome(c, detail=True)}"),
+             ("representation", f"{c.representation} (version {c.representation_version})")]
+    if c.params:
+        facts.append(("parameters", ", ".join(f"{k}={v}" for k, v in sorted(c.params.items()))))
+    facts.append(("size", f"{size:,} bytes" if size is not None else "unknown"))
+    try:
+        width = get_representation(c.representation).width(c.skeleton)
+    except Exception:  # noqa: BLE001 - the representation's plugin is not installed: no figures need it
+        width = None
+    if width is not None and size:
+        fig = compression_figures(num_frames=c.num_frames, feature_width=width, num_parameters=c.num_parameters,
+                                  num_channels=c.skeleton.num_channels, num_joints=c.skeleton.num_joints,
+                                  compressed_bytes=size)
+        facts.append(("ratios", fig.summary()))
+    asked = c.extra.get("max_error")
+    if asked is not None:
+        facts.append(("compressed within", str(asked)))
+    ev = c.evaluation or {}
+    if "max_error" in ev:
+        facts.append(("stored error", f"{ev['max_error']:.4g} ({ev.get('max_error_percent', float('nan')):.3g}% of "
+                                      "height), measured when the file was written"))
+    return facts
+
+
+@click.command("view")
+@click.argument("reference", metavar="REF")
+@click.argument("candidates", metavar="[CAND]...", nargs=-1)
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="OUT.html: one file, no server or network needed; open it in any browser.")
+@click.option("--clip", metavar="NAME", help="The clip to show from HDF5 databases, archives and glTF files.")
+@click.option("--max-error", "max_error", metavar="BOUND",
+              help="Bound to draw on the error curve: '2%' of the character height or a distance in file units. "
+                   "Default: the bound the first .mrc candidate was compressed within, if any.")
+@click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
+              help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
+@force_option
+def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | None, max_error: str | None,
+         up: str, force: bool) -> None:
+    """Write one HTML page showing REF and its decoded copies CAND... in 3D.
+
+    The skeletons are overlaid (REF red, the candidates blue, green, orange...),
+    with play/pause, a timeline to scrub, orbit/zoom/pan, the error of every
+    candidate frame by frame with the bound and the worst frame one click away,
+    and each clip's facts (codec, parameters, sizes, ratios, errors).  REF and
+    CAND may be any motion file motionrep reads, .mrc and .glb included, of the
+    same skeleton; '-' reads BVH or .mrc from standard input; quoted glob
+    patterns give several candidates.  A CAND at another frame rate is resampled
+    at REF's frame times.
+
+    \b
+    Examples:
+      motionrep view walk.bvh walk.mrc -o walk.html
+      motionrep view walk.bvh walk_svd.mrc walk_fourier.mrc -o compare.html
+      motionrep view dance.glb -o dance.html --clip Dance
+    """
+    from ..sources import open_source
+    from ..view import MAX_CANDIDATES, ViewClip, write_view
+
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise click.UsageError(f"output {output}: the viewer is an HTML page; name it OUT.html")
+    check_outputs([output], force)
+    cands = expand_globs(candidates)
+    if len(cands) > MAX_CANDIDATES:
+        raise click.UsageError(f"the viewer shows at most {MAX_CANDIDATES} candidates at once, got {len(cands)}")
+    given = [reference, *cands]
+    with stdin_inputs(given) as paths:
+        clips: list[ViewClip] = []
+        for k, path in enumerate(paths):
+            with open_source(Path(path)) as src:
+                many = src.kind in ("database", "archive")
+                if clip is not None and not many:
+                    raise click.UsageError(f"--clip applies to HDF5 databases and archives and to glTF files, "
+                                           f"not {given[k]}")
+                name = src.resolve(clip if many else None)
+                motion = src.read(name)
+                facts = _clip_facts(src, name) if src.kind in ("compressed", "archive") else []
+            label = STDIN_NAME if is_stdio(given[k]) else Path(str(given[k])).name
+            clips.append(ViewClip(motion, f"{label}[{name}]" if many else label, tuple(facts)))
+        bound, how = bound_for(max_error, clips[0].motion, paths[1:], clip)
+    result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up)
+    for note in result.notes:
+        click.echo(f"note: {note}", err=True)
+    line = f"wrote {output}: {result.frames} frames, {len(clips)} clip{'s' if len(clips) > 1 else ''}, " \
+           f"{result.bytes / 1e6:.1f} MB"
+    if result.errors:
+        from ..render import describe_error
+
+        line += f"; worst joint of {clips[1].label}: {describe_error(result.errors[0])}"
+    click.echo(line)
