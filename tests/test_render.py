@@ -254,7 +254,7 @@ def test_bad_rate_and_size(tmp_path, files, pair):
 
 def test_missing_matplotlib_is_one_clear_error(tmp_path, pair, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.backends.backend_agg", None)  # import fails
-    with pytest.raises(MotionrepError, match=r"matplotlib.*pip install 'motionrep\[plot\]'"):
+    with pytest.raises(MotionrepError, match=r"matplotlib.*pip install matplotlib"):
         rmod.render(tmp_path / "x.png", *pair)
     _no_output_left(tmp_path, "x.png")
 
@@ -296,14 +296,102 @@ def test_equal_scale_in_screen_space(pair):
     """The fixed orthographic camera draws every bone at most its length, the same scale in every frame."""
     ref = pair[0]
     pos = global_positions(ref)
-    bones = render_scene.bones(ref.skeleton)
-    scene = render_scene.build_scene(pos, None, bones, "y", np.arange(ref.num_frames), 170.0)
+    bones = rmod.bone_segments(ref)
+    scene = render_scene.build_scene(pos, None, bones, "y", np.arange(ref.num_frames), 170.0, ref.fps)
     true = np.linalg.norm(pos[:, bones[:, 0]] - pos[:, bones[:, 1]], axis=-1)
     drawn = np.linalg.norm(scene.ref[:, bones[:, 0]] - scene.ref[:, bones[:, 1]], axis=-1)
     assert np.all(drawn <= true + 1e-9)
     # some bone in some frame lies almost in the picture plane and keeps its whole length
     assert np.max(drawn / true) > 0.98
     assert scene.aspect > 0
+
+
+# ---- what a new user noticed (issue 16) -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("worst", [0, 13, 118, 299])
+def test_the_worst_frame_is_always_in_the_animation(tmp_path, worst):
+    """30 fps shown at 25 fps (and a 300-frame clip at 150 --max-frames) skips frames: never the worst one."""
+    ref = synthetic_motion(humanoid_skeleton(), frames=300, fps=30.0, seed=2)
+    cand = _perturbed(ref, JOINT, worst, radians=0.8)
+    result = rmod.render(tmp_path / "w.gif", ref, cand, size=SMALL)
+    assert result.error.frame == worst and worst in result.frames
+    assert len(result.frames) <= 150 and list(result.frames) == sorted(set(result.frames))
+    with Image.open(result.path) as im:
+        assert im.n_frames == len(result.frames)
+
+
+def test_an_explicit_selection_says_when_it_leaves_out_the_worst_frame(tmp_path, pair):
+    ref, cand = pair
+    result = rmod.render(tmp_path / "s.gif", ref, cand, frames="0:40:10", size=SMALL)
+    assert result.frames == (0, 10, 20, 30)
+    assert any(f"worst frame, {BUMP_FRAME}" in n for n in result.notes)
+
+
+def test_default_animation_is_screen_sized_and_follows_a_long_walk(tmp_path):
+    ref = synthetic_motion(humanoid_skeleton(), frames=150, fps=30.0, seed=1)
+    travel = ref.root_translation.copy()
+    travel[:, 2] += np.linspace(0, 1200, 150)  # 12 m: several body heights across the screen
+    ref = ref.replace(root_translation=travel)
+    cand = _perturbed(ref, JOINT, 70)
+    result = rmod.render(tmp_path / "walk.gif", ref, cand, max_frames=20)
+    w, h = result.size
+    assert w >= 640 and h >= 600
+    with Image.open(result.path) as im:
+        for k in (0, im.n_frames - 1):
+            im.seek(k)
+            frame = np.asarray(im.convert("RGB")).astype(int)
+            body = frame[: int(h * 0.7)]  # above the error panel
+            red = (body[..., 0] > 180) & (body[..., 1] < 120) & (body[..., 2] < 120)
+            rows = np.nonzero(red.any(axis=1))[0]
+            assert rows.size and rows[-1] - rows[0] > 250, "the figure is not drawn large"  # pixels tall
+            cols = np.nonzero(red.any(axis=0))[0]
+            assert 0.2 * w < cols.mean() < 0.8 * w  # followed: in the middle at the start and at the end
+
+
+def test_colours_stay_apart_where_the_skeletons_overlap(tmp_path, pair):
+    ref = pair[0]
+    result = rmod.render(tmp_path / "same.png", ref, ref, count=2, size=(640, 520))
+    rgb = np.asarray(Image.open(result.path).convert("RGB")).astype(int)
+    red = np.array([0xD6, 0x27, 0x28])
+    blue = np.array([0x1F, 0x5F, 0xD6])
+    near = lambda c, tol=40: int((np.abs(rgb - c).max(axis=-1) <= tol).sum())  # noqa: E731
+    purple = (red + blue) // 2
+    assert near(red) > 300 and near(blue) > 300
+    assert near(purple, 30) < 0.05 * (near(red) + near(blue))  # no blend of the two where they coincide
+
+
+def test_error_panel_and_units_in_the_title(tmp_path, pair):
+    ref, cand = pair
+    result = rmod.render(tmp_path / "p.png", ref, cand, count=3, size=(720, 560), bound=2.0)
+    rgb = np.asarray(Image.open(result.path).convert("RGB")).astype(int)
+    bottom = rgb[int(0.75 * rgb.shape[0]):]
+    dashed_bound = (np.abs(bottom - [0xB0, 0, 0]).max(axis=-1) <= 40).sum()
+    curve = (np.abs(bottom - [0x1F, 0x5F, 0xD6]).max(axis=-1) <= 40).sum()
+    assert dashed_bound > 50 and curve > 50
+    assert "lengths in cm" in render_draw.headline_text(("a", "b"), True, None, "cm")
+    assert "lengths in file units" in render_draw.headline_text(("a", "b"), True, None, None)
+
+
+def test_no_bone_that_is_not_in_the_skeleton():
+    """A root whose OFFSET is far from the origin, a root-motion node under it (as in Bandai Namco files: the
+    hips translated by position channels), end sites: only real links are drawn, never one to the origin."""
+    from motionrep import Skeleton
+
+    six = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+    sk = Skeleton(names=("joint_Root", "Hips", "Spine", "Head"), parents=[-1, 0, 1, 2],
+                  offsets=[[300.0, 0, -200], [0.8, 94, -452], [0, 15, 0], [0, 20, 0]], channels=(six,) * 4,
+                  end_site_parents=[3], end_site_offsets=[[0, 10, 0]])
+    motion = synthetic_motion(sk, frames=30, fps=30.0)
+    jt = np.array(motion.joint_translations)
+    jt[:, 1:] = sk.offsets[2:]  # spine and head: rigid bones (constant translations)
+    jt[:, 0] = sk.offsets[1] + np.linspace(0, 40, 30)[:, None]  # the hips move: a translation, not a bone
+    motion = motion.replace(joint_translations=jt)
+    assert rmod.bone_segments(motion).tolist() == [[1, 2], [2, 3], [3, 4]]
+    rigid = motion.replace(joint_translations=np.broadcast_to(sk.offsets[1:], jt.shape))
+    assert rmod.bone_segments(rigid).tolist() == [[0, 1], [1, 2], [2, 3], [3, 4]]
+    chain = synthetic_motion(chain_skeleton(4), frames=5)
+    assert rmod.bone_segments(chain).tolist() == [[0, 1], [1, 2], [2, 3]] + [
+        [int(p), 4 + e] for e, p in enumerate(chain.skeleton.end_site_parents)]
 
 
 # ---- real data ----------------------------------------------------------------------------------------------------

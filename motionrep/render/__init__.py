@@ -1,35 +1,40 @@
 """Stick-figure pictures of a motion and its decoded copy, overlaid: animations (GIF, MP4) and filmstrips (PNG).
 
 The reference is drawn in red and the candidate (the decoded motion) in blue, over each other, as in Fig. 1 of
-Tojo et al. 2022.  The *worst joint* -- the joint or end site with the largest position error at any frame, the
-shared L-infinity measure (world positions after forward kinematics) -- is circled on every frame and named in
-the title with its error in file units and in percent of the character height
-(:func:`motionrep.kinematics.character_height`).
+Tojo et al. 2022: the reference wider and opaque, the candidate on top with a thin white rim, so where they agree
+a blue line has a red edge and the two never blend into a third colour.  The *worst joint* -- the joint or end site with the largest
+position error at any frame, the shared L-infinity measure (world positions after forward kinematics) -- is
+circled on every frame and named in the title with its error in file units and in percent of the character
+height (:func:`motionrep.kinematics.character_height`); the title says the units.  Under the pictures, a panel
+shows the error over time: each frame's largest joint error, in file units and % of the height, with the bound
+when one is given, the worst frame and (in an animation) the current frame.
 
-Pictures use one fixed orthographic camera for the whole rendering, so the same length is drawn the same size
-across, up and in depth, in every frame: the figure's proportions are never distorted and its travel across
-the floor is visible.  The camera looks across the main direction of the root's travel (a walk is seen from the
-side, as in the paper's Fig. 1), 25 degrees towards the front and 15 degrees from above; a clip that stays in
-place is seen three-quarter.  Bones join every joint to its parent and every end site to its joint; a grey
-shadow of the reference on the floor shows depth and foot contact.  The up axis is detected
+Pictures use one orthographic camera for the whole rendering, so the same length is drawn the same size across,
+up and in depth, in every frame: the figure's proportions are never distorted.  The camera looks across the main
+direction of the root's travel (a walk is seen from the side, as in the paper's Fig. 1), 25 degrees towards the
+front and 15 degrees from above; a clip that stays in place is seen three-quarter.  A clip that travels further
+than 1.5 times the width the figure needs is followed (the floor moves under a figure kept large in the middle);
+otherwise the travel across the floor is shown.  Bones join every end site to its joint and every joint to its
+parent, except joints moved by position channels over the clip (a root-motion node: :func:`bone_segments`); a
+grey shadow of the reference on the floor shows depth and foot contact.  The up axis is detected
 (:func:`detect_up_axis`) unless given.
 
-matplotlib is an optional dependency (``pip install 'motionrep[plot]'``); it is imported only when a picture is
-drawn, always on the non-interactive Agg canvas (no window, no ``pyplot`` state).
+matplotlib is imported only when a picture is drawn, always on the non-interactive Agg canvas (no window, no
+``pyplot`` state).
 
 Time alignment: a candidate with the same frame rate must have the same number of frames.  A candidate at
 another frame rate (decoded at other times, ``motionrep decompress --fps``) must span the same time from its
 first to its last frame, within one frame time of the coarser clip; it is then resampled at the reference's
-frame times (:func:`motionrep.ops.resample`), and the error is measured on that resampled motion.
+frame times , and the error is measured on that resampled motion.
 
 Frame choice: without a step in ``frames``, an animation picks frames by time so that it plays in real time
-(at most ``max_frames`` of them: a long clip is shown at a lower rate), and a filmstrip shows ``count`` evenly
-spaced frames, the one nearest the worst frame replaced by it.  With a step (``"0:300:10"``) exactly those
-frames are shown.
+(at most ``max_frames`` of them: a long clip is shown at a lower rate), the worst frame replacing the frame
+picked nearest to it, and a filmstrip shows ``count`` evenly spaced frames, the one nearest the worst frame
+replaced by it.  With a step (``"0:300:10"``) exactly those frames are shown.
 
 The package: :mod:`~motionrep.render.frames` (which frames, at what rate), :mod:`~motionrep.render.scene`
-(the up axis, the alignment, the camera) and :mod:`~motionrep.render.draw` (matplotlib: the panels and the two
-writers); :func:`render` puts them together.
+(the up axis, the alignment, the bones, the camera) and :mod:`~motionrep.render.draw` (matplotlib: the panels,
+the error panel and the two writers); :func:`render` puts them together.
 """
 
 from __future__ import annotations
@@ -46,11 +51,11 @@ from ..errors import FormatError, ValidationError
 from ..evaluate import ErrorReport, Evaluator
 from ..io import atomic_path
 from ..kinematics import character_height, global_positions, point_names
-from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, describe_error, require_matplotlib, write_animation,
+from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, Curve, describe_error, require_matplotlib, write_animation,
                    write_filmstrip)
 from .frames import (GIF_MAX_FPS, animation_frames, check_size, filmstrip_frames, parse_frames, parse_size,
                      select_frames)
-from .scene import Worst, align_candidate, bones, build_scene, detect_up_axis
+from .scene import Worst, align_candidate, bone_segments, build_scene, detect_up_axis
 
 __all__ = [
     "render",
@@ -60,6 +65,7 @@ __all__ = [
     "parse_size",
     "detect_up_axis",
     "align_candidate",
+    "bone_segments",
     "check_output",
     "require_matplotlib",
     "OUTPUT_SUFFIXES",
@@ -120,8 +126,12 @@ def check_output(path: str | os.PathLike[str]) -> str:
 def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | None = None, *,
            names: tuple[str, str] = ("reference", "candidate"), frames: slice | str | None = None,
            fps: float | None = None, count: int = 8, max_frames: int = 150,
-           size: tuple[int, int] | None = None, up: str = "auto") -> RenderResult:
+           size: tuple[int, int] | None = None, up: str = "auto", bound: float | None = None) -> RenderResult:
     """Draw ``reference`` (red) and ``candidate`` (blue) overlaid, to a GIF/MP4 animation or a PNG filmstrip.
+
+    With a candidate, a panel under the pictures shows the error over time (each frame's largest joint error,
+    in file units and % of the height), ``bound`` as a dashed line, the worst frame as a dot and, in an
+    animation, the current frame; the worst frame is always one of the frames shown.
 
     Args:
         path: output file; ``.gif`` (Pillow), ``.mp4`` (needs ffmpeg) or ``.png`` (a grid of frames).  Written
@@ -139,9 +149,11 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
         max_frames: most frames in an animation or panels in a filmstrip; an animation of a long clip is shown at
             a lower rate (still real time) to stay within it.
         size: ``(width, height)`` of the output in pixels (the whole filmstrip for PNG).  Default: fitted to the
-            motion, about 480 pixels high and 480 to 800 wide for an animation, pictures about 300 pixels high
-            (the strip at most 1800 wide) for a filmstrip.
+            motion: the figure about 480 pixels high (followed when it travels), 640 to 960 pixels wide, with
+            the error panel under it, for an animation; pictures about 300 pixels high (the strip at most 1800
+            wide) and the error panel for a filmstrip.
         up: ``"y"`` or ``"z"`` for the data's up axis, or ``"auto"`` (:func:`detect_up_axis`).
+        bound: an error bound in file units drawn on the error panel (the ``--max-error`` a file was made with).
 
     Returns:
         :class:`RenderResult`.
@@ -170,6 +182,8 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
             raise ValidationError(f"an MP4 needs an even width and height, got {size[0]}x{size[1]}")
     if up not in ("auto", "y", "z"):
         raise ValidationError(f"up must be 'auto', 'y' or 'z', got {up!r}")
+    if bound is not None and not (isinstance(bound, (int, float, np.number)) and math.isfinite(bound) and bound >= 0):
+        raise ValidationError(f"bound must be a distance >= 0 in file units, got {bound!r}")
     names = (str(names[0]), str(names[1]))
 
     notes: list[str] = []
@@ -179,7 +193,9 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
             notes.append(note)
     selected, exact = select_frames(frames, reference.num_frames, names[0])
 
-    error = worst = errors = None
+    error = worst = curve = None
+    height = character_height(reference.skeleton)
+    units = reference.skeleton.units
     if candidate is None:
         ref_pos = global_positions(reference)
         cand_pos = None
@@ -188,25 +204,29 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
         ref_pos = evaluator.reference_positions
         cand_pos = global_positions(candidate)
         error = evaluator.positions_error(cand_pos)
-        worst = Worst(error, point_names(reference.skeleton).index(error.joint))
-        errors = np.linalg.norm(ref_pos[:, worst.point] - cand_pos[:, worst.point], axis=-1)
+        names_ = point_names(reference.skeleton)
+        worst = Worst(error, names_.index(error.joint))
+        dist = np.linalg.norm(ref_pos - cand_pos, axis=-1)  # (F, P)
+        curve = Curve(dist.max(axis=1), dist.argmax(axis=1), names_, None if bound is None else float(bound),
+                       units, height)
     if up == "auto":
         up = detect_up_axis(ref_pos[selected])
-    height = character_height(reference.skeleton)
-    scene = build_scene(ref_pos, cand_pos, bones(reference.skeleton), up, selected, height)
+    scene = build_scene(ref_pos, cand_pos, bone_segments(reference), up, selected, height, reference.fps)
 
     rate = None
+    worst_frame = None if error is None else error.frame
     if suffix == ".png":
-        shown = filmstrip_frames(selected, exact, int(count), int(max_frames), None if error is None else error.frame)
+        shown = filmstrip_frames(selected, exact, int(count), int(max_frames), worst_frame)
     else:
-        shown, rate, more = animation_frames(selected, exact, reference.fps, fps, int(max_frames), suffix)
+        shown, rate, more = animation_frames(selected, exact, reference.fps, fps, int(max_frames), suffix,
+                                              worst_frame)
         notes.extend(more)
     with atomic_path(out) as tmp:
         if suffix == ".png":
-            size = write_filmstrip(tmp, scene, shown, size, names, worst, errors, reference.num_frames,
-                                    reference.fps)
+            size = write_filmstrip(tmp, scene, shown, size, names, worst, curve, reference.num_frames,
+                                    reference.fps, units, (int(selected[0]), int(selected[-1])))
         else:
-            size = write_animation(tmp, suffix, scene, shown, rate, size, names, worst, errors,
-                                    reference.num_frames, reference.fps)
+            size = write_animation(tmp, suffix, scene, shown, rate, size, names, worst, curve,
+                                    reference.num_frames, reference.fps, units)
     return RenderResult(out, OUTPUT_SUFFIXES[suffix], tuple(int(f) for f in shown), rate, size, up, error,
                         tuple(notes))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,7 @@ from ..evaluate import ErrorReport
 from .scene import Scene, Worst
 
 __all__ = ["REFERENCE_COLOR", "CANDIDATE_COLOR", "MARK_COLOR", "DPI", "require_matplotlib", "describe_error",
-           "Panel", "write_animation", "write_filmstrip"]
+           "Panel", "Curve", "error_panel", "write_animation", "write_filmstrip"]
 
 REFERENCE_COLOR = "#d62728"  # red
 CANDIDATE_COLOR = "#1f5fd6"  # blue
@@ -36,7 +37,7 @@ def require_matplotlib() -> Any:
         from matplotlib.figure import Figure
     except ImportError:
         raise MotionrepError("drawing pictures and plots needs matplotlib, which is not installed: "
-                             "pip install 'motionrep[plot]'") from None
+                             "pip install matplotlib") from None
     return Figure, FigureCanvasAgg
 
 
@@ -73,15 +74,20 @@ class Panel:
         has_cand = scene.cand is not None
         self.shadow = LineCollection([], colors="#c4c4c4", linewidths=linewidth * 1.2, zorder=1,
                                      capstyle="round")
-        # the reference is drawn wider, under the candidate: where they agree it shows as a red edge around blue
-        self.ref = LineCollection([], colors=REFERENCE_COLOR, linewidths=linewidth * (2.4 if has_cand else 1.2),
-                                  alpha=0.65 if has_cand else 1.0, zorder=2, capstyle="round")
+        # the reference is drawn wider and opaque, the candidate on top of it: where they agree the candidate
+        # shows as a blue line with a red edge, never as a mixture of the two colours
+        self.ref = LineCollection([], colors=REFERENCE_COLOR, linewidths=linewidth * (3.0 if has_cand else 1.2),
+                                  zorder=2, capstyle="round")
         self.cand = None
         for c in (self.shadow, self.ref):
             ax.add_collection(c)
+        self.halo = None
         if has_cand:
-            self.cand = LineCollection([], colors=CANDIDATE_COLOR, linewidths=linewidth, zorder=3,
+            # a thin white rim between the two keeps their edges from blending into purple when antialiased
+            self.halo = LineCollection([], colors="white", linewidths=linewidth * 1.6, zorder=3, capstyle="round")
+            self.cand = LineCollection([], colors=CANDIDATE_COLOR, linewidths=linewidth, zorder=3.5,
                                        capstyle="round")
+            ax.add_collection(self.halo)
             ax.add_collection(self.cand)
         self.ring = self.link = None
         if worst is not None and has_cand:
@@ -91,27 +97,58 @@ class Panel:
 
     @property
     def moving(self) -> list:
-        """The artists that change from frame to frame."""
-        return [a for a in (self.shadow, self.ref, self.cand, self.link, self.ring) if a is not None]
+        """The artists that change from frame to frame (the floor too, when the picture follows the clip)."""
+        artists = [self.shadow, self.ref, self.halo, self.cand, self.link, self.ring]
+        if self.scene.follows:
+            artists.insert(0, self.floor)
+        return [a for a in artists if a is not None]
 
     def show(self, frame: int) -> None:
         s, b = self.scene, self.scene.bones
-        self.shadow.set_segments(s.ref_shadow[frame][b])
-        self.ref.set_segments(s.ref[frame][b])
+        offset = s.shift[frame]
+        if s.follows:
+            self.floor.set_segments(s.floor - offset)
+        self.shadow.set_segments(s.ref_shadow[frame][b] - offset)
+        self.ref.set_segments(s.ref[frame][b] - offset)
         if self.cand is not None:
-            self.cand.set_segments(s.cand[frame][b])
+            self.halo.set_segments(s.cand[frame][b] - offset)
+            self.cand.set_segments(s.cand[frame][b] - offset)
         if self.ring is not None:
             p = self.worst.point
-            pts = np.stack([s.ref[frame, p], s.cand[frame, p]])
+            pts = np.stack([s.ref[frame, p], s.cand[frame, p]]) - offset
             self.link.set_data(pts[:, 0], pts[:, 1])
             mid = pts.mean(axis=0)
             self.ring.set_data([mid[0]], [mid[1]])
 
 
+@dataclass(frozen=True)
+class Curve:
+    """Each frame's largest joint error (the shared measure, frame by frame) and where it is."""
+
+    values: NDArray[np.float64]  # (F,) file units
+    points: NDArray[np.int64]  # (F,) index into names
+    names: tuple[str, ...]
+    bound: float | None
+    units: str | None
+    height: float
+
+    def text(self, frame: int, short: bool = False) -> str:
+        unit = f" {self.units}" if self.units else ""
+        v = float(self.values[frame])
+        pct = f" ({100 * v / self.height:.3g}%)" if self.height > 0 else ""
+        if short:
+            return f"error {v:.3g}{unit}{pct}"
+        return f"frame error {v:.3g}{unit}{pct} at {self.names[int(self.points[frame])]}"
+
+
+def units_text(units: str | None) -> str:
+    return f"lengths in {units}" if units else "lengths in file units"
+
+
 def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color=REFERENCE_COLOR, lw=3, alpha=0.8, label=f"{names[0]} (reference)")]
+    handles = [Line2D([], [], color=REFERENCE_COLOR, lw=4, label=f"{names[0]} (reference)")]
     if has_cand:
         handles.append(Line2D([], [], color=CANDIDATE_COLOR, lw=2, label=f"{names[1]} (decoded)"))
     if worst is not None:
@@ -120,20 +157,44 @@ def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
     return handles
 
 
-def headline_text(names: tuple[str, str], has_cand: bool, worst: Worst | None) -> str:
+def headline_text(names: tuple[str, str], has_cand: bool, worst: Worst | None, units: str | None) -> str:
     if not has_cand:
-        return names[0]
-    line = f"{names[0]} (red) vs {names[1]} (blue)"
+        return f"{names[0]}, {units_text(units)}"
+    line = f"{names[0]} (red) vs {names[1]} (blue), {units_text(units)}"
     if worst is not None:
         line += f"\nworst joint {describe_error(worst.report)}"
     return line
 
 
-def frame_error_text(scene: Scene, worst: Worst | None, errors: NDArray | None, frame: int) -> str:
-    if worst is None or errors is None:
-        return ""
-    unit = f" {worst.units}" if worst.units else ""
-    return f"{worst.name}: {errors[frame]:.3g}{unit}"
+def error_panel(fig, rect: tuple[float, float, float, float], curve: Curve, first: int, last: int, font: float,
+                 worst_frame: int | None, marks: NDArray[np.int64] | None = None):
+    """The error over time under the pictures: each frame's largest joint error, the bound, the worst frame."""
+    ax = fig.add_axes(rect)
+    frames = np.arange(first, last + 1)
+    values = curve.values[first:last + 1]
+    if marks is not None:
+        for f in marks:
+            ax.axvline(int(f), color="#bbbbbb", lw=0.8, zorder=0)
+    ax.plot(frames, values, color=CANDIDATE_COLOR, lw=1.3, zorder=2)
+    top = max(float(values.max(initial=0.0)), curve.bound or 0.0) * 1.15 or 1.0
+    if curve.bound is not None:
+        ax.axhline(curve.bound, color="#b00000", ls="--", lw=1.0, zorder=1)
+        ax.text(first, curve.bound, " bound", color="#b00000", fontsize=font * 0.8, va="bottom", ha="left")
+    if worst_frame is not None and first <= worst_frame <= last:
+        ax.plot([worst_frame], [curve.values[worst_frame]], "o", color=MARK_COLOR, ms=4, zorder=3)
+    ax.set_xlim(first, max(last, first + 1))
+    ax.set_ylim(0.0, top)
+    ax.set_ylabel(f"error ({curve.units or 'file units'})", fontsize=font * 0.85)
+    ax.set_xlabel("frame", fontsize=font * 0.85, labelpad=1)
+    ax.tick_params(labelsize=font * 0.75, length=2, pad=1)
+    if curve.height > 0:
+        h = curve.height
+        right = ax.secondary_yaxis("right", functions=(lambda v: 100.0 * v / h, lambda p: p * h / 100.0))
+        right.set_ylabel("% of height", fontsize=font * 0.85)
+        right.tick_params(labelsize=font * 0.75, length=2, pad=1)
+    for side in ("top",):
+        ax.spines[side].set_visible(False)
+    return ax
 
 
 def header_height(font: float, lines: int) -> float:
@@ -143,42 +204,63 @@ def header_height(font: float, lines: int) -> float:
 
 def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int64], fps: float,
                      size: tuple[int, int] | None, names: tuple[str, str], worst: Worst | None,
-                     errors: NDArray | None, num_frames: int, clip_fps: float) -> tuple[int, int]:
+                     curve: Curve | None, num_frames: int, clip_fps: float, units: str | None
+                     ) -> tuple[int, int]:
     Figure, FigureCanvasAgg = require_matplotlib()
     from matplotlib import animation
 
     lines = (2 if worst is not None else 1) + 1 + (1 if worst is not None else 0)  # headline, legend
     if size is None:
-        body = 380.0
-        width = float(np.clip(scene.aspect * body, 480.0, 800.0))
-        size = (2 * round(width / 2), 2 * round((body + header_height(9.0, lines) + 24.0) / 2))
+        body = 480.0
+        width = float(np.clip(scene.aspect * body, 640.0, 960.0))
+        extra = 150.0 if curve is not None else 0.0
+        size = (2 * round(width / 2), 2 * round((body + extra + header_height(9.0, lines) + 24.0) / 2))
     w, h = size
     font = float(np.clip(9.0 * min(w / 560.0, h / 480.0), 6.0, 14.0))
-    header, footer = header_height(font, lines), font * 2.0 * DPI / 72.0
+    handles = legend_handles(names, scene.cand is not None, worst)
+    wide = sum(len(hd.get_label()) + 8 for hd in handles) * font * 0.9 * 0.6 * DPI / 72.0 > 0.95 * w
+    header, footer = header_height(font, lines + int(wide)), font * 2.0 * DPI / 72.0
+    graph = 0.0 if curve is None else min(0.24 * h, 150.0)  # the error panel with its labels
     fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
     FigureCanvasAgg(fig)
     top = 1.0 - header / h
-    ax = fig.add_axes((0.01, footer / h, 0.98, max(0.1, top - footer / h)))
-    scale = float(np.clip(min(w / scene.aspect, h - header - footer) / 380.0, 0.4, 3.0))
+    bottom = (footer + graph) / h
+    ax = fig.add_axes((0.01, bottom, 0.98, max(0.1, top - bottom)))
+    scale = float(np.clip(min(w / scene.aspect, h - header - footer - graph) / 380.0, 0.4, 3.0))
     panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale)
-    headline = fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst), ha="center",
+    cursor = None
+    if curve is not None:
+        label = font * 2.6 * DPI / 72.0  # x tick labels and the axis label
+        rect = (70.0 / w, (footer + label) / h, 1.0 - 140.0 / w, max(0.05, (graph - label - 6.0) / h))
+        graph_ax = error_panel(fig, rect, curve, int(frames[0]), int(frames[-1]), font,
+                                None if worst is None else worst.frame)
+        cursor = graph_ax.axvline(int(frames[0]), color=MARK_COLOR, lw=1.0, zorder=4)
+    headline = fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst, units), ha="center",
                         va="top", fontsize=font)
-    legend = fig.legend(handles=legend_handles(names, scene.cand is not None, worst), loc="upper center",
+    legend = fig.legend(handles=handles, loc="upper center",
                         bbox_to_anchor=(0.5, 1.0 - header_height(font, 2 if worst is not None else 1) / h),
-                        fontsize=font * 0.9, frameon=False, ncol=2, borderaxespad=0.0, borderpad=0.0,
-                        handletextpad=0.5, columnspacing=1.5)
+                        fontsize=font * 0.9, frameon=False, ncol=2 if wide else 3, borderaxespad=0.0,
+                        borderpad=0.0, handletextpad=0.5, columnspacing=1.5)
     counter = fig.text(0.01, 0.01, "", ha="left", va="bottom", fontsize=font, family="monospace")
     local = fig.text(0.99, 0.01, "", ha="right", va="bottom", fontsize=font)
-    # what does not move (titles, legend, floor) is drawn once and laid under every frame as a bitmap: text is
-    # most of matplotlib's drawing time
-    moving = panel.moving + [counter, local]
+    # what does not move (titles, legend, the error curve, a fixed floor) is drawn once and laid under every
+    # frame as a bitmap: text is most of matplotlib's drawing time
+    moving = panel.moving + [counter, local] + ([cursor] if cursor is not None else [])
     for artist in moving:
         artist.set_visible(False)
     fig.canvas.draw()
     background = np.asarray(fig.canvas.buffer_rgba()).copy()
-    for artist in (headline, legend, panel.floor):
+    for artist in [headline, legend] + ([] if scene.follows else [panel.floor]):
         artist.set_visible(False)
     fig.figimage(background, xo=0, yo=0, origin="upper", zorder=-1)
+    if cursor is not None:  # the error panel is in the bitmap: its axes stay only to place the cursor
+        graph_ax = cursor.axes
+        graph_ax.patch.set_visible(False)
+        graph_ax.set_axis_off()
+        for artist in graph_ax.lines + graph_ax.texts + graph_ax.collections:
+            artist.set_visible(artist is cursor)
+        for child in graph_ax.child_axes:
+            child.set_visible(False)
     for artist in moving:
         artist.set_visible(True)
     if kind == ".gif":
@@ -192,7 +274,9 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
             f = int(f)
             panel.show(f)
             counter.set_text(f"frame {f:>{digits}}/{num_frames - 1} {f / clip_fps:6.2f} s")
-            local.set_text(frame_error_text(scene, worst, errors, f))
+            if curve is not None:
+                local.set_text(curve.text(f))
+                cursor.set_xdata([f, f])
             writer.grab_frame()
     except BaseException:
         with contextlib.suppress(Exception):  # stop an ffmpeg process; the partial file is removed by the caller
@@ -210,7 +294,7 @@ def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
     and the grid is the one closest to a 16:10 image, empty cells counting against it.  With a size, the grid
     that draws the pictures largest wins.
     """
-    panel_aspect = float(np.clip(aspect, 0.5, 3.0))
+    panel_aspect = float(np.clip(aspect, 0.8, 3.0))
     if size is None:
         def cost(cols: int) -> float:
             rows = math.ceil(n / cols)
@@ -231,22 +315,26 @@ def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
 
 
 def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: tuple[int, int] | None,
-                     names: tuple[str, str], worst: Worst | None, errors: NDArray | None, num_frames: int,
-                     clip_fps: float) -> tuple[int, int]:
+                     names: tuple[str, str], worst: Worst | None, curve: Curve | None, num_frames: int,
+                     clip_fps: float, units: str | None, span: tuple[int, int]) -> tuple[int, int]:
     Figure, FigureCanvasAgg = require_matplotlib()
     head_lines = 2 if worst is not None else 1
     font = 10.0 if size is None else float(np.clip(10.0 * min(size[0] / 1200.0, size[1] / 700.0), 6.0, 12.0))
     title_font = font * 0.85
-    title = header_height(title_font, 2 if worst is not None else 1)
+    title = header_height(title_font, 2 if curve is not None else 1)
     header = header_height(font, head_lines + 1)  # the headline, then the legend in a row
-    rows, cols, (w, h) = grid(len(frames), scene.aspect, size, header, title)
-    if (h - header) / rows - title < 20 or w / cols < 20:
+    graph = 0.0 if curve is None else 130.0
+    rows, cols, (w, h) = grid(len(frames), scene.aspect, size, header + graph, title)
+    if curve is not None and size is not None:
+        graph = min(graph, 0.25 * h)
+    if (h - header - graph) / rows - title < 20 or w / cols < 20:
         raise ValidationError(f"size {w}x{h} is too small for {len(frames)} pictures; make it larger")
     fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
     FigureCanvasAgg(fig)
     top = 1.0 - header / h
-    cell_w, cell_h = 1.0 / cols, top / rows
-    picture_h = (h - header) / rows - title
+    bottom = graph / h
+    cell_w, cell_h = 1.0 / cols, (top - bottom) / rows
+    picture_h = (h - header - graph) / rows - title
     scale = float(np.clip(min(w / cols / scene.aspect, picture_h) / 300.0, 0.3, 3.0))
     for k, f in enumerate(frames):
         f = int(f)
@@ -256,10 +344,14 @@ def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: t
         Panel(ax, scene, worst, linewidth=1.8 * scale, marker=12.0 * scale).show(f)
         is_worst = worst is not None and f == worst.frame
         label = f"frame {f} ({f / clip_fps:.2f} s)" + ("  (worst)" if is_worst else "")
-        err = frame_error_text(scene, worst, errors, f)
+        err = "" if curve is None else curve.text(f, short=True)
         fig.text((c + 0.5) * cell_w, top - r * cell_h, label + (f"\n{err}" if err else ""), ha="center",
                  va="top", fontsize=title_font, fontweight="bold" if is_worst else "normal")
-    fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst), ha="center", va="top",
+    if curve is not None:
+        label = font * 2.6 * DPI / 72.0
+        rect = (70.0 / w, label / h, 1.0 - 140.0 / w, max(0.03, (graph - label - 8.0) / h))
+        error_panel(fig, rect, curve, span[0], span[1], font, None if worst is None else worst.frame, frames)
+    fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst, units), ha="center", va="top",
              fontsize=font)
     fig.legend(handles=legend_handles(names, scene.cand is not None, worst), loc="upper center",
                bbox_to_anchor=(0.5, 1.0 - header_height(font, head_lines) / h), fontsize=font * 0.9,

@@ -108,12 +108,29 @@ def pick_by_time(selected: NDArray[np.int64], clip_fps: float, rate: float) -> N
 
 
 def animation_frames(selected: NDArray[np.int64], exact: bool, clip_fps: float, fps: float | None,
-                      max_frames: int, kind: str) -> tuple[NDArray[np.int64], float, list[str]]:
+                     max_frames: int, kind: str, worst_frame: int | None = None
+                     ) -> tuple[NDArray[np.int64], float, list[str]]:
     """Frames to show and the playback rate.
 
     Exact selections (an explicit step) are shown frame by frame at ``fps``.  Otherwise frames are picked by
-    time so the animation plays in real time at ``fps``; the rate drops if that would exceed ``max_frames``.
+    time so the animation plays in real time at ``fps``; the rate drops if that would exceed ``max_frames``; the
+    worst frame, when it is in the selection, always replaces the frame picked nearest to it (an exact selection
+    that leaves it out says so in a note).
     """
+    shown, rate, notes = frames_and_rate(selected, exact, clip_fps, fps, max_frames, kind)
+    if worst_frame is not None and selected[0] <= worst_frame <= selected[-1] and worst_frame not in shown:
+        if exact:
+            notes.append(f"the worst frame, {worst_frame}, is not among the frames --frames selects")
+        else:
+            shown = shown.copy()
+            shown[int(np.argmin(np.abs(shown - worst_frame)))] = worst_frame
+            shown = np.unique(shown)
+    return shown, rate, notes
+
+
+def frames_and_rate(selected: NDArray[np.int64], exact: bool, clip_fps: float, fps: float | None,
+                    max_frames: int, kind: str) -> tuple[NDArray[np.int64], float, list[str]]:
+    """Frames picked by time (or exactly, with a step) and the playback rate, without the worst-frame rule."""
     notes: list[str] = []
     cap = GIF_DEFAULT_FPS if kind == ".gif" else MP4_DEFAULT_FPS
     if exact:

@@ -1,5 +1,6 @@
-"""What a rendering looks at: the up axis, the candidate put on the reference's frames, and one fixed
-orthographic camera for the whole rendering (screen positions of both clips, their floor shadow, the floor grid).
+"""What a rendering looks at: the up axis, the candidate put on the reference's frames, the bones to draw, and
+one orthographic camera for the whole rendering (screen positions of both clips, their floor shadow, the floor
+grid), which follows a clip that travels.
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from numpy.typing import NDArray
 from .._model import Motion
 from ..errors import ValidationError
 from ..evaluate import ErrorReport
+from ..kinematics import character_height
 from ..ops import resample
 
-__all__ = ["detect_up_axis", "to_plot", "align_candidate", "Worst", "bones", "Scene", "build_scene"]
+__all__ = ["detect_up_axis", "to_plot", "align_candidate", "Worst", "bone_segments", "Scene", "build_scene"]
 
 
 def detect_up_axis(positions: NDArray[np.float64]) -> str:
@@ -62,19 +64,10 @@ def align_candidate(reference: Motion, candidate: Motion, ref_name: str = "REF",
     Raises:
         ValidationError: naming both files and what differs.
     """
-    rs, cs = reference.skeleton, candidate.skeleton
-    if not rs.same_structure(cs):
-        if rs.num_joints != cs.num_joints:
-            what = f"{rs.num_joints} joints in {ref_name} but {cs.num_joints} in {cand_name}"
-        elif rs.names != cs.names:
-            j = next(i for i, (a, b) in enumerate(zip(rs.names, cs.names)) if a != b)
-            what = f"joint {j} is {rs.names[j]!r} in {ref_name} but {cs.names[j]!r} in {cand_name}"
-        elif not np.array_equal(rs.parents, cs.parents):
-            j = int(np.nonzero(rs.parents != cs.parents)[0][0])
-            what = (f"joint {rs.names[j]!r} has parent {rs.names[rs.parents[j]]!r} in {ref_name} but "
-                    f"{cs.names[cs.parents[j]]!r} in {cand_name}")
-        else:
-            what = f"the end sites differ ({rs.num_end_sites} in {ref_name}, {cs.num_end_sites} in {cand_name})"
+    from ..evaluate import skeleton_difference
+
+    what = skeleton_difference(reference.skeleton, candidate.skeleton, ref_name, cand_name)
+    if what is not None:
         raise ValidationError(f"{ref_name} and {cand_name} do not share a skeleton: {what}")
     if math.isclose(reference.fps, candidate.fps, rel_tol=1e-6):
         if reference.num_frames != candidate.num_frames:
@@ -115,11 +108,24 @@ class Worst:
         return self.report.units
 
 
-def bones(skeleton) -> NDArray[np.int64]:
-    """``(B, 2)`` point-index pairs (parent, child): every joint to its parent, every end site to its joint."""
-    J = skeleton.num_joints
-    pairs = [(int(skeleton.parents[j]), j) for j in range(1, J)]
-    pairs += [(int(p), J + e) for e, p in enumerate(skeleton.end_site_parents)]
+def bone_segments(motion: Motion, tolerance: float = 1e-3) -> NDArray[np.int64]:
+    """``(B, 2)`` point-index pairs ``(parent, child)`` drawn as bones (points as FK returns them: joints, then end
+    sites).
+
+    Every end site hangs from its joint, and every joint from its parent **when the link keeps its length**: a
+    joint moved by position channels by more than ``tolerance`` of the character height over the clip (a
+    root-motion node above the hips, as in Bandai Namco files, a slider) is connected to nothing, so no line is
+    drawn that is not a bone of the character.  The root has no parent.
+    """
+    sk = motion.skeleton
+    J = sk.num_joints
+    moving: set[int] = set()
+    if sk.translated_joints.size:
+        size = max(character_height(sk), 1e-12)
+        spread = np.ptp(motion.joint_translations, axis=0).max(axis=-1)  # (P,)
+        moving = {int(j) for j, d in zip(sk.translated_joints.tolist(), spread.tolist()) if d > tolerance * size}
+    pairs = [(int(sk.parents[j]), j) for j in range(1, J) if j not in moving]
+    pairs += [(int(p), J + e) for e, p in enumerate(sk.end_site_parents)]
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
@@ -136,6 +142,9 @@ class Scene:
     """Everything the panels share: screen positions from one fixed camera, the floor, the limits.
 
     The camera is orthographic, so one screen unit is one file unit everywhere (equal scaling on every axis).
+    A clip that travels further than a few body widths is followed: frame ``f`` is drawn shifted by
+    ``-shift[f]`` (the root's smoothed screen position), so the character stays large in the middle of the
+    picture and the floor moves under it.
     """
 
     ref: NDArray[np.float64]  # (F, P, 2) screen positions
@@ -145,6 +154,8 @@ class Scene:
     floor: NDArray[np.float64]  # (G, 2, 2) grid segments on the floor
     xlim: tuple[float, float]
     ylim: tuple[float, float]
+    shift: NDArray[np.float64]  # (F, 2) screen shift of each frame (zeros when not following)
+    follows: bool = False
 
     @property
     def aspect(self) -> float:
@@ -152,12 +163,13 @@ class Scene:
 
 
 def build_scene(ref_pos: NDArray, cand_pos: NDArray | None, bones: NDArray, up: str, span: NDArray[np.int64],
-           height: float) -> Scene:
+           height: float, fps: float) -> Scene:
     """Fix the camera for frames ``span[0]..span[-1]`` and project both clips.
 
     The camera looks across the main direction of the root's travel (a walk is seen from the side, as in the
     paper's Fig. 1), turned 25 degrees towards the front and 15 degrees from above; a clip that stays in place
-    is seen three-quarter.  The floor is a grid at the lowest point of the clip.
+    is seen three-quarter.  The floor is a grid at the lowest point of the clip.  When the character travels
+    across more than 1.5 times the width it needs in one frame, the picture follows it.
     """
     ref = to_plot(ref_pos, up)
     cand = None if cand_pos is None else to_plot(cand_pos, up)
@@ -202,14 +214,29 @@ def build_scene(ref_pos: NDArray, cand_pos: NDArray | None, bones: NDArray, up: 
 
     ref2 = project(ref)
     cand2 = None if cand is None else project(cand)
-    shown = [ref2[span[0]:span[-1] + 1].reshape(-1, 2), floor.reshape(-1, 2)]
+    frames = np.arange(span[0], span[-1] + 1)
+    body = ref2[frames]  # (n, P, 2)
     if cand2 is not None:
-        shown.append(cand2[span[0]:span[-1] + 1].reshape(-1, 2))
-    # limits: the figures and the floor, with a small margin
-    body = np.concatenate(shown[:1] + shown[2:])
-    flo = shown[1]
-    x0 = min(body[:, 0].min(), flo[:, 0].min()) - 0.03 * height
-    x1 = max(body[:, 0].max(), flo[:, 0].max()) + 0.03 * height
-    y0 = min(body[:, 1].min(), flo[:, 1].min()) - 0.03 * height
-    y1 = body[:, 1].max() + 0.06 * height
-    return Scene(ref2, cand2, project(drop(ref)), bones, floor, (x0, x1), (y0, y1))
+        body = np.concatenate([body, cand2[frames]], axis=1)
+    lo2, hi2 = body.min(axis=1), body.max(axis=1)  # (n, 2) each frame's extent on the screen
+    need = float(np.max(hi2[:, 0] - lo2[:, 0])) + 0.6 * height
+    shift = np.zeros((ref2.shape[0], 2))
+    follows = float(hi2[:, 0].max() - lo2[:, 0].min()) > 1.5 * need
+    if follows:  # keep the root's (smoothed) screen position fixed: the figure stays large, the floor moves
+        centre = ref2[frames, 0, :]
+        k = max(1, int(round(0.5 * fps)))  # half a second of smoothing: the camera does not shake with each step
+        padded = np.concatenate([np.repeat(centre[:1], k, axis=0), centre, np.repeat(centre[-1:], k, axis=0)])
+        kernel = np.ones(2 * k + 1) / (2 * k + 1)
+        smooth = np.stack([np.convolve(padded[:, c], kernel, mode="valid") for c in (0, 1)], axis=1)
+        shift[frames] = smooth
+        lo2, hi2 = lo2 - smooth, hi2 - smooth
+        x0 = float(lo2[:, 0].min()) - 0.1 * height
+        x1 = float(hi2[:, 0].max()) + 0.1 * height
+        y0 = float(lo2[:, 1].min()) - 0.25 * height  # a band of floor under the feet
+    else:
+        flo = floor.reshape(-1, 2)
+        x0 = min(float(lo2[:, 0].min()), flo[:, 0].min()) - 0.03 * height
+        x1 = max(float(hi2[:, 0].max()), flo[:, 0].max()) + 0.03 * height
+        y0 = min(float(lo2[:, 1].min()), flo[:, 1].min()) - 0.03 * height
+    y1 = float(hi2[:, 1].max()) + 0.06 * height
+    return Scene(ref2, cand2, project(drop(ref)), bones, floor, (x0, x1), (y0, y1), shift, follows)
