@@ -195,27 +195,16 @@ class _Database(Source):
         self.database.close()
 
 
-class _GLTF(Source):
+class _GLTF(_Database):
     """A glTF file: its animations are named clips, like a database's (parsed once, each read when asked for)."""
-
-    kind = "database"
 
     def __init__(self, path: str | os.PathLike[str]):
         from .io._gltf import GLTFFile
 
-        super().__init__(path)
-        self.file = GLTFFile(path)
-
-    @property
-    def names(self) -> list[str]:
-        return self.file.names
+        super().__init__(path, GLTFFile(path))
 
     def read_stored(self, name: str | None = None) -> tuple[str, Any]:
-        return self.file.read_clip(name)
-
-    def summaries(self) -> list[dict[str, Any]]:
-        """Per clip: name, kind, frames, fps, duration, joints."""
-        return self.file.summaries()
+        return self.database.read_clip(name)
 
 
 class _Compressed(Source):
