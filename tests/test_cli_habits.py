@@ -177,3 +177,13 @@ def test_every_report_says_how_max_error_was_read(tmp_path, walk):
     assert r.exit_code == 0, r.output
     page = (tmp_path / "v.html").read_text()
     assert "2 file units = 1.32% of height (read as a distance in file units" in page
+
+
+# ---- set-up: one install ---------------------------------------------------------------------------------------
+def test_the_core_install_draws_and_reads_gltf():
+    from importlib.metadata import requires
+
+    core = [r for r in requires("motionrep") if "extra ==" not in r]
+    for needed in ("matplotlib", "pygltflib"):  # render and bench --plot; glTF files
+        assert any(r.startswith(needed) for r in core), needed
+    assert not any(r.startswith("torch") for r in core)
