@@ -1,5 +1,6 @@
-"""The rate-distortion plot of a benchmark: error (% of character height) against compression ratio, one series
-per codec and one marker per run (Tojo et al. 2022, Fig. 3 style), with lines through the medians of a sweep.
+"""The rate-distortion plot of a benchmark: error (% of character height) against compression ratio, one colour
+per codec and one marker shape per clip, one point per run (Tojo et al. 2022, Fig. 3 style), with lines through the
+medians of a sweep.
 """
 
 from __future__ import annotations
@@ -60,9 +61,10 @@ def plain_log_ticks(axis) -> None:
 def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str], *, title: str | None = None,
                          log_error: bool | None = None, ratio: str = "paper_ratio"
                          ) -> dict[str, list[tuple[float, float]]]:
-    """Draw error (% of character height) against the paper's compression ratio, one series per codec and one
-    marker per run (Tojo et al. 2022, Fig. 3 style), and write it to ``path`` (``.png``, ``.svg`` or ``.pdf``)
-    atomically.
+    """Draw error (% of character height) against the paper's compression ratio, one colour per codec and one
+    marker shape per clip, one point per run (Tojo et al. 2022, Fig. 3 style), and write it to ``path``
+    (``.png``, ``.svg`` or ``.pdf``) atomically.  Two legends: the codecs (with their runs, and failed runs) and
+    the clips (their shapes repeat after 14 clips, which the legend says).
 
     Runs of the same parameter values (a sweep) are joined by a line through their medians; a bound given in
     percent is drawn as a dashed horizontal line.  Failed runs are not drawn (they have no ratio); the legend
@@ -96,21 +98,28 @@ def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str],
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     colours = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
-    markers = ["o", "s", "^", "D", "v", "P", "X", "*"]
+    markers = ["o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "p", "h", "d", "8"]
     labels = list(dict.fromkeys(_series_label(r, reps) for r in rows))
+    clips = list(dict.fromkeys(r.clip for r in rows))
+    shape = {c: markers[k % len(markers)] for k, c in enumerate(clips)}
     all_y: list[float] = []
+    codec_handles = []
+    from matplotlib.lines import Line2D
+
     for i, label in enumerate(labels):
         pts = series.get(label, [])
         members = [r for r in rows if _series_label(r, reps) == label]
         missed = sum(r.status != "ok" for r in members)
-        colour, marker = colours[i % len(colours)], markers[i % len(markers)]
+        colour = colours[i % len(colours)]
         text = f"{label} ({len(pts)} runs" + (f", {missed} failed" if missed else "") + ")"
-        if pts:
-            xs, ys = zip(*pts)
-            all_y += ys
-            ax.scatter(xs, ys, s=18, alpha=0.55, color=colour, marker=marker, label=text, linewidths=0)
-        else:
-            ax.scatter([], [], color=colour, marker=marker, label=text)
+        codec_handles.append(Line2D([], [], ls="none", marker="s", ms=7, color=colour, label=text))
+        for clip in clips:
+            here = [r for r in members if r.clip == clip and r.status == "ok" and getattr(r, ratio) is not None
+                    and r.error_percent is not None]
+            if here:
+                xs, ys = [getattr(r, ratio) for r in here], [r.error_percent for r in here]
+                all_y += ys
+                ax.scatter(xs, ys, s=22, alpha=0.6, color=colour, marker=shape[clip], linewidths=0)
         # a line through the medians of each sweep value
         groups: dict[str, list[BenchRow]] = {}
         for r in members:
@@ -140,7 +149,14 @@ def plot_rate_distortion(rows: Sequence[BenchRow], path: str | os.PathLike[str],
     clips = list(dict.fromkeys(r.clip for r in rows))
     ax.set_title(title or (clips[0] if len(clips) == 1 else f"{len(clips)} clips"), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    first = ax.legend(handles=codec_handles, fontsize=8, loc="upper left", title="codec", title_fontsize=8)
+    if len(clips) > 1:
+        ax.add_artist(first)
+        shown = clips[:14]
+        clip_handles = [Line2D([], [], ls="none", marker=shape[c], ms=6, color="0.35", label=c) for c in shown]
+        if len(clips) > len(shown):
+            clip_handles.append(Line2D([], [], ls="none", label=f"... {len(clips) - len(shown)} more (shapes repeat)"))
+        ax.legend(handles=clip_handles, fontsize=7, loc="lower right", title="clip", title_fontsize=7)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format=suffix[1:])

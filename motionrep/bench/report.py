@@ -21,7 +21,7 @@ from typing import Any, Iterable, Mapping, Sequence
 from ..errors import FormatError
 
 __all__ = ["BENCH_FORMAT", "BENCH_VERSION", "BenchRow", "COLUMNS", "BenchSummary", "SUMMARY_COLUMNS", "summarize",
-           "format_table", "csv_text", "write_csv", "read_csv", "machine_info", "bench_json", "write_json"]
+           "totals_line", "format_table", "csv_text", "write_csv", "read_csv", "machine_info", "bench_json", "write_json"]
 
 #: ``format`` written into the JSON file.
 BENCH_FORMAT = "motionrep-bench"
@@ -79,6 +79,8 @@ class BenchRow:
     load_average: float | None = None
     info: dict[str, Any] = field(default_factory=dict)
     message: str = ""
+    xz_bytes: int | None = None
+    xz_ratio: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """Every column, JSON-serialisable."""
@@ -117,6 +119,8 @@ class BenchSummary:
     median_bits_per_joint_frame: float | None
     median_encode_seconds: float | None
     median_decode_poses_per_second: float | None
+    total_bytes: int | None = None
+    total_xz_bytes: int | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -147,8 +151,25 @@ def summarize(rows: Sequence[BenchRow]) -> list[BenchSummary]:
             median_bytes_ratio=_median(r.bytes_ratio for r in ok),
             median_bits_per_joint_frame=_median(r.bits_per_joint_frame for r in ok),
             median_encode_seconds=_median(r.encode_seconds for r in ok),
-            median_decode_poses_per_second=_median(r.decode_poses_per_second for r in ok)))
+            median_decode_poses_per_second=_median(r.decode_poses_per_second for r in ok),
+            total_bytes=sum(r.bytes for r in ok) if ok and all(r.bytes is not None for r in ok) else None,
+            total_xz_bytes=sum(r.xz_bytes for r in ok) if ok and all(r.xz_bytes is not None for r in ok) else None))
     return out
+
+
+def totals_line(rows: Sequence[BenchRow]) -> str:
+    """One line of totals over every run: clips, runs by status, encode time, source and ``xz -9`` bytes."""
+    clips: dict[str, BenchRow] = {}
+    for r in rows:
+        clips.setdefault(r.clip, r)
+    ok = sum(r.status == "ok" for r in rows)
+    failed = sum(r.status == "failed" for r in rows)
+    errors = sum(r.status == "error" for r in rows)
+    seconds = sum(r.encode_seconds or 0.0 for r in rows)
+    xz = [r.xz_bytes for r in clips.values()]
+    xz_text = f"; xz -9 of the sources {sum(xz):,} bytes" if xz and all(x is not None for x in xz) else ""
+    return (f"totals: {len(rows)} runs on {len(clips)} clips: {ok} ok, {failed} failed (bound not met), "
+            f"{errors} errors; encode {seconds:.1f} s{xz_text}")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -171,7 +192,8 @@ def _row_cells(r: BenchRow, reps: bool, params: bool) -> list[str]:
     if params:
         cells.append(r.params or "-")
     cells += [r.outcome, _f(r.error, ".4g") + units, _f(r.error_percent, ".3f"), _f(r.paper_ratio, ".2f"),
-              _f(r.bytes_ratio, ".2f"), _f(r.bits_per_joint_frame, ".3f"), _f(r.encode_seconds, ".2f"),
+              _f(r.bytes_ratio, ".2f"), _f(r.bits_per_joint_frame, ".3f"), _f(r.bytes, ",d"),
+              _f(r.xz_bytes, ",d"), _f(r.xz_ratio, ".2f"), _f(r.encode_seconds, ".2f"),
               _f(r.decode_poses_per_second, ",.0f")]
     return cells
 
@@ -185,8 +207,9 @@ def _summary_cells(s: BenchSummary, reps: bool, params: bool) -> list[str]:
         cells.append(s.params or "-")
     cells += [f"{s.ok}/{s.runs}", str(s.failed + s.errors), _f(s.median_error_percent, ".3f"),
               _f(s.median_paper_ratio, ".2f"), _f(s.median_bytes_ratio, ".2f"),
-              _f(s.median_bits_per_joint_frame, ".3f"), _f(s.median_encode_seconds, ".2f"),
-              _f(s.median_decode_poses_per_second, ",.0f")]
+              _f(s.median_bits_per_joint_frame, ".3f"), _f(s.total_bytes, ",d"), _f(s.total_xz_bytes, ",d"),
+              _f(None if not (s.total_bytes and s.total_xz_bytes) else s.total_xz_bytes / s.total_bytes, ".2f"),
+              _f(s.median_encode_seconds, ".2f"), _f(s.median_decode_poses_per_second, ",.0f")]
     return cells
 
 
@@ -210,23 +233,27 @@ def format_table(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] | N
 
     Columns: clip, frames, joints, codec, (representation when several), bound, (parameters for a sweep),
     outcome, L-inf (file units), L-inf % of height, the paper's ratio, bytes ratio (float32 channels / file
-    bytes), bits per joint per frame, encode seconds, decode poses per second.
+    bytes), bits per joint per frame, bytes, the ``xz -9`` bytes of the source and how many times smaller than it
+    the result is, encode seconds, decode poses per second; then the totals line and the medians (with total
+    bytes against total ``xz -9`` bytes).
     """
     summaries = summarize(rows) if summaries is None else summaries
     reps = len({r.representation for r in rows}) > 1
     params = any(r.params for r in rows)
     head = ["clip", "frames", "joints", "codec"] + (["representation"] if reps else []) + ["bound"] + \
         (["params"] if params else []) + ["outcome", "L-inf", "L-inf %", "paper ratio", "bytes ratio",
-                                          "bits/joint/frame", "encode s", "decode poses/s"]
+                                          "bits/joint/frame", "bytes", "xz -9 bytes", "vs xz -9", "encode s",
+                                          "decode poses/s"]
     n = len(head)
-    right = {1, 2} | set(range(n - 7, n))
+    right = {1, 2} | set(range(n - 10, n))
     out = _layout(head, [_row_cells(r, reps, params) for r in rows], markdown, right)
+    out += ["", totals_line(rows)]
     shead = ["codec"] + (["representation"] if reps else []) + ["bound"] + (["params"] if params else []) + \
-        ["ok/runs", "failed", "median L-inf %", "paper ratio", "bytes ratio", "bits/joint/frame", "encode s",
-         "decode poses/s"]
+        ["ok/runs", "failed", "median L-inf %", "paper ratio", "bytes ratio", "bits/joint/frame", "total bytes",
+         "total xz -9", "vs xz -9", "encode s", "decode poses/s"]
     m = len(shead)
-    out += ["", "Medians over the runs that succeeded (failed: bound not met or error):", ""]
-    out += _layout(shead, [_summary_cells(s, reps, params) for s in summaries], markdown, set(range(m - 8, m)))
+    out += ["", "Medians over the runs that succeeded (failed: bound not met or error); totals over them:", ""]
+    out += _layout(shead, [_summary_cells(s, reps, params) for s in summaries], markdown, set(range(m - 11, m)))
     return "\n".join(out) + "\n"
 
 
@@ -288,12 +315,14 @@ def read_csv(path: str | os.PathLike[str]) -> list[BenchRow]:
     with open(path, newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = next(reader, None)
-        if header is None or tuple(header) != COLUMNS:
+        # columns are appended within a layout version: an older file has a prefix of them
+        if header is None or not header or tuple(header) != COLUMNS[:len(header)]:
             raise FormatError("not a motionrep bench CSV (unexpected header)", path)
+        names = COLUMNS[:len(header)]
         rows = []
         for line, cells in enumerate(reader, start=2):
             try:
-                rows.append(BenchRow(**{c: _from_cell(c, v) for c, v in zip(COLUMNS, cells, strict=True)}))
+                rows.append(BenchRow(**{c: _from_cell(c, v) for c, v in zip(names, cells, strict=True)}))
             except (ValueError, TypeError) as exc:
                 raise FormatError(f"bad row: {exc}", path, line) from None
     return rows

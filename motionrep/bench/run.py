@@ -24,7 +24,7 @@ from ..errors import BoundNotMetError, MotionrepError
 from .grid import BenchTask
 from .report import BenchRow
 
-__all__ = ["DECODE_BATCH", "SINGLE_POSE_REPEATS", "decode_speed", "run_task", "run_bench"]
+__all__ = ["DECODE_BATCH", "SINGLE_POSE_REPEATS", "decode_speed", "xz_size", "run_task", "run_bench"]
 
 #: Poses decoded per call when measuring throughput.
 DECODE_BATCH = 8192
@@ -81,6 +81,33 @@ def decode_speed(container: Any, poses: int, seed: int) -> tuple[float | None, f
             statistics.median(singles))
 
 
+_XZ_CACHE: dict[tuple, int] = {}
+
+
+def xz_size(clip: Any, motion: Motion) -> int:
+    """Bytes of ``xz -9`` (``lzma``, preset 9, the xz container) of what anyone could compress without motionrep:
+    the clip's source file when it is a whole BVH file, otherwise the clip written as BVH text (6 decimals).
+    Remembered per file (size and modification time) and clip, so each is compressed once per process."""
+    import lzma
+    from pathlib import Path
+
+    path = Path(clip.path)
+    try:
+        stat = path.stat()
+        key: tuple = (str(path.resolve()), clip.clip, stat.st_size, stat.st_mtime_ns)
+    except OSError:
+        key = (str(path), clip.clip, None, None)
+    if key not in _XZ_CACHE:
+        if clip.clip is None and path.suffix.lower() == ".bvh":
+            data = path.read_bytes()
+        else:
+            from ..io import format_bvh
+
+            data = format_bvh(motion).encode("utf-8")
+        _XZ_CACHE[key] = len(lzma.compress(data, format=lzma.FORMAT_XZ, preset=9))
+    return _XZ_CACHE[key]
+
+
 def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
     """Run one task (reading its clip unless ``motion`` is given) and measure its decode speed.
 
@@ -100,6 +127,10 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
                 fps=float(motion.fps), height=float(height), units=sk.units, codec=task.codec,
                 representation=task.representation, max_error=task.max_error, bound=bound,
                 params=_params_text(task.params), seed=task.seed)
+    try:
+        xz = xz_size(task.clip, motion)
+    except (OSError, MotionrepError):  # a clip BVH cannot hold: no xz baseline
+        xz = None
     start = time.perf_counter()
     try:
         result = task.resolved().compress(motion, source_bytes=task.clip.source_bytes)
@@ -109,10 +140,11 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
         text = "failed: best L-inf " + ("unknown" if best is None else
                                         f"{best:.4g}" + ("" if pct is None else f" ({pct:.2f}%)"))
         return BenchRow(**base, status="failed", outcome=text, error=best, error_percent=pct,
-                        encode_seconds=time.perf_counter() - start, load_average=_load(), message=str(exc))
+                        encode_seconds=time.perf_counter() - start, load_average=_load(), message=str(exc),
+                        xz_bytes=xz)
     except MotionrepError as exc:
         return BenchRow(**base, status="error", outcome=f"error: {type(exc).__name__}",
-                        load_average=_load(), message=str(exc))
+                        load_average=_load(), message=str(exc), xz_bytes=xz)
     speed, features_speed, single = decode_speed(result.container, task.decode_poses, task.seed)
     r, f = result.report, result.figures
     return BenchRow(
@@ -124,7 +156,8 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
         feature_width=f.feature_width, encode_seconds=result.seconds, evaluations=result.evaluations,
         decode_poses=task.decode_poses or None, decode_poses_per_second=speed,
         decode_features_per_second=features_speed, decode_pose_seconds=single,
-        load_average=_load(), info=json.loads(json.dumps(dict(result.container.info))), message="")
+        load_average=_load(), info=json.loads(json.dumps(dict(result.container.info))), message="",
+        xz_bytes=xz, xz_ratio=None if xz is None else xz / f.compressed_bytes)
 
 
 def _run_in_worker(task: BenchTask) -> BenchRow:
