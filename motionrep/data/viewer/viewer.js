@@ -262,6 +262,7 @@
   }
 
   function drawCurve() {
+    if (!candidates().length) return;
     const ratio = window.devicePixelRatio || 1;
     const w = curve.clientWidth;
     const h = curve.clientHeight;
@@ -447,9 +448,9 @@
       if (!(curveMax > 0)) curveMax = 1;
       $("timeline").max = String(F - 1);
       frameTheFigure();
-      if (!candidates().length) {
+      if (!candidates().length) {  // one clip: nothing to compare, no error curve
         $("worst").disabled = true;
-        curve.hidden = true;
+        curve.style.display = "none";
       }
       $("worst").textContent = candidates().length ? "Worst frame (" + worstFrame + ")" : "Worst frame";
       $("play").addEventListener("click", () => (playing ? pause() : play()));
