@@ -27,6 +27,10 @@ An HDF5 file is opened once, however many clips are read from it; use a source a
   ``<file name>__<clip>`` (a one-clip database: just the file name);
 * **collisions**: names that two files would share keep their suffix (``walk.bvh``, ``walk.npz``); a name still
   shared, or a file given twice, is an error naming both.
+
+Size: one concern, every kind of clip-bearing file behind one interface and the one naming rule for many
+inputs; the kinds are small classes side by side (BVH/NPZ, HDF5 database, glTF, ``.mrc``, archive), which
+splitting would scatter.
 """
 
 from __future__ import annotations

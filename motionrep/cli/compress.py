@@ -46,8 +46,7 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
 
 
 @click.command("compress")
-@click.argument("inputs", metavar="IN...", nargs=-1, required=True,
-                type=click.Path(exists=True, dir_okay=True, path_type=Path))
+@click.argument("inputs", metavar="IN...", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(path_type=Path),
               help="OUT.mrc for one clip; for several clips (a directory, a database): OUT.h5 (one archive) or "
                    "OUT/ (.mrc files).")

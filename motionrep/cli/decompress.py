@@ -38,8 +38,7 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
 
 
 @click.command("decompress")
-@click.argument("inputs", metavar="IN...", nargs=-1, required=True,
-                type=click.Path(exists=True, path_type=Path))
+@click.argument("inputs", metavar="IN...", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(path_type=Path),
               help="OUT.bvh, OUT.npz or OUT.h5 for one clip; for several, OUT.h5 (a motion database) or a "
                    "directory (one .bvh per clip).")
