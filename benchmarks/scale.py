@@ -16,7 +16,8 @@ source MB per second, and the time of the first clip (start-up).  Then the clien
 writer: the journal commit of one clip (an ``.mrc`` file written and renamed), writing the final archive from the
 journal (clips per second into HDF5), and the round trip of one empty task through the Dask scheduler.
 
-Results: ``benchmarks/results/scale.json``; the 1-minute load average is recorded with every measurement.  The
+Results: ``benchmarks/results/scale.json``, written after every measurement (a later run with ``--skip`` keeps the
+figures of the runs it skips); the 1-minute load average is recorded with every measurement.  The
 projection for the whole CMU database and a 100,000-clip library is worked out in ``benchmarks/README.md``.
 
 Usage::
@@ -70,7 +71,8 @@ def _batch(refs, pipeline, out: Path, *, jobs: int = 1, executor=None) -> dict:
     seconds = time.perf_counter() - start
     failed = [o.name for o in outcomes if o.failed]
     return {"seconds": seconds, "first_clip_seconds": first[0], "failed": failed, "load_before": load,
-            "load_after": _load(), "clips": len(refs),
+            "load_after": _load(), "clips": len(refs), "when": time.strftime("%Y-%m-%d %H:%M"),
+            "frames": sum(o.summary.get("frames", 0) for o in outcomes if not o.failed),
             "cpu_seconds": sum(o.summary.get("cpu_seconds", 0.0) for o in outcomes)}
 
 
@@ -131,6 +133,16 @@ def main() -> None:
     pipeline = Pipeline.build(args.codec, max_error=args.max_error)
     results: dict = {"codec": args.codec, "max_error": args.max_error, "clips": len(refs), "source_mb": source_mb,
                      "cpus": os.cpu_count(), "python": sys.version.split()[0], "runs": {}}
+    saved = RESULTS / "scale.json"
+    if saved.exists():  # keep the figures of what this run skips
+        old = json.loads(saved.read_text())
+        if (old.get("codec"), old.get("max_error"), old.get("clips")) == (args.codec, args.max_error, len(refs)):
+            results = {**old, **{k: v for k, v in results.items() if k != "runs"}, "runs": old.get("runs", {})}
+
+    def save() -> None:
+        RESULTS.mkdir(exist_ok=True)
+        saved.write_text(json.dumps(results, indent=2) + "\n")
+
     tmp = Path(tempfile.mkdtemp(prefix="motionrep-scale-"))
     try:
         cluster = None
@@ -156,6 +168,7 @@ def main() -> None:
                         r = _batch(refs, pipeline, tmp / "out.h5", executor=executor)
                     with Client(cluster) as c:
                         results["dask_task_seconds"] = _task_round_trip(c)
+                        results["dask_task_load"] = _load()
                 r["clips_per_second"] = r["clips"] / r["seconds"]
                 r["source_mb_per_second"] = source_mb / r["seconds"]
                 print(f"{name}: {r['clips']} clips in {r['seconds']:.1f} s = {r['clips_per_second']:.2f} clips/s "
@@ -163,27 +176,30 @@ def main() -> None:
                       flush=True)
                 if best is None or r["seconds"] < best["seconds"]:
                     best = r
-            results["runs"][name] = best
+                results["runs"][name] = best
+                save()
         if cluster is not None:
             cluster.close()
-        from motionrep.archive import Archive
-
-        with Archive(tmp / "out.h5") as a:
-            sizes = [a.size(n) for n in a.names]
-        results["mean_compressed_bytes"] = sum(sizes) / len(sizes)
         if "writer" not in args.skip:
+            from motionrep.archive import Archive
+
+            if not (tmp / "out.h5").exists():
+                _batch(refs, pipeline, tmp / "out.h5", jobs=2)
+            with Archive(tmp / "out.h5") as a:
+                sizes = [a.size(n) for n in a.names]
+            results["mean_compressed_bytes"] = sum(sizes) / len(sizes)
             w = _writer_costs(sizes, args.writer_clips, tmp)
             results["writer"] = w
             print(f"writer: commit {w['commit_seconds_per_clip'] * 1e3:.2f} ms/clip, archive "
                   f"{w['archive_clips_per_second']:.0f} clips/s ({w['archive_mb_per_second']:.0f} MB/s), "
                   f"load {w['load']}", flush=True)
+            save()
         if "dask_task_seconds" in results:
             print(f"dask: {results['dask_task_seconds'] * 1e3:.2f} ms per empty task round trip")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "scale.json").write_text(json.dumps(results, indent=2) + "\n")
-    print(f"wrote {RESULTS / 'scale.json'}")
+    save()
+    print(f"wrote {saved}")
 
 
 if __name__ == "__main__":
