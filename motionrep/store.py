@@ -235,10 +235,13 @@ class ArchiveStore(ClipStore):
             if self.journal.exists():
                 shutil.rmtree(self.journal, ignore_errors=True)
             return
-        # a second Ctrl-C must not stop the archive half written (atomic_path would leave the old one, and the
-        # journal keeps the clips, but the user asked to stop, not to lose the tidy end): hold signals meanwhile
+        # a second Ctrl-C (or SIGTERM, SIGHUP) must not stop the archive half written (atomic_path would keep the
+        # old archive and the journal the clips, but the user asked to stop, not for a journal to resume): hold
+        # them meanwhile; SIGKILL still stops it, the journal kept
         main = threading.current_thread() is threading.main_thread()
-        held = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT,)} if main else {}
+        names = ("SIGINT", "SIGTERM", "SIGHUP")
+        held = {s: signal.signal(s, signal.SIG_IGN) for s in (getattr(signal, n) for n in names if hasattr(signal, n))} \
+            if main else {}
         try:
             write_archive(self._clips(), self.path)
             shutil.rmtree(self.journal, ignore_errors=True)

@@ -307,13 +307,17 @@ def test_forked_window_workers_split_and_fail_like_one_process(chain_motion):
     assert messages[0] == messages[1]
 
 
-def test_worker_count():
+def test_worker_count(monkeypatch):
+    import threading
+
+    from motionrep_fourier import _workers
     from motionrep_fourier._workers import worker_count
 
-    assert worker_count(4, 2) == 2 and worker_count(1, 9) == 1 and worker_count(3, 9) == 3
-    assert 1 <= worker_count(0, 100) <= os.cpu_count()
+    with monkeypatch.context() as m:  # as in a process of one thread, whatever daemon threads earlier tests left
+        m.setattr(_workers.threading, "active_count", lambda: 1)  # (a Dask client leaves its offload thread)
+        assert worker_count(4, 2) == 2 and worker_count(1, 9) == 1 and worker_count(3, 9) == 3
+        assert 1 <= worker_count(0, 100) <= os.cpu_count()
     # never forked from a process with other threads running (a threaded scheduler)
-    import threading
 
     seen, release = [], threading.Event()
     thread = threading.Thread(target=release.wait)
