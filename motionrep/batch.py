@@ -23,7 +23,8 @@ before its first item.  ``jobs`` workers of one thread each use ``jobs`` cores, 
 how many threads computed it.
 
 :func:`compress_clips` (with ``--resume`` checksums and ``--timeout``) and :func:`evaluate_clips` /
-:func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
+:func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep
+bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
 """
 
 from __future__ import annotations

@@ -239,9 +239,8 @@ class ArchiveStore(ClipStore):
         # old archive and the journal the clips, but the user asked to stop, not for a journal to resume): hold
         # them meanwhile; SIGKILL still stops it, the journal kept
         main = threading.current_thread() is threading.main_thread()
-        names = ("SIGINT", "SIGTERM", "SIGHUP")
-        held = {s: signal.signal(s, signal.SIG_IGN) for s in (getattr(signal, n) for n in names if hasattr(signal, n))} \
-            if main else {}
+        signals = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)] if main else []
+        held = {s: signal.signal(s, signal.SIG_IGN) for s in signals}
         try:
             write_archive(self._clips(), self.path)
             shutil.rmtree(self.journal, ignore_errors=True)

@@ -19,12 +19,13 @@ __all__ = ["BatchTotals", "container_summary", "MB"]
 MB = 1_000_000
 
 
-def container_summary(container: Any, nbytes: int, source: str | None = None) -> dict[str, Any]:
+def container_summary(container: Any, nbytes: int, source: str | None = None,
+                      source_bytes: int | None = None) -> dict[str, Any]:
     """The figures the totals need, from a stored container (a clip kept by ``--resume``)."""
     sk = container.skeleton
     return {"frames": container.num_frames, "joints": sk.num_joints, "end_sites": sk.num_end_sites,
             "channels": sk.num_channels, "bytes": int(nbytes), "evaluation": container.evaluation,
-            "source": source}
+            "source": source, "source_bytes": source_bytes}
 
 
 @dataclass

@@ -100,6 +100,8 @@ def test_resume_keeps_unchanged_clips_and_redoes_the_others(tmp_path, suffix):
                                    "sub__c3": "skipped"}
     totals = json.loads(r.output)["totals"]
     assert (totals["clips"], totals["compressed"], totals["kept"], totals["failed"]) == (5, 2, 3, 0)
+    sources = sorted(src.rglob("*.bvh"))
+    assert totals["source_mb"] == pytest.approx(sum(p.stat().st_size for p in sources) / 1e6)  # kept ones too
     # another setting: every clip is redone
     r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume", "--max-error", "1%")
     assert set(_statuses(r.output).values()) == {"done"}

@@ -198,7 +198,7 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             key = None if container is None else resume_key(container, pipeline)
             if key is not None:
                 expect[ref.name] = key
-                kept[ref.name] = container_summary(container, store.sizes[ref.name], ref.source)
+                kept[ref.name] = container_summary(container, store.sizes[ref.name], ref.source, ref.source_bytes)
     outcomes: list = []
     with contextlib.ExitStack() as stack:
         executor = stack.enter_context(dask_executor(scheduler)) if scheduler else None
