@@ -58,6 +58,7 @@ __all__ = [
     "step_scale",
     "Model",
     "fit_model",
+    "max_values",
     "IntegerEncoder",
     "IntegerDecoder",
     "encode_integers",
@@ -242,17 +243,33 @@ def _tokenize(values: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.
     return tokens, extra, int(np.count_nonzero(a))
 
 
-def fit_model(values: ArrayLike) -> Model:
-    """The :class:`Model` that codes ``values`` in the fewest bits (an empty array gives ``Model(255, 0)``)."""
+def fit_model(values: ArrayLike, *, max_zero: int = 255) -> Model:
+    """The :class:`Model` that codes ``values`` in the fewest bits, with a zero index of at most ``max_zero``
+    (an empty array gives ``Model(max_zero, 0)``).
+
+    ``max_zero`` caps the probability of 0, and with it how many values one coded bit can hold: a decoder that
+    only accepts models up to ``max_zero`` knows that ``n`` bytes hold at most :func:`max_values` ``(n,
+    max_zero)`` values, and can refuse a damaged or hostile header that claims more before allocating anything.
+    """
+    if isinstance(max_zero, bool) or not isinstance(max_zero, (int, np.integer)) or not 0 <= max_zero <= 255:
+        raise ParameterError(f"max_zero must be an integer in 0..255, got {max_zero!r}")
     v = np.asarray(values, dtype=np.int64).reshape(-1)
     if v.size == 0:
-        return Model(255, 0)
+        return Model(int(max_zero), 0)
     tokens, _, nonzero = _tokenize(v)
     counts = np.bincount(tokens, minlength=NUM_TOKENS).astype(np.float64)
     zero_bits, tail_bits = _fit_tables()
-    zero = int(np.argmin(zero_bits @ np.array([counts[0], nonzero], dtype=np.float64)))
+    zero = int(np.argmin(zero_bits[:max_zero + 1] @ np.array([counts[0], nonzero], dtype=np.float64)))
     decay = int(np.argmin(tail_bits @ counts[1:])) if nonzero else 0
     return Model(zero, decay)
+
+
+def max_values(num_bytes: int, max_zero: int = 255) -> int:
+    """The most values that ``num_bytes`` of coded data can hold when every model's zero index is at most
+    ``max_zero`` (each value costs at least ``-log2 z`` bits, ``z`` the probability of 0 at ``max_zero``)."""
+    z = _zero_probability(int(max_zero))
+    per_bit = 1.0 / -math.log2(z)
+    return int(math.ceil((8 * int(num_bytes) + 64) * per_bit))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -353,6 +370,17 @@ class IntegerDecoder:
         self._decoder = constriction.stream.queue.RangeDecoder(words)
         self._words = words.size
 
+    def _pull(self, model, count: int) -> NDArray[np.int64]:
+        """``count`` symbols from the range decoder; its complaints (data that no model could have written, as
+        an ``AssertionError`` or ``ValueError``) become :class:`PayloadError`."""
+        try:
+            out = np.asarray(self._decoder.decode(model, count), dtype=np.int64)
+        except (AssertionError, ValueError, RuntimeError, OverflowError) as exc:
+            raise PayloadError(f"coded integers are damaged ({str(exc).strip() or type(exc).__name__})") from None
+        if out.shape != (count,):
+            raise PayloadError("coded integers are damaged (short read)")
+        return out
+
     def _check_count(self, count: int) -> int:
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
             raise PayloadError(f"invalid count of coded integers: {count!r}")
@@ -363,14 +391,14 @@ class IntegerDecoder:
         n = self._check_count(count)
         if n == 0:
             return np.zeros(0, np.int64)
-        tokens = np.asarray(self._decoder.decode(_categorical(model.zero, model.decay), n), dtype=np.int64)
-        if tokens.size != n or int(tokens.max()) >= NUM_TOKENS or int(tokens.min()) < 0:
+        tokens = self._pull(_categorical(model.zero, model.decay), n)
+        if int(tokens.max()) >= NUM_TOKENS or int(tokens.min()) < 0:
             raise PayloadError("coded integers are damaged (token out of range)")
         nonzero = tokens != 0
         negative = np.zeros(n, bool)
         count_nonzero = int(nonzero.sum())
         if count_nonzero:
-            negative[nonzero] = np.asarray(self._decoder.decode(_uniform(1), count_nonzero)) != 0
+            negative[nonzero] = self._pull(_uniform(1), count_nonzero) != 0
         values = tokens.copy()
         big = tokens >= DIRECT
         if big.any():
@@ -392,7 +420,7 @@ class IntegerDecoder:
             return out
         shift = 0
         for width in _raw_chunks(int(bits)):
-            out |= np.asarray(self._decoder.decode(_uniform(width), n), dtype=np.int64) << shift
+            out |= self._pull(_uniform(width), n) << shift
             shift += width
         return out
 

@@ -174,19 +174,7 @@ class Evaluator:
         """Compare ``(F, J + E, 3)`` candidate FK positions with the reference's; with ``first``, ``(n, J + E, 3)``
         positions of the reference frames ``first .. first + n - 1`` only (the report's frame is then a frame of
         the clip, its mean and ``num_frames`` those of these frames)."""
-        positions = np.asarray(positions, dtype=np.float64)
-        reference = self._positions
-        if first is not None:
-            n = positions.shape[0] if positions.ndim == 3 else -1
-            if not 0 <= first or n < 1 or first + n > reference.shape[0]:
-                raise ValidationError(f"frames {first}..{first + n - 1} are not frames of the reference "
-                                      f"(0..{reference.shape[0] - 1})")
-            reference = reference[first:first + n]
-        if positions.shape != reference.shape:
-            raise ValidationError(f"candidate positions must have shape {reference.shape}, got {positions.shape}")
-        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))  # (F, P)
-        if not np.all(np.isfinite(dist)):
-            raise ValidationError("candidate positions contain NaN or infinity")
+        dist = self._distances(positions, first)
         flat = int(np.argmax(dist))
         frame, point = divmod(flat, dist.shape[1])
         frame += first or 0
@@ -205,6 +193,32 @@ class Evaluator:
             num_points=int(dist.shape[1]),
         )
 
+
+    def frame_errors(self, positions: NDArray[np.float64], first: int | None = None) -> NDArray[np.float64]:
+        """``(n,)`` largest distance of each frame (over joints and end sites), with the arguments of
+        :meth:`positions_error`: one evaluation for a codec that measures many stretches of a clip at once."""
+        return self._distances(positions, first).max(axis=1)
+
+    def _distances(self, positions: NDArray[np.float64], first: int | None) -> NDArray[np.float64]:
+        """``(n, J + E)`` distances of candidate positions to the reference's (checked shapes, finite)."""
+        positions = np.asarray(positions, dtype=np.float64)
+        reference = self._positions
+        if first is not None:
+            n = positions.shape[0] if positions.ndim == 3 else -1
+            if not 0 <= first or n < 1 or first + n > reference.shape[0]:
+                raise ValidationError(f"frames {first}..{first + n - 1} are not frames of the reference "
+                                      f"(0..{reference.shape[0] - 1})")
+            reference = reference[first:first + n]
+        if positions.shape != reference.shape:
+            raise ValidationError(f"candidate positions must have shape {reference.shape}, got {positions.shape}")
+        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))
+        if not np.all(np.isfinite(dist)):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        return dist
+
+
+#: Frames :meth:`MotionContext.feature_sensitivity` samples at most.
+SENSITIVITY_FRAMES = 64
 
 #: ``progress(stage, fields)``: what :meth:`MotionContext.progress` calls.
 ProgressCallback = Callable[[str, Mapping[str, Any]], None]
@@ -259,6 +273,32 @@ class MotionContext:
     def evaluate_frames(self, features: ArrayLike, first: int) -> ErrorReport:
         """The error of candidate ``(n, D)`` features of the frames ``first .. first + n - 1`` only."""
         return self.evaluator.positions_error(global_positions(self._decoded(features)), first=int(first))
+
+    def frame_errors(self, features: ArrayLike, first: int = 0) -> NDArray[np.float64]:
+        """``(n,)`` error of each frame of candidate ``(n, D)`` features of the frames ``first ..
+        first + n - 1``, in one evaluation."""
+        return self.evaluator.frame_errors(global_positions(self._decoded(features)), first=int(first))
+
+    def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
+        """``(n, D)``: for ``n`` frames sampled evenly (at most :data:`SENSITIVITY_FRAMES`), how far a unit change
+        of each feature moves the farthest joint or end site, in position units per feature unit.
+
+        Forward differences through the representation and FK, all features at once (one decode of ``n * D``
+        frames); the step of feature ``c`` is ``1e-6 (1 + max |feature c|)``. A feature that moves nothing (a
+        fixed axis, a joint without descendants) gets 0.
+        """
+        x_all = np.asarray(features, dtype=np.float64)
+        F, D = x_all.shape
+        rows = np.unique(np.linspace(0, F - 1, min(F, SENSITIVITY_FRAMES)).round().astype(np.int64))
+        x = x_all[rows]
+        n = x.shape[0]
+        h = 1e-6 * (1.0 + np.abs(x).max(axis=0))
+        moved = np.repeat(x[None], D, axis=0)  # (D, n, D): copy c has feature c moved by h_c
+        moved[np.arange(D), :, np.arange(D)] += h[:, None]
+        base = global_positions(self._decoded(x))
+        pos = global_positions(self._decoded(moved.reshape(D * n, D))).reshape((D,) + base.shape)
+        shift = np.sqrt(np.sum((pos - base[None]) ** 2, axis=-1)).max(axis=-1)  # (D, n)
+        return (shift / h[:, None]).T
 
     def _decoded(self, features: ArrayLike) -> Motion:
         """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""

@@ -49,6 +49,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "motionrep_euler",
     "motionrep_svd",
     "motionrep_fourier",
+    "motionrep_transform",
 )
 #: Environment variable limiting which third-party plugins load (comma-separated names; empty = none).
 ENV_VAR = "MOTIONREP_LOAD_PLUGINS"

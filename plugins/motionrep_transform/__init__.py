@@ -1,0 +1,19 @@
+"""Shipped plugin: the ``transform`` codec, error-bounded wavelet coding with a range coder.
+
+See ``specs/codecs.md`` for the payload layout and parameters.
+"""
+
+from __future__ import annotations
+
+from motionrep import __version__
+from motionrep.hookspecs import hookimpl
+
+from ._codec import TransformCodec, TransformParams
+
+__all__ = ["TransformCodec", "TransformParams", "register_codecs", "__version__"]
+
+
+@hookimpl
+def register_codecs(register):
+    """Register :class:`TransformCodec`."""
+    register(TransformCodec())

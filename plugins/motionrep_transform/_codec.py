@@ -1,0 +1,300 @@
+"""The ``transform`` codec: error-bounded wavelet coding of the feature matrix with a range coder.
+
+Encoding (``specs/codecs.md`` has the full description):
+
+1. every feature gets a quantiser step exponent ``b_c`` from its sensitivity: how far a unit change of it moves
+   the joints and end sites (``context.feature_sensitivity`` when the context offers it, measured through the
+   representation and FK; else the representation's weights ``w``);
+2. the features are transformed over frames by the CDF 9/7 wavelet (:mod:`._wavelet`);
+3. the clip is cut into regions of ``region`` frames; region ``r`` has its own exponent ``k_r``, and a
+   coefficient's step is ``2 ** ((b_c + k) / 8)``, with ``k`` the smallest ``k_r`` over the regions its
+   synthesis function reaches, so that each region's error depends mostly on its own exponent;
+4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
+   bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
+   neighbour's change pushed over the bound are lowered until all pass);
+5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
+
+Decoding: parse and range-decode, multiply by the steps, inverse wavelet, then (for times between frames)
+linear interpolation. Numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.ndimage import minimum_filter1d
+
+from motionrep.codec import Codec, EncodeContext, Payload, interpolate_frames
+from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
+from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError
+
+from ._stream import MAX_EXPONENT, Quantised, pack, unpack
+from ._wavelet import coefficient_frames, forward, inverse, num_levels
+
+__all__ = ["TransformCodec", "TransformParams"]
+
+#: Step exponents are in eighths of an octave: step = 2 ** (exponent / 8).
+_PER_OCTAVE = 8
+#: A coefficient of detail level j reaches about 3 * 2 ** j frames on each side of its centre.
+_REACH = 3
+#: The bisection of region exponents spans 2 ** -12 .. 2 ** 3 times the bound (in position units).
+_SEARCH_BELOW, _SEARCH_ABOVE = 12 * _PER_OCTAVE, 3 * _PER_OCTAVE
+_SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
+
+
+@dataclass(frozen=True)
+class TransformParams:
+    """Parameters of the ``transform`` codec."""
+
+    step: float | None = field(default=None, metadata={
+        "help": "fixed quality instead of a bound: the quantiser step in position units (file units of joint "
+                "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
+    region: int = field(default=16, metadata={
+        "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
+    rounding: float = field(default=0.4, metadata={
+        "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
+                "zone around 0, more zeros at a slightly smaller step"})
+
+    def __post_init__(self) -> None:
+        if self.step is not None and not (isinstance(self.step, (int, float)) and math.isfinite(self.step)
+                                          and self.step > 0):
+            raise ParameterError(f"transform: step must be a number > 0, got {self.step!r}")
+        if isinstance(self.region, bool) or not isinstance(self.region, int) or not 4 <= self.region <= 65536:
+            raise ParameterError(f"transform: region must be an integer in 4..65536, got {self.region!r}")
+        if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
+            raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
+
+
+def _log_step(x: NDArray[np.float64] | float) -> NDArray[np.int64]:
+    """Nearest step exponent of ``x`` (``round(8 log2 x)``)."""
+    return np.rint(_PER_OCTAVE * np.log2(x)).astype(np.int64)
+
+
+def feature_exponents(sensitivity: NDArray[np.float64]) -> NDArray[np.int64]:
+    """``(D,)`` step exponents ``b_c = round(-8 log2 s_c)`` from sensitivities ``s`` (position units per
+    feature unit), floored at ``1e-3`` of the largest so that a feature that moves nothing still gets a finite
+    step."""
+    s = np.asarray(sensitivity, dtype=np.float64)
+    top = float(s.max()) if s.size and np.all(np.isfinite(s)) else 0.0
+    s = np.maximum(s, 1e-3 * top) if top > 0 else np.ones_like(s)
+    return np.clip(_log_step(1.0 / s), -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
+
+
+class _Plan:
+    """The quantisation of one clip: its wavelet coefficients and which regions each coefficient reaches."""
+
+    def __init__(self, features: NDArray[np.float64], feature_exp: NDArray[np.int64], region: int):
+        self.num_frames, self.num_features = features.shape
+        self.region = region
+        self.regions = -(-self.num_frames // region)
+        self.levels = num_levels(self.num_frames)
+        self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
+        self.feature_exp = feature_exp
+        frames = coefficient_frames(self.num_frames, self.levels)
+        spans = [self.levels] + list(range(self.levels, 0, -1))
+        self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
+        self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
+
+    def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+        """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
+        return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
+
+    def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+        out = []
+        for c, step in zip(self.coefficients, steps_of(self.exponents(region_exp))):
+            a = np.floor(np.abs(c) / step + rounding)
+            if a.size and not float(a.max()) <= MAX_MAGNITUDE:
+                raise BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
+                                       "--max-error", None, None)
+            out.append((np.sign(c) * a).astype(np.int64))
+        return out
+
+    def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
+        return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
+                         np.asarray(region_exp, np.int64), self.quantise(region_exp, rounding))
+
+
+def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
+    """``2 ** (e / 8)`` of every exponent array (through a table of the distinct values: the same bits as
+    :func:`motionrep.coding.step_scale`, faster)."""
+    low = min(int(e.min()) for e in exponents if e.size)
+    high = max(int(e.max()) for e in exponents if e.size)
+    table = step_scale(np.arange(low, high + 1))
+    return [np.asarray(table)[e - low] for e in exponents]
+
+
+def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray[np.int64]], reach: list[int],
+                          feature_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+    """Per coefficient array, ``(n, D)`` exponents ``b_c + min(k_r over the regions within reach)``."""
+    out = []
+    for rows, span in zip(region_of, reach):
+        k = minimum_filter1d(region_exp, 2 * span + 1, mode="nearest") if span > 0 else region_exp
+        out.append(k[rows][:, None] + feature_exp[None, :])
+    return out
+
+
+def reconstruct(q: Quantised) -> NDArray[np.float64]:
+    """``(F, D)`` features of the frames of a quantised payload."""
+    levels = num_levels(q.num_frames)
+    region_of = [np.minimum(f // q.region_frames, q.region_exponents.size - 1)
+                 for f in coefficient_frames(q.num_frames, levels)]
+    spans = [levels] + list(range(levels, 0, -1))
+    reach = [int(math.ceil(_REACH * 2 ** j / q.region_frames)) for j in spans]
+    exps = coefficient_exponents(q.region_exponents, region_of, reach, q.feature_exponents)
+    if any(c.shape != e.shape for c, e in zip(q.coefficients, exps)) or len(exps) != len(q.coefficients):
+        raise PayloadError("transform payload: coefficient arrays do not fit the clip")
+    if any(e.size and int(np.abs(e).max()) > MAX_EXPONENT for e in exps):
+        raise PayloadError("transform payload: a step is out of range")
+    values = [c * step for c, step in zip(q.coefficients, steps_of(exps))]
+    out = inverse(values) if levels else values[0]
+    if not np.all(np.isfinite(out)):
+        raise PayloadError("transform payload: the coefficients decode to values that are not finite")
+    return out
+
+
+def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
+    """``(D,)`` position units per feature unit: the 90th percentile over frames of the context's measured
+    sensitivity when it offers one, else the weights ``w`` (Tojo et al. eq. 3)."""
+    measure = getattr(context, "feature_sensitivity", None)
+    if measure is not None:
+        per_frame = np.asarray(measure(features), dtype=np.float64)
+        if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and np.all(np.isfinite(per_frame)):
+            return np.percentile(per_frame, 90, axis=0)
+    return np.asarray(weights, dtype=np.float64)
+
+
+class _RegionErrors:
+    """The largest error of each region's frames, for candidate features of the whole clip: one shared
+    evaluation (``context.frame_errors``) when the context offers it, else one ``evaluate_frames`` per region."""
+
+    def __init__(self, context: EncodeContext, num_frames: int, region: int):
+        self.context, self.num_frames, self.region = context, num_frames, region
+        self.regions = -(-num_frames // region)
+        self.evaluations = 0
+
+    def __call__(self, features: NDArray[np.float64]) -> NDArray[np.float64]:
+        self.evaluations += 1
+        frame_errors = getattr(self.context, "frame_errors", None)
+        try:
+            if frame_errors is not None:
+                per_frame = np.asarray(frame_errors(features), dtype=np.float64)
+                padded = np.zeros(self.regions * self.region)
+                padded[:self.num_frames] = per_frame
+                return padded.reshape(self.regions, self.region).max(axis=1)
+            out = np.empty(self.regions)
+            for r in range(self.regions):
+                a, b = r * self.region, min(self.num_frames, (r + 1) * self.region)
+                out[r] = self.context.evaluate_frames(features[a:b], a).max_error
+            return out
+        except MotionrepError:  # a candidate that does not even decode (e.g. a zero-length quaternion)
+            return np.full(self.regions, np.inf)
+
+
+class TransformCodec(Codec):
+    """Error-bounded transform coding: CDF 9/7 wavelet over frames, steps from the features' FK sensitivity
+    and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.coding``).
+
+    Payload (format version 1): ``data`` ``(n,)`` uint8, the range-coded stream of :mod:`._stream`.
+    Info: ``{"bytes": n, "regions": R, "region_frames": region, "step": [smallest, largest]}`` (the position
+    steps ``2 ** (k_r / 8)`` of the regions).
+    """
+
+    name = "transform"
+    format_version = 1
+    description = "error-bounded wavelet coding with FK-sensitivity steps and a range coder (smallest files)"
+    Params = TransformParams
+
+    def encode(self, features: NDArray[np.float64], weights: NDArray[np.float64],
+               context: EncodeContext) -> Payload:
+        params: TransformParams = context.params
+        bound = context.bound
+        if params.step is None and bound is None:
+            raise ParameterError("transform: give step=S (position units) when there is no error bound "
+                                 "(--max-error none)")
+        Y = np.asarray(features, dtype=np.float64)
+        F, D = Y.shape
+        feature_exp = feature_exponents(_sensitivity(context, Y, weights))
+        plan = _Plan(Y, feature_exp, params.region)
+        if params.step is not None:
+            k = np.full(plan.regions, int(_log_step(params.step)), np.int64)
+        else:
+            k = self._search(plan, context, bound, params.rounding)
+        if np.any(np.abs(k[:, None] + feature_exp[None, :]) > MAX_EXPONENT):
+            raise BoundNotMetError("transform: the steps needed are out of range", None, bound)
+        payload = self._payload(plan.quantised(k, params.rounding))
+        if bound is not None:
+            reached = context.evaluate_payload(payload).max_error
+            if not reached <= bound:
+                raise BoundNotMetError(f"transform: step={params.step:g} reaches an L-inf error of {reached:.4g}, "
+                                       f"above the bound {bound:.4g}; lower step or leave it unset"
+                                       if params.step is not None else
+                                       f"transform: the coded clip reaches an L-inf error of {reached:.4g}, above "
+                                       f"the bound {bound:.4g}", reached, bound)
+        return payload
+
+    def _search(self, plan: _Plan, context: EncodeContext, bound: float, rounding: float) -> NDArray[np.int64]:
+        """Region exponents: each region's largest step that keeps its frames within ``bound``."""
+        errors = _RegionErrors(context, plan.num_frames, plan.region)
+        R = plan.regions
+
+        def region_errors(k: NDArray[np.int64]) -> NDArray[np.float64]:
+            return errors(reconstruct(plan.quantised(k, rounding)))
+
+        def passes(k: NDArray[np.int64]) -> NDArray[np.bool_]:
+            return region_errors(k) <= bound
+
+        k0 = int(_log_step(bound))
+        low = np.full(R, k0 - _SEARCH_BELOW, np.int64)
+        k = largest_passing_each(passes, low, np.full(R, k0 + _SEARCH_ABOVE, np.int64))
+        context.progress("bisect", regions=R, evaluations=errors.evaluations)
+        k = self._settle(k, region_errors, bound, low[0] - 1)
+        context.progress("settle", regions=R, evaluations=errors.evaluations,
+                         step=[float(step_scale(k.min())), float(step_scale(k.max()))])
+        return k
+
+    @staticmethod
+    def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int) -> NDArray[np.int64]:
+        """Lower the exponents of regions over the bound (and, after a region failed three times, its
+        neighbours') until every region passes; if that does not converge, one exponent for all."""
+        k = k.copy()
+        fails = np.zeros(k.size, np.int64)
+        for _ in range(_SETTLE_ROUNDS):
+            e = region_errors(k)
+            bad = e > bound
+            if not bad.any():
+                return k
+            fails += bad
+            k[bad] -= 1
+            stuck = bad & (fails > 2)
+            k[1:][stuck[:-1]] -= 1
+            k[:-1][stuck[1:]] -= 1
+            k = np.maximum(k, floor)
+        best = int(k.min())
+        while best >= floor:
+            uniform = np.full(k.size, best, np.int64)
+            e = region_errors(uniform)
+            if not np.any(e > bound):
+                return uniform
+            best -= _PER_OCTAVE
+        raise BoundNotMetError(f"transform: even the finest steps reach an L-inf error of {float(e.max()):.4g}, "
+                               f"above the bound {bound:.4g}", float(e.max()), bound)
+
+    @staticmethod
+    def _payload(q: Quantised) -> Payload:
+        data = np.frombuffer(pack(q), dtype=np.uint8).copy()
+        steps = step_scale(q.region_exponents)
+        info = {"bytes": int(data.size), "regions": int(q.region_exponents.size), "region_frames": q.region_frames,
+                "step": [float(np.min(steps)), float(np.max(steps))]}
+        return Payload({"data": data}, info)
+
+    def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
+        data = np.asarray(payload.arrays["data"])
+        if data.dtype != np.uint8 or data.ndim != 1:
+            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
+        frames = reconstruct(unpack(data.tobytes()))
+        return interpolate_frames(frames, times)

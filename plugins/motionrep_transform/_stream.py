@@ -1,0 +1,215 @@
+"""The bytes of a ``transform`` payload (format 1): quantised wavelet coefficients, range-coded with context
+models (``motionrep.coding``). Layout in ``specs/codecs.md``; every count and range read is checked.
+
+Coefficients are coded coarse to fine. The approximation is coded as differences between neighbouring samples.
+Each detail level is coded in two passes, its even then its odd coefficients; a coefficient's context is the
+size of what the decoder already has around it: its parent (the coefficient at the same time one level
+coarser) and the parent's neighbours, and, in the odd pass, its two even neighbours at its own level. The
+context picks one of 32 models (8 sizes x 2 passes x coarse/fine levels), each fitted to its coefficients and
+stored in two bytes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from motionrep.coding import IntegerDecoder, IntegerEncoder, Model, fit_model, max_values
+from motionrep.errors import PayloadError
+
+from ._wavelet import level_sizes, num_levels
+
+__all__ = ["Quantised", "pack", "unpack", "MAX_EXPONENT", "MAX_ZERO"]
+
+_SIZES = 8  # context classes per (pass, level group): bit length of the context sum, capped
+_FINE = 3  # detail levels 1..3 (the finest) form one group, coarser levels the other
+_CONTEXTS = 2 * 2 * _SIZES
+#: Largest magnitude of a stored step exponent (steps are 2 ** (exponent / 8)).
+MAX_EXPONENT = (1 << 15) - 1
+#: Largest zero index of a stored model (P(0) <= 0.999): a byte then holds at most ~5700 values, so a header
+#: cannot make the decoder work or allocate out of proportion to the data (``motionrep.coding.max_values``).
+MAX_ZERO = 208
+
+
+def _fit(values: NDArray[np.int64]) -> Model:
+    return fit_model(values, max_zero=MAX_ZERO)
+
+
+def _models(dec: IntegerDecoder, count: int) -> list[Model]:
+    models = dec.decode_models(count)
+    if any(m.zero > MAX_ZERO for m in models):
+        raise PayloadError("transform payload: a stored model is out of range (damaged data)")
+    return models
+
+
+@dataclass(frozen=True, eq=False)
+class Quantised:
+    """What the payload holds.
+
+    Attributes:
+        num_frames: ``F``.
+        num_features: ``D``.
+        region_frames: frames per region of the step envelope.
+        feature_exponents: ``(D,)`` step exponent of each feature.
+        region_exponents: ``(R,)`` step exponent of each region, ``R = ceil(F / region_frames)``.
+        coefficients: int64 arrays ``(n, D)`` in the order of :func:`~._wavelet.level_sizes`.
+    """
+
+    num_frames: int
+    num_features: int
+    region_frames: int
+    feature_exponents: NDArray[np.int64]
+    region_exponents: NDArray[np.int64]
+    coefficients: list[NDArray[np.int64]]
+
+
+def _bit_length(s: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Bits of each non-negative integer (0 for 0), capped at 41."""
+    s = np.minimum(s, np.int64(1) << 40)
+    return np.where(s > 0, np.frexp(s.astype(np.float64))[1], 0).astype(np.int64)
+
+
+def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int64]:
+    """``2 p + p_left + p_right`` for each coefficient of array ``index`` (1..L) from the coarser level: for the
+    coarsest detail level, the approximation's differences at the same position; otherwise the detail level
+    above at ``i // 2``."""
+    n = magnitudes[index].shape[0]
+    if index == 1:
+        a = magnitudes[0]  # here: |A[i + 1] - A[i]|, last repeated (set by the caller)
+        at = np.arange(n)
+    else:
+        a = magnitudes[index - 1]
+        at = np.arange(n) // 2
+    at = np.minimum(at, a.shape[0] - 1)
+    pad = np.zeros((a.shape[0] + 2,) + a.shape[1:], np.int64)
+    pad[1:-1] = a
+    return 2 * pad[at + 1] + pad[at] + pad[at + 2]
+
+
+def _contexts(parents: NDArray[np.int64], level: NDArray[np.int64], odd: bool, group: int) -> NDArray[np.int64]:
+    """Context ids of one pass over the rows ``i`` of a level with ``i % 2 == odd``: the bit length (capped) of
+    the parents' sum, plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from ``level`` (the level's
+    magnitudes; only its even rows, already known to the decoder, are read)."""
+    s = parents[int(odd)::2]
+    if odd:
+        n = level.shape[0]
+        pad = np.zeros((n + 1,) + level.shape[1:], np.int64)
+        pad[:n] = level
+        rows = np.arange(1, n, 2)
+        s = s + 2 * (pad[rows - 1] + pad[rows + 1])
+    size = np.minimum(_bit_length(s), _SIZES - 1)
+    return (group * 2 + int(odd)) * _SIZES + size
+
+
+def _approx_steps(a: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``|A[i + 1] - A[i]|`` per row, the last row repeated (the coarsest detail level's parents)."""
+    d = np.abs(np.diff(a, axis=0))
+    return np.concatenate([d, d[-1:]], axis=0)
+
+
+def _encode_signed(enc: IntegerEncoder, v: NDArray[np.int64]) -> None:
+    """A vector of small signed integers: the first zigzag-coded in 16 raw bits, then the differences under a
+    stored fitted model."""
+    first = int(v[0])
+    enc.encode_raw([2 * first if first >= 0 else -2 * first - 1], 16)
+    d = np.diff(v)
+    model = _fit(d)
+    enc.encode_models([model])
+    enc.encode(d, model)
+
+
+def _decode_signed(dec: IntegerDecoder, n: int) -> NDArray[np.int64]:
+    z = int(dec.decode_raw(1, 16)[0])
+    first = z // 2 if z % 2 == 0 else -(z + 1) // 2
+    (model,) = _models(dec, 1)
+    v = np.cumsum(np.concatenate([[first], dec.decode(n - 1, model)]))
+    if np.any(np.abs(v) > MAX_EXPONENT):
+        raise PayloadError("transform payload: a step exponent is out of range")
+    return v
+
+
+def _passes(levels: int):
+    """``(array index, level j, odd, group)`` in coding order."""
+    for index in range(1, levels + 1):
+        j = levels - index + 1
+        for odd in (False, True):
+            yield index, odd, int(j <= _FINE)
+
+
+def pack(q: Quantised) -> bytes:
+    """The payload bytes of ``q``."""
+    F, D = q.num_frames, q.num_features
+    levels = num_levels(F)
+    coeffs = [np.asarray(c, dtype=np.int64) for c in q.coefficients]
+    enc = IntegerEncoder()
+    enc.encode_raw([F - 1], 32)
+    enc.encode_raw([D - 1], 20)
+    enc.encode_raw([q.region_frames - 1], 16)
+    _encode_signed(enc, np.asarray(q.feature_exponents, np.int64))
+    _encode_signed(enc, np.asarray(q.region_exponents, np.int64))
+    # contexts of every detail coefficient, from the magnitudes (the decoder rebuilds them as it goes)
+    mags = [np.abs(c) for c in coeffs]
+    mags[0] = _approx_steps(coeffs[0])
+    segments = []  # (context ids, values) per pass, in coding order
+    for index, odd, group in _passes(levels):
+        ctx = _contexts(_parents(mags, index), mags[index], odd, group)
+        segments.append((ctx.reshape(-1), coeffs[index][int(odd)::2].reshape(-1)))
+    all_ctx = np.concatenate([c for c, _ in segments]) if segments else np.zeros(0, np.int64)
+    all_val = np.concatenate([v for _, v in segments]) if segments else np.zeros(0, np.int64)
+    used = np.unique(all_ctx)
+    models = {int(c): _fit(all_val[all_ctx == c]) for c in used}
+    enc.encode_raw([int(np.bitwise_or.reduce(np.left_shift(1, used))) if used.size else 0], _CONTEXTS)
+    enc.encode_models([models[int(c)] for c in used])
+    # the approximation: its first row, then the differences of the next rows
+    first, steps = coeffs[0][0], np.diff(coeffs[0], axis=0)
+    m_first, m_steps = _fit(first), _fit(steps)
+    enc.encode_models([m_first, m_steps])
+    enc.encode(first, m_first)
+    enc.encode(steps, m_steps)
+    for ctx, values in segments:
+        for c in np.unique(ctx).tolist():
+            enc.encode(values[ctx == c], models[c])
+    return enc.to_bytes()
+
+
+def unpack(data: bytes) -> Quantised:
+    """The :class:`Quantised` content of payload bytes.
+
+    Raises:
+        PayloadError: for damaged or inconsistent data (one line saying what).
+    """
+    dec = IntegerDecoder(data)
+    F = int(dec.decode_raw(1, 32)[0]) + 1
+    D = int(dec.decode_raw(1, 20)[0]) + 1
+    region = int(dec.decode_raw(1, 16)[0]) + 1
+    regions = -(-F // region)
+    if F * D + D + regions > max_values(len(data), MAX_ZERO):
+        raise PayloadError(f"transform payload: {F} frames x {D} features cannot be held in {len(data)} bytes "
+                           "(damaged data)")
+    feature_exp = _decode_signed(dec, D)
+    region_exp = _decode_signed(dec, regions)
+    levels = num_levels(F)
+    sizes = level_sizes(F, levels)
+    bitmap = int(dec.decode_raw(1, _CONTEXTS)[0])
+    used = [c for c in range(_CONTEXTS) if bitmap >> c & 1]
+    models: dict[int, Model] = dict(zip(used, _models(dec, len(used))))
+    m_first, m_steps = _models(dec, 2)
+    first = dec.decode(D, m_first)
+    steps = dec.decode((sizes[0] - 1) * D, m_steps).reshape(sizes[0] - 1, D)
+    approx = np.cumsum(np.concatenate([first[None], steps], axis=0), axis=0)
+    coeffs = [approx] + [np.zeros((n, D), np.int64) for n in sizes[1:]]
+    mags = [_approx_steps(approx)] + [np.zeros((n, D), np.int64) for n in sizes[1:]]
+    for index, odd, group in _passes(levels):
+        ctx = _contexts(_parents(mags, index), mags[index], odd, group).reshape(-1)
+        values = np.zeros(ctx.size, np.int64)
+        for c in np.unique(ctx).tolist():
+            if c not in models:
+                raise PayloadError("transform payload: a coefficient's context has no stored model (damaged data)")
+            rows = ctx == c
+            values[rows] = dec.decode(int(rows.sum()), models[c])
+        coeffs[index][int(odd)::2] = values.reshape(-1, D)
+        mags[index][int(odd)::2] = np.abs(values).reshape(-1, D)
+    dec.finish()
+    return Quantised(F, D, region, feature_exp, region_exp, coeffs)

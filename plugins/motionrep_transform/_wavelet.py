@@ -1,0 +1,126 @@
+"""The CDF 9/7 wavelet over frames, by lifting, with whole-sample symmetric extension (JPEG 2000's irreversible
+transform): ``n`` samples give exactly ``n`` coefficients at every length, the clip's ends are extended as mirror
+images (no jump at the ends, unlike a periodic transform), and the subbands are scaled so that every synthesis
+function has about unit norm (a quantisation error of ``e`` in any coefficient is an error of about ``e`` in
+the signal, in the L2 sense).
+
+PyWavelets has the same filters but only with extension modes that either add coefficients at the ends
+(``symmetric``: more bits on short clips) or make the clip periodic (``periodization``: a jump from the last
+frame to the first, more bits on long clips); this critically sampled symmetric form has neither cost. Arrays
+are ``(frames, features)``; numpy only, additions and multiplications in a fixed order (the same result on every
+run).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["forward", "inverse", "num_levels", "level_sizes", "coefficient_frames"]
+
+# lifting coefficients of CDF 9/7 (alpha, beta, gamma, delta), JPEG 2000 Part 1, Annex F
+_STEPS = (-1.586134342059924, -0.052980118572961, 0.882911075530934, 0.443506852043971)
+# subband scaling: low-pass by sqrt(2) / K, high-pass by K / sqrt(2) (K = 1.230174104914001), so that the
+# synthesis functions of every level have norm 1.00-1.05
+_LOW = 1.1496043988602411
+_HIGH = 0.8698644516247813
+#: A level is added while the low-pass part has at least this many samples (so it keeps at least 2).
+_MIN_SPLIT = 4
+#: The most levels (2 ** 20 frames per low-pass sample is far beyond any clip).
+MAX_LEVELS = 20
+
+
+def num_levels(num_frames: int) -> int:
+    """Levels of the transform of ``num_frames`` samples: halve while at least 4 remain, at most 20."""
+    levels, n = 0, int(num_frames)
+    while n >= _MIN_SPLIT and levels < MAX_LEVELS:
+        n = (n + 1) // 2
+        levels += 1
+    return levels
+
+
+def level_sizes(num_frames: int, levels: int) -> list[int]:
+    """Sizes of the coefficient arrays in storage order: ``[approximation, detail L, ..., detail 1]``."""
+    details = []
+    n = int(num_frames)
+    for _ in range(levels):
+        details.append(n // 2)
+        n = (n + 1) // 2
+    return [n] + details[::-1]
+
+
+def coefficient_frames(num_frames: int, levels: int) -> list[NDArray[np.int64]]:
+    """The frame each coefficient is centred on, per array of :func:`level_sizes` (approximation ``i`` at
+    ``i 2^L``, detail ``i`` of level ``j`` at ``(2 i + 1) 2^(j - 1)``), clipped to the clip."""
+    sizes = level_sizes(num_frames, levels)
+    out = [np.minimum(np.arange(sizes[0], dtype=np.int64) << levels, num_frames - 1)]
+    for index, j in enumerate(range(levels, 0, -1), start=1):
+        out.append(np.minimum(((2 * np.arange(sizes[index], dtype=np.int64) + 1) << (j - 1)), num_frames - 1))
+    return out
+
+
+def _right(s: NDArray, count: int) -> NDArray:
+    """``s[i + 1]`` for ``i < count``; past the end, ``s[-1]`` (the mirror image: for an even-length signal the
+    last odd sample's right neighbour ``x[n]`` is ``x[n - 2]``)."""
+    if s.shape[0] > count:
+        return s[1:count + 1]
+    return np.concatenate([s[1:], s[-1:]], axis=0)
+
+
+def _left(d: NDArray, count: int) -> NDArray:
+    """``d[i - 1]`` for ``i < count``, with ``d[-1] = d[0]`` (mirror at the start)."""
+    return np.concatenate([d[:1], d[:count - 1]], axis=0)
+
+
+def _here(d: NDArray, count: int) -> NDArray:
+    """``d[i]`` for ``i < count``, with ``d[len] = d[len - 1]`` (mirror at the end of an odd-length signal)."""
+    if d.shape[0] >= count:
+        return d[:count]
+    return np.concatenate([d, d[-1:]], axis=0)
+
+
+def _split(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    s, d = x[0::2].copy(), x[1::2].copy()
+    ns, nd = s.shape[0], d.shape[0]
+    for k, a in enumerate(_STEPS):
+        if k % 2 == 0:
+            d += a * (s[:nd] + _right(s, nd))
+        else:
+            s += a * (_left(d, ns) + _here(d, ns))
+    s *= _LOW
+    d *= _HIGH
+    return s, d
+
+
+def _merge(s: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+    s, d = s / _LOW, d / _HIGH
+    ns, nd = s.shape[0], d.shape[0]
+    for k in range(len(_STEPS) - 1, -1, -1):
+        a = _STEPS[k]
+        if k % 2 == 0:
+            d -= a * (s[:nd] + _right(s, nd))
+        else:
+            s -= a * (_left(d, ns) + _here(d, ns))
+    x = np.empty((ns + nd,) + s.shape[1:])
+    x[0::2] = s
+    x[1::2] = d
+    return x
+
+
+def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
+    """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`)."""
+    out = []
+    s = np.asarray(x, dtype=np.float64)
+    for _ in range(levels):
+        s, d = _split(s)
+        out.append(d)
+    out.append(s)
+    return out[::-1]
+
+
+def inverse(coefficients: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The ``(n, D)`` samples of :func:`forward`'s output (exact up to float rounding)."""
+    s = coefficients[0]
+    for d in coefficients[1:]:
+        s = _merge(s, d)
+    return s
