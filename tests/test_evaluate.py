@@ -114,3 +114,46 @@ def test_positions_error_of_some_frames_reports_clip_frames():
     assert part.max_error <= whole.max_error
     with pytest.raises(ValidationError, match="not frames of the reference"):
         ev.positions_error(pos[:5], first=27)
+
+
+def test_context_frame_errors_match_the_report():
+    from motionrep.evaluate import MotionContext
+    from motionrep.plugins import get_codec, get_representation
+
+    m = synthetic_motion(humanoid_skeleton(), frames=40, seed=2)
+    rep = get_representation("root-quat-axis-angle")
+    ctx = MotionContext(m, rep, get_codec("svd"), None)
+    f = rep.to_features(m) + np.random.default_rng(0).normal(scale=1e-2, size=(40, rep.width(m.skeleton)))
+    per_frame = ctx.frame_errors(f)
+    report = ctx.evaluate(f)
+    assert per_frame.shape == (40,) and per_frame.max() == report.max_error
+    assert int(per_frame.argmax()) == report.frame
+    part = ctx.frame_errors(f[10:20], 10)
+    np.testing.assert_array_equal(part, per_frame[10:20])
+    assert part.max() == ctx.evaluate_frames(f[10:20], 10).max_error
+    with pytest.raises(ValidationError):
+        ctx.frame_errors(f[:5], 38)
+
+
+def test_context_feature_sensitivity():
+    """Position units per feature unit: 1 for the root translation, the lever arm for a rotation, 0 for a
+    feature that moves nothing."""
+    from motionrep.evaluate import MotionContext
+    from motionrep.plugins import get_codec, get_representation
+
+    sk = chain_skeleton(3, orders=("ZXY", "ZXY", "ZXY"), bone=10.0)  # j0 -> j1 -> j2 -> end site, along +Y
+    m = synthetic_motion(sk, frames=100, seed=1, amplitude_deg=0.0)  # rest pose: the chain straight up
+    rep = get_representation("root-quat-axis-angle")
+    names = rep.feature_names(sk)
+    ctx = MotionContext(m, rep, get_codec("svd"), None)
+    s = ctx.feature_sensitivity(rep.to_features(m))
+    assert s.shape == (64, len(names))
+    col = {n: s[:, i] for i, n in enumerate(names)}
+    for axis in ("tx", "ty", "tz"):
+        np.testing.assert_allclose(col[f"j0/{axis}"], 1.0, rtol=1e-5)
+    # j2 rotates only its end site, 10 units up the Y axis: a swing about X or Z moves it 10 per radian, a
+    # twist about Y not at all
+    np.testing.assert_allclose(col["j2/aa_x"], 10.0, rtol=1e-4)
+    np.testing.assert_allclose(col["j2/aa_z"], 10.0, rtol=1e-4)
+    assert np.all(col["j2/aa_y"] < 1e-4)
+    np.testing.assert_allclose(col["j1/aa_x"], 20.0, rtol=1e-4)

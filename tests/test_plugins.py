@@ -360,6 +360,7 @@ _CODEC_SETTINGS = {
     "svd": ({"rank": 4}, {}, 0.05),
     "naive-fourier": ({"k": 1, "iters": 50}, {"max_k": 4, "iters": 100}, 0.25),
     "adaptive-fourier": ({"k": 1, "iters": 50}, {"max_k": 4, "iters": 100}, 0.25),
+    "transform": ({"step": 0.5}, {}, 0.05),
 }
 
 

@@ -1,5 +1,7 @@
-"""The transform codec: conformance, the bound from 0.001 % to 20 %, fixed steps, damaged payloads, determinism,
-old payloads, and the bound on the real clips (a quick one in the default run; all clips, marked slow)."""
+"""The transform codec through the core: conformance, the bound from 0.001 % to 20 %, fixed steps, damaged
+payloads, determinism, and the bound on real clips through BVH (a few in the default run; every clip with
+MOTIONREP_ALL_CLIPS=1).  Its machinery (wavelet, stream, old payloads) is tested in
+``plugins/motionrep_transform/tests``."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import SHARED_DATA, real_params, requires_shared
+from helpers import SHARED_DATA, real_params, requires_shared
 from motionrep.codec import Payload, frame_times, interpolate_frames
 from motionrep.compress import compress_file, compress_motion, decompress, decompress_file
 from motionrep.container import pack, unpack
@@ -19,10 +21,8 @@ from motionrep.errors import BoundNotMetError, ContainerError, MotionrepError, P
 from motionrep.evaluate import max_joint_error
 from motionrep.io import read
 from motionrep.plugins import get_codec, get_representation
-from motionrep.testing import (chain_skeleton, check_codec, conformance_motions, humanoid_skeleton,
-                               synthetic_motion)
-from motionrep_transform._stream import unpack as unpack_stream
-from motionrep_transform._wavelet import forward, inverse, level_sizes, num_levels
+from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.testing import check_codec, conformance_motions
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -33,21 +33,8 @@ def walk():
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# the pieces
+# the codec contract
 # ---------------------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("frames", [4, 5, 7, 8, 33, 100, 257])
-def test_wavelet_is_critically_sampled_and_invertible(frames):
-    x = np.random.default_rng(frames).normal(size=(frames, 3))
-    levels = num_levels(frames)
-    coeffs = forward(x, levels)
-    assert [c.shape[0] for c in coeffs] == level_sizes(frames, levels) and sum(map(len, coeffs)) == frames
-    np.testing.assert_allclose(inverse(coeffs), x, atol=1e-12)
-    # a constant is all approximation; a straight line too, away from the mirrored ends (vanishing moments)
-    assert max(np.abs(d).max() for d in forward(np.full((frames, 2), 3.0), levels)[1:]) < 1e-9
-    line = np.outer(np.arange(frames), [0.5, -2.0]) + 3.0
-    assert max((np.abs(d[3:-3]).max() if len(d) > 6 else 0.0) for d in forward(line, levels)[1:]) < 1e-9
-
-
 def test_interpolate_frames_is_exact_on_frames_and_linear_between():
     rows = np.array([[0.0, 1.0], [2.0, 3.0], [4.0, -1.0]])
     np.testing.assert_array_equal(interpolate_frames(rows, frame_times(3)), rows)
@@ -56,15 +43,16 @@ def test_interpolate_frames_is_exact_on_frames_and_linear_between():
     np.testing.assert_array_equal(interpolate_frames(rows[:1], [0.0, 0.7]), rows[[0, 0]])
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# the codec contract
-# ---------------------------------------------------------------------------------------------------------------
 def test_conformance():
     codec = get_codec("transform")
     check_codec(codec, params={"step": 0.5}, bound_params={})
-    results = check_codec(codec, conformance_motions(), params={"step": 0.2}, bound_params={},
-                          bound_fraction=0.01)
-    assert all(r["bounded_error"] is not None for r in results)  # the bound is always met, never given up
+    motions = conformance_motions()
+    results = check_codec(codec, motions, params={"step": 0.2}, bound_params={}, bound_fraction=0.01)
+    for m, r in zip(motions, results):
+        # the bound is met wherever it can be: not where the reference's root moves without position channels
+        reachable = any(c.endswith("position") for c in m.skeleton.channels[0]) or np.allclose(
+            m.root_translation, m.skeleton.offsets[0])
+        assert r["bounded_error"] is not None or not reachable
 
 
 @pytest.mark.parametrize("max_error", ["0.001%", "0.05%", "0.5%", "2%", "20%", "0.8"])
@@ -174,17 +162,6 @@ def test_damaged_payloads_give_clean_errors(walk):
         decompress(bytes(blob))
 
 
-def test_a_header_cannot_ask_for_more_than_the_bytes_hold():
-    from motionrep.coding import IntegerEncoder
-
-    enc = IntegerEncoder()
-    enc.encode_raw([2 ** 32 - 1], 32)  # 4 billion frames
-    enc.encode_raw([99], 20)
-    enc.encode_raw([15], 16)
-    with pytest.raises(PayloadError, match="cannot be held"):
-        unpack_stream(enc.to_bytes())
-
-
 def test_same_input_gives_identical_bytes_across_processes_and_threads(walk):
     code = ("import sys; from motionrep.testing import humanoid_skeleton, synthetic_motion; "
             "from motionrep.compress import compress_motion; "
@@ -198,32 +175,6 @@ def test_same_input_gives_identical_bytes_across_processes_and_threads(walk):
         runs.append(subprocess.run([sys.executable, "-c", code], capture_output=True, check=True, env=env,
                                    cwd=str(REPO)).stdout)
     assert runs[0] == runs[1] == here
-
-
-# The payload motionrep 0.1.0 (format 1) writes for golden_motion() at --max-error 2%: files in the wild hold such
-# bytes, so they must keep decoding to a motion within that bound.
-GOLDEN_HEX = (
-    "0000170000e90b00c5f9ffe3d52fe507f33d620c519f89cb1b4783cb21cc361625939c859579b2a5b0f193e4871951f7d5a4403e"
-    "62dd10bd126b216a7d700389ddb8f689554a35355cfdc71dff9916e1ef302233ab25f83e16f4387780d6d6ba1ef1d6fad0d7772f"
-    "ba2bf26c4d7c57414b95495d929eb7b5620022d1016b3e66e3030a2d54a15c1abe90c325d690c8019f36c31f0694df20188cefea"
-    "d2d31270fe32616fde9a41cd8a18025204c11f7cd1a3e6262130f59535de8fb90158fa4840bdfa7bfecd8c21cec1a0187e82fbb5"
-    "2085d90394ede449f8cf397106af6013")
-
-
-def golden_motion():
-    return synthetic_motion(chain_skeleton(3), frames=24, fps=30, seed=9)
-
-
-def test_format_1_payloads_still_decode():
-    m = golden_motion()
-    data = np.frombuffer(bytes.fromhex(GOLDEN_HEX), dtype=np.uint8)
-    codec = get_codec("transform")
-    features = codec.decode(Payload({"data": data}), frame_times(m.num_frames))
-    decoded = get_representation("root-quat-axis-angle").from_features(features, m.skeleton, m.fps)
-    assert max_joint_error(m, decoded).max_error_percent <= 2.0
-    # and this version still writes the same bytes
-    r = compress_motion(m, "transform", max_error="2%")
-    assert r.container.arrays["data"].tobytes().hex() == GOLDEN_HEX
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -1,0 +1,66 @@
+"""The transform plugin's machinery: the wavelet, the payload stream's limits, and payloads of format 1 written by
+motionrep 0.1.0.  The codec's behaviour through the core is tested in ``tests/test_transform.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.codec import Payload, frame_times
+from motionrep.compress import compress_motion
+from motionrep.errors import PayloadError
+from motionrep.evaluate import max_joint_error
+from motionrep.plugins import get_codec, get_representation
+from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep_transform._stream import unpack as unpack_stream
+from motionrep_transform._wavelet import forward, inverse, level_sizes, num_levels
+
+
+@pytest.mark.parametrize("frames", [4, 5, 7, 8, 33, 100, 257])
+def test_wavelet_is_critically_sampled_and_invertible(frames):
+    x = np.random.default_rng(frames).normal(size=(frames, 3))
+    levels = num_levels(frames)
+    coeffs = forward(x, levels)
+    assert [c.shape[0] for c in coeffs] == level_sizes(frames, levels) and sum(map(len, coeffs)) == frames
+    np.testing.assert_allclose(inverse(coeffs), x, atol=1e-12)
+    # a constant is all approximation; a straight line too, away from the mirrored ends (vanishing moments)
+    assert max(np.abs(d).max() for d in forward(np.full((frames, 2), 3.0), levels)[1:]) < 1e-9
+    line = np.outer(np.arange(frames), [0.5, -2.0]) + 3.0
+    assert max((np.abs(d[3:-3]).max() if len(d) > 6 else 0.0) for d in forward(line, levels)[1:]) < 1e-9
+
+
+def test_a_header_cannot_ask_for_more_than_the_bytes_hold():
+    from motionrep.coding import IntegerEncoder
+
+    enc = IntegerEncoder()
+    enc.encode_raw([2 ** 32 - 1], 32)  # 4 billion frames
+    enc.encode_raw([99], 20)
+    enc.encode_raw([15], 16)
+    with pytest.raises(PayloadError, match="cannot be held"):
+        unpack_stream(enc.to_bytes())
+
+
+# The payload motionrep 0.1.0 (format 1) writes for golden_motion() at --max-error 2%: files in the wild hold such
+# bytes, so they must keep decoding to a motion within that bound.
+GOLDEN_HEX = (
+    "0000170000e90b00d5f7ffe36258ab0f83e676628ed93183002f58a6f36087a922fc2f5b420aacfb116e517b8b533bb4bd78a648"
+    "bfb35744b630c082329b6b90e3560540c835e270960806b908c5f4b4ed0f9f1f0e5086b206af4c1f7790b600bc585f2fa49b766e"
+    "6a0882033c9e578e4b0a556cd50ce348ee4e88014ee407bd6cd99e1e83f183fc2cb1baaabcd127ce253017e2b75475467d95e1ae"
+    "961089c9c81832847fd0388ae8ad59d0bd4d44bc0b168ac29e4872c82d6556fa1fb5fc6768fd2db1bf1da3ed1f6a93810f8950f2"
+    "3a6e3168f1a42668")
+
+
+def golden_motion():
+    return synthetic_motion(chain_skeleton(3), frames=24, fps=30, seed=9)
+
+
+def test_format_1_payloads_still_decode():
+    m = golden_motion()
+    data = np.frombuffer(bytes.fromhex(GOLDEN_HEX), dtype=np.uint8)
+    codec = get_codec("transform")
+    features = codec.decode(Payload({"data": data}), frame_times(m.num_frames))
+    decoded = get_representation("root-quat-axis-angle").from_features(features, m.skeleton, m.fps)
+    assert max_joint_error(m, decoded).max_error_percent <= 2.0
+    # and this version still writes the same bytes
+    r = compress_motion(m, "transform", max_error="2%")
+    assert r.container.arrays["data"].tobytes().hex() == GOLDEN_HEX
