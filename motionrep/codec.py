@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import ParameterError
 
-__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "interpolate_frames", "parse_params", "params_help",
+__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "parse_params", "params_help",
            "describe_info", "describe_progress", "codec_problems"]
 
 
@@ -256,24 +256,6 @@ def frame_times(num_frames: int) -> NDArray[np.float64]:
     if num_frames == 1:
         return np.zeros(1)
     return np.arange(num_frames) / (num_frames - 1)
-
-
-def interpolate_frames(frames: ArrayLike, times: ArrayLike) -> NDArray[np.float64]:
-    """Rows ``(F, k)`` of the frames (frame ``i`` at ``t = i / (F - 1)``), linearly interpolated at ``times``
-    ``(T,)`` (clipped to [0, 1]); a time on a frame gives that frame's row exactly.  For codecs that decode
-    frames and are asked for other times (``motionrep decompress --fps``)."""
-    rows = np.asarray(frames, dtype=np.float64)
-    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
-    F = rows.shape[0]
-    if F == 1:
-        return np.repeat(rows, t.size, axis=0)
-    pos = t * (F - 1)
-    i = np.minimum(np.floor(pos).astype(np.int64), F - 2)
-    a = (pos - i)[:, None]
-    out = rows[i] * (1.0 - a) + rows[i + 1] * a
-    on_frame = a[:, 0] == 0.0
-    out[on_frame] = rows[i[on_frame]]
-    return out
 
 
 def _convert(value: Any, annotation: Any, key: str, codec: str) -> Any:

@@ -217,8 +217,10 @@ class Evaluator:
         return dist
 
 
-#: Frames :meth:`MotionContext.feature_sensitivity` samples at most.
+#: :meth:`MotionContext.feature_sensitivity` samples at most this many frames, and at most
+#: ``SENSITIVITY_BUDGET / D`` of them (but at least 8) for ``D`` features, since it decodes ``D`` copies of each.
 SENSITIVITY_FRAMES = 64
+SENSITIVITY_BUDGET = 4096
 
 #: ``progress(stage, fields)``: what :meth:`MotionContext.progress` calls.
 ProgressCallback = Callable[[str, Mapping[str, Any]], None]
@@ -280,8 +282,9 @@ class MotionContext:
         return self.evaluator.frame_errors(global_positions(self._decoded(features)), first=int(first))
 
     def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
-        """``(n, D)``: for ``n`` frames sampled evenly (at most :data:`SENSITIVITY_FRAMES`), how far a unit change
-        of each feature moves the farthest joint or end site, in position units per feature unit.
+        """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:
+        :data:`SENSITIVITY_BUDGET`), how far a unit change of each feature moves the farthest joint or end site,
+        in position units per feature unit.
 
         Forward differences through the representation and FK, all features at once (one decode of ``n * D``
         frames); the step of feature ``c`` is ``1e-6 (1 + max |feature c|)``. A feature that moves nothing (a
@@ -289,7 +292,8 @@ class MotionContext:
         """
         x_all = np.asarray(features, dtype=np.float64)
         F, D = x_all.shape
-        rows = np.unique(np.linspace(0, F - 1, min(F, SENSITIVITY_FRAMES)).round().astype(np.int64))
+        count = min(F, SENSITIVITY_FRAMES, max(8, SENSITIVITY_BUDGET // max(D, 1)))
+        rows = np.unique(np.linspace(0, F - 1, count).round().astype(np.int64))
         x = x_all[rows]
         n = x.shape[0]
         h = 1e-6 * (1.0 + np.abs(x).max(axis=0))

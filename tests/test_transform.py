@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from helpers import SHARED_DATA, real_params, requires_shared
-from motionrep.codec import Payload, frame_times, interpolate_frames
+from motionrep.codec import Payload, frame_times
 from motionrep.compress import compress_file, compress_motion, decompress, decompress_file
 from motionrep.container import pack, unpack
 from motionrep.errors import BoundNotMetError, ContainerError, MotionrepError, ParameterError, PayloadError
@@ -35,12 +35,27 @@ def walk():
 # ---------------------------------------------------------------------------------------------------------------
 # the codec contract
 # ---------------------------------------------------------------------------------------------------------------
-def test_interpolate_frames_is_exact_on_frames_and_linear_between():
+def test_interpolation_is_exact_on_frames_and_linear_between():
+    from motionrep_transform import interpolate_rows
+
     rows = np.array([[0.0, 1.0], [2.0, 3.0], [4.0, -1.0]])
-    np.testing.assert_array_equal(interpolate_frames(rows, frame_times(3)), rows)
-    np.testing.assert_allclose(interpolate_frames(rows, [0.25, 0.75, 2.0, -1.0]),
+    np.testing.assert_array_equal(interpolate_rows(rows, frame_times(3)), rows)
+    np.testing.assert_allclose(interpolate_rows(rows, [0.25, 0.75, 2.0, -1.0]),
                                [[1.0, 2.0], [3.0, 1.0], [4.0, -1.0], [0.0, 1.0]])
-    np.testing.assert_array_equal(interpolate_frames(rows[:1], [0.0, 0.7]), rows[[0, 0]])
+    np.testing.assert_array_equal(interpolate_rows(rows[:1], [0.0, 0.7]), rows[[0, 0]])
+    out = np.full((2, 2), np.nan)
+    assert interpolate_rows(rows, [1.0, 0.5], out) is out and np.array_equal(out, rows[[2, 1]])
+
+
+def test_prepared_decoder_equals_decode(walk):
+    r = compress_motion(walk, "transform", max_error="1%")
+    codec = get_codec("transform")
+    payload = Payload(r.container.arrays)
+    decoder = codec.decoder(payload)
+    times = np.random.default_rng(1).random(50)
+    np.testing.assert_array_equal(decoder(times), codec.decode(payload, times))
+    out = np.empty((50, decoder.width))
+    assert decoder(times, out) is out
 
 
 def test_conformance():

@@ -8,9 +8,10 @@ from __future__ import annotations
 from motionrep import __version__
 from motionrep.hookspecs import hookimpl
 
-from ._codec import TransformCodec, TransformParams
+from ._codec import TransformCodec, TransformDecoder, TransformParams, interpolate_rows
 
-__all__ = ["TransformCodec", "TransformParams", "register_codecs", "__version__"]
+__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows", "register_codecs",
+           "__version__"]
 
 
 @hookimpl

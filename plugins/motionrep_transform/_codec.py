@@ -14,8 +14,9 @@ Encoding (``specs/codecs.md`` has the full description):
    neighbour's change pushed over the bound are lowered until all pass);
 5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
 
-Decoding: parse and range-decode, multiply by the steps, inverse wavelet, then (for times between frames)
-linear interpolation. Numpy only.
+Decoding (:class:`TransformDecoder`, prepared once per payload): parse and range-decode, multiply by the steps,
+inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames).
+Numpy only.
 """
 
 from __future__ import annotations
@@ -28,14 +29,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.ndimage import minimum_filter1d
 
-from motionrep.codec import Codec, EncodeContext, Payload, interpolate_frames
+from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError
 
 from ._stream import MAX_EXPONENT, Quantised, pack, unpack
 from ._wavelet import coefficient_frames, forward, inverse, num_levels
 
-__all__ = ["TransformCodec", "TransformParams"]
+__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
 
 #: Step exponents are in eighths of an octave: step = 2 ** (exponent / 8).
 _PER_OCTAVE = 8
@@ -154,6 +155,50 @@ def reconstruct(q: Quantised) -> NDArray[np.float64]:
     if not np.all(np.isfinite(out)):
         raise PayloadError("transform payload: the coefficients decode to values that are not finite")
     return out
+
+
+def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[np.float64] | None = None
+                     ) -> NDArray[np.float64]:
+    """Rows ``(F, D)`` of the frames (frame ``i`` at ``t = i / (F - 1)``) at ``times`` ``(T,)`` (clipped to
+    [0, 1]): a time on a frame gives that frame's row exactly (one gather), a time between two frames
+    ``r_i + (r_(i+1) - r_i) a``.  Written into ``out`` ``(T, D)`` float64 when given."""
+    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
+    F = rows.shape[0]
+    if out is None:
+        out = np.empty((t.size,) + rows.shape[1:], dtype=np.float64)
+    if F == 1:
+        out[...] = rows[0]
+        return out
+    pos = t * (F - 1)
+    i = np.minimum(np.floor(pos).astype(np.int64), F - 1)
+    np.take(rows, i, axis=0, out=out)
+    a = pos - i
+    between = np.flatnonzero(a)
+    if between.size:
+        j = i[between]
+        out[between] += (rows[j + 1] - rows[j]) * a[between, None]
+    return out
+
+
+class TransformDecoder:
+    """A payload prepared for decoding many times: range-decoded and transformed back once, to the ``(F, D)``
+    features of its frames; each call only samples them (:func:`interpolate_rows`).
+
+    Raises:
+        PayloadError: for a damaged or inconsistent payload (when it is prepared).
+    """
+
+    def __init__(self, payload: Payload):
+        data = np.asarray(payload.arrays["data"])
+        if data.dtype != np.uint8 or data.ndim != 1:
+            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
+        self.frames = reconstruct(unpack(data.tobytes()))
+        self.frames.flags.writeable = False
+        self.width = self.frames.shape[1]
+
+    def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
+        return interpolate_rows(self.frames, times, out)
 
 
 def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
@@ -292,9 +337,8 @@ class TransformCodec(Codec):
                 "step": [float(np.min(steps)), float(np.max(steps))]}
         return Payload({"data": data}, info)
 
+    def decoder(self, payload: Payload) -> TransformDecoder:
+        return TransformDecoder(payload)
+
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
-        data = np.asarray(payload.arrays["data"])
-        if data.dtype != np.uint8 or data.ndim != 1:
-            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        frames = reconstruct(unpack(data.tobytes()))
-        return interpolate_frames(frames, times)
+        return TransformDecoder(payload)(times)

@@ -103,6 +103,15 @@ def _contexts(parents: NDArray[np.int64], level: NDArray[np.int64], odd: bool, g
     return (group * 2 + int(odd)) * _SIZES + size
 
 
+def _grouped(ctx: NDArray[np.int64]) -> tuple[NDArray[np.int64], list[tuple[int, int, int]]]:
+    """The coefficients of one pass grouped by context: ``order`` (positions sorted by context, row-major
+    within each) and ``(context, start, stop)`` of each context present, in increasing order."""
+    order = np.argsort(ctx, kind="stable")
+    counts = np.bincount(ctx, minlength=_CONTEXTS)
+    stops = np.cumsum(counts)
+    return order, [(c, int(stops[c] - counts[c]), int(stops[c])) for c in np.flatnonzero(counts).tolist()]
+
+
 def _approx_steps(a: NDArray[np.int64]) -> NDArray[np.int64]:
     """``|A[i + 1] - A[i]|`` per row, the last row repeated (the coarsest detail level's parents)."""
     d = np.abs(np.diff(a, axis=0))
@@ -169,8 +178,10 @@ def pack(q: Quantised) -> bytes:
     enc.encode(first, m_first)
     enc.encode(steps, m_steps)
     for ctx, values in segments:
-        for c in np.unique(ctx).tolist():
-            enc.encode(values[ctx == c], models[c])
+        order, groups = _grouped(ctx)
+        ordered = values[order]
+        for c, start, stop in groups:
+            enc.encode(ordered[start:stop], models[c])
     return enc.to_bytes()
 
 
@@ -203,12 +214,12 @@ def unpack(data: bytes) -> Quantised:
     mags = [_approx_steps(approx)] + [np.zeros((n, D), np.int64) for n in sizes[1:]]
     for index, odd, group in _passes(levels):
         ctx = _contexts(_parents(mags, index), mags[index], odd, group).reshape(-1)
-        values = np.zeros(ctx.size, np.int64)
-        for c in np.unique(ctx).tolist():
+        order, groups = _grouped(ctx)
+        values = np.empty(ctx.size, np.int64)
+        for c, start, stop in groups:
             if c not in models:
                 raise PayloadError("transform payload: a coefficient's context has no stored model (damaged data)")
-            rows = ctx == c
-            values[rows] = dec.decode(int(rows.sum()), models[c])
+            values[order[start:stop]] = dec.decode(stop - start, models[c])
         coeffs[index][int(odd)::2] = values.reshape(-1, D)
         mags[index][int(odd)::2] = np.abs(values).reshape(-1, D)
     dec.finish()
