@@ -66,7 +66,7 @@ __all__ = [
 ]
 
 #: Codec used when none is named.
-DEFAULT_CODEC = "adaptive-fourier"
+DEFAULT_CODEC = "transform"
 #: Representation used when none is named (Tojo et al. 2022, section 3).
 DEFAULT_REPRESENTATION = "root-quat-axis-angle"
 #: The default bound: 2 % of the character height.
@@ -293,7 +293,8 @@ class Pipeline:
         figures = compression_figures(
             num_frames=motion.num_frames, feature_width=features.shape[1], num_parameters=container.num_parameters,
             num_channels=motion.skeleton.num_channels, num_joints=motion.skeleton.num_joints,
-            compressed_bytes=len(data), source_bytes=source_bytes)
+            compressed_bytes=len(data), source_bytes=source_bytes, num_end_sites=motion.skeleton.num_end_sites,
+            payload_bytes=container.payload_bytes)
         return CompressResult(data=data, container=container, report=report, figures=figures, bound=bound,
                               seconds=time.perf_counter() - start, evaluations=context.evaluations,
                               outcome=describe_outcome(container, codec=codec))

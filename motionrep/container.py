@@ -112,6 +112,11 @@ class Container:
         """Every stored number (all array elements)."""
         return int(sum(int(a.size) for a in self.arrays.values()))
 
+    @property
+    def payload_bytes(self) -> int:
+        """Bytes of the codec's arrays, without the skeleton, metadata and checksum every container has."""
+        return int(sum(int(a.nbytes) for a in self.arrays.values()))
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # skeleton <-> JSON

@@ -23,6 +23,10 @@ Compression figures (:func:`compression_figures`), always reported together:
 (c) ``bits_per_joint_frame``: compressed file bits divided by ``frames x joints`` (end sites excluded).
 (d) ``file_ratio``: source file bytes divided by compressed file bytes (None when the motion did not come from
     a file).
+(e) ``bits_per_bone_frame``: the codec's payload bits (``payload_bytes``: its arrays, without the skeleton and
+    metadata every ``.mrc`` file has) divided by ``frames x (joints + end sites)``, ACL's count, so that sizes
+    compare with ACL's and between codecs whatever the container adds (None when the payload size is not
+    given).
 """
 
 from __future__ import annotations
@@ -342,8 +346,10 @@ class CompressionFigures:
         float32_ratio: (b) ``num_frames * num_channels * 4 / compressed_bytes``.
         bits_per_joint_frame: (c) ``8 * compressed_bytes / (num_frames * num_joints)``.
         file_ratio: (d) ``source_bytes / compressed_bytes``, or None without a source file.
-        num_frames, feature_width, num_parameters, num_channels, num_joints, compressed_bytes, source_bytes:
-            the inputs.
+        bits_per_bone_frame: (e) ``8 * payload_bytes / (num_frames * (num_joints + num_end_sites))``, or None
+            without ``payload_bytes``.
+        num_frames, feature_width, num_parameters, num_channels, num_joints, compressed_bytes, source_bytes,
+        num_end_sites, payload_bytes: the inputs.
     """
 
     paper_ratio: float
@@ -357,23 +363,28 @@ class CompressionFigures:
     num_joints: int
     compressed_bytes: int
     source_bytes: int | None
+    bits_per_bone_frame: float | None = None
+    num_end_sites: int = 0
+    payload_bytes: int | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-serialisable dict of every field."""
         return asdict(self)
 
     def summary(self) -> str:
-        """One line with the four figures."""
+        """One line with the figures."""
         d = "n/a" if self.file_ratio is None else f"{self.file_ratio:.1f}x"
+        payload = ("" if self.bits_per_bone_frame is None else
+                   f", payload {self.payload_bytes} bytes = {self.bits_per_bone_frame:.3f} bits/bone/frame")
         return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} parameters), "
                 f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} bits/joint/frame, "
-                f"vs source file {d}")
+                f"vs source file {d}{payload}")
 
 
 def compression_figures(*, num_frames: int, feature_width: int, num_parameters: int, num_channels: int,
-                        num_joints: int, compressed_bytes: int, source_bytes: int | None = None
-                        ) -> CompressionFigures:
-    """Compute the four compression figures.
+                        num_joints: int, compressed_bytes: int, source_bytes: int | None = None,
+                        num_end_sites: int = 0, payload_bytes: int | None = None) -> CompressionFigures:
+    """Compute the compression figures.
 
     Args:
         num_frames: frames of the clip ``F``.
@@ -383,6 +394,8 @@ def compression_figures(*, num_frames: int, feature_width: int, num_parameters: 
         num_joints: joints ``J`` (end sites excluded).
         compressed_bytes: size of the compressed file.
         source_bytes: size of the source file, or None.
+        num_end_sites: end sites of the skeleton (bones = joints + end sites, for ``bits_per_bone_frame``).
+        payload_bytes: bytes of the codec's payload arrays (``Container.payload_bytes``), or None.
 
     Raises:
         ValidationError: for non-positive sizes.
@@ -402,4 +415,8 @@ def compression_figures(*, num_frames: int, feature_width: int, num_parameters: 
         num_joints=int(num_joints),
         compressed_bytes=int(compressed_bytes),
         source_bytes=None if source_bytes is None else int(source_bytes),
+        bits_per_bone_frame=(None if payload_bytes is None else
+                             8.0 * payload_bytes / (num_frames * (num_joints + num_end_sites))),
+        num_end_sites=int(num_end_sites),
+        payload_bytes=None if payload_bytes is None else int(payload_bytes),
     )

@@ -100,7 +100,8 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
     if width is not None:
         figures = compression_figures(num_frames=c.num_frames, feature_width=width, num_parameters=c.num_parameters,
                                       num_channels=sk.num_channels, num_joints=sk.num_joints,
-                                      compressed_bytes=size).as_dict()
+                                      compressed_bytes=size, num_end_sites=sk.num_end_sites,
+                                      payload_bytes=c.payload_bytes).as_dict()
     return {"kind": "compressed", "clip": name, "frames": c.num_frames, "fps": c.fps,
             "duration": c.num_frames / c.fps, **skeleton_info(sk),
             "codec": {"name": c.codec, "version": c.codec_version, "plugin": c.codec_plugin,
@@ -108,7 +109,8 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
                       "description": describe_outcome(c, detail=True)},
             "representation": {"name": c.representation, "version": c.representation_version,
                                "plugin": c.representation_plugin, "width": width},
-            "bytes": size, "parameters": c.num_parameters,
+            "bytes": size, "parameters": c.num_parameters, "payload_bytes": c.payload_bytes,
+            "bits_per_bone_frame": 8.0 * c.payload_bytes / (c.num_frames * (sk.num_joints + sk.num_end_sites)),
             "arrays": [{"name": k, "dtype": a.dtype.str[1:], "shape": list(a.shape)} for k, a in c.arrays.items()],
             "evaluation": None if c.evaluation is None else dict(c.evaluation),
             "figures": figures,

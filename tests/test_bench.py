@@ -181,11 +181,11 @@ def _row(**kw) -> BenchRow:
 def test_medians_count_only_the_runs_that_succeeded():
     rows = [
         _row(clip="a", error_percent=1.0, paper_ratio=4.0, bytes_ratio=2.0, bits_per_joint_frame=10.0,
-             encode_seconds=1.0, decode_poses_per_second=100.0),
+             encode_seconds=1.0, decode_poses_per_second=100.0, bits_per_bone_frame=2.0),
         _row(clip="b", error_percent=1.5, paper_ratio=9.0, bytes_ratio=3.0, bits_per_joint_frame=30.0,
-             encode_seconds=5.0, decode_poses_per_second=300.0),
+             encode_seconds=5.0, decode_poses_per_second=300.0, bits_per_bone_frame=3.0),
         _row(clip="c", error_percent=2.0, paper_ratio=6.0, bytes_ratio=7.0, bits_per_joint_frame=20.0,
-             encode_seconds=3.0, decode_poses_per_second=200.0),
+             encode_seconds=3.0, decode_poses_per_second=200.0, bits_per_bone_frame=1.0),
         _row(clip="d", status="failed", outcome="failed: best L-inf 9", error_percent=90.0),
         _row(clip="e", status="error", outcome="error: ParameterError"),
         _row(clip="a", max_error="1%", status="failed", outcome="failed: best L-inf 3", error_percent=30.0),
@@ -208,9 +208,10 @@ def test_medians_count_only_the_runs_that_succeeded():
     table = format_table(rows)
     assert "failed: best L-inf 9" in table and "error: ParameterError" in table
     medians = table.split("Medians")[1]
-    assert re.search(r"svd\s+2%\s+3/5\s+2\s+1\.500\s+6\.00\s+3\.00\s+20\.000\s+-\s+-\s+-\s+3\.00\s+200$", medians,
-                     re.M), medians
-    assert re.search(r"adaptive-fourier\s+2%\s+2/2\s+0\s+1\.000\s+10\.00\s+4\.50\s+5\.000\s+-\s+-\s+-\s+15\.00\s+"
+    assert svd.median_bits_per_bone_frame == 2.0 and af.median_bits_per_bone_frame is None
+    assert re.search(r"svd\s+2%\s+3/5\s+2\s+1\.500\s+6\.00\s+3\.00\s+20\.000\s+2\.000\s+-\s+-\s+-\s+3\.00\s+200$",
+                     medians, re.M), medians
+    assert re.search(r"adaptive-fourier\s+2%\s+2/2\s+0\s+1\.000\s+10\.00\s+4\.50\s+5\.000\s+-\s+-\s+-\s+-\s+15\.00\s+"
                      r"200,000$", medians, re.M), medians
     assert re.search(r"svd\s+1%\s+0/1\s+1\s+-\s+-", medians), medians
 
@@ -532,3 +533,25 @@ def test_an_older_csv_without_the_new_columns_still_reads(tmp_path):
     (tmp_path / "old.csv").write_text(old)
     back = read_csv(tmp_path / "old.csv")
     assert back[0].clip == "a" and back[0].xz_bytes is None
+
+
+def test_csv_of_an_older_writer_without_the_payload_columns_still_reads(tmp_path):
+    """payload_bytes and bits_per_bone_frame were appended within layout version 1: files without them read,
+    with None there."""
+    rows = [_row(clip="a", payload_bytes=120, bits_per_bone_frame=0.5), _row(clip="b")]
+    new = tmp_path / "new.csv"
+    write_csv(rows, new)
+    back = read_csv(new)
+    assert back[0].payload_bytes == 120 and back[0].bits_per_bone_frame == 0.5 and back[1].payload_bytes is None
+    old = tmp_path / "old.csv"
+    with open(new, newline="") as fh:
+        lines = list(csv.reader(fh))
+    with open(old, "w", newline="") as fh:
+        csv.writer(fh).writerows([line[:-2] for line in lines])
+    back = read_csv(old)
+    assert [r.clip for r in back] == ["a", "b"] and back[0].bits_per_bone_frame is None
+    bad = tmp_path / "bad.csv"
+    with open(bad, "w", newline="") as fh:
+        csv.writer(fh).writerows([lines[0][:-1] + ["bits_per_bone"]] + lines[1:])
+    with pytest.raises(FormatError):
+        read_csv(bad)

@@ -227,3 +227,27 @@ def test_bound_on_every_real_clip(src, max_error, tmp_path):
     if src is None:
         pytest.skip("no shared data")
     assert _verify_through_bvh(src, tmp_path, max_error) <= float(max_error.rstrip("%"))
+
+
+def test_payload_bytes_and_bits_per_bone_frame_in_info_and_figures(walk, tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    r = compress_motion(walk, "transform", max_error="2%")
+    payload = r.container.arrays["data"].nbytes
+    bones = walk.skeleton.num_joints + walk.skeleton.num_end_sites
+    assert r.container.payload_bytes == payload < len(r.data)
+    assert r.figures.payload_bytes == payload and r.figures.num_end_sites == walk.skeleton.num_end_sites
+    assert r.figures.bits_per_bone_frame == pytest.approx(8 * payload / (walk.num_frames * bones))
+    assert "bits/bone/frame" in r.figures.summary()
+    path = tmp_path / "w.mrc"
+    path.write_bytes(r.data)
+    out = CliRunner().invoke(cli, ["info", str(path), "--json"])
+    d = json.loads(out.output)
+    assert d["payload_bytes"] == payload and d["bits_per_bone_frame"] == pytest.approx(r.figures.bits_per_bone_frame)
+    assert d["figures"]["bits_per_bone_frame"] == pytest.approx(d["bits_per_bone_frame"])
+    text = CliRunner().invoke(cli, ["info", str(path)]).output
+    assert f"payload {payload} bytes" in text and "bits/bone/frame" in text

@@ -81,6 +81,8 @@ class BenchRow:
     message: str = ""
     xz_bytes: int | None = None
     xz_ratio: float | None = None
+    payload_bytes: int | None = None
+    bits_per_bone_frame: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """Every column, JSON-serialisable."""
@@ -121,6 +123,7 @@ class BenchSummary:
     median_decode_poses_per_second: float | None
     total_bytes: int | None = None
     total_xz_bytes: int | None = None
+    median_bits_per_bone_frame: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -150,6 +153,7 @@ def summarize(rows: Sequence[BenchRow]) -> list[BenchSummary]:
             median_paper_ratio=_median(r.paper_ratio for r in ok),
             median_bytes_ratio=_median(r.bytes_ratio for r in ok),
             median_bits_per_joint_frame=_median(r.bits_per_joint_frame for r in ok),
+            median_bits_per_bone_frame=_median(r.bits_per_bone_frame for r in ok),
             median_encode_seconds=_median(r.encode_seconds for r in ok),
             median_decode_poses_per_second=_median(r.decode_poses_per_second for r in ok),
             total_bytes=sum(r.bytes for r in ok) if ok and all(r.bytes is not None for r in ok) else None,
@@ -192,8 +196,8 @@ def _row_cells(r: BenchRow, reps: bool, params: bool) -> list[str]:
     if params:
         cells.append(r.params or "-")
     cells += [r.outcome, _f(r.error, ".4g") + units, _f(r.error_percent, ".3f"), _f(r.paper_ratio, ".2f"),
-              _f(r.bytes_ratio, ".2f"), _f(r.bits_per_joint_frame, ".3f"), _f(r.bytes, ",d"),
-              _f(r.xz_bytes, ",d"), _f(r.xz_ratio, ".2f"), _f(r.encode_seconds, ".2f"),
+              _f(r.bytes_ratio, ".2f"), _f(r.bits_per_joint_frame, ".3f"), _f(r.bits_per_bone_frame, ".3f"),
+              _f(r.bytes, ",d"), _f(r.xz_bytes, ",d"), _f(r.xz_ratio, ".2f"), _f(r.encode_seconds, ".2f"),
               _f(r.decode_poses_per_second, ",.0f")]
     return cells
 
@@ -207,7 +211,8 @@ def _summary_cells(s: BenchSummary, reps: bool, params: bool) -> list[str]:
         cells.append(s.params or "-")
     cells += [f"{s.ok}/{s.runs}", str(s.failed + s.errors), _f(s.median_error_percent, ".3f"),
               _f(s.median_paper_ratio, ".2f"), _f(s.median_bytes_ratio, ".2f"),
-              _f(s.median_bits_per_joint_frame, ".3f"), _f(s.total_bytes, ",d"), _f(s.total_xz_bytes, ",d"),
+              _f(s.median_bits_per_joint_frame, ".3f"), _f(s.median_bits_per_bone_frame, ".3f"),
+              _f(s.total_bytes, ",d"), _f(s.total_xz_bytes, ",d"),
               _f(None if not (s.total_bytes and s.total_xz_bytes) else s.total_xz_bytes / s.total_bytes, ".2f"),
               _f(s.median_encode_seconds, ".2f"), _f(s.median_decode_poses_per_second, ",.0f")]
     return cells
@@ -233,7 +238,8 @@ def format_table(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] | N
 
     Columns: clip, frames, joints, codec, (representation when several), bound, (parameters for a sweep),
     outcome, L-inf (file units), L-inf % of height, the paper's ratio, bytes ratio (float32 channels / file
-    bytes), bits per joint per frame, bytes, the ``xz -9`` bytes of the source and how many times smaller than it
+    bytes), bits per joint per frame (the file), payload bits per bone per frame (the codec's bytes; bones =
+    joints + end sites, ACL's count), bytes, the ``xz -9`` bytes of the source and how many times smaller than it
     the result is, encode seconds, decode poses per second; then the totals line and the medians (with total
     bytes against total ``xz -9`` bytes).
     """
@@ -242,18 +248,18 @@ def format_table(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] | N
     params = any(r.params for r in rows)
     head = ["clip", "frames", "joints", "codec"] + (["representation"] if reps else []) + ["bound"] + \
         (["params"] if params else []) + ["outcome", "L-inf", "L-inf %", "paper ratio", "bytes ratio",
-                                          "bits/joint/frame", "bytes", "xz -9 bytes", "vs xz -9", "encode s",
-                                          "decode poses/s"]
+                                          "bits/joint/frame", "payload bits/bone/frame", "bytes", "xz -9 bytes",
+                                          "vs xz -9", "encode s", "decode poses/s"]
     n = len(head)
-    right = {1, 2} | set(range(n - 10, n))
+    right = {1, 2} | set(range(n - 11, n))
     out = _layout(head, [_row_cells(r, reps, params) for r in rows], markdown, right)
     out += ["", totals_line(rows)]
     shead = ["codec"] + (["representation"] if reps else []) + ["bound"] + (["params"] if params else []) + \
-        ["ok/runs", "failed", "median L-inf %", "paper ratio", "bytes ratio", "bits/joint/frame", "total bytes",
-         "total xz -9", "vs xz -9", "encode s", "decode poses/s"]
+        ["ok/runs", "failed", "median L-inf %", "paper ratio", "bytes ratio", "bits/joint/frame",
+         "payload bits/bone/frame", "total bytes", "total xz -9", "vs xz -9", "encode s", "decode poses/s"]
     m = len(shead)
     out += ["", "Medians over the runs that succeeded (failed: bound not met or error); totals over them:", ""]
-    out += _layout(shead, [_summary_cells(s, reps, params) for s in summaries], markdown, set(range(m - 11, m)))
+    out += _layout(shead, [_summary_cells(s, reps, params) for s in summaries], markdown, set(range(m - 12, m)))
     return "\n".join(out) + "\n"
 
 
@@ -310,7 +316,8 @@ def read_csv(path: str | os.PathLike[str]) -> list[BenchRow]:
     """Read rows written by :func:`write_csv`.
 
     Raises:
-        FormatError: if the header is not :data:`COLUMNS` or a cell does not convert.
+        FormatError: if the header is not :data:`COLUMNS` (or, from an older writer, a prefix of them) or a cell
+            does not convert.
     """
     with open(path, newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)

@@ -85,7 +85,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
       motionrep info walk.bvh
       motionrep convert walk.bvh walk.npz
       motionrep convert clips/ database.h5
-      motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier --max-error 2%
+      motionrep compress walk.bvh -o walk.mrc --max-error 2%
       motionrep decompress walk.mrc -o walk2.bvh
       motionrep evaluate walk.bvh walk2.bvh
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2 --resume

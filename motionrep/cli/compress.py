@@ -24,7 +24,7 @@ from ._common import (BatchProgress, CodecProgress, Interrupted, check_overwrite
 __all__ = ["compress"]
 
 # the defaults, written out so that `motionrep --help` does not import the library (a test checks they agree)
-DEFAULT_CODEC = "adaptive-fourier"
+DEFAULT_CODEC = "transform"
 DEFAULT_REPRESENTATION = "root-quat-axis-angle"
 DEFAULT_MAX_ERROR = "2%"
 
@@ -98,6 +98,8 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
 
     \b
     Examples:
+      motionrep compress walk.bvh -o walk.mrc
+      motionrep compress walk.bvh -o walk.mrc --max-error 0.5 -p region=32
       motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier
       motionrep compress walk.bvh -o walk.mrc --codec svd -p rank=8 --max-error none
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2

@@ -57,7 +57,8 @@ def _info_text(d: dict[str, Any]) -> str:
         lines.append(f"outcome:    {c['description']}")
         lines.append(f"features:   {r['name']} version {r['version']}"
                      + (f", width {r['width']}" if r["width"] is not None else ""))
-        lines.append(f"size:       {d['bytes']} bytes, {d['parameters']} stored numbers")
+        lines.append(f"size:       {d['bytes']} bytes, {d['parameters']} stored numbers; payload {d['payload_bytes']} "
+                     f"bytes, {d['bits_per_bone_frame']:.3f} bits/bone/frame (joints + end sites)")
         f = d["figures"]
         if f is not None:
             lines.append(f"ratios:     paper {f['paper_ratio']:.2f}x, vs float32 channels {f['float32_ratio']:.2f}x, "

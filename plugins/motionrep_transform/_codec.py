@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -336,6 +336,16 @@ class TransformCodec(Codec):
         info = {"bytes": int(data.size), "regions": int(q.region_exponents.size), "region_frames": q.region_frames,
                 "step": [float(np.min(steps)), float(np.max(steps))]}
         return Payload({"data": data}, info)
+
+    def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
+        """``1668 bytes, 22 regions`` (with ``detail``: the region length and the range of the region steps)."""
+        if "bytes" not in info or "regions" not in info:
+            return super().describe(info, detail)
+        text = f"{info['bytes']} bytes, {info['regions']} regions"
+        step = info.get("step")
+        if detail and isinstance(step, list) and len(step) == 2:
+            text += f" of {info.get('region_frames')} frames, steps {step[0]:.3g}-{step[1]:.3g}"
+        return text
 
     def decoder(self, payload: Payload) -> TransformDecoder:
         return TransformDecoder(payload)
