@@ -220,6 +220,8 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             store.close()
             finished = sum(1 for o in outcomes if not o.failed)
             signum = exc.signum if isinstance(exc, Interrupted) else 2
+            if not finished:
+                raise Interrupted(signum, f"no clip had finished; nothing was written to {output}") from None
             raise Interrupted(signum, f"{finished} of {len(refs)} clips finished and kept in {output}; run the "
                                       "same command with --resume to compress the rest") from None
         finally:
