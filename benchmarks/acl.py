@@ -92,10 +92,6 @@ def run_task(src: str, codec: str, bound: float, workdir: str) -> dict:
     from motionrep.errors import BoundNotMetError
     from motionrep.plugins import get_codec
 
-    if "fourier" in codec:  # trains with torch: one thread per task
-        import torch
-
-        torch.set_num_threads(1)
     rel = str(Path(src).relative_to(DATA)).removesuffix(".bvh")
     name, *pairs = codec.split(":")
     params = dict(pair.split("=", 1) for pair in pairs)
