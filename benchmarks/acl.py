@@ -23,6 +23,21 @@ Usage::
     python benchmarks/acl.py run [--codecs transform,svd] [--bounds 2,0.588,0.0588] [--clips cmu31|cmu]
                                  [--budget 120] [--jobs 1] [--runs results/acl_runs.jsonl]
     python benchmarks/acl.py report [--runs results/acl_runs.jsonl]
+    python benchmarks/acl.py speed [--repeat 5]      # transform's encode and decode times -> results/acl_speed.json
+    python benchmarks/acl.py entropy                 # the range coder against lzma / zstd -> results/acl_entropy.json
+
+``speed`` measures, on the eight CMU-31 clips at 2 %, in one process, best of ``--repeat``: the encode
+(``compress_motion``, the clip already read: features, the codec's search, the core's two checks); preparing a
+payload for decoding (``codec.decoder(payload)``: range decoding and the inverse wavelet); sampling the prepared
+decoder at the frame times, in blocks of 8192 into one buffer (features, frames/s); and ``motionrep.open(...).poses`` (local rotations and root
+translation, poses/s: the runtime decoder, the representation's decoding included). The load average is stored
+beside every figure.
+
+``entropy`` codes the same quantised coefficients (transform at each bound on the eight CMU-31 clips) three
+ways: the payload the codec writes (context models, range coder), ``lzma`` (preset 9 | extreme, raw LZMA2) and,
+when the ``zstandard`` package is installed, zstd level 22, of the integers as little-endian int16 (int32 when
+they do not fit), in the codec's order (level by level, row-major) and feature by feature, the smaller of the two
+kept for each general-purpose coder, the step exponents added as int16 to both.
 """
 
 from __future__ import annotations
@@ -332,6 +347,94 @@ def plot(latest, acl, cmu31, salsa, codecs, bounds) -> None:
     fig.savefig(RESULTS / "acl_rd.png", dpi=110)
 
 
+def speed(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from motionrep.codec import Payload, frame_times
+    from motionrep.compress import compress_motion
+    from motionrep.io import read
+    from motionrep.plugins import get_codec
+    from motionrep.runtime import open_clip
+
+    codec = get_codec("transform")
+    codec.warm_up()
+
+    def best(call) -> float:
+        times = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            call()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    rows = []
+    for path in cmu_clips("cmu31"):
+        motion = read(path)
+        compress_motion(motion, codec, max_error="2%")  # warm caches
+        encode = best(lambda: compress_motion(motion, codec, max_error="2%"))
+        result = compress_motion(motion, codec, max_error="2%")
+        payload = Payload(result.container.arrays, result.container.info)
+        F = motion.num_frames
+        prepare = best(lambda: codec.decoder(payload))
+        decoder = codec.decoder(payload)
+        block = np.resize(frame_times(F), 8192)  # blocks of 8192 times into one buffer, as the runtime samples
+        out = np.empty((block.size, decoder.width))
+        sample = best(lambda: [decoder(block, out) for _ in range(16)]) / 16
+        clip = open_clip(result.data)
+        seconds = np.tile(np.arange(F) / motion.fps, max(1, 100_000 // F))
+        clip.poses(seconds)
+        poses = best(lambda: clip.poses(seconds))
+        row = {"clip": str(path.relative_to(DATA)).removesuffix(".bvh"), "frames": F,
+               "joints": motion.skeleton.num_joints, "encode_seconds": encode, "prepare_seconds": prepare,
+               "prepare_frames_per_second": F / prepare, "sample_frames_per_second": block.size / sample,
+               "runtime_poses_per_second": seconds.size / poses, "load": _load()}
+        rows.append(row)
+        print(f"{row['clip']:32s} {F:5d} frames: encode {encode:.2f} s, prepare {1000 * prepare:.1f} ms "
+              f"({row['prepare_frames_per_second']:,.0f} frames/s), sample {row['sample_frames_per_second']:,.0f} "
+              f"frames/s, runtime {row['runtime_poses_per_second']:,.0f} poses/s, load {row['load']:.1f}",
+              flush=True)
+    (RESULTS / "acl_speed.json").write_text(json.dumps(rows, indent=1) + "\n")
+
+
+def entropy(args: argparse.Namespace) -> None:
+    import lzma
+
+    import numpy as np
+
+    from motionrep.compress import compress_motion
+    from motionrep.io import read
+    from motionrep_transform._stream import unpack
+
+    try:
+        import zstandard
+    except ImportError:  # optional: benchmarks only
+        zstandard = None
+
+    def as_bytes(arrays) -> bytes:
+        flat = np.concatenate([np.asarray(a).reshape(-1) for a in arrays])
+        dtype = "<i2" if flat.size == 0 or np.abs(flat).max() < 2 ** 15 else "<i4"
+        return flat.astype(dtype).tobytes()
+
+    rows = []
+    for bound in BOUNDS:
+        for path in cmu_clips("cmu31"):
+            result = compress_motion(read(path), "transform", max_error=f"{bound:g}%")
+            q = unpack(result.container.arrays["data"].tobytes())
+            side = [q.feature_exponents, q.region_exponents]
+            layouts = {"levels": as_bytes(side + q.coefficients),
+                       "features": as_bytes(side + [c.T for c in q.coefficients])}
+            row = {"clip": str(path.relative_to(DATA)).removesuffix(".bvh"), "bound_percent": bound,
+                   "range_coder": int(result.container.payload_bytes),
+                   "lzma": min(len(lzma.compress(b, format=lzma.FORMAT_RAW, filters=[
+                       {"id": lzma.FILTER_LZMA2, "preset": 9 | lzma.PRESET_EXTREME}])) for b in layouts.values()),
+                   "zstd": None if zstandard is None else min(
+                       len(zstandard.ZstdCompressor(level=22).compress(b)) for b in layouts.values())}
+            rows.append(row)
+            print(f"{row['clip']:32s} {bound:<7g} range coder {row['range_coder']:6d} B, lzma {row['lzma']:6d} B, "
+                  f"zstd {row['zstd']} B", flush=True)
+    (RESULTS / "acl_entropy.json").write_text(json.dumps(rows, indent=1) + "\n")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
@@ -345,9 +448,16 @@ def main() -> None:
     r.add_argument("--runs", default=str(RESULTS / "acl_runs.jsonl"))
     p = sub.add_parser("report")
     p.add_argument("--runs", default=str(RESULTS / "acl_runs.jsonl"))
+    sp = sub.add_parser("speed")
+    sp.add_argument("--repeat", type=int, default=5)
+    sub.add_parser("entropy")
     args = ap.parse_args()
     if args.command == "run":
         run(args)
+    elif args.command == "speed":
+        speed(args)
+    elif args.command == "entropy":
+        entropy(args)
     else:
         report(args)
 
