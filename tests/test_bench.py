@@ -343,8 +343,10 @@ def test_tiny_fourier_run_and_representations(tmp_path):
     path = tmp_path / "tiny.bvh"
     write(synthetic_motion(chain_skeleton(3), frames=24, fps=30, seed=9), path)
     out = tmp_path / "res"
-    r = run("bench", path, "-c", "adaptive-fourier", "-p", "k=1", "-p", "iters=25", "--max-error", "none",
-            "-r", "root-quat-axis-angle", "-r", "dual-quaternion", "--out", out, "--decode-poses", "200", "-q")
+    # the paper's raw layout (float32 weights), where the stored numbers are the network's
+    r = run("bench", path, "-c", "adaptive-fourier", "-p", "k=1", "-p", "iters=25", "-p", "dtype=float32",
+            "--max-error", "none", "-r", "root-quat-axis-angle", "-r", "dual-quaternion", "--out", out,
+            "--decode-poses", "200", "-q")
     assert r.exit_code == 0, r.output
     rows = _check_agreement(out, r.stdout)
     assert [x["representation"] for x in rows] == ["root-quat-axis-angle", "dual-quaternion"]

@@ -177,7 +177,7 @@ def test_readme_quick_start(tmp_path):
     assert run("example", walk).exit_code == 0
     r = run("compress", walk, "-o", mrc, "--codec", "adaptive-fourier")
     assert r.exit_code == 0, r.output
-    assert "K=" in r.output and "omega=" in r.output
+    assert "K=" in r.output or "K per window" in r.output  # one network, or windows where they are smaller
     assert run("decompress", mrc, "-o", back).exit_code == 0
     report = json.loads(run("evaluate", walk, back, "--json").output)
     assert report["max_error_percent"] <= 2.0
@@ -189,7 +189,7 @@ def test_info_on_a_compressed_file(clip, tmp_path):
     assert r.exit_code == 0, r.output
     r = run("info", mrc)
     assert r.exit_code == 0, r.output
-    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 2), parameters",
+    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 3), parameters",
                    "outcome:    K=2, omega=[1, 2] cycles/clip, hidden 10", "features:   root-quat-axis-angle version 1",
                    f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
                    "frames:     40", "channel layout"):

@@ -96,9 +96,17 @@ def test_fourier_meets_the_bound_on_a_generated_motion(codec, chain_motion):
     if codec == "naive-fourier":
         assert info["omega"] == [float(k) for k in range(1, K + 1)]
     h, D = info["hidden"], r.figures.feature_width
-    # every stored number counts: frequencies, three weight matrices and three biases
-    assert r.container.num_parameters == K + h * (2 * K + 1) + h + h * h + h + D * h + D
+    # the paper's count of the network's numbers: frequencies, three weight matrices and three biases; stored as
+    # integers, range-coded in one byte array (payload version 3)
+    assert info["parameters"] == K + h * (2 * K + 1) + h + h * h + h + D * h + D
+    assert r.container.codec_version == 3 and list(r.container.arrays) == ["data"]
+    assert r.container.arrays["data"].dtype == np.uint8
     assert max_joint_error(chain_motion, decompress(r.data)).max_error == r.report.max_error
+    # the paper's raw layout: every stored number is a network number
+    raw = compress_motion(chain_motion, codec, max_error="5%", params={**FAST_FOURIER, "dtype": "float32"})
+    K, h = raw.container.info["K"], raw.container.info["hidden"]
+    assert raw.container.num_parameters == K + h * (2 * K + 1) + h + h * h + h + D * h + D
+    assert raw.report.max_error <= raw.bound
 
 
 def test_adaptive_chooses_the_motion_frequency():

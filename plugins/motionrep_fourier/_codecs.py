@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from functools import partial
 from dataclasses import dataclass, field
 from typing import Any, Callable, Literal, Mapping, NamedTuple
 
@@ -13,6 +14,7 @@ from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 
 from ._network import Network
+from ._packed import dequantized, unpack
 from ._windows import Windows, join_windows, window_edges
 from ._workers import Runner, Task, WindowJob, worker_count
 
@@ -40,8 +42,10 @@ class FourierParams:
         "help": "number of frequencies K (>= 0); default: the smallest K that meets --max-error, up to max_k"})
     max_k: int = field(default=24, metadata={
         "help": "largest K tried when k is not given; the codec fails cleanly if the bound is not met by then"})
-    dtype: Literal["float32", "float16"] = field(default="float32", metadata={
-        "help": "storage type of the weights (frequencies and output bias are always float32)"})
+    dtype: Literal["quantised", "float32", "float16"] = field(default="quantised", metadata={
+        "help": "storage of the weights: quantised (integers times a step per layer, the steps chosen under the "
+                "bound, range-coded; payload version 3) or the paper's raw layout, float32 or float16 weights "
+                "(frequencies and output bias float32)"})
     iters: int = field(default=1000, metadata={
         "help": "most L-BFGS iterations per stage (per K)"})
     tol: float = field(default=0.01, metadata={
@@ -61,8 +65,8 @@ class FourierParams:
             raise ParameterError(f"fourier: k must be an integer >= 0, got {self.k!r}")
         if not isinstance(self.max_k, int) or not 0 <= self.max_k <= 512:
             raise ParameterError(f"fourier: max_k must be an integer in [0, 512], got {self.max_k!r}")
-        if self.dtype not in ("float32", "float16"):
-            raise ParameterError(f"fourier: dtype must be float32 or float16, got {self.dtype!r}")
+        if self.dtype not in ("quantised", "float32", "float16"):
+            raise ParameterError(f"fourier: dtype must be quantised, float32 or float16, got {self.dtype!r}")
         if not isinstance(self.iters, int) or self.iters < 25:
             raise ParameterError(f"fourier: iters must be an integer >= 25, got {self.iters!r}")
         if not (0.0 <= self.tol < 1.0):
@@ -78,8 +82,8 @@ class FourierParams:
 class _FourierCodec(Codec):
     """Common encode/decode; subclasses choose the frequency schedule."""
 
-    format_version = 2
-    readable_versions = (1, 2)
+    format_version = 3
+    readable_versions = (1, 2, 3)
     Params = FourierParams
     schedule: str
 
@@ -88,11 +92,13 @@ class _FourierCodec(Codec):
         params: FourierParams = context.params
         if params.k is None and context.bound is None:
             raise ParameterError(f"{self.name}: give k=K when there is no error bound (--max-error none)")
-        from ._train import fit  # the training code is imported here, never when decoding
+        from ._train import clip_scale, fit  # the training code is imported here, never when decoding
+
+        scale = clip_scale(features, weights)  # one output scale for every window
 
         if params.window == 0:  # the paper's Algorithm 1: one network
             try:
-                return fit(features, weights, context, schedule=self.schedule, name=self.name)
+                return fit(features, weights, context, schedule=self.schedule, name=self.name, scale=scale)
             except BoundNotMetError as exc:
                 if params.k is not None:
                     raise
@@ -110,7 +116,7 @@ class _FourierCodec(Codec):
 
             def max_k(first: int, last: int) -> int:
                 return params.max_k
-        plan = _Plan(self, features, weights, context, fit, max_k)
+        plan = _Plan(self, features, weights, context, partial(fit, scale=scale), max_k)
         pieces = plan.code([(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])])
         if len(pieces) == 1:
             return pieces[0].payload
@@ -141,7 +147,12 @@ class _FourierCodec(Codec):
         from . import _train  # noqa: F401  (scipy.fft, scipy.linalg.lapack, threadpoolctl)
 
     def decoder(self, payload: Payload) -> Network | Windows:
-        """The payload's network (or windows of networks), converted once; decodes in float32."""
+        """The payload's network (or windows of networks), converted once (a quantised payload range-decoded
+        and dequantised once); decodes in float32."""
+        if "data" in payload.arrays:
+            edges, scale, networks = unpack(payload.arrays["data"])
+            arrays = [dequantized(n, scale) for n in networks]
+            return Network(arrays[0]) if len(arrays) == 1 else Windows(networks=(edges, arrays))
         if "edges" in payload.arrays:
             return Windows(payload.arrays)
         return Network(payload.arrays)
@@ -207,10 +218,12 @@ class AdaptiveFourierCodec(_FourierCodec):
     component of the ``w``-weighted residual, among those not yet used; the network grows to
     ``h = 2 (2K + 1)`` with the old weights copied so that its function is unchanged (warm start).
 
-    Payload (format version 2; version 1 is read too): ``omega (K,)`` float32 (cycles over the clip, multiples
-    of 1/2), ``W0 (h, 2K+1)``, ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)``
-    float32; in windows (``window`` unset or ``N``), one such network per window, in the layout of
-    :func:`motionrep_fourier._windows.join_windows` (``specs/codecs.md``).
+    Payload (format version 3; versions 1 and 2 are read too): with ``dtype=quantised`` (the default) one
+    ``data`` array of range-coded integer networks (:mod:`motionrep_fourier._packed`); with ``float32`` or
+    ``float16`` the paper's raw layout, ``omega (K,)`` float32 (cycles over the clip, multiples of 1/2),
+    ``W0 (h, 2K+1)``, ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)`` float32;
+    in windows, one network per window, in the layout of :func:`motionrep_fourier._windows.join_windows`
+    (``specs/codecs.md``).
     """
 
     name = "adaptive-fourier"

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import Any, Callable, Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 import scipy.fft
@@ -27,9 +27,12 @@ from scipy.linalg.lapack import dpotrf, dpotrs, dtrtrs
 from numpy.typing import NDArray
 
 from motionrep.codec import EncodeContext, Payload
+from motionrep.coding import step_scale
 from motionrep.errors import BoundNotMetError, CodecError
 
 from ._network import fourier_features, network_forward
+from ._packed import pack
+from ._quantise import output_scale, quantise_network
 
 __all__ = ["fit", "next_adaptive_frequency", "CHUNK", "WINDOW", "EVAL_EVERY", "NEAR"]
 
@@ -43,6 +46,9 @@ EVAL_EVERY = 4
 NEAR = 1.5
 _HISTORY = 10
 _DTYPES = {"float32": np.float32, "float16": np.float16}
+#: ``dtype=quantised``: the trained network is rounded once its error is below this fraction of the bound (at
+#: the last stage's end, once it is below the bound); the rest of the bound is the rounding's.
+HEADROOM = 0.95
 
 LossAndGrad = Callable[[NDArray[np.float64]], "tuple[float, NDArray[np.float64]]"]
 
@@ -474,31 +480,39 @@ def next_adaptive_frequency(residual: NDArray[np.float64], weights: NDArray[np.f
 # -----------------------------------------------------------------------------------------------------------------
 # Algorithm 1
 # -----------------------------------------------------------------------------------------------------------------
+def clip_scale(features: NDArray[np.float64], weights: NDArray[np.float64]) -> NDArray[np.int64]:
+    """``(D,)`` output scale indices of a clip: ``step_scale`` of them is, within 2^(1/16), ``c / s`` with ``s``
+    the weights floored at 1e-3 of the largest and ``c`` the RMS of the centred features times ``s``: the
+    training targets ``(Y - mean) / u`` then have unit RMS and errors weighted by ``w`` (eq. 3)."""
+    Y = np.asarray(features, np.float64)
+    w = np.asarray(weights, np.float64)
+    top = float(w.max()) if w.size else 0.0
+    s = np.maximum(w, 1e-3 * top) if top > 0 else np.ones(Y.shape[1])
+    c = float(np.sqrt(np.mean(((Y - Y.mean(axis=0)) * s) ** 2))) if Y.size else 0.0
+    return output_scale((c if c > 0 else 1.0) / s)
+
+
 def fit(features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext, *,
-        schedule: str, name: str, meter: Any = None) -> Payload:
+        schedule: str, name: str, scale: NDArray[np.int64] | None = None) -> Payload:
     """Train the network for the codec ``name`` with the frequency ``schedule`` (``"adaptive"``/``"naive"``).
-    ``meter``: an object whose ``work`` is increased by each loss evaluation's frames times parameters; training
-    stops (the bound not met) once it reaches the meter's ``limit``."""
+    ``scale``: the output scale indices (:func:`clip_scale`; windows share the clip's), else those of these
+    features."""
+    Y, w = np.asarray(features, np.float64), np.asarray(weights, np.float64)
     with _one_blas_thread():
-        return _fit(np.asarray(features, np.float64), np.asarray(weights, np.float64), context, schedule, name,
-                    meter)
+        return _fit(Y, w, context, schedule, name, clip_scale(Y, w) if scale is None else scale)
 
 
 def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext, schedule: str,
-         name: str, meter: Any) -> Payload:
+         name: str, scale: NDArray[np.int64]) -> Payload:
     params = context.params
     bound = context.bound
     N, D = Y.shape
     times = np.asarray(context.times, dtype=np.float64)
-    top = float(w.max()) if w.size else 0.0
-    s = np.maximum(w, 1e-3 * top) if top > 0 else np.ones(D)
     mean = Y.mean(axis=0)
-    centred = (Y - mean) * s
-    c = float(np.sqrt(np.mean(centred ** 2)))
-    c = c if c > 0 else 1.0
-    target = (centred / c).astype(np.float32)
-    unscale = c / s  # output = mean + unscale * network
-    store = _DTYPES[params.dtype]
+    unscale = np.asarray(step_scale(scale), np.float64)  # output = mean + unscale * network
+    target = ((Y - mean) / unscale).astype(np.float32)
+    quantised = params.dtype == "quantised"
+    store = np.float32 if quantised else _DTYPES[params.dtype]
     gen = np.random.default_rng(int(context.seed))
 
     target_k = params.k if params.k is not None else params.max_k
@@ -522,8 +536,23 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 "iterations": total_iters}
         return Payload(arrays, info)
 
-    def spent() -> bool:
-        return meter is not None and meter.work >= meter.limit
+    def quantised_payload(net: _Net, x: NDArray[np.float32], aim: float | None) -> Payload | None:
+        """The network rounded under ``aim`` (payload version 3), or None if it cannot be."""
+        xT = np.vstack([x.T.astype(np.float64), np.ones((1, N))])
+        found = quantise_network(
+            [A.astype(np.float64) for A in net.layers()], xT, target.T.astype(np.float64), mean / unscale,
+            np.rint(2.0 * np.asarray(omega, np.float64)).astype(np.int64), scale,
+            lambda arrays: context.evaluate_payload(Payload(arrays)).max_error, aim, RIDGE, int(context.seed))
+        if found is None:
+            return None
+        network, _ = found
+        info = {"K": len(omega), "omega": [float(o) for o in omega], "hidden": net.hidden,
+                "iterations": total_iters, "steps": network.steps.tolist(),
+                "parameters": len(omega) + sum(int(q.size) for q in network.layers)}
+        return Payload({"data": pack([0, N - 1], scale, [network])}, info)
+
+    def last_chance(K: int, last: bool) -> bool:
+        return last and K >= target_k
 
     payload = payload_of(net)
     ratio = math.nan  # measured error / sqrt(loss) at the last measurement: predicts the error from the loss
@@ -549,10 +578,8 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
         losses = [optimizer.f]  # the loss after each chunk (and at the start)
         stage = unmeasured = 0
         while True:
-            done, evaluations = optimizer.iterations, optimizer.evaluations
+            done = optimizer.iterations
             loss = optimizer.run(min(CHUNK, params.iters - stage))
-            if meter is not None:
-                meter.work += float(optimizer.evaluations - evaluations) * N * net.theta.size
             net.theta = net.weights_at(x, target, optimizer.x)
             stage += optimizer.iterations - done
             total_iters += optimizer.iterations - done
@@ -576,20 +603,23 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 ratio = report.max_error / math.sqrt(loss) if loss > 0 else math.nan
                 fields.update(error=report.max_error, error_percent=report.max_error_percent)
                 context.progress("train", **fields)
-                if report.max_error <= bound:
+                if report.max_error <= bound and not quantised:
                     return payload
+                # quantised: rounding adds error, so the network is rounded once it is well inside the bound
+                # (or at the last chance: the last stage's end); kept if the rounded one meets the bound
+                if report.max_error <= (1.0 if last_chance(K, last) else HEADROOM) * bound:
+                    rounded = quantised_payload(net, x, bound)
+                    if rounded is not None:
+                        context.progress("quantise", K=K, steps=rounded.info["steps"])
+                        return rounded
             else:
                 context.progress("train", **fields)
-            if last or spent():
+            if last:
                 break
         payload = payload_of(net)
-        if spent():
-            break
     if bound is None:
-        return payload
+        return quantised_payload(net, x, None) if quantised else payload
     reached = f"K={len(omega)}" if params.k is not None else f"max_k={params.max_k} (K={len(omega)})"
-    if spent():
-        reached = f"the work limit (K={len(omega)})"
     def pct(value: float) -> str:
         return f" ({value * percent_per_unit:.3g}% of height)" if math.isfinite(value * percent_per_unit) else ""
 

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.codec import Payload
 
 from ._network import Network
+from ._packed import pack, unpack
 
 __all__ = ["window_edges", "local_times", "window_of", "join_windows", "split_windows", "windows_forward", "Windows"]
 
@@ -45,13 +46,26 @@ def local_times(times: NDArray[np.float64], num_frames: int, first: ArrayLike, l
 
 
 def join_windows(payloads: Sequence[Payload], edges: NDArray[np.int64]) -> Payload:
-    """One version-2 payload from the per-window payloads (each in the version-1 layout).
+    """One payload from the per-window payloads: quantised ones (each one window of version 3, sharing the
+    output scale) into one version-3 ``data`` array (:func:`~._packed.pack`); float ones (each in the
+    version-1 layout) into the version-2 windowed layout.
 
-    Arrays: ``edges (S + 1,)`` int32; ``k (S,)`` int16, frequencies per window; ``omega (sum k,)`` float32, the
-    windows' frequencies in order; ``weights`` in the weights' dtype, each window's ``W0, b0, W1, b1, W2``
-    flattened (row-major) one after the other; ``b2 (S, D)`` float32.
+    Float arrays: ``edges (S + 1,)`` int32; ``k (S,)`` int16, frequencies per window; ``omega (sum k,)``
+    float32, the windows' frequencies in order; ``weights`` in the weights' dtype, each window's ``W0, b0, W1,
+    b1, W2`` flattened (row-major) one after the other; ``b2 (S, D)`` float32.
     """
     arrays = [p.arrays for p in payloads]
+    info = {"windows": len(payloads), "K": [p.info["K"] for p in payloads],
+            "omega": [p.info["omega"] for p in payloads], "hidden": [p.info["hidden"] for p in payloads],
+            "iterations": int(sum(p.info["iterations"] for p in payloads))}
+    if all("data" in a for a in arrays):
+        unpacked = [unpack(a["data"]) for a in arrays]
+        networks = [n for _, _, nets in unpacked for n in nets]
+        if len(networks) != len(payloads):
+            raise ValueError("join_windows: a quantised window payload holds more than one network")
+        info["steps"] = [p.info["steps"] for p in payloads]
+        info["parameters"] = int(sum(p.info["parameters"] for p in payloads))
+        return Payload({"data": pack(edges, unpacked[0][1], networks)}, info)
     joined = {
         "edges": np.asarray(edges, dtype=np.int32),
         "k": np.array([a["omega"].size for a in arrays], dtype=np.int16),
@@ -59,9 +73,6 @@ def join_windows(payloads: Sequence[Payload], edges: NDArray[np.int64]) -> Paylo
         "weights": np.concatenate([np.asarray(a[n]).ravel() for a in arrays for n in ("W0", "b0", "W1", "b1", "W2")]),
         "b2": np.stack([np.asarray(a["b2"], np.float32) for a in arrays]),
     }
-    info = {"windows": len(payloads), "K": [p.info["K"] for p in payloads],
-            "omega": [p.info["omega"] for p in payloads], "hidden": [p.info["hidden"] for p in payloads],
-            "iterations": int(sum(p.info["iterations"] for p in payloads))}
     return Payload(joined, info)
 
 
@@ -109,9 +120,10 @@ class Windows:
         ValueError: if the arrays do not fit together.
     """
 
-    def __init__(self, arrays: Mapping[str, ArrayLike]):
-        edges, windows = split_windows(arrays)
-        self._edges = edges
+    def __init__(self, arrays: Mapping[str, ArrayLike] | None = None, *,
+                 networks: tuple[NDArray[np.int64], Sequence[Mapping[str, ArrayLike]]] | None = None):
+        edges, windows = split_windows(arrays) if networks is None else networks
+        self._edges = np.asarray(edges, np.int64)
         self._frames = int(edges[-1]) + 1
         self._networks = [Network(w) for w in windows]
         self.width = self._networks[0].width

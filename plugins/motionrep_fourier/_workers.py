@@ -24,28 +24,25 @@ from motionrep.codec import EncodeContext, Payload
 from motionrep.errors import BoundNotMetError
 
 from ._network import network_forward
+from ._packed import dequantized, unpack
 from ._windows import local_times
 
 __all__ = ["Task", "Outcome", "WindowJob", "Runner", "worker_count", "WindowContext"]
 
 
 class Task(NamedTuple):
-    """Frames ``first .. last`` of the clip, coded with at most ``max_k`` frequencies and at most ``max_work``
-    work (see :class:`Outcome`)."""
+    """Frames ``first .. last`` of the clip, coded with at most ``max_k`` frequencies."""
 
     first: int
     last: int
     max_k: int
-    max_work: float = math.inf
 
 
 class Outcome(NamedTuple):
-    """A task's payload, or the :class:`BoundNotMetError` it ended with; its evaluations and work (L-BFGS loss
-    evaluations times frames times parameters, a machine-independent measure of its cost)."""
+    """A task's payload, or the :class:`BoundNotMetError` it ended with; and the evaluations it made."""
 
     result: Payload | BoundNotMetError
     evaluations: int
-    work: float
 
 
 def worker_count(jobs: int, tasks: int) -> int:
@@ -96,7 +93,11 @@ class WindowContext:
         return self._context.evaluate(full)
 
     def evaluate_payload(self, payload: Payload) -> Any:
-        return self.evaluate(network_forward(payload.arrays, self.times))
+        arrays = payload.arrays
+        if "data" in arrays:  # one quantised network, as the decoder will have it
+            _, scale, (network,) = unpack(arrays["data"])
+            arrays = dequantized(network, scale)
+        return self.evaluate(network_forward(arrays, self.times))
 
     def progress(self, stage: str, **fields: Any) -> None:
         fields = {"window": f"{self._first}-{self._last}", **fields}
@@ -104,13 +105,6 @@ class WindowContext:
             self.relay.put((stage, fields))
         else:
             self._context.progress(stage, **fields)
-
-
-class Meter:
-    """Counts the work of one training run (filled in by ``fit``, which stops at ``limit``)."""
-
-    def __init__(self, limit: float = math.inf) -> None:
-        self.work, self.limit = 0.0, limit
 
 
 class WindowJob:
@@ -124,14 +118,13 @@ class WindowJob:
 
     def __call__(self, task: Task) -> Outcome:
         sub = WindowContext(self.context, self.features, task, relay=self.relay)
-        meter = Meter(task.max_work)
         try:
             result: Payload | BoundNotMetError = self.fit(
                 self.features[task.first:task.last + 1], self.weights, sub, schedule=self.schedule,
-                name=f"{self.name} (window of frames {task.first}-{task.last})", meter=meter)
+                name=f"{self.name} (window of frames {task.first}-{task.last})")
         except BoundNotMetError as exc:
             result = exc
-        return Outcome(result, sub.evaluations, meter.work)
+        return Outcome(result, sub.evaluations)
 
 
 #: Seconds between two looks at the workers' progress.

@@ -19,6 +19,16 @@ from motionrep.synthetic import chain_skeleton, synthetic_motion
 FAST_FOURIER = {"iters": 200}
 
 
+def edges_of(container) -> list[int]:
+    """The window edges of a Fourier payload (quantised or float), ``[0, F - 1]`` for one network."""
+    from motionrep_fourier._packed import unpack as unpack_data
+
+    arrays = container.arrays
+    if "data" in arrays:
+        return unpack_data(arrays["data"])[0].tolist()
+    return arrays["edges"].tolist() if "edges" in arrays else [0, container.num_frames - 1]
+
+
 @pytest.fixture(scope="module")
 def chain_motion():
     return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
@@ -238,12 +248,14 @@ def test_window_edges_cover_the_clip_in_equal_windows(frames, window):
 
 @pytest.fixture(scope="module")
 def windowed(chain_motion):
-    return compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
+    """Windows with float32 weights: the version-2 windowed layout (still written by dtype=float32)."""
+    return compress_motion(chain_motion, "adaptive-fourier", max_error="3%",
+                           params={"window": 16, "dtype": "float32", **FAST_FOURIER})
 
 
 def test_windows_meet_the_bound_each_with_its_own_network(windowed, chain_motion):
     r, c = windowed, windowed.container
-    assert c.codec_version == 2 and c.info["windows"] == 3 and len(c.info["K"]) == 3
+    assert c.codec_version == 3 and c.info["windows"] == 3 and len(c.info["K"]) == 3
     assert c.arrays["edges"].tolist() == [0, 16, 31, 47]
     assert r.report.max_error <= r.bound and r.report.max_error_percent <= 3.0
     # every stored number counts: the window table, frequencies, weights, output biases
@@ -286,14 +298,14 @@ def test_windowed_payload_checks_its_layout(windowed):
 @pytest.mark.parametrize("jobs", [1, 2, 3])
 def test_windowed_files_are_byte_identical_for_a_seed_and_any_number_of_processes(jobs, windowed, chain_motion):
     again = compress_motion(chain_motion, "adaptive-fourier", max_error="3%",
-                            params={"window": 16, "jobs": jobs, **FAST_FOURIER})
+                            params={"window": 16, "dtype": "float32", "jobs": jobs, **FAST_FOURIER})
     a, b = again.container, windowed.container
     assert a.info == b.info and a.arrays.keys() == b.arrays.keys()
     assert all(a.arrays[k].tobytes() == b.arrays[k].tobytes() for k in a.arrays)  # the payload, bit for bit
     assert again.evaluations == windowed.evaluations  # the workers' evaluations are counted too
     if jobs == 1:  # the parameters are stored too: the same parameters give the same file
         assert compress_motion(chain_motion, "adaptive-fourier", max_error="3%",
-                               params={"window": 16, "jobs": 1, **FAST_FOURIER}).data == again.data
+                               params={"window": 16, "dtype": "float32", "jobs": 1, **FAST_FOURIER}).data == again.data
 
 
 def test_forked_window_workers_split_and_fail_like_one_process(chain_motion):
@@ -330,18 +342,22 @@ def test_worker_count(monkeypatch):
     assert seen == [1]
 
 
-def test_version_1_payloads_still_decode(chain_motion):
-    """Files written before windows (payload version 1, the same arrays as an unwindowed version 2)."""
+@pytest.mark.parametrize("version", [1, 2])
+def test_version_1_and_2_payloads_still_decode(version, chain_motion, windowed):
+    """Files written before quantisation (payload version 2: float weights, one network or windows) and before
+    windows (version 1, the same arrays as one network of version 2)."""
     import dataclasses
 
     from motionrep.container import pack, unpack
 
-    r = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 50})
-    assert r.container.codec_version == 2 and "edges" not in r.container.arrays
-    old = unpack(pack(dataclasses.replace(r.container, codec_version=1)))
-    assert old.codec_version == 1
-    decoded = decompress(pack(old))
-    np.testing.assert_array_equal(decoded.rotations, decompress(r.data).rotations)
+    r = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 50,
+                                                                               "dtype": "float32"})
+    assert r.container.codec_version == 3 and "edges" not in r.container.arrays
+    for result in (r, windowed) if version == 2 else (r,):
+        old = unpack(pack(dataclasses.replace(result.container, codec_version=version)))
+        assert old.codec_version == version
+        decoded = decompress(pack(old))
+        np.testing.assert_array_equal(decoded.rotations, decompress(result.data).rotations)
 
 
 def test_windows_measure_the_same_with_or_without_evaluate_frames(chain_motion):
@@ -385,7 +401,7 @@ def long_motion():
 
 def test_window_unset_codes_a_short_clip_as_one_network(chain_motion):
     r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params=FAST_FOURIER)
-    assert "edges" not in r.container.arrays and r.container.params["window"] is None
+    assert edges_of(r.container) == [0, 47] and r.container.params["window"] is None
     assert r.report.max_error <= r.bound
 
 
@@ -393,7 +409,7 @@ def test_window_unset_codes_a_long_clip_in_windows_split_where_they_need_more(lo
     import motionrep_fourier._codecs as codecs
 
     r = compress_motion(long_motion, "adaptive-fourier", max_error="3%", params=FAST_FOURIER)
-    edges = r.container.arrays["edges"]
+    edges = np.array(edges_of(r.container))
     assert edges[0] == 0 and edges[-1] == 600 and np.diff(edges).max() <= codecs.AUTO_LONGEST
     assert max(r.container.info["K"]) <= codecs.AUTO_MAX_K and r.report.max_error <= r.bound
     # a window longer than AUTO_WINDOW that needs more than AUTO_MAX_K frequencies is split in two
@@ -402,7 +418,7 @@ def test_window_unset_codes_a_long_clip_in_windows_split_where_they_need_more(lo
     r = compress_motion(long_motion, "adaptive-fourier", max_error="3%", params=FAST_FOURIER,
                         progress=lambda stage, fields: events.append((stage, fields.get("window"))))
     assert ("split", "0-200") in events
-    assert np.diff(r.container.arrays["edges"]).max() <= codecs.AUTO_WINDOW and r.report.max_error <= r.bound
+    assert np.diff(edges_of(r.container)).max() <= codecs.AUTO_WINDOW and r.report.max_error <= r.bound
 
 
 @pytest.mark.parametrize("window", [1, 7, -8, 2.5])
@@ -435,7 +451,106 @@ def test_windows_that_miss_the_bound_are_split_until_they_meet_it(chain_motion, 
     r = compress_motion(chain_motion, "naive-fourier", max_error="50%", params={"window": 24, "iters": 50, "jobs": 1},
                         progress=lambda stage, fields: events.append((stage, fields.get("window"))))
     # 47 steps: windows 0-24 and 24-47; each misses, and is split at its middle frame
-    assert r.container.arrays["edges"].tolist() == [0, 12, 24, 35, 47]
+    assert edges_of(r.container) == [0, 12, 24, 35, 47]
     assert tried == [24, 12, 12, 23, 11, 12] and MIN_SPLIT == 8
     assert [w for stage, w in events if stage == "split"] == ["0-24", "24-47"]
     assert max_joint_error(chain_motion, decompress(r.data)).max_error <= r.bound
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Quantised payload (version 3)
+# ---------------------------------------------------------------------------------------------------------------
+def _random_networks(rng, Ks, D):
+    from motionrep_fourier._packed import QuantizedNetwork
+
+    out = []
+    for K in Ks:
+        h = 2 * (2 * K + 1)
+        layers = (rng.integers(-300, 300, (h, 2 * K + 2)), rng.integers(-40, 40, (h, h + 1)),
+                  rng.integers(-5000, 5000, (D, h + 1)))
+        columns = (np.append(rng.integers(0, 30, h), 0), np.append(rng.integers(0, 30, h), 0))
+        out.append(QuantizedNetwork(rng.integers(1, 200, K), rng.integers(-90, -40, 3), layers, columns))
+    return out
+
+
+def test_quantised_payload_round_trips_and_dequantises_the_same_way():
+    from motionrep_fourier._packed import dequantized, pack, unpack
+
+    rng = np.random.default_rng(7)
+    networks = _random_networks(rng, [0, 3, 1, 5], 7)
+    scale = rng.integers(-20, 20, 7)
+    data = pack([0, 10, 25, 26, 60], scale, networks)
+    assert data.dtype == np.uint8
+    edges, scale2, back = unpack(data)
+    assert edges.tolist() == [0, 10, 25, 26, 60] and scale2.tolist() == scale.tolist()
+    for a, b in zip(networks, back):
+        assert a.omega2.tolist() == b.omega2.tolist() and a.steps.tolist() == b.steps.tolist()
+        assert all(np.array_equal(x, y) for x, y in zip(a.layers, b.layers))
+        assert all(np.array_equal(x, y) for x, y in zip(a.columns, b.columns))
+        da, db = dequantized(a, scale), dequantized(b, scale)
+        assert all(da[k].tobytes() == db[k].tobytes() for k in da)
+        assert da["W2"].dtype == np.float32 and da["omega"].tolist() == (a.omega2 / 2).tolist()
+    assert np.array_equal(pack([0, 10, 25, 26, 60], scale, networks), data)  # the same bytes every time
+
+
+def test_damaged_quantised_payloads_are_refused_not_decoded_wrongly():
+    from motionrep.coding import IntegerEncoder
+    from motionrep.errors import PayloadError
+    from motionrep_fourier._packed import pack, unpack
+
+    rng = np.random.default_rng(8)
+    data = pack([0, 30], rng.integers(-5, 5, 6), _random_networks(rng, [2], 6))
+    for bad in (data[:-4], data[:len(data) // 2 // 4 * 4], np.concatenate([data, np.zeros(8, np.uint8)]),
+                data[:-3]):
+        with pytest.raises(PayloadError):
+            unpack(bad)
+    # sizes beyond what the data can hold are refused before anything is allocated
+    enc = IntegerEncoder()
+    enc.encode_raw([60000], 16)
+    enc.encode_raw([(1 << 24) - 1], 24)
+    with pytest.raises(PayloadError, match="invalid width"):
+        unpack(np.frombuffer(enc.to_bytes(), np.uint8))
+
+
+def test_quantised_windows_meet_the_bound_and_decode_once(chain_motion, monkeypatch):
+    import motionrep_fourier._codecs as codecs
+    from motionrep.plugins import get_codec
+
+    r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
+    c = r.container
+    assert c.codec_version == 3 and list(c.arrays) == ["data"] and c.info["windows"] == 3
+    assert edges_of(c) == [0, 16, 31, 47] and len(c.info["steps"]) == 3
+    assert r.report.max_error <= r.bound
+    assert max_joint_error(chain_motion, decompress(r.data)).max_error == r.report.max_error
+    # the payload is range-decoded and dequantised once, when the decoder is prepared, not per call
+    calls = []
+    real = codecs.unpack
+    monkeypatch.setattr(codecs, "unpack", lambda data: calls.append(1) or real(data))
+    from motionrep.codec import Payload
+
+    decoder = get_codec("adaptive-fourier").decoder(Payload(c.arrays))
+    first = decoder(np.linspace(0, 1, 97))
+    for _ in range(3):
+        assert np.array_equal(decoder(np.linspace(0, 1, 97)), first)
+    assert len(calls) == 1
+
+
+def test_quantised_payload_is_a_fraction_of_the_float_one(chain_motion):
+    opts = dict(max_error="2%", params={**FAST_FOURIER, "window": 0})
+    q = compress_motion(chain_motion, "adaptive-fourier", **opts)
+    f = compress_motion(chain_motion, "adaptive-fourier", max_error="2%",
+                        params={**FAST_FOURIER, "window": 0, "dtype": "float32"})
+    assert q.report.max_error <= q.bound and f.report.max_error <= f.bound
+    nbytes = lambda r: sum(a.nbytes for a in r.container.arrays.values())  # noqa: E731
+    assert nbytes(q) < 0.5 * nbytes(f)
+
+
+def test_quantised_without_a_bound_rounds_finely(chain_motion):
+    """With k and no bound the steps give an output error of RMS about 1e-3 of the targets' (NOISE)."""
+    q = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 100})
+    f = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 100,
+                                                                              "dtype": "float32"})
+    assert q.container.info["K"] == f.container.info["K"] == 2
+    a, b = decompress(q.data), decompress(f.data)
+    # the same training; the rounding moves joints by far less than the network's own error
+    assert max_joint_error(b, a).max_error < 0.05 * f.report.max_error + 1e-9
