@@ -38,10 +38,15 @@ class Payload:
             parameters is the total number of array elements; it is what the paper's compression ratio divides by.
         info: small JSON-serialisable facts about the outcome, shown to users and kept in the container
             (``{"K": 4, "omega": [3, 7, 1, 12]}`` or ``{"rank": 9}``); never needed to decode.
+        version: the payload format version it was written with (a file's ``codec_version``), or None for a
+            payload the codec has just encoded (its ``format_version``).  A codec whose decoding changed between
+            versions decodes each version as it was when files of it were written and measured
+            (:meth:`Codec.payload_version`).
     """
 
     arrays: Mapping[str, NDArray[Any]]
     info: Mapping[str, Any] = field(default_factory=dict)
+    version: int | None = None
 
     @property
     def num_parameters(self) -> int:
@@ -132,11 +137,25 @@ class Codec(ABC):
 
         Returns a callable ``decoder(times, out=None)`` giving ``(T, D)`` features at normalised ``times``,
         float32 or float64 (the codec's working precision), equal value for value to ``decode(payload, times)``
-        and written into ``out`` (an array of that shape and dtype) when given.  The runtime decoder
-        (``motionrep.open``) calls it for every block of poses.  The default wraps :meth:`decode`; a codec whose
-        decoding has set-up work overrides this and implements ``decode`` with it (one path).
+        and written into ``out`` (an array of that shape and dtype) when given.  The default wraps
+        :meth:`decode`; a codec whose decoding has set-up work overrides this and implements ``decode`` with it
+        (one path).
+
+        **Compiled decoders.**  The runtime decoder (``motionrep.open``) decodes block after block of poses; a
+        decoder that also has the attributes ``width`` (``D``), ``kernel`` (a function compiled with
+        ``motionrep.jit.jit``) and ``kernel_args`` (a tuple) is called as ``kernel(times, out, *kernel_args)``
+        instead, with ``times`` ``(m,)`` float64 normalised times (clamped to [0, 1]) and ``out`` a
+        C-contiguous ``(D, >= m)`` float64 array to write **feature-major** (feature ``d`` of time ``i`` at
+        ``out[d, i]``: the layout in which a codec computes a block, and in which the representations' compiled
+        conversions read it, ``motionrep.poseplan``).  It must write the values ``__call__`` gives, and keep no
+        state between calls.  The ``svd`` decoder does.
         """
         return _DecodeCall(self, payload)
+
+    def payload_version(self, payload: Payload) -> int:
+        """The format version of ``payload``: its ``version``, or :attr:`format_version` for a payload that has
+        none (one the codec has just encoded)."""
+        return self.format_version if payload.version is None else int(payload.version)
 
     def parse_params(self, raw: Mapping[str, Any]) -> Any:
         """Validated ``Params`` from ``raw`` (values may be strings from the command line)."""

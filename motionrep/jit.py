@@ -1,4 +1,4 @@
-"""The one way motionrep compiles its hot loops: numba's ``njit`` with a fixed set of options.
+"""The one way motionrep compiles its hot loops: numba's ``njit`` with a fixed set of options, loaded lazily.
 
 ``jit`` compiles on first call and keeps the machine code in numba's on-disk cache (``cache=True``: the
 ``__pycache__`` beside the source, or numba's user-wide cache directory when that is not writable), so a process
@@ -11,22 +11,104 @@ times).  The options:
 * no ``fastmath``: every operation is IEEE, so a value does not depend on whether it was computed in a vector
   or a scalar lane, i.e. one pose decodes to the same bits alone or inside a batch, on one machine.
 
+**numba is imported when a compiled function is first called**, not when a module that defines one is imported:
+``jit`` returns a :class:`LazyKernel`, which builds the numba dispatcher on its first call (or when a compiled
+caller is typed: numba sees the dispatcher through the kernel).  Importing numba and loading its registries takes
+about as long as importing numpy several times over, so commands that never run a compiled loop (``motionrep
+--help``, ``motionrep plugins``, describing a file) do not pay it.
+
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input;
 there is no second, pure-numpy copy of the same computation.  Plugins (shipped or third-party) may compile their
-own hot loops with the same decorator: ``from motionrep.jit import jit``.
+own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
+``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
+from Python (the runtime decoder, once per pose) can take :attr:`LazyKernel.dispatcher` once and call it
+directly, which saves the proxy's function call.
 """
 
 from __future__ import annotations
 
-import numba
+import functools
+import threading
+from typing import Any, Callable
+
 import numpy as np
 
-__all__ = ["jit", "jit_inline", "sincos", "affine_block", "affine_one"]
+__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "affine_block", "affine_one"]
 
-#: Decorator for motionrep's compiled kernels (see the module docstring).
-jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-#: The same for small helpers that kernels call: inlined into each caller, so the loops around them vectorise.
-jit_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+_lock = threading.Lock()
+_typeof_registered = False
+
+
+def numba_loaded() -> bool:
+    """Whether this process has imported numba (a compiled function has run or been typed)."""
+    import sys
+
+    return "numba" in sys.modules
+
+
+def _register_typeof() -> None:
+    """Teach numba's typing to see a :class:`LazyKernel` as its dispatcher, so compiled code can call kernels
+    defined with :func:`jit` (and inline those defined with :func:`jit_inline`)."""
+    global _typeof_registered
+    if _typeof_registered:
+        return
+    from numba.core.typing.typeof import typeof_impl
+
+    @typeof_impl.register(LazyKernel)
+    def _typeof_lazy_kernel(value: LazyKernel, context: Any) -> Any:
+        return typeof_impl(value.dispatcher, context)
+
+    _typeof_registered = True
+
+
+class LazyKernel:
+    """A function compiled by numba on first use (what :func:`jit` and :func:`jit_inline` return).
+
+    Calling it calls the compiled function; ``py_func`` is the Python source function; :attr:`dispatcher` is
+    numba's dispatcher (built, and numba imported, on first access).
+    """
+
+    def __init__(self, func: Callable, options: dict[str, Any]):
+        self.py_func = func
+        self._options = options
+        self._dispatcher = None
+        functools.update_wrapper(self, func)
+
+    @property
+    def dispatcher(self) -> Any:
+        """numba's dispatcher of this function (numba is imported on first access)."""
+        d = self._dispatcher
+        if d is None:
+            with _lock:
+                if self._dispatcher is None:
+                    import numba
+
+                    _register_typeof()
+                    self._dispatcher = numba.njit(**self._options)(self.py_func)
+                d = self._dispatcher
+        return d
+
+    def __call__(self, *args: Any) -> Any:
+        return self.dispatcher(*args)
+
+    def __repr__(self) -> str:
+        return f"<compiled function {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+if numba_loaded():  # numba's own njit functions may call motionrep's helpers too
+    _register_typeof()
+
+
+def jit(func: Callable) -> LazyKernel:
+    """Decorator for motionrep's compiled kernels (see the module docstring)."""
+    return LazyKernel(func, dict(_OPTIONS))
+
+
+def jit_inline(func: Callable) -> LazyKernel:
+    """The same for small helpers that kernels call: inlined into each caller, so the loops around them
+    vectorise."""
+    return LazyKernel(func, dict(_OPTIONS, inline="always"))
 
 
 @jit_inline

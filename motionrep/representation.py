@@ -20,9 +20,10 @@ from numpy.typing import ArrayLike, NDArray
 from ._model import Motion, Skeleton
 from .errors import ValidationError
 from .kinematics import forward_kinematics
+from .poseplan import PosePlan, decode_planned
 
 __all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
-           "representation_problems", "Poses", "empty_poses", "motion_from_poses", "decoded_motion"]
+           "representation_problems", "Poses", "empty_poses", "motion_from_poses", "decoded_motion", "PosePlan"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,16 +121,34 @@ class Representation(ABC):
             ValidationError: if ``features`` is not ``(F, D)`` for this skeleton, or not finite.
         """
 
+    def pose_plan(self, skeleton: Skeleton) -> PosePlan | None:
+        """How ``skeleton``'s features become poses, as a :class:`~motionrep.poseplan.PosePlan` (optional).
+
+        A representation whose rotations are computed from its columns by the core's conversions (quaternions,
+        rotation vectors, Euler angles, 6D, rotations in world axes) returns its plan here (build it with
+        :meth:`FeatureLayout.pose_plan`, decorate the function with :func:`per_skeleton`); :meth:`decode_poses`
+        and the runtime decoder (``motionrep.open``) then decode in one compiled pass.  Default: None (decoding
+        goes through :meth:`decode_poses`).
+        """
+        return None
+
     def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
         """Decode ``(T, D)`` features into ``out`` (:class:`Poses` of ``T`` rows, see :func:`empty_poses`).
 
-        The runtime decoder (``motionrep.open``) calls this for every block of poses; ``from_features`` must give
-        the same values (the shipped representations build their ``Motion`` from it).  The default goes through
-        :meth:`from_features`; override it with a path that writes into ``out`` without building a ``Motion``.
+        ``from_features`` must give the same values (the shipped representations build their ``Motion`` from it
+        with :func:`decoded_motion`).  The default runs :meth:`pose_plan` when the representation has one, else
+        goes through :meth:`from_features`; override it with a path that writes into ``out`` without building a
+        ``Motion``.  The runtime decoder (``motionrep.open``) calls it for every block of poses of a
+        representation without a plan.
 
         Raises:
             ValidationError: as :meth:`from_features`.
         """
+        plan = self.pose_plan(skeleton)
+        if plan is not None:
+            f = check_features(features, plan.width, self.name, float32=True)
+            decode_planned(f, plan, out.rotations, out.root_translation, out.joint_translations, check_finite=False)
+            return
         motion = self.from_features(features, skeleton, 1.0)
         out.root_translation[...] = motion.root_translation
         out.rotations[...] = motion.rotations
@@ -263,29 +282,30 @@ class FeatureLayout:
         """``(F, 3)`` root translation and ``(F, P, 3)`` joint translations of ``(F, D)`` features."""
         return features[:, :3], features[:, self.translation_columns]
 
-    def decode_into(self, features: ArrayLike, name: str, out: "Poses",
-                    rotations: Callable[[NDArray, NDArray], None]) -> None:
-        """``decode_poses`` for this layout: check the features (float32 kept, :func:`check_features`), the
-        identity for joints without a rotation block, ``rotations(features, out.rotations)`` for the others (a
-        ``motionrep.rotations`` column conversion, say), then the translations."""
-        f = check_features(features, self.width, name, float32=True)
-        if self.identity_joints.size:
-            out.rotations[:, self.identity_joints] = (0.0, 0.0, 0.0, 1.0)
-        rotations(f, out.rotations)
-        self.translations_into(f, out)
+    def pose_plan(self, entry: Callable[[int, NDArray[np.int64]], tuple[int, Sequence[int], Sequence[int]]]
+                  ) -> PosePlan:
+        """The :class:`~motionrep.poseplan.PosePlan` of this layout: ``entry(j, columns)`` gives, for joint ``j``
+        with rotation block ``columns``, ``(kind, columns it reads, Euler axes or ())``; the joints without a
+        block decode to the identity; the translations come from their columns.
 
-    def translations_into(self, features: NDArray, out: "Poses") -> None:
-        """Copy the root and joint translations of ``(T, D)`` features into ``out`` (float64)."""
-        np.copyto(out.root_translation, features[:, :3])
-        if self.translation_columns.size:
-            out.joint_translations[...] = features[:, self.translation_columns]
+        Example::
 
-    @functools.cached_property
-    def identity_joints(self) -> NDArray[np.int64]:
-        """``(M,)`` joints without a rotation block (they decode to the identity)."""
-        missing = np.ones(self.skeleton.num_joints, bool)
-        missing[self.rotation_joints] = False
-        return np.flatnonzero(missing)
+            plan = layout.pose_plan(lambda j, cols: (poseplan.AXIS_ANGLE, cols, ()))
+        """
+        R = len(self.rotation_joints)
+        kinds = np.zeros(R, np.int64)
+        columns = np.full((R, 6), -1, np.int64)
+        axes = np.full((R, 3), -1, np.int64)
+        for r, (j, cols) in enumerate(zip(self.rotation_joints.tolist(), self.rotation_columns)):
+            kind, used, order = entry(j, cols)
+            kinds[r] = kind
+            columns[r, :len(used)] = used
+            axes[r, :len(order)] = order
+        sk = self.skeleton
+        tcols = np.concatenate([np.arange(3, dtype=np.int64).reshape(1, 3), self.translation_columns])
+        return PosePlan(width=self.width, num_joints=sk.num_joints, kinds=kinds, columns=columns, axes=axes,
+                        joints=self.rotation_joints.astype(np.int64), parents=sk.parents.astype(np.int64),
+                        translation_columns=tcols, translation_values=np.zeros(tcols.shape))
 
     def assemble(self, root_translation: NDArray[np.float64], rotations: NDArray[np.float64] | Sequence[NDArray],
                  joint_translations: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -34,7 +34,6 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from .errors import ValidationError
-from .jit import jit, jit_inline, sincos
 
 __all__ = [
     "quat_identity",
@@ -501,24 +500,21 @@ def quat_wxyz_to_xyzw(q: ArrayLike) -> NDArray[np.float64]:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# compiled conversions from the columns of a 2-D array into the joint slots of (T, J, 4) quaternions
+# conversions from the columns of a 2-D array into the joint slots of (T, J, 4) quaternions: the pose-plan kernel
 # ---------------------------------------------------------------------------------------------------------------
 _XYZ_COLUMNS = np.arange(3, dtype=np.int64).reshape(1, 3)
 _XYZW_COLUMNS = np.arange(4, dtype=np.int64).reshape(1, 4)
 _SIX_COLUMNS = np.arange(6, dtype=np.int64).reshape(1, 6)
-#: Rows converted together: each joint's inputs are gathered into contiguous float64 arrays of this length, so
-#: the arithmetic runs in vector registers, and the block stays in the CPU cache.
-_BLOCK = 128
-
-
 _F64, _F32, _I64 = np.dtype(np.float64), np.dtype(np.float32), np.dtype(np.int64)
+_NO_TRANSLATIONS = (np.zeros((0, 3), np.int64), np.zeros((0, 3)))
 
 
-def _columns_args(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int
-                  ) -> tuple[NDArray, NDArray, NDArray]:
-    """Check the shapes and dtypes of the ``*_columns_*`` functions' arguments (the kernels check that the
-    indices are in range, see :func:`_plan_ok`); return them as kernel-ready arrays.  Cheap for arrays that are
-    already right: decoding one pose calls this a few times."""
+def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int,
+                     kind: int, axes: ArrayLike | None = None) -> None:
+    """Check the arguments of the ``*_columns_*`` functions and run them through the pose-plan kernel
+    (:mod:`motionrep.poseplan`: one entry of ``kind`` per row of ``columns``)."""
+    from .poseplan import PosePlan, decode_planned
+
     f = features if type(features) is np.ndarray else np.asarray(features)
     if f.dtype is not _F64 and f.dtype is not _F32:
         f = f.astype(np.float64)
@@ -533,56 +529,19 @@ def _columns_args(features: NDArray, columns: ArrayLike, joints: ArrayLike, out:
             or (out.dtype is not _F64 and out.dtype is not _F32)):
         raise ValidationError(f"out must be a float32 or float64 array of shape ({f.shape[0]}, J, 4), got "
                               f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
-    return f, cols, idx
-
-
-def _raise_for(status: int, what: str) -> None:
-    if status == 1:
+    R, J = cols.shape[0], out.shape[1]
+    six = np.full((R, 6), -1, np.int64)
+    six[:, :width] = cols
+    ax = np.full((R, 3), -1, np.int64) if axes is None else np.asarray(axes, np.int64)
+    if ax.shape != (R, 3):
+        raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
+    if np.any(six < -1) or np.any(six >= f.shape[1]) or np.any(idx < 0) or np.any(idx >= J):
         raise ValidationError("columns must index the columns of features (-1 only to end a joint's Euler "
                               "factors early) and joints the joints of out")
-    if status == 2:
-        raise ValidationError(what)
-
-
-@jit_inline
-def _plan_ok(cols, joints, num_columns, num_joints, allow_missing):
-    """True when every column index is in ``[0, num_columns)`` (or -1 after the first, when ``allow_missing``)
-    and every joint in ``[0, num_joints)``: kernels have no bounds checks, so their plans are checked here."""
-    for r in range(cols.shape[0]):
-        if joints[r] < 0 or joints[r] >= num_joints:
-            return False
-        for k in range(cols.shape[1]):
-            c = cols[r, k]
-            if c >= num_columns or c < -1 or (c == -1 and not (allow_missing and k > 0)):
-                return False
-    return True
-
-
-@jit_inline
-def _store_normalized(x, y, z, w, sign, out):
-    """``out[:] = sign * q / |q|``; False if ``|q|`` is zero or not finite."""
-    n = sign * np.sqrt(((x * x + y * y) + z * z) + w * w)
-    out[0] = x / n
-    out[1] = y / n
-    out[2] = z / n
-    out[3] = w / n
-    return (n != 0.0) & (abs(n) < np.inf)
-
-
-@jit
-def _quat_columns_kernel(f, cols, joints, out):
-    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
-        return 1
-    T, R = f.shape[0], cols.shape[0]
-    ok = True
-    for t in range(T):
-        for r in range(R):
-            x = np.float64(f[t, cols[r, 0]])
-            y = np.float64(f[t, cols[r, 1]])
-            z = np.float64(f[t, cols[r, 2]])
-            w = np.float64(f[t, cols[r, 3]])
-            ok &= _store_normalized(x, y, z, w, 1.0, out[t, joints[r]])
-    return 0 if ok else 2
+    plan = PosePlan(width=f.shape[1], num_joints=J, kinds=np.full(R, kind, np.int64), columns=six, axes=ax,
+                    joints=idx, parents=np.arange(J, dtype=np.int64) - 1, translation_columns=_NO_TRANSLATIONS[0],
+                    translation_values=_NO_TRANSLATIONS[1])
+    decode_planned(f, plan, out, None, None, check_finite=False, keep_unplanned=True)
 
 
 def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -591,47 +550,15 @@ def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: Array
     Args:
         features: ``(T, C)`` float32 or float64.
         columns: ``(R, 4)`` column indices of each quaternion's x, y, z, w.
-        joints: ``(R,)`` where each goes in ``out``.
-        out: ``(T, J, 4)`` float32 or float64, written in place.
+        joints: ``(R,)`` where each goes in ``out`` (all different).
+        out: ``(T, J, 4)`` float32 or float64, written in place (the other joints are left as they are).
 
     Raises:
         ValidationError: if a quaternion has zero (or non-finite) length.
     """
-    f, cols, idx = _columns_args(features, columns, joints, out, 4)
-    _raise_for(_quat_columns_kernel(f, cols, idx, out), "cannot normalise a quaternion of zero or non-finite length")
+    from .poseplan import QUAT
 
-
-@jit
-def _axis_angle_columns_kernel(f, cols, joints, out):
-    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
-        return 1
-    T, R = f.shape[0], cols.shape[0]
-    X, Y, Z = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
-    K, C = np.empty((R, _BLOCK)), np.empty((R, _BLOCK))
-    for a in range(0, T, _BLOCK):
-        m = min(_BLOCK, T - a)
-        for r in range(R):  # joint by joint, vectorised over the block's rows
-            c0, c1, c2 = cols[r, 0], cols[r, 1], cols[r, 2]
-            for i in range(m):
-                X[i] = f[a + i, c0]
-                Y[i] = f[a + i, c1]
-                Z[i] = f[a + i, c2]
-            for i in range(m):
-                x, y, z = X[i], Y[i], Z[i]
-                theta2 = (x * x + y * y) + z * z
-                theta = np.sqrt(theta2)
-                s, c = sincos(0.5 * theta)
-                # sin(theta / 2) / theta, by its series below 1e-3 (no 0 / 0), as scipy does
-                K[r, i] = s / theta if theta > 1e-3 else 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
-                C[r, i] = c
-        for i in range(m):  # then row by row, so the output is written in order
-            for r in range(R):
-                k, j = K[r, i], joints[r]
-                out[a + i, j, 0] = k * f[a + i, cols[r, 0]]
-                out[a + i, j, 1] = k * f[a + i, cols[r, 1]]
-                out[a + i, j, 2] = k * f[a + i, cols[r, 2]]
-                out[a + i, j, 3] = C[r, i]
-    return 0
+    _convert_columns(features, columns, joints, out, 4, QUAT)
 
 
 def axis_angle_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -643,11 +570,12 @@ def axis_angle_columns_to_quat(features: NDArray, columns: ArrayLike, joints: Ar
     Args:
         features: ``(T, C)`` float32 or float64.
         columns: ``(R, 3)`` column indices of each rotation vector's x, y, z.
-        joints: ``(R,)`` where each goes in ``out``.
+        joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
     """
-    f, cols, idx = _columns_args(features, columns, joints, out, 3)
-    _raise_for(_axis_angle_columns_kernel(f, cols, idx, out), "")
+    from .poseplan import AXIS_ANGLE
+
+    _convert_columns(features, columns, joints, out, 3, AXIS_ANGLE)
 
 
 def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -676,54 +604,6 @@ def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64
     return positions, axes
 
 
-@jit
-def _euler_columns_kernel(f, cols, axes, joints, degrees, out):
-    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], True):
-        return 1
-    for r in range(cols.shape[0]):
-        for k in range(3):
-            if cols[r, k] >= 0 and (axes[r, k] < 0 or axes[r, k] > 2):
-                return 1
-    T, R = f.shape[0], cols.shape[0]
-    QX, QY, QZ, QW = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
-    A = np.empty(_BLOCK)
-    for a in range(0, T, _BLOCK):
-        m = min(_BLOCK, T - a)
-        for r in range(R):
-            for i in range(m):
-                QX[i], QY[i], QZ[i], QW[i] = 0.0, 0.0, 0.0, 1.0
-            for k in range(3):
-                col, axis = cols[r, k], axes[r, k]
-                if col < 0:
-                    break
-                ex = 1.0 if axis == 0 else 0.0
-                ey = 1.0 if axis == 1 else 0.0
-                ez = 1.0 if axis == 2 else 0.0
-                for i in range(m):
-                    A[i] = f[a + i, col]
-                for i in range(m):
-                    v = A[i]
-                    if degrees:
-                        # exact reduction to about [-360, 360] (Sterbenz), then the half angle in radians
-                        v = (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0)
-                    else:
-                        v = 0.5 * v
-                    s, c = sincos(v)
-                    bx, by, bz = s * ex, s * ey, s * ez
-                    x, y, z, w = QX[i], QY[i], QZ[i], QW[i]
-                    QX[i] = w * bx + x * c + y * bz - z * by
-                    QY[i] = w * by - x * bz + y * c + z * bx
-                    QZ[i] = w * bz + x * by - y * bx + z * c
-                    QW[i] = w * c - x * bx - y * by - z * bz
-            j = joints[r]
-            for i in range(m):
-                out[a + i, j, 0] = QX[i]
-                out[a + i, j, 1] = QY[i]
-                out[a + i, j, 2] = QZ[i]
-                out[a + i, j, 3] = QW[i]
-    return 0
-
-
 def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike, joints: ArrayLike, out: NDArray,
                           degrees: bool = False) -> None:
     """``out[:, joints[r]]`` = the product of the rotations about ``axes[r, k]`` by the angles in
@@ -733,56 +613,16 @@ def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike
         features: ``(T, C)`` float32 or float64 angles.
         columns: ``(R, 3)`` column of each factor's angle; ``-1`` ends a joint's factors early.
         axes: ``(R, 3)`` axis of each factor (0 = X, 1 = Y, 2 = Z); see :func:`euler_columns` for orders.
+        joints: ``(R,)`` where each goes in ``out`` (all different).
+        out: ``(T, J, 4)`` float32 or float64, written in place.
+        degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
 
     Raises:
         ValidationError: for columns, axes or joints out of range.
-        joints: ``(R,)`` where each goes in ``out``.
-        out: ``(T, J, 4)`` float32 or float64, written in place.
-        degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
     """
-    f, cols, idx = _columns_args(features, columns, joints, out, 3)
-    ax = np.asarray(axes, dtype=np.int64)
-    if ax.shape != cols.shape:
-        raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
-    _raise_for(_euler_columns_kernel(f, cols, ax, idx, bool(degrees), out), "")
+    from .poseplan import EULER, EULER_DEGREES
 
-
-@jit
-def _ortho6d_columns_kernel(f, cols, joints, out):
-    if not _plan_ok(cols, joints, f.shape[1], out.shape[1], False):
-        return 1
-    T, R = f.shape[0], cols.shape[0]
-    ok = True
-    for t in range(T):
-        for r in range(R):
-            a1x, a1y, a1z = np.float64(f[t, cols[r, 0]]), np.float64(f[t, cols[r, 1]]), np.float64(f[t, cols[r, 2]])
-            a2x, a2y, a2z = np.float64(f[t, cols[r, 3]]), np.float64(f[t, cols[r, 4]]), np.float64(f[t, cols[r, 5]])
-            n1 = np.sqrt((a1x * a1x + a1y * a1y) + a1z * a1z)
-            d = n1 if n1 > 0.0 else 1.0
-            b1x, b1y, b1z = a1x / d, a1y / d, a1z / d
-            dot = (b1x * a2x + b1y * a2y) + b1z * a2z
-            u2x, u2y, u2z = a2x - dot * b1x, a2y - dot * b1y, a2z - dot * b1z
-            n2 = np.sqrt((u2x * u2x + u2y * u2y) + u2z * u2z)
-            ok &= (n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < np.inf)
-            b2x, b2y, b2z = u2x / n2, u2y / n2, u2z / n2
-            b3x, b3y, b3z = b1y * b2z - b1z * b2y, b1z * b2x - b1x * b2z, b1x * b2y - b1y * b2x
-            # the columns b1, b2, b3 form the matrix m[row, col]; its quaternion as scipy's from_matrix
-            m00, m10, m20 = b1x, b1y, b1z
-            m01, m11, m21 = b2x, b2y, b2z
-            m02, m12, m22 = b3x, b3y, b3z
-            trace = (m00 + m11) + m22
-            if trace >= m00 and trace >= m11 and trace >= m22:
-                x, y, z, w = m21 - m12, m02 - m20, m10 - m01, 1.0 + trace
-            elif m00 >= m11 and m00 >= m22:
-                x, y, z, w = 1.0 - trace + 2.0 * m00, m10 + m01, m20 + m02, m21 - m12
-            elif m11 >= m22:
-                x, y, z, w = m01 + m10, 1.0 - trace + 2.0 * m11, m21 + m12, m02 - m20
-            else:
-                x, y, z, w = m02 + m20, m12 + m21, 1.0 - trace + 2.0 * m22, m10 - m01
-            # canonical sign: w >= 0 (w == 0: the first non-zero component positive)
-            flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
-            _store_normalized(x, y, z, w, -1.0 if flip else 1.0, out[t, joints[r]])
-    return 0 if ok else 2
+    _convert_columns(features, columns, joints, out, 3, EULER_DEGREES if degrees else EULER, axes)
 
 
 def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -793,11 +633,12 @@ def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: Array
     Args:
         features: ``(T, C)`` float32 or float64.
         columns: ``(R, 6)`` column indices of ``[R00, R10, R20, R01, R11, R21]``.
-        joints: ``(R,)`` where each goes in ``out``.
+        joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
 
     Raises:
         ValidationError: if the two columns are (nearly) zero or parallel.
     """
-    f, cols, idx = _columns_args(features, columns, joints, out, 6)
-    _raise_for(_ortho6d_columns_kernel(f, cols, idx, out), "6D rotation encoding has a zero or degenerate column")
+    from .poseplan import ORTHO6D
+
+    _convert_columns(features, columns, joints, out, 6, ORTHO6D)

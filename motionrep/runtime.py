@@ -92,21 +92,36 @@ class Clip:
         self._rep = representation
         self._path = path
         self._codec_name = codec.name
+        self.container = container
+        self.skeleton: Skeleton = container.skeleton
         try:
-            self._decode_features = codec.decoder(Payload(arrays=container.arrays, info=container.info))
+            self._decoder = codec.decoder(Payload(arrays=container.arrays, info=container.info,
+                                                  version=container.codec_version))
         except MotionrepError:
             raise
         except (KeyError, ValueError, IndexError, TypeError) as exc:
             raise self._payload_error(exc) from None
-        self.container = container
-        self.skeleton: Skeleton = container.skeleton
         self.fps = float(container.fps)
         self.num_frames = int(container.num_frames)
         self.codec, self.representation = container.codec, container.representation
         self.duration = (self.num_frames - 1) / self.fps
         self._per_second = self.fps / (self.num_frames - 1) if self.num_frames > 1 else 0.0
-        self._fixed = _fixed_axes(self.skeleton)
-        self._features: NDArray | None = None  # (BLOCK, D) scratch, in the decoder's dtype (first call)
+        width = representation.width(self.skeleton)
+        compiled = all(hasattr(self._decoder, a) for a in ("kernel", "kernel_args", "width"))
+        if compiled and self._decoder.width != width:
+            raise ContainerError(f"codec {codec.name!r} decodes {self._decoder.width} features per pose, representation "
+                                 f"{representation.name!r} needs {width}", path)
+        self._codec_kernel = self._decoder.kernel if compiled else None
+        self._codec_args = tuple(self._decoder.kernel_args) if compiled else ()
+        plan = representation.pose_plan(self.skeleton)
+        if plan is not None:
+            fixed, values = _fixed_axes(self.skeleton)
+            self._plan: tuple | None = plan.with_fixed_axes(fixed, values).packed()
+        else:
+            self._plan = None
+        self._fixed = _fixed_axes_list(self.skeleton)
+        self._X = np.empty((width, BLOCK))  # one block's features, feature-major (see Codec.decoder)
+        self._kernels: tuple | None = None  # the compiled functions, resolved on the first decode
         self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),
                      np.dtype(np.float32): empty_poses(self.skeleton, 1, np.float32)}
         self._time = np.zeros(1)
@@ -171,7 +186,9 @@ class Clip:
             out = empty_poses(self.skeleton, u.size, dtype)
         elif (len(out) != u.size or out.rotations.shape[1:] != (self.skeleton.num_joints, 4)
               or out.root_translation.shape != (u.size, 3)
-              or out.joint_translations.shape != (u.size, self.skeleton.translated_joints.size, 3)):
+              or out.joint_translations.shape != (u.size, self.skeleton.translated_joints.size, 3)
+              or not all(a.flags.c_contiguous for a in (out.rotations, out.root_translation, out.joint_translations))
+              or out.rotations.dtype not in (np.float64, np.float32)):
             raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
         for a in range(0, u.size, BLOCK):
             b = min(u.size, a + BLOCK)
@@ -197,23 +214,13 @@ class Clip:
         of ``decode_poses``, plus what a ``Motion`` keeps beside them, such as the Euler branch) and the axes
         without a position channel restored.  ``motionrep.compress.decode_at``, the one decode path, is this."""
         u = np.ascontiguousarray(u, dtype=np.float64).reshape(-1)
-        features = np.empty((u.size, self._width()), self._features.dtype)
-        for a in range(0, u.size, BLOCK):
-            b = min(u.size, a + BLOCK)
-            self._features_at(u[a:b], features[a:b])
-        motion = self._rep.from_features(features.astype(np.float64), self.skeleton,
-                                         self.fps if fps is None else float(fps))
+        features = np.asarray(self._features_at(u), dtype=np.float64)
+        motion = self._rep.from_features(features, self.skeleton, self.fps if fps is None else float(fps))
         return fixed_axes_restored(motion)
 
-    def _width(self) -> int:
-        if self._features is None:  # the first call sizes the scratch: dtype and width of the decoder's output
-            first = np.asarray(self._features_at(np.zeros(1), None))
-            self._features = np.empty((BLOCK, first.shape[1]), first.dtype)
-        return self._features.shape[1]
-
-    def _features_at(self, u: NDArray[np.float64], out: NDArray | None) -> NDArray:
+    def _features_at(self, u: NDArray[np.float64]) -> NDArray:
         try:
-            return self._decode_features(u, out=out)
+            return self._decoder(u)
         except MotionrepError:
             raise
         except (KeyError, ValueError, IndexError, TypeError) as exc:
@@ -224,31 +231,59 @@ class Clip:
                               self._path)
 
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
-        """Decode at most :data:`BLOCK` normalised times into ``out``."""
-        self._width()
-        features = self._features_at(u, self._features[:u.shape[0]])
-        self._rep.decode_poses(features, self.skeleton, out)
+        """Decode at most :data:`BLOCK` normalised times into ``out``: the codec's features into the block's
+        feature-major scratch, then the representation's plan (one compiled call each), or the Python paths of
+        a codec or representation without them."""
+        kernels = self._kernels
+        if kernels is None:
+            from .poseplan import _poses_kernel
+
+            codec = None if self._codec_kernel is None else self._codec_kernel.dispatcher
+            kernels = self._kernels = (codec, _poses_kernel.dispatcher if self._plan is not None else None)
+        codec, poses = kernels
+        m = u.shape[0]
+        X = self._X
+        if codec is not None:
+            codec(u, X, *self._codec_args)
+        else:
+            features = np.asarray(self._features_at(u))
+            if features.shape != (m, X.shape[0]):
+                raise self._payload_error(ValueError(f"decoded features of shape {features.shape}, expected "
+                                                     f"{(m, X.shape[0])}"))
+            X[:, :m] = features.T
+        if poses is not None:
+            status = poses(X, m, self._plan[0], self._plan[1], True, out.rotations, out.root_translation,
+                           out.joint_translations)
+            if status:
+                from .poseplan import _raise_for
+
+                _raise_for(status)
+            return
+        self._rep.decode_poses(X[:, :m].T, self.skeleton, out)
         for name, index, values in self._fixed:
             getattr(out, name)[index] = values
 
 
-def _fixed_axes(skeleton: Skeleton) -> list:
-    """``(Poses attribute, index, values)`` for every translation axis that has no position channel: set back to
-    the joint's OFFSET after decoding, as ``motionrep.ops.fixed_axes_restored`` does for a Motion."""
-    fixed = []
-    root = [i for i, axis in enumerate("XYZ") if axis not in skeleton.position_axes[0]]
-    if root:
-        fixed.append(("root_translation", (slice(None), root), skeleton.offsets[0, root]))
-    k_idx, axes, values = [], [], []
-    for k, j in enumerate(skeleton.translated_joints.tolist()):
-        for i, axis in enumerate("XYZ"):
-            if axis not in skeleton.position_axes[j]:
-                k_idx.append(k)
-                axes.append(i)
-                values.append(skeleton.offsets[j, i])
-    if k_idx:
-        fixed.append(("joint_translations", (slice(None), k_idx, axes), np.array(values)))
-    return fixed
+def _fixed_axes(skeleton: Skeleton) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """``(1 + P, 3)`` whether each translation axis of the root and of ``skeleton.translated_joints`` has no
+    position channel, and the joint's OFFSET there: decoding sets such an axis back to the OFFSET, as
+    ``motionrep.ops.fixed_axes_restored`` does for a Motion."""
+    joints = [0] + skeleton.translated_joints.tolist()
+    fixed = np.array([[axis not in skeleton.position_axes[j] for axis in "XYZ"] for j in joints], bool)
+    return fixed, skeleton.offsets[joints].astype(np.float64)
+
+
+def _fixed_axes_list(skeleton: Skeleton) -> list:
+    """The same as ``(Poses attribute, index, values)`` assignments, for a representation without a plan."""
+    fixed, values = _fixed_axes(skeleton)
+    out = []
+    if fixed[0].any():
+        axes = np.flatnonzero(fixed[0])
+        out.append(("root_translation", (slice(None), axes), values[0, axes]))
+    k_idx, axes = np.nonzero(fixed[1:])
+    if k_idx.size:
+        out.append(("joint_translations", (slice(None), k_idx, axes), values[1:][k_idx, axes]))
+    return out
 
 
 def open_clip(source: str | os.PathLike[str] | bytes | Container) -> Clip:

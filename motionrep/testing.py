@@ -333,7 +333,7 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
         np.savez(buf, **arrays)
         buf.seek(0)
         with np.load(buf) as loaded:
-            stored = Payload({k: loaded[k] for k in loaded.files}, dict(payload.info))
+            stored = Payload({k: loaded[k] for k in loaded.files}, dict(payload.info), payload.version)
         if not np.array_equal(codec.decode(stored, ctx.times), out):
             _fail(f"{where}: the payload decodes differently after a save to .npz and back")
         result: dict[str, Any] = {"num_parameters": payload.num_parameters,

@@ -56,7 +56,7 @@ def decode_speed(container: Any, poses: int, seed: int) -> tuple[float | None, f
     c = container
     codec = get_codec(c.codec, version=c.codec_version)
     rep = get_representation(c.representation, version=c.representation_version)
-    payload = Payload(arrays=c.arrays, info=c.info)
+    payload = Payload(arrays=c.arrays, info=c.info, version=c.codec_version)
     rng = np.random.default_rng(seed)
 
     def decode(times: np.ndarray) -> Motion:

@@ -8,10 +8,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.errors import ValidationError
-from motionrep.jit import jit
 from motionrep.kinematics import global_positions
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+from motionrep.poseplan import WORLD_IDENTITY, WORLD_QUAT
+from motionrep.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
                                       feature_layout, per_skeleton)
 from motionrep.rotations import quat_multiply
 
@@ -51,48 +50,13 @@ def _features_dualquats(f: NDArray[np.float64], lay: FeatureLayout) -> NDArray[n
 
 
 @per_skeleton
-def _decode_plan(skeleton: Skeleton) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """``(J, 4)`` columns of each joint's real part and ``(J,)`` whether it has rotation channels."""
-    lay = _layout(skeleton)
-    columns = np.array([cols[:4] for cols in lay.rotation_columns], np.int64).reshape(-1, 4)
-    return columns, np.array([bool(o) for o in skeleton.rotation_orders])
+def _pose_plan(skeleton: Skeleton) -> PosePlan:
+    """Every joint's real part as a rotation in world axes (the identity locally for a joint without rotation
+    channels)."""
+    def entry(j: int, cols: NDArray[np.int64]) -> tuple[int, NDArray[np.int64], tuple]:
+        return (WORLD_QUAT, cols[:4], ()) if skeleton.rotation_orders[j] else (WORLD_IDENTITY, cols[:0], ())
 
-
-@jit
-def _local_rotations(f, columns, parents, rotated, out):
-    """Local rotations ``out (T, J, 4)`` from the real parts in ``f[:, columns[j]]``, normalised (eq. 13): joint
-    ``j``'s is ``G_parent* r_j`` with ``G`` the world rotations decoded so far (the identity for joints without
-    rotation channels).  False if a real part has zero or non-finite length."""
-    T, J = f.shape[0], columns.shape[0]
-    world = np.empty((J, 4))
-    ok = True
-    for t in range(T):
-        for j in range(J):
-            if rotated[j]:
-                x, y, z, w = (np.float64(f[t, columns[j, 0]]), np.float64(f[t, columns[j, 1]]),
-                              np.float64(f[t, columns[j, 2]]), np.float64(f[t, columns[j, 3]]))
-                n = np.sqrt(((x * x + y * y) + z * z) + w * w)
-                ok &= (n > 0.0) & (n < np.inf)
-                x, y, z, w = x / n, y / n, z / n, w / n
-            else:
-                x, y, z, w = 0.0, 0.0, 0.0, 1.0
-            p = parents[j]
-            if p >= 0:
-                # local = conj(G_p) r (for a joint without rotation channels: the identity)
-                ax, ay, az, aw = -world[p, 0], -world[p, 1], -world[p, 2], world[p, 3]
-                if rotated[j]:
-                    x, y, z, w = (aw * x + ax * w + ay * z - az * y, aw * y - ax * z + ay * w + az * x,
-                                  aw * z + ax * y - ay * x + az * w, aw * w - ax * x - ay * y - az * z)
-                # G_j = G_p local
-                ax, ay, az, aw = world[p, 0], world[p, 1], world[p, 2], world[p, 3]
-                world[j, 0] = aw * x + ax * w + ay * z - az * y
-                world[j, 1] = aw * y - ax * z + ay * w + az * x
-                world[j, 2] = aw * z + ax * y - ay * x + az * w
-                world[j, 3] = aw * w - ax * x - ay * y - az * z
-            else:
-                world[j, 0], world[j, 1], world[j, 2], world[j, 3] = x, y, z, w
-            out[t, j, 0], out[t, j, 1], out[t, j, 2], out[t, j, 3] = x, y, z, w
-    return ok
+    return _layout(skeleton).pose_plan(entry)
 
 
 class DualQuaternion(Representation):
@@ -107,7 +71,8 @@ class DualQuaternion(Representation):
 
     Decoding normalises each dual quaternion's real part (eq. 13) and uses only the real parts: joint ``j``'s
     local rotation is ``G_parent* r_j`` with ``G_parent`` the parent's already decoded world rotation (the
-    identity for joints without rotation channels), in one compiled loop over frames and joints.  The root translation comes from its 3 columns, joint offsets from
+    identity for joints without rotation channels), in one compiled pass (its :meth:`pose_plan`,
+    ``motionrep.poseplan``).  The root translation comes from its 3 columns, joint offsets from
     the skeleton (and from the translation columns for joints with position channels).  The dual parts are kept
     for users who want positions without FK; :func:`dual_part_offset_error` measures how far they have drifted.
     """
@@ -132,15 +97,8 @@ class DualQuaternion(Representation):
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
         return decoded_motion(self, features, skeleton, fps)
 
-    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        columns, rotated = _decode_plan(skeleton)
-
-        def rotations(f: NDArray, rotations: NDArray) -> None:
-            if not _local_rotations(f, columns, skeleton.parents, rotated, rotations):
-                raise ValidationError("cannot normalise a dual quaternion whose real part has zero or non-finite "
-                                      "length")
-
-        _layout(skeleton).decode_into(features, self.name, out, rotations)
+    def pose_plan(self, skeleton: Skeleton) -> PosePlan:
+        return _pose_plan(skeleton)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations and dual parts; for a joint's real part, its longest bone to a

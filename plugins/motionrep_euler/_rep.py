@@ -6,9 +6,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, check_features, decoded_motion,
+from motionrep.poseplan import EULER_DEGREES
+from motionrep.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
                                       feature_layout, joint_reach, per_skeleton)
-from motionrep.rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
+from motionrep.rotations import euler_branch, euler_columns, quat_to_euler_continuous
 
 __all__ = ["Euler"]
 
@@ -19,14 +20,14 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
 
 
 @per_skeleton
-def _decode_plan(skeleton: Skeleton) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
-    """Columns ``(R, 3)``, axes ``(R, 3)`` and joints ``(R,)`` for ``euler_columns_to_quat``."""
-    lay = _layout(skeleton)
-    joints = lay.rotation_joints
-    positions, axes = euler_columns([skeleton.rotation_orders[j] for j in joints.tolist()])
-    columns = np.array([[cols[k] if k >= 0 else -1 for k in ks] for cols, ks in
-                        zip(lay.rotation_columns, positions.tolist())], np.int64).reshape(-1, 3)
-    return columns, axes, joints
+def _pose_plan(skeleton: Skeleton) -> PosePlan:
+    """Each joint's angles in the order its factors apply (``motionrep.rotations.euler_columns``), degrees."""
+    def entry(j: int, cols: NDArray[np.int64]) -> tuple[int, list[int], list[int]]:
+        positions, axes = euler_columns([skeleton.rotation_orders[j]])
+        used = [k for k in positions[0].tolist() if k >= 0]
+        return EULER_DEGREES, [int(cols[k]) for k in used], axes[0, :len(used)].tolist()
+
+    return _layout(skeleton).pose_plan(entry)
 
 
 def _by_order(skeleton: Skeleton, joints: NDArray[np.int64]) -> dict[str, list[int]]:
@@ -83,10 +84,8 @@ class Euler(Representation):
             branch[:, joints[ks]] = euler_branch(angles, order, degrees=True)
         return decoded_motion(self, f, skeleton, fps, euler_branch=branch)
 
-    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        columns, axes, joints = _decode_plan(skeleton)
-        _layout(skeleton).decode_into(features, self.name, out, lambda f, rotations: euler_columns_to_quat(
-            f, columns, axes, joints, rotations, degrees=True))
+    def pose_plan(self, skeleton: Skeleton) -> PosePlan:
+        return _pose_plan(skeleton)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations; for a joint's angles (degrees), its reach times pi / 180."""

@@ -6,9 +6,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, decoded_motion,
-                                      feature_layout, joint_reach, per_skeleton)
-from motionrep.rotations import ortho6d_columns_to_quat, quat_to_ortho6d
+from motionrep.poseplan import ORTHO6D
+from motionrep.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
+                                      joint_reach, per_skeleton)
+from motionrep.rotations import quat_to_ortho6d
 
 __all__ = ["Ortho6D"]
 
@@ -22,9 +23,8 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
 
 
 @per_skeleton
-def _columns(skeleton: Skeleton) -> NDArray[np.int64]:
-    """``(R, 6)`` columns of each rotated joint's 6D block."""
-    return np.array(_layout(skeleton).rotation_columns, np.int64).reshape(-1, 6)
+def _pose_plan(skeleton: Skeleton) -> PosePlan:
+    return _layout(skeleton).pose_plan(lambda j, cols: (ORTHO6D, cols, ()))
 
 
 class Ortho6D(Representation):
@@ -53,10 +53,8 @@ class Ortho6D(Representation):
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
         return decoded_motion(self, features, skeleton, fps)
 
-    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        lay = _layout(skeleton)
-        lay.decode_into(features, self.name, out, lambda f, rotations: ortho6d_columns_to_quat(
-            f, _columns(skeleton), lay.rotation_joints, rotations))
+    def pose_plan(self, skeleton: Skeleton) -> PosePlan:
+        return _pose_plan(skeleton)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

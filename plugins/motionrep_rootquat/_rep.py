@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Poses, Representation, decoded_motion,
-                                      feature_layout, joint_reach, per_skeleton)
-from motionrep.rotations import (axis_angle_columns_to_quat, axis_angle_make_continuous, quat_columns_normalized,
-                                 quat_make_continuous, quat_to_axis_angle)
+from motionrep.poseplan import AXIS_ANGLE, QUAT
+from motionrep.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
+                                      joint_reach, per_skeleton)
+from motionrep.rotations import axis_angle_make_continuous, quat_make_continuous, quat_to_axis_angle
 
 __all__ = ["RootQuatAxisAngle"]
 
@@ -29,25 +27,9 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
     return feature_layout(skeleton, suffixes)
 
 
-@dataclass(frozen=True)
-class _DecodePlan:
-    """Where decoding reads and writes, worked out once per skeleton."""
-
-    root_columns: NDArray[np.int64]  # (1, 4) the root quaternion's columns, or (0, 4)
-    root_joint: NDArray[np.int64]  # (1,) or (0,)
-    columns: NDArray[np.int64]  # (R, 3) the rotation vectors' columns
-    joints: NDArray[np.int64]  # (R,) their joints
-
-
 @per_skeleton
-def _decode_plan(skeleton: Skeleton) -> _DecodePlan:
-    lay = _layout(skeleton)
-    pairs = list(zip(lay.rotation_joints.tolist(), lay.rotation_columns))
-    root = [cols for j, cols in pairs if j == 0]
-    others = [(j, cols) for j, cols in pairs if j > 0]
-    return _DecodePlan(np.array(root, np.int64).reshape(-1, 4), np.zeros(len(root), np.int64),
-                       np.array([c for _, c in others], np.int64).reshape(-1, 3),
-                       np.array([j for j, _ in others], np.int64))
+def _pose_plan(skeleton: Skeleton) -> PosePlan:
+    return _layout(skeleton).pose_plan(lambda j, cols: (QUAT if j == 0 else AXIS_ANGLE, cols, ()))
 
 
 class RootQuatAxisAngle(Representation):
@@ -61,9 +43,9 @@ class RootQuatAxisAngle(Representation):
     previous frame); for joints with position channels, their local translation (3, file units).  Joints
     without rotation channels take no rotation columns and decode to the identity.
 
-    Decoding normalises the root quaternion and converts the rotation vectors in one compiled pass each
-    (``motionrep.rotations.quat_columns_normalized``, ``axis_angle_columns_to_quat``), straight from the feature
-    columns, float32 or float64 features alike (the arithmetic is float64).
+    Decoding normalises the root quaternion and converts the rotation vectors in one compiled pass (its
+    :meth:`pose_plan`, ``motionrep.poseplan``), straight from the feature columns, float32 or float64 features
+    alike (the arithmetic is float64).
     """
 
     name = "root-quat-axis-angle"
@@ -92,15 +74,8 @@ class RootQuatAxisAngle(Representation):
     def from_features(self, features: ArrayLike, skeleton: Skeleton, fps: float) -> Motion:
         return decoded_motion(self, features, skeleton, fps)
 
-    def decode_poses(self, features: ArrayLike, skeleton: Skeleton, out: Poses) -> None:
-        plan = _decode_plan(skeleton)
-
-        def rotations(f: NDArray, rotations: NDArray) -> None:
-            if plan.root_joint.size:
-                quat_columns_normalized(f, plan.root_columns, plan.root_joint, rotations)
-            axis_angle_columns_to_quat(f, plan.columns, plan.joints, rotations)
-
-        _layout(skeleton).decode_into(features, self.name, out, rotations)
+    def pose_plan(self, skeleton: Skeleton) -> PosePlan:
+        return _pose_plan(skeleton)
 
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

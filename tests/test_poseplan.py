@@ -1,0 +1,127 @@
+"""motionrep.poseplan: one compiled pass from feature columns to poses, checked against scipy's conversions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from motionrep.errors import ValidationError
+from motionrep.poseplan import (AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, QUAT, WORLD_IDENTITY, WORLD_QUAT,
+                                PosePlan, decode_planned)
+
+
+def _plan(kinds, columns, axes=None, joints=None, J=None, parents=None, tcols=((0, 1, 2),), width=40):
+    R = len(kinds)
+    cols = np.full((R, 6), -1, np.int64)
+    for r, c in enumerate(columns):
+        cols[r, :len(c)] = c
+    ax = np.full((R, 3), -1, np.int64)
+    for r, a in enumerate(axes or [()] * R):
+        ax[r, :len(a)] = a
+    J = R if J is None else J
+    tc = np.array(tcols, np.int64).reshape(-1, 3)
+    return PosePlan(width=width, num_joints=J, kinds=np.array(kinds, np.int64), columns=cols, axes=ax,
+                    joints=np.arange(R, dtype=np.int64) if joints is None else np.array(joints, np.int64),
+                    parents=np.arange(J, dtype=np.int64) - 1 if parents is None else np.array(parents, np.int64),
+                    translation_columns=tc, translation_values=np.zeros(tc.shape))
+
+
+def _decode(plan, features, dtype=np.float64):
+    T = features.shape[0]
+    rotations = np.empty((T, plan.num_joints, 4), dtype)
+    root = np.empty((T, 3))
+    moved = np.empty((T, plan.num_translated, 3))
+    decode_planned(features, plan, rotations, root, moved)
+    return rotations, root, moved
+
+
+def _canonical(q):
+    return np.where(q[..., 3:] < 0, -q, q)
+
+
+def test_every_kind_matches_scipy_and_joints_without_an_entry_are_the_identity():
+    rng = np.random.default_rng(3)
+    T = 150  # more than one sub-block of the kernel
+    f = rng.normal(size=(T, 40)) * 2
+    f[:5, 7:10] *= 1e-5  # rotation vectors near zero: the series
+    plan = _plan([QUAT, AXIS_ANGLE, EULER_DEGREES, EULER, ORTHO6D, EULER_DEGREES],
+                 [(3, 4, 5, 6), (7, 8, 9), (10, 11, 12), (13, 14), (15, 16, 17, 18, 19, 20), (21,)],
+                 axes=[(), (), (2, 0, 1), (1, 2), (), (0,)], joints=[0, 1, 2, 3, 4, 6], J=8,
+                 tcols=((0, 1, 2), (22, 23, -1)))
+    rot, root, moved = _decode(plan, f)
+    expected = {
+        0: f[:, 3:7] / np.linalg.norm(f[:, 3:7], axis=1, keepdims=True),
+        1: Rotation.from_rotvec(f[:, 7:10]).as_quat(),
+        2: Rotation.from_euler("ZXY", f[:, 10:13], degrees=True).as_quat(),
+        3: Rotation.from_euler("YZ", f[:, 13:15]).as_quat(),
+        4: Rotation.from_matrix(_gram_schmidt(f[:, 15:21])).as_quat(),
+        6: Rotation.from_euler("X", f[:, 21:22], degrees=True).as_quat(),
+    }
+    for j, q in expected.items():
+        got = rot[:, j] if j in (0, 1) else _canonical(rot[:, j])
+        q = q if j in (0, 1) else _canonical(q)
+        np.testing.assert_allclose(got, q, rtol=0, atol=1e-12, err_msg=f"joint {j}")  # float64 ulps
+    assert np.array_equal(rot[:, [5, 7]], np.broadcast_to([0.0, 0.0, 0.0, 1.0], (T, 2, 4)))
+    assert np.array_equal(root, f[:, :3])
+    assert np.array_equal(moved[:, 0, :2], f[:, 22:24]) and np.all(moved[:, 0, 2] == 0.0)
+    # a pose decodes to the same bits alone; float32 rotations are the float64 ones rounded
+    for i in (0, 77, T - 1):
+        assert np.array_equal(_decode(plan, f[i:i + 1])[0][0], rot[i])
+    assert np.array_equal(_decode(plan, f, np.float32)[0], rot.astype(np.float32))
+
+
+def _gram_schmidt(d6):
+    a1, a2 = d6[:, :3], d6[:, 3:]
+    b1 = a1 / np.linalg.norm(a1, axis=1, keepdims=True)
+    u2 = a2 - np.sum(b1 * a2, axis=1, keepdims=True) * b1
+    b2 = u2 / np.linalg.norm(u2, axis=1, keepdims=True)
+    return np.stack([b1, b2, np.cross(b1, b2)], axis=2)
+
+
+def test_world_rotations_are_made_local_through_the_parents():
+    rng = np.random.default_rng(5)
+    f = rng.normal(size=(70, 12))
+    parents = [-1, 0, 1]
+    plan = _plan([WORLD_QUAT, WORLD_IDENTITY, WORLD_QUAT], [(3, 4, 5, 6), (), (7, 8, 9, 10)], parents=parents,
+                 width=12)
+    rot, _, _ = _decode(plan, f)
+    g0 = Rotation.from_quat(f[:, 3:7])
+    g2 = Rotation.from_quat(f[:, 7:11])
+    np.testing.assert_allclose(_canonical(rot[:, 0]), _canonical(g0.as_quat()), atol=1e-12)
+    np.testing.assert_allclose(_canonical(rot[:, 1]), np.broadcast_to([0, 0, 0, 1.0], (70, 4)), atol=1e-15)
+    # joint 1 does not rotate: its world rotation is joint 0's; joint 2's local one is g0* g2
+    np.testing.assert_allclose(_canonical(rot[:, 2]), _canonical((g0.inv() * g2).as_quat()), atol=1e-12)
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(kinds=[QUAT], columns=[(0, 1, 2)]), "must read 4 columns"),
+    (dict(kinds=[QUAT], columns=[(0, 1, 2, 99)]), "must read 4 columns"),
+    (dict(kinds=[9], columns=[(0,)]), "unknown conversion kind"),
+    (dict(kinds=[EULER], columns=[(0, 1)], axes=[(0, 3)]), "axis 0-2"),
+    (dict(kinds=[QUAT, QUAT], columns=[(0, 1, 2, 3), (4, 5, 6, 7)], joints=[1, 1], J=2), "different joint"),
+    (dict(kinds=[WORLD_QUAT], columns=[(0, 1, 2, 3)], J=2), "one entry per joint"),
+    (dict(kinds=[QUAT], columns=[(0, 1, 2, 3)], tcols=((0, 1, 40),)), "translation column"),
+])
+def test_a_plan_that_does_not_fit_is_refused(change, message):
+    with pytest.raises(ValidationError, match=message):
+        _plan(**change)
+
+
+def test_bad_features_are_refused():
+    plan = _plan([QUAT, ORTHO6D], [(3, 4, 5, 6), (7, 8, 9, 10, 11, 12)], width=13)
+    f = np.random.default_rng(0).normal(size=(4, 13))
+    with pytest.raises(ValidationError, match="shape"):
+        _decode(plan, f[:, :12])
+    bad = f.copy()
+    bad[2, 5] = np.nan
+    with pytest.raises(ValidationError, match="NaN or infinity"):
+        _decode(plan, bad)
+    bad = f.copy()
+    bad[1, 3:7] = 0.0
+    with pytest.raises(ValidationError, match="zero or non-finite length"):
+        _decode(plan, bad)
+    bad = f.copy()
+    bad[3, 10:13] = 2 * bad[3, 7:10]  # parallel columns
+    with pytest.raises(ValidationError, match="degenerate"):
+        _decode(plan, bad)
