@@ -72,6 +72,62 @@ def test_svd_interpolates_linearly_between_frames():
     assert np.allclose(out, [[1, 1], [2, 0], [3, -1], [5, -3]])
 
 
+def test_svd_version_2_decodes_in_float32_and_its_bound_is_measured_on_that():
+    m = synthetic_motion(chain_skeleton(4), frames=40)
+    r = compress_motion(m, "svd", max_error="2%")
+    assert r.container.codec_version == 2
+    # the encoder's check decoded exactly what a reader decodes
+    assert max_joint_error(m, decompress(r.data)).max_error == r.report.max_error
+    codec_out = _svd_decoded(r.container, 2)
+    assert np.array_equal(codec_out, codec_out.astype(np.float32))  # float32 values
+
+
+def test_svd_version_1_files_decode_in_float64_as_they_were_measured():
+    """Version 1 files were written (and their bound measured) when svd decoded in float64: they still decode
+    in float64, through the codec and through motionrep.open / decompress."""
+    import dataclasses
+
+    import motionrep
+    from motionrep.container import pack, unpack
+
+    m = synthetic_motion(chain_skeleton(4), frames=40)
+    r = compress_motion(m, "svd", params={"rank": 3, "dtype": "float16"}, max_error=None)
+    old = unpack(pack(dataclasses.replace(r.container, codec_version=1)))  # as version 1 was written
+    a = {k: np.asarray(v, np.float64) for k, v in old.arrays.items()}
+    t = np.linspace(0.0, 1.0, 97)
+    pos = t * (a["coefficients"].shape[0] - 1)
+    j = np.minimum(np.floor(pos).astype(int), a["coefficients"].shape[0] - 2)
+    frac = (pos - j)[:, None]
+    c = a["coefficients"][j] * (1 - frac) + a["coefficients"][j + 1] * frac
+    reference = a["mean"] + c @ a["basis"]  # float64 throughout
+    v1, v2 = _svd_decoded(old, 1, t), _svd_decoded(old, 2, t)
+    # float64 sums in another order than numpy's (BLAS may differ by machine): a few float64 ulps
+    np.testing.assert_allclose(v1, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
+    assert np.abs(v2 - reference).max() > 1e-9 * np.abs(reference).max()  # float32 would not be what was measured
+    # the runtime decoder and decompress decode version 1 in float64 too
+    rep = get_representation_of(old)
+    clip = motionrep.open(pack(old))
+    seconds = np.linspace(0.0, clip.duration, 23)
+    u = clip.normalized_times(seconds)
+    expected = rep.from_features(_svd_decoded(old, 1, u), old.skeleton, old.fps).rotations
+    np.testing.assert_array_equal(clip.poses(seconds).rotations, expected)
+    expected = rep.from_features(_svd_decoded(old, 1), old.skeleton, old.fps).rotations
+    np.testing.assert_array_equal(decompress(pack(old)).rotations, expected)
+
+
+def get_representation_of(container):
+    from motionrep.plugins import get_representation
+
+    return get_representation(container.representation, version=container.representation_version)
+
+
+def _svd_decoded(container, version, times=None):
+    from motionrep.plugins import get_codec
+
+    t = np.arange(container.num_frames) / (container.num_frames - 1) if times is None else times
+    return get_codec("svd").decode(Payload(container.arrays, container.info, version=version), t)
+
+
 def test_svd_float16_halves_the_factors():
     m = synthetic_motion(chain_skeleton(4), frames=40)
     r32 = compress_motion(m, "svd", params={"rank": 3}, max_error=None)

@@ -35,7 +35,7 @@ def small():
 def test_round_trip_keeps_every_field(small):
     motion, result = small
     c = unpack(result.data)
-    assert c.codec == "svd" and c.codec_version == 1 and c.codec_plugin == "motionrep_svd"
+    assert c.codec == "svd" and c.codec_version == 2 and c.codec_plugin == "motionrep_svd"
     assert c.representation == "root-quat-axis-angle" and c.representation_plugin == "motionrep_rootquat"
     assert c.skeleton == motion.skeleton and c.fps == motion.fps and c.num_frames == motion.num_frames
     assert c.params == {"rank": 1, "dtype": "float32"} and c.info == {"rank": 1}

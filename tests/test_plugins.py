@@ -391,7 +391,7 @@ def test_plugins_describe_lists_a_codecs_parameters():
                  "  k       int | None, default None:"):
         assert line in r.output, r.output
     d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "svd", "--json"]).output)
-    assert (d["kind"], d["plugin"], d["version"]) == ("codec", "motionrep_svd", 1)
+    assert (d["kind"], d["plugin"], d["version"]) == ("codec", "motionrep_svd", 2)
     assert [p["name"] for p in d["params"]] == ["rank", "dtype"]
     d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "dual-quaternion", "--json"]).output)
     assert (d["kind"], d["plugin"], d["params"]) == ("representation", "motionrep_dualquat", [])

@@ -7,8 +7,9 @@ is stored as ``coefficients = U_r S_r`` ``(F, r)`` and ``basis = V_r^T / s`` ``(
 Fourier codecs' loss.
 
 Decoding at normalised times ``t``: the coefficient rows are interpolated linearly between frames
-(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in float32 (the payload's precision) in
-one compiled loop (:class:`SVDDecoder`).
+(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in one compiled loop (:class:`SVDDecoder`):
+in float32 (the payload's own precision) for payload version 2, in float64 for version 1, whose files were
+measured in float64 when they were written.
 """
 
 from __future__ import annotations
@@ -48,12 +49,14 @@ class SVDParams:
 class SVDCodec(Codec):
     """Truncated SVD baseline of Tojo et al. (2022), section 4.1.
 
-    Payload (format version 1): ``mean (D,)`` float32, ``coefficients (F, r)`` and ``basis (r, D)`` in
-    ``dtype``.  Info: ``{"rank": r}``.
+    Payload (format version 2): ``mean (D,)`` float32, ``coefficients (F, r)`` and ``basis (r, D)`` in
+    ``dtype``, decoded in float32.  Info: ``{"rank": r}``.  Version 1 (the same arrays) is read too and decoded
+    in float64, as it was measured when written.
     """
 
     name = "svd"
-    format_version = 1
+    format_version = 2
+    readable_versions = (1, 2)
     description = "rank-r truncated SVD of the weighted, mean-centred features (Tojo et al. 2022 baseline)"
     Params = SVDParams
 
@@ -113,7 +116,7 @@ class SVDCodec(Codec):
         return f"rank={info['rank']}" if "rank" in info else super().describe(info, detail)
 
     def decoder(self, payload: Payload) -> "SVDDecoder":
-        return SVDDecoder(payload.arrays)
+        return SVDDecoder(payload.arrays, dtype=np.float64 if self.payload_version(payload) == 1 else np.float32)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         return self.decoder(payload)(times).astype(np.float64)
@@ -124,62 +127,70 @@ _ROWS = 64
 
 
 @jit
-def _decode_kernel(times, coeff, mean, basis_t, basis, out):
-    """``out (T, D)`` float32 = ``mean + c(t) @ basis``, ``c(t)`` the coefficient rows ``coeff (F, r)``
-    interpolated linearly at ``t`` (clipped to [0, 1]); the sums as ``motionrep.jit.affine_block`` /
-    ``affine_one`` (mean first, then the rank components in order), so a time decodes to the same bits alone or
-    in a batch."""
+def _decode_kernel(times, out, coeff, mean, basis_t, basis):
+    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = ``mean + c(t) @ basis`` at ``times (T,)``, ``c(t)``
+    the coefficient rows ``coeff (F, r)`` interpolated linearly at ``t`` (clipped to [0, 1]); arithmetic in the
+    arrays' dtype, the sums as ``motionrep.jit.affine_block`` / ``affine_one`` (mean first, then the rank
+    components in order), so a time decodes to the same bits alone or in a batch."""
     T, F, r, D = times.shape[0], coeff.shape[0], coeff.shape[1], mean.shape[0]
-    C = np.empty((r, _ROWS), np.float32)
-    Y = np.empty((D, _ROWS), np.float32)
-    c1 = np.empty(r, np.float32)
+    cast = coeff.dtype.type
+    C = np.empty((r, _ROWS), coeff.dtype)
+    Y = np.empty((D, _ROWS), coeff.dtype)
+    c1 = np.empty(r, coeff.dtype)
+    y1 = np.empty(D, coeff.dtype)
     for a in range(0, T, _ROWS):
         m = min(_ROWS, T - a)
         for i in range(m):
             t = min(max(times[a + i], 0.0), 1.0)
             pos = t * (F - 1)
             j = min(np.int64(np.floor(pos)), max(F - 2, 0))
-            frac = np.float32(pos - j)
-            rest = np.float32(1.0) - frac
+            frac = cast(pos - j)
+            rest = cast(1.0) - frac
             k1 = min(j + 1, F - 1)
             for k in range(r):
                 C[k, i] = coeff[j, k] * rest + coeff[k1, k] * frac
         if m == 1:
             for k in range(r):
                 c1[k] = C[k, 0]
-            affine_one(basis, mean, c1, out[a])
+            affine_one(basis, mean, c1, y1)
+            for d in range(D):
+                out[d, a] = y1[d]
             continue
         affine_block(basis_t, mean, C, Y, m)
-        for i in range(m):
-            for d in range(D):
-                out[a + i, d] = Y[d, i]
+        for d in range(D):
+            for i in range(m):
+                out[d, a + i] = Y[d, i]
 
 
 class SVDDecoder:
-    """An ``svd`` payload checked and converted to float32 once, ready to decode any number of times.
+    """An ``svd`` payload checked and converted once, ready to decode any number of times: one compiled pass per
+    block of times (``_decode_kernel``), in ``dtype`` (float32 for payload version 2, float64 for version 1).
 
-    Decoding is float32 (the payload's own precision: ``mean`` is float32, coefficients and basis float32 or
-    float16): one compiled pass per block of times (``_decode_kernel``).
+    Attributes:
+        width, kernel, kernel_args: the compiled decoder (``Codec.decoder``): ``kernel(times, out, *kernel_args)``
+            writes ``(D, >= T)`` float64 features, feature-major.
 
     Raises:
         ValueError: if the arrays' shapes do not fit together.
     """
 
-    def __init__(self, arrays):
+    def __init__(self, arrays, dtype: type = np.float32):
         mean, coeff, basis = (np.asarray(arrays[k]) for k in ("mean", "coefficients", "basis"))
         if mean.ndim != 1 or coeff.ndim != 2 or basis.shape != (coeff.shape[1], mean.shape[0]) or coeff.shape[0] < 1:
             raise ValueError(f"inconsistent svd payload shapes: mean {mean.shape}, coefficients {coeff.shape}, "
                              f"basis {basis.shape}")
-        self.width = mean.shape[0]
-        self._mean = np.ascontiguousarray(mean, dtype=np.float32)
-        self._coeff = np.ascontiguousarray(coeff, dtype=np.float32)
-        self._basis = np.ascontiguousarray(basis, dtype=np.float32)
-        self._basis_t = np.ascontiguousarray(self._basis.T)
+        self.width, self.dtype = mean.shape[0], np.dtype(dtype)
+        basis = np.ascontiguousarray(basis, dtype=dtype)
+        self.kernel = _decode_kernel
+        self.kernel_args = (np.ascontiguousarray(coeff, dtype=dtype), np.ascontiguousarray(mean, dtype=dtype),
+                            np.ascontiguousarray(basis.T), basis)
 
-    def __call__(self, times: ArrayLike, out: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
-        """``(T, D)`` float32 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
+    def __call__(self, times: ArrayLike, out: NDArray | None = None) -> NDArray:
+        """``(T, D)`` features at normalised ``times`` ``(T,)`` in ``dtype`` (into ``out`` when given)."""
         t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+        features = np.empty((self.width, t.size))
+        self.kernel.dispatcher(t, features, *self.kernel_args)
         if out is None:
-            out = np.empty((t.size, self.width), np.float32)
-        _decode_kernel(t, self._coeff, self._mean, self._basis_t, self._basis, out)
+            return features.T.astype(self.dtype)
+        out[...] = features.T
         return out
