@@ -15,8 +15,9 @@ Encoding (``specs/codecs.md`` has the full description):
 5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
 
 Decoding (:class:`TransformDecoder`, prepared once per payload): parse and range-decode, multiply by the steps,
-inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames).
-Numpy only.
+inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames): in
+numpy (:func:`interpolate_rows`), or in one compiled loop for the runtime decoder (the same arithmetic, so the
+same bits).
 """
 
 from __future__ import annotations
@@ -27,11 +28,11 @@ from typing import Any, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import minimum_filter1d
 
 from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError
+from motionrep.jit import jit
 
 from ._stream import MAX_EXPONENT, Quantised, pack, unpack
 from ._wavelet import coefficient_frames, forward, inverse, num_levels
@@ -128,12 +129,20 @@ def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
     return [np.asarray(table)[e - low] for e in exponents]
 
 
+def _sliding_min(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
+    """The minimum of ``values[i - span : i + span + 1]`` for each ``i``, the ends repeated (scipy's
+    ``minimum_filter1d(values, 2 span + 1, mode="nearest")``, without importing scipy.ndimage: 1.5 s of start-up
+    for every process that opens a transform clip)."""
+    padded = np.pad(values, span, mode="edge")
+    return np.lib.stride_tricks.sliding_window_view(padded, 2 * span + 1).min(axis=1)
+
+
 def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray[np.int64]], reach: list[int],
                           feature_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
     """Per coefficient array, ``(n, D)`` exponents ``b_c + min(k_r over the regions within reach)``."""
     out = []
     for rows, span in zip(region_of, reach):
-        k = minimum_filter1d(region_exp, 2 * span + 1, mode="nearest") if span > 0 else region_exp
+        k = _sliding_min(region_exp, span) if span > 0 else region_exp
         out.append(k[rows][:, None] + feature_exp[None, :])
     return out
 
@@ -180,9 +189,33 @@ def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[n
     return out
 
 
+@jit
+def _sample_kernel(times, out, rows):
+    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = :func:`interpolate_rows` of ``rows (F, D)`` at
+    ``times (T,)``, value for value (a time on a frame copies its row, between frames ``r_i + (r_(i+1) - r_i) a``)."""
+    F, D = rows.shape
+    for i in range(times.shape[0]):
+        t = min(max(times[i], 0.0), 1.0)
+        j, a = 0, 0.0
+        if F > 1:
+            pos = t * (F - 1)
+            j = min(np.int64(np.floor(pos)), F - 1)
+            a = pos - j
+        if a == 0.0:
+            for d in range(D):
+                out[d, i] = rows[j, d]
+        else:
+            for d in range(D):
+                out[d, i] = rows[j, d] + (rows[j + 1, d] - rows[j, d]) * a
+
+
 class TransformDecoder:
     """A payload prepared for decoding many times: range-decoded and transformed back once, to the ``(F, D)``
     features of its frames; each call only samples them (:func:`interpolate_rows`).
+
+    Attributes:
+        width, kernel, kernel_args: the compiled sampler for the runtime decoder (``Codec.decoder``):
+            ``kernel(times, out, *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
 
     Raises:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
@@ -195,6 +228,8 @@ class TransformDecoder:
         self.frames = reconstruct(unpack(data.tobytes()))
         self.frames.flags.writeable = False
         self.width = self.frames.shape[1]
+        self.kernel = _sample_kernel
+        self.kernel_args = (np.ascontiguousarray(self.frames, dtype=np.float64),)
 
     def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""

@@ -64,3 +64,33 @@ def test_format_1_payloads_still_decode():
     # and this version still writes the same bytes
     r = compress_motion(m, "transform", max_error="2%")
     assert r.container.arrays["data"].tobytes().hex() == GOLDEN_HEX
+
+
+def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
+    """``motionrep.open`` samples with the compiled kernel, ``decode`` with numpy: the same values."""
+    from motionrep_transform._codec import interpolate_rows
+
+    data = np.frombuffer(bytes.fromhex(GOLDEN_HEX), dtype=np.uint8)
+    decoder = get_codec("transform").decoder(Payload({"data": data}))
+    F = decoder.frames.shape[0]
+    rng = np.random.default_rng(1)
+    times = np.concatenate([rng.random(300), np.arange(F) / (F - 1), [0.0, 1.0, -0.5, 1.5, np.nextafter(1.0, 0)]])
+    out = np.full((decoder.width, times.size + 3), np.nan)
+    decoder.kernel(times, out, *decoder.kernel_args)
+    assert np.array_equal(out[:, :times.size].T, interpolate_rows(decoder.frames, times))
+    assert np.array_equal(out[:, :times.size].T, decoder(times))
+    single = np.empty((decoder.width, 2))
+    decoder.kernel(np.array([0.0, 0.7]), single, decoder.frames[:1].copy())
+    assert np.array_equal(single.T, np.repeat(decoder.frames[:1], 2, axis=0))  # a one-frame clip
+
+
+def test_sliding_min_is_scipys_minimum_filter_with_nearest_ends():
+    from scipy.ndimage import minimum_filter1d
+
+    from motionrep_transform._codec import _sliding_min
+
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3, 7, 50):
+        for span in (1, 2, 5, 60):
+            v = rng.integers(-20, 20, n)
+            assert np.array_equal(_sliding_min(v, span), minimum_filter1d(v, 2 * span + 1, mode="nearest"))
