@@ -148,7 +148,7 @@ class Codec(ABC):
         C-contiguous ``(D, >= m)`` float64 array to write **feature-major** (feature ``d`` of time ``i`` at
         ``out[d, i]``: the layout in which a codec computes a block, and in which the representations' compiled
         conversions read it, ``motionrep.poseplan``).  It must write the values ``__call__`` gives, and keep no
-        state between calls.  The ``svd`` and ``transform`` decoders do.
+        state between calls.  The shipped codecs' decoders do.
         """
         return _DecodeCall(self, payload)
 

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 
-from ._network import Network
+from ._network import Network, network_dtype
 from ._packed import dequantized, unpack
 from ._windows import Windows, join_windows, window_edges
 from ._workers import Runner, Task, WindowJob, worker_count
@@ -148,14 +148,18 @@ class _FourierCodec(Codec):
 
     def decoder(self, payload: Payload) -> Network | Windows:
         """The payload's network (or windows of networks), converted once (a quantised payload range-decoded
-        and dequantised once); decodes in float32."""
+        and dequantised once); decodes in float32, or in float64 for payload versions 1 and 2
+        (``_network.network_dtype``: what those files were measured in when they were written)."""
+        dtype = network_dtype(self.payload_version(payload))
         if "data" in payload.arrays:
             edges, scale, networks = unpack(payload.arrays["data"])
             arrays = [dequantized(n, scale) for n in networks]
-            return Network(arrays[0]) if len(arrays) == 1 else Windows(networks=(edges, arrays))
+            if len(arrays) == 1:
+                return Network(arrays[0], dtype=dtype)
+            return Windows(networks=(edges, arrays), dtype=dtype)
         if "edges" in payload.arrays:
-            return Windows(payload.arrays)
-        return Network(payload.arrays)
+            return Windows(payload.arrays, dtype=dtype)
+        return Network(payload.arrays, dtype=dtype)
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
         return self.decoder(payload)(times).astype(np.float64)

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Payload
 
-from ._network import Network
+from ._network import Networks
 from ._packed import pack, unpack
 
 __all__ = ["window_edges", "local_times", "window_of", "join_windows", "split_windows", "windows_forward", "Windows"]
@@ -112,39 +112,29 @@ def split_windows(arrays: Mapping[str, ArrayLike]) -> tuple[NDArray[np.int64], l
     return edges, windows
 
 
-class Windows:
-    """A windowed payload's networks, checked and converted once (:class:`~._network.Network` each), ready to
-    decode any number of clip times: each time by the network of the window it falls in, at its local time.
+class Windows(Networks):
+    """A windowed payload's networks, checked and converted once, ready to decode any number of clip times: each
+    time by the network of the window it falls in, at its local time (one compiled kernel,
+    :class:`~._network.Networks`).
+
+    Args:
+        arrays: the version-2 windowed layout (:func:`join_windows`), or
+        networks: ``(edges, [arrays of each window])`` (a quantised payload, dequantised).
+        dtype: the arithmetic (:func:`~._network.network_dtype` of the payload version).
 
     Raises:
         ValueError: if the arrays do not fit together.
     """
 
     def __init__(self, arrays: Mapping[str, ArrayLike] | None = None, *,
-                 networks: tuple[NDArray[np.int64], Sequence[Mapping[str, ArrayLike]]] | None = None):
+                 networks: tuple[NDArray[np.int64], Sequence[Mapping[str, ArrayLike]]] | None = None,
+                 dtype: type = np.float32):
         edges, windows = split_windows(arrays) if networks is None else networks
-        self._edges = np.asarray(edges, np.int64)
-        self._frames = int(edges[-1]) + 1
-        self._networks = [Network(w) for w in windows]
-        self.width = self._networks[0].width
-
-    def __call__(self, times: ArrayLike, out: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
-        """``(T, D)`` float32 features at clip ``times`` ``(T,)`` in [0, 1] (into ``out`` when given)."""
-        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
-        if out is None:
-            out = np.empty((t.size, self.width), np.float32)
-        index = window_of(t, self._edges, self._frames)
-        tau = local_times(t, self._frames, self._edges[index], self._edges[index + 1])
-        if t.size == 1:
-            self._networks[int(index[0])](tau, out)
-            return out
-        for s in np.unique(index).tolist():
-            rows = np.flatnonzero(index == s)
-            out[rows] = self._networks[s](tau[rows])
-        return out
+        super().__init__(windows, np.asarray(edges, np.int64), dtype=dtype)
 
 
-def windows_forward(arrays: Mapping[str, ArrayLike], times: ArrayLike) -> NDArray[np.float64]:
-    """``(T, D)`` features of a windowed payload at clip ``times`` in [0, 1] (computed in float32 by
+def windows_forward(arrays: Mapping[str, ArrayLike], times: ArrayLike, dtype: type = np.float32
+                    ) -> NDArray[np.float64]:
+    """``(T, D)`` features of a windowed payload at clip ``times`` in [0, 1] (computed in ``dtype`` by
     :class:`Windows`), as float64."""
-    return Windows(arrays)(times).astype(np.float64)
+    return Windows(arrays, dtype=dtype)(times).astype(np.float64)

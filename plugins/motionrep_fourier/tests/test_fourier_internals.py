@@ -343,21 +343,63 @@ def test_worker_count(monkeypatch):
 
 
 @pytest.mark.parametrize("version", [1, 2])
-def test_version_1_and_2_payloads_still_decode(version, chain_motion, windowed):
+def test_version_1_and_2_payloads_decode_in_float64_as_they_were_measured(version, chain_motion, windowed):
     """Files written before quantisation (payload version 2: float weights, one network or windows) and before
-    windows (version 1, the same arrays as one network of version 2)."""
+    windows (version 1, the same arrays as one network of version 2) were measured in float64 when they were
+    written: they decode in float64 (the plain formula of eq. 2, to float64 rounding), through the codec, the
+    runtime decoder and decompress alike; version 3 decodes the same arrays in float32."""
     import dataclasses
 
+    import motionrep
+    from motionrep.codec import Payload
     from motionrep.container import pack, unpack
+    from motionrep.plugins import get_codec, get_representation
+    from motionrep_fourier._network import fourier_features
+    from motionrep_fourier._windows import split_windows
+
+    def plain(a, t):
+        a = {k: np.asarray(v, dtype=np.float64) for k, v in a.items()}
+        h = fourier_features(t, a["omega"]) @ a["W0"].T + a["b0"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        h = h @ a["W1"].T + a["b1"]
+        h = np.where(h > 0, h, np.expm1(np.minimum(h, 0)))
+        return h @ a["W2"].T + a["b2"]
 
     r = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 50,
                                                                                "dtype": "float32"})
     assert r.container.codec_version == 3 and "edges" not in r.container.arrays
+    t = np.linspace(0.0, 1.0, 301)
     for result in (r, windowed) if version == 2 else (r,):
         old = unpack(pack(dataclasses.replace(result.container, codec_version=version)))
         assert old.codec_version == version
-        decoded = decompress(pack(old))
-        np.testing.assert_array_equal(decoded.rotations, decompress(result.data).rotations)
+        codec = get_codec(old.codec)
+        v_old = codec.decode(Payload(old.arrays, old.info, version=version), t)
+        v3 = codec.decode(Payload(old.arrays, old.info, version=3), t)
+        if "edges" in old.arrays:
+            edges, windows = split_windows(old.arrays)
+            F = int(edges[-1]) + 1
+            s = np.searchsorted(edges[1:-1], t * (F - 1), side="right")
+            reference = np.concatenate([plain(windows[s[i]], [(t[i] * (F - 1) - edges[s[i]])
+                                                              / (edges[s[i] + 1] - edges[s[i]])])
+                                        for i in range(t.size)])
+        else:
+            reference = plain(old.arrays, t)
+        scale = np.abs(reference).max()
+        # float64 sums in another order than numpy's (BLAS differs by machine): float64 rounding, not bit for bit
+        np.testing.assert_allclose(v_old, reference, rtol=0, atol=1e-12 * scale)
+        assert np.abs(v3 - reference).max() > 1e-9 * scale  # float32: not what version 1 and 2 files measured
+        # the runtime decoder and decompress decode the old version in float64 too
+        rep = get_representation(old.representation, version=old.representation_version)
+        clip = motionrep.open(pack(old))
+        seconds = np.linspace(0.0, clip.duration, 37)
+        u = clip.normalized_times(seconds)
+        expected = rep.from_features(codec.decode(Payload(old.arrays, old.info, version=version), u),
+                                     old.skeleton, old.fps)
+        np.testing.assert_array_equal(clip.poses(seconds).rotations, expected.rotations)
+        frames = np.arange(old.num_frames) / (old.num_frames - 1)
+        expected = rep.from_features(codec.decode(Payload(old.arrays, old.info, version=version), frames),
+                                     old.skeleton, old.fps)
+        np.testing.assert_array_equal(decompress(pack(old)).rotations, expected.rotations)
 
 
 def test_windows_measure_the_same_with_or_without_evaluate_frames(chain_motion):
