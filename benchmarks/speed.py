@@ -423,7 +423,9 @@ def main(argv: list[str] | None = None) -> None:
     doc["machine"] = machine()
     if "decode" not in args.skip:
         print(f"decode {args.decode_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
+        before = doc.get("decode") or {}
         doc["decode"] = decode_speed(args.decode_clip, args.decode_poses)
+        doc["decode"]["previous_run"] = _previous_run(before)
         _save(args.out, doc)
     if "profile" not in args.skip:
         print(f"profile {args.profile_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
@@ -513,6 +515,14 @@ def report(doc: dict) -> str:
     return "\n".join(md)
 
 
+def _previous_run(before: dict) -> dict:
+    """The figures of the last decode measurement (the one this run replaces), by ``codec/representation``."""
+    rows = {f"{c['codec']}/{c['representation']}": {"poses_per_second": c["poses_per_second_float64"],
+                                                    "one_pose_us": 1e6 * c["one_pose_seconds_median"]}
+            for c in before.get("codecs", []) if "error" not in c}
+    return {"code": before.get("code"), "load": [before.get("load_start"), before.get("load_end")], "rows": rows}
+
+
 def _decode_report(dec: dict) -> list[str]:
     ok = [c for c in dec["codecs"] if "error" not in c]
     target_p, target_us = dec["targets"]["poses_per_second"], dec["targets"]["one_pose_us"]
@@ -524,20 +534,25 @@ def _decode_report(dec: dict) -> list[str]:
           "\"per CPU s\" divides by this thread's CPU time instead of the wall clock (the machine may be shared).",
           "",
           "| codec | representation | poses/s float64 (per CPU s) | poses/s float32 | features/s (codec only) "
-          "| one pose median, p90 (CPU) | target | met |",
-          "|---|---|---:|---:|---:|---:|---|---|"]
+          "| one pose median, p90 (CPU) | previous run: poses/s, one pose | target | met |",
+          "|---|---|---:|---:|---:|---:|---:|---|---|"]
+    previous = dec.get("previous_run", {}).get("rows", {})
     for c in ok:
         met = c["poses_per_second_float64"] >= target_p and 1e6 * c["one_pose_seconds_median"] <= target_us
         md.append(f"| {c['codec']} | {c['representation']} | {c['poses_per_second_float64']:,.0f} "
                   f"({c['poses_per_cpu_second_float64']:,.0f}) | {c['poses_per_second_float32']:,.0f} "
                   f"| {c['features_per_second']:,.0f} | {1e6 * c['one_pose_seconds_median']:.1f} us, "
                   f"{1e6 * c['one_pose_seconds_p90']:.1f} us ({1e6 * c.get('one_pose_cpu_seconds_median', 0):.1f} us) "
+                  f"| {_previous_cell(previous.get(c['codec'] + '/' + c['representation']))} "
                   f"| >= {target_p:,} poses/s, <= {target_us:g} us "
                   f"| {'yes' if met else 'no'} |")
     for c in dec["codecs"]:
         if "error" in c:
-            md.append(f"| {c['codec']} | {c['representation']} | failed: {c['error'][:80]} | | | | | |")
-    md += ["", f"Before (batched through `decompress`'s steps, one pose through them): "
+            md.append(f"| {c['codec']} | {c['representation']} | failed: {c['error'][:80]} | | | | | | |")
+    run = dec.get("previous_run", {})
+    if run.get("rows"):
+        md += ["", f"Previous run: code {run.get('code')}, load {run['load'][0]}-{run['load'][1]}."]
+    md += ["", f"Before the runtime decoder (batched through `decompress`'s steps, one pose through them): "
            f"{dec['previous']['poses_per_second']} poses/s; one pose {dec['previous']['one_pose_us']} us.", ""]
     if "start_up" in dec:
         md += ["Start-up of a fresh process (import motionrep, open a clip; then its first pose and first batch, "
@@ -549,6 +564,10 @@ def _decode_report(dec: dict) -> list[str]:
                       f"| {r['first_batch']:.2f} s | {r['load']} |")
         md.append("")
     return md
+
+
+def _previous_cell(row: dict | None) -> str:
+    return "-" if row is None else f"{row['poses_per_second']:,.0f}, {row['one_pose_us']:.1f} us"
 
 
 if __name__ == "__main__":
