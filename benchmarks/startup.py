@@ -1,5 +1,6 @@
-"""Start-up time of the command line: `motionrep --help` and `motionrep info walk.bvh` (target: under 0.3 s),
-beside `python -c pass` and `python -c "import numpy"` measured in the same run, with the machine's load.
+"""Start-up time of the command line: `motionrep --help`, `motionrep info walk.bvh` and `motionrep info walk.mrc`
+(target: under 0.3 s), and of `import motionrep` and opening a clip with the runtime decoder, beside
+`python -c pass` and `python -c "import numpy"` measured in the same run, with the machine's load.
 
 Run: python benchmarks/startup.py [--repeats N]
 """
@@ -37,11 +38,18 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         walk = Path(tmp) / "walk.bvh"
         subprocess.run(prefix + ["example", str(walk)], capture_output=True, check=True)
+        mrc = Path(tmp) / "walk.mrc"
+        subprocess.run(prefix + ["compress", str(walk), "-o", str(mrc)], capture_output=True, check=True)
         rows = [
             ("python -c pass", [sys.executable, "-c", "pass"]),
             ("python -c 'import numpy'", [sys.executable, "-c", "import numpy"]),
             ("motionrep --help", prefix + ["--help"]),
             ("motionrep info walk.bvh", prefix + ["info", str(walk)]),
+            ("motionrep info walk.mrc", prefix + ["info", str(mrc)]),
+            ("python -c 'import motionrep'", [sys.executable, "-c", "import motionrep"]),
+            ("motionrep.open(walk.mrc)", [sys.executable, "-c", f"import motionrep; motionrep.open({str(mrc)!r})"]),
+            ("... and clip.pose(0.1)", [sys.executable, "-c",
+                                        f"import motionrep; motionrep.open({str(mrc)!r}).pose(0.1)"]),
         ]
         load = os.getloadavg()
         print(f"load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs")
