@@ -88,27 +88,28 @@ def _elu_array(a, out):
 
 
 @jit_inline
-def _elu_block(Z, m, double):
-    """ELU of ``Z[:, :m]`` in place: ``expm1`` in float64 (``double``), the polynomial :func:`_elu` in float32."""
+def _elu_block(Z, rows, m, double):
+    """ELU of ``Z[:rows, :m]`` in place: ``expm1`` in float64 (``double``), the polynomial :func:`_elu` in
+    float32."""
     if double:
-        for u in range(Z.shape[0]):
+        for u in range(rows):
             for i in range(m):
                 z = Z[u, i]
                 Z[u, i] = z if z >= 0.0 else np.expm1(z)
     else:
-        for u in range(Z.shape[0]):
+        for u in range(rows):
             for i in range(m):
                 Z[u, i] = _elu(Z[u, i])
 
 
 @jit_inline
-def _elu_vector(z, double):
+def _elu_vector(z, rows, double):
     if double:
-        for u in range(z.shape[0]):
+        for u in range(rows):
             v = z[u]
             z[u] = v if v >= 0.0 else np.expm1(v)
     else:
-        for u in range(z.shape[0]):
+        for u in range(rows):
             z[u] = _elu(z[u])
 
 
@@ -138,6 +139,7 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
     x1, z0, z1, y1 = np.empty(I, dt), np.empty(H, dt), np.empty(H, dt), np.empty(D, dt)
     window = np.empty(ROWS, np.int64)
     tau = np.empty(ROWS)
+    local = np.empty(ROWS)
     order = np.empty(ROWS, np.int64)  # the block's times grouped by window
     start = np.empty(S + 1, np.int64)
     two_pi = 2.0 * np.pi
@@ -191,32 +193,38 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
                     sn, cs = sincos(two_pi * t * w_omega[k])
                     x1[1 + 2 * k] = cast(sn)
                     x1[2 + 2 * k] = cast(cs)
-                h0, h1 = z0[:h], z1[:h]
-                affine_one(weights[o[5]:o[5] + inputs * h].reshape((inputs, h)), bias0, x1[:inputs], h0)
-                _elu_vector(h0, double)
-                affine_one(weights[o[6]:o[6] + h * h].reshape((h, h)), bias1, h0, h1)
-                _elu_vector(h1, double)
-                affine_one(weights[o[7]:o[7] + h * D].reshape((h, D)), b2[s], h1, y1)
+                # whole scratch arrays, not slices: the layers touch only their rows, and contiguous arrays
+                # keep the loops vectorised (slices are typed as strided)
+                affine_one(weights[o[5]:o[5] + inputs * h].reshape((inputs, h)), bias0, x1, z0)
+                _elu_vector(z0, h, double)
+                affine_one(weights[o[6]:o[6] + h * h].reshape((h, h)), bias1, z0, z1)
+                _elu_vector(z1, h, double)
+                affine_one(weights[o[7]:o[7] + h * D].reshape((h, D)), b2[s], z1, y1)
                 i = order[begin]
                 for d in range(D):
                     out[d, a + i] = y1[d]
             else:
-                for r in range(n):
-                    X[0, r] = cast(tau[order[begin + r]])
+                for r in range(n):  # the window's times, contiguous: the sines below vectorise
+                    local[r] = tau[order[begin + r]]
+                    X[0, r] = cast(local[r])
                 for k in range(K):
                     for r in range(n):
-                        sn, cs = sincos(two_pi * tau[order[begin + r]] * w_omega[k])
+                        sn, cs = sincos(two_pi * local[r] * w_omega[k])
                         X[1 + 2 * k, r] = cast(sn)
                         X[2 + 2 * k, r] = cast(cs)
-                Xs, A0, A1 = X[:inputs], H0[:h], H1[:h]
-                affine_block(W0, bias0, Xs, A0, n)
-                _elu_block(A0, n, double)
-                affine_block(W1, bias1, A0, A1, n)
-                _elu_block(A1, n, double)
-                affine_block(W2, b2[s], A1, Y, n)
-                for d in range(D):
-                    for r in range(n):
-                        out[d, a + order[begin + r]] = Y[d, r]
+                affine_block(W0, bias0, X, H0, n)  # whole scratch arrays, as above
+                _elu_block(H0, h, n, double)
+                affine_block(W1, bias1, H0, H1, n)
+                _elu_block(H1, h, n, double)
+                affine_block(W2, b2[s], H1, Y, n)
+                if n == m:  # the whole block in one window: the (stable) order is the identity
+                    for d in range(D):
+                        for r in range(n):
+                            out[d, a + r] = Y[d, r]
+                else:
+                    for d in range(D):
+                        for r in range(n):
+                            out[d, a + order[begin + r]] = Y[d, r]
             begin = end
 
 

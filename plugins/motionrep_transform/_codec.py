@@ -190,23 +190,29 @@ def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[n
 
 
 @jit
-def _sample_kernel(times, out, rows):
-    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = :func:`interpolate_rows` of ``rows (F, D)`` at
-    ``times (T,)``, value for value (a time on a frame copies its row, between frames ``r_i + (r_(i+1) - r_i) a``)."""
-    F, D = rows.shape
-    for i in range(times.shape[0]):
+def _sample_kernel(times, out, rows_t):
+    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = :func:`interpolate_rows` of the frames at
+    ``times (T,)``, given transposed, ``rows_t (D, F)``; value for value (a time on a frame copies its row, a time
+    between frames ``r_i + (r_(i+1) - r_i) a``).  Feature by feature, so the writes are contiguous."""
+    D, F = rows_t.shape
+    T = times.shape[0]
+    first = np.empty(T, np.int64)
+    second = np.empty(T, np.int64)
+    frac = np.empty(T)
+    for i in range(T):
         t = min(max(times[i], 0.0), 1.0)
         j, a = 0, 0.0
         if F > 1:
             pos = t * (F - 1)
             j = min(np.int64(np.floor(pos)), F - 1)
             a = pos - j
-        if a == 0.0:
-            for d in range(D):
-                out[d, i] = rows[j, d]
-        else:
-            for d in range(D):
-                out[d, i] = rows[j, d] + (rows[j + 1, d] - rows[j, d]) * a
+        first[i], second[i], frac[i] = j, min(j + 1, F - 1), a
+    for d in range(D):
+        r = rows_t[d]
+        for i in range(T):
+            v = r[first[i]]
+            w = v + (r[second[i]] - v) * frac[i]
+            out[d, i] = v if frac[i] == 0.0 else w  # on a frame, its value exactly (v + 0 could turn -0 to 0)
 
 
 class TransformDecoder:
@@ -225,11 +231,12 @@ class TransformDecoder:
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        self.frames = reconstruct(unpack(data.tobytes()))
-        self.frames.flags.writeable = False
+        frames_t = np.ascontiguousarray(reconstruct(unpack(data.tobytes())).T, dtype=np.float64)
+        frames_t.flags.writeable = False
+        self.frames = frames_t.T  # (F, D), stored feature-major for the compiled sampler
         self.width = self.frames.shape[1]
         self.kernel = _sample_kernel
-        self.kernel_args = (np.ascontiguousarray(self.frames, dtype=np.float64),)
+        self.kernel_args = (frames_t,)
 
     def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""

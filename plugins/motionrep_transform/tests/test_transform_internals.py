@@ -80,7 +80,7 @@ def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
     assert np.array_equal(out[:, :times.size].T, interpolate_rows(decoder.frames, times))
     assert np.array_equal(out[:, :times.size].T, decoder(times))
     single = np.empty((decoder.width, 2))
-    decoder.kernel(np.array([0.0, 0.7]), single, decoder.frames[:1].copy())
+    decoder.kernel(np.array([0.0, 0.7]), single, np.ascontiguousarray(decoder.frames[:1].T))
     assert np.array_equal(single.T, np.repeat(decoder.frames[:1], 2, axis=0))  # a one-frame clip
 
 
