@@ -37,7 +37,7 @@ _PROBES = 8
 #: How far each layer's step is made coarser after the common bisection, at most (index steps of 2^(1/8)).
 _COARSER = 16
 #: Shifts of the hidden layers' step indices tried against the sensitivity-based proportions.
-_SHIFTS = (-16, -8, 8)
+_SHIFTS = (-24, -16, -8, -4, 4, 8, 16)
 #: Without a bound: the RMS of the rounding's output error, in normalised units (the targets' RMS is 1).
 NOISE = 1e-3
 
@@ -193,7 +193,7 @@ def quantise_network(layers: list[NDArray[np.float64]], xT: NDArray[np.float64],
         return sum(fit_model(q).cost(q) for q in (Q0, Q1, Q2[:, :-1], Q2[:, -1]))
 
     # the error is an L-inf one, which the mean-squared proportions only approximate: the hidden layers' steps
-    # are also tried a half and one octave finer and coarser, the output layer's bisected for each, and the
+    # are also tried from three octaves finer to two coarser, the output layer's bisected for each, and the
     # steps of fewest coded bits kept
     best = relative + base
     best_bits = bits(best)
