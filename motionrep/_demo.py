@@ -83,5 +83,5 @@ if __name__ == "__main__":  # pragma: no cover - regenerates the shipped file
     from .io import write_bvh
 
     target = Path(__file__).resolve().parent / "data" / DEMO_FILE
-    write_bvh(demo_walk(), target)
+    write_bvh(demo_walk(), target, decimals=6)  # six decimals: a readable file (the clip is synthetic)
     print(f"wrote {target}")

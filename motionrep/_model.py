@@ -207,6 +207,11 @@ class Skeleton:
         """Number of BVH channel values per frame."""
         return sum(len(c) for c in self.channels)
 
+    @property
+    def num_rotation_channels(self) -> int:
+        """Number of BVH rotation channel values per frame (the width of ``Motion.euler_angles``)."""
+        return sum(len(o) for o in self.rotation_orders)
+
     @cached_property
     def children(self) -> tuple[tuple[int, ...], ...]:
         """Per joint, the indices of its child joints."""
@@ -280,6 +285,12 @@ class Motion:
             source used the second of the two Euler solutions of a rotation (middle angle outside [-90, 90]
             degrees).  The BVH reader sets it so that BVH -> any format -> BVH gives back the very channel
             values; it never changes the pose.  ``None``: writers choose angles continuous over frames.
+        euler_angles: optional ``(F, R)`` float, the rotation channel values of the clip's source in degrees
+            (``R = skeleton.num_rotation_channels``; joints in index order, each joint's rotation channels in its
+            channel order).  A hint for writers of Euler channels, like ``euler_branch`` but exact: the BVH reader
+            sets it so that writing BVH gives back the file's very numbers, bit for bit, full turns beyond
+            +-180 degrees included.  Writers use it only where it describes ``rotations`` (within 1e-9 per
+            quaternion component); :meth:`replace` drops it when the rotations or the skeleton change.
 
     Raises:
         ValidationError: quoting the shapes received, non-finite values, or quaternions that are not unit length.
@@ -291,6 +302,7 @@ class Motion:
     rotations: NDArray[np.float64]
     joint_translations: NDArray[np.float64] | None = None
     euler_branch: NDArray[np.bool_] | None = None
+    euler_angles: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.skeleton, Skeleton):
@@ -330,6 +342,9 @@ class Motion:
             if eb.shape != (F, J) or eb.dtype.kind not in "bui":
                 raise ValidationError(f"euler_branch must be a ({F}, {J}) bool array, got {eb.dtype} {eb.shape}")
             object.__setattr__(self, "euler_branch", _readonly(eb.astype(bool)))
+        if self.euler_angles is not None:
+            ea = _as_float_array(self.euler_angles, "euler_angles", (F, self.skeleton.num_rotation_channels))
+            object.__setattr__(self, "euler_angles", _readonly(ea))
 
     @property
     def num_frames(self) -> int:
@@ -364,7 +379,9 @@ class Motion:
         """A copy with some fields replaced (validated again)."""
         fields = dict(skeleton=self.skeleton, fps=self.fps, root_translation=self.root_translation,
                       rotations=self.rotations, joint_translations=self.joint_translations,
-                      euler_branch=self.euler_branch)
+                      euler_branch=self.euler_branch, euler_angles=self.euler_angles)
+        if ("rotations" in changes or "skeleton" in changes) and "euler_angles" not in changes:
+            fields["euler_angles"] = None  # the source's angles describe the old rotations only
         fields.update(changes)
         return Motion(**fields)
 
@@ -372,7 +389,8 @@ class Motion:
         """The frames selected by ``index`` (a slice or integer array), as a new Motion."""
         return Motion(self.skeleton, self.fps, self.root_translation[index], self.rotations[index],
                       self.joint_translations[index],
-                      None if self.euler_branch is None else self.euler_branch[index])
+                      None if self.euler_branch is None else self.euler_branch[index],
+                      None if self.euler_angles is None else self.euler_angles[index])
 
     def __repr__(self) -> str:
         return (f"Motion({self.num_frames} frames at {self.fps:g} fps, {self.num_joints} joints, "

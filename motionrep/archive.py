@@ -3,13 +3,15 @@
 An archive holds one complete ``.mrc`` container per clip (so every clip keeps its own checksum and metadata),
 written by ``motionrep compress DIR|DATABASE.h5 -o OUT.h5``::
 
-    /                attribute format = "motionrep-mrc-archive", attribute format_version = 1
-    /clips/<name>    uint8 dataset: the bytes of the clip's .mrc container
+    /                attribute format = "motionrep-mrc-archive", attribute format_version = 2
+    /clips/<name>    uint8 dataset: the bytes of the clip's .mrc container (Fletcher-32 checksum since version 2)
 
 :class:`Archive` is an archive open for reading (names, sizes and containers on demand, the file opened once);
 :func:`read_archive` and :func:`archive_sizes` are one-call shortcuts.  Every container read is verified like a
 ``.mrc`` file (:func:`motionrep.container.unpack`); problems raise :class:`~motionrep.errors.ContainerError`
-naming the file and the clip.
+naming the file and the clip.  Archives are read like HDF5 databases, through the watchdog of
+:mod:`motionrep.io._h5read`: links, external storage and unknown filters are refused, and a container larger
+than the ``max_clip_bytes`` limit is refused before it is read (``specs/limits.md``).
 """
 
 from __future__ import annotations
@@ -27,8 +29,11 @@ __all__ = ["ARCHIVE_FORMAT", "ARCHIVE_VERSION", "Archive", "write_archive", "is_
 
 #: Value of the root ``format`` attribute of an archive.
 ARCHIVE_FORMAT = "motionrep-mrc-archive"
-#: Archive layout version written and read by this motionrep (never reused).
-ARCHIVE_VERSION = 1
+#: Archive layout version written by this motionrep (never reused).  Version 2: a Fletcher-32 checksum on every
+#: container and the HDF5 1.10 object formats (checksummed metadata).
+ARCHIVE_VERSION = 2
+#: Versions this motionrep reads.
+READABLE_ARCHIVE_VERSIONS = (1, 2)
 
 
 def write_archive(clips: Mapping[str, bytes] | Iterable[tuple[str, bytes]], path: str | os.PathLike[str]) -> None:
@@ -41,16 +46,18 @@ def write_archive(clips: Mapping[str, bytes] | Iterable[tuple[str, bytes]], path
 
     from .io import atomic_path
 
+    from .io._hdf5 import LIBVER
+
     items = clips.items() if isinstance(clips, Mapping) else clips
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with h5py.File(tmp, "w", libver=LIBVER) as f:
             f.attrs["format"] = ARCHIVE_FORMAT
             f.attrs["format_version"] = np.int64(ARCHIVE_VERSION)
             group = f.create_group("clips")
             for name, data in items:
                 if not name or "/" in name or name in (".", ".."):
                     raise FormatError(f"invalid clip name {name!r} for an archive", path)
-                group.create_dataset(name, data=np.frombuffer(data, dtype=np.uint8))
+                group.create_dataset(name, data=np.frombuffer(data, dtype=np.uint8), fletcher32=bool(len(data)))
 
 
 class Archive:
@@ -58,7 +65,8 @@ class Archive:
 
     Args:
         path: the file (named in errors).
-        file: the ``h5py.File`` already open; it is then owned, and closed, by this object.
+        file: the file already open (:func:`motionrep.io._hdf5.open_hdf5_file`); it is then owned, and closed, by
+            this object.
 
     Raises:
         ContainerError: naming the file if it cannot be opened, is not an archive or has another version.
@@ -75,22 +83,30 @@ class Archive:
             self._file.close()
             raise
 
-    def _check(self) -> Any:
-        import h5py
-
+    def _check(self) -> dict[str, str]:
+        from .io._h5read import H5Error
         from .io._hdf5 import root_format
 
         f = self._file
-        if root_format(f) != ARCHIVE_FORMAT:
+        if root_format(f, ContainerError) != ARCHIVE_FORMAT:
             raise ContainerError("not a motionrep archive of .mrc containers", self.path)
-        version = np.asarray(f.attrs.get("format_version", -1))
+        try:
+            version = f.attrs("").get("format_version", -1)
+            version = np.asarray(-1 if version is Ellipsis else version)
+            kinds = dict(f.members(""))
+            clips = dict(f.members("clips")) if kinds.get("clips") == "group" else None
+        except H5Error as exc:
+            raise ContainerError(f"cannot read archive: {exc}", self.path) from None
         shown = int(version) if version.ndim == 0 and version.dtype.kind in "iu" else "(missing or invalid)"
-        if shown != ARCHIVE_VERSION:
-            raise ContainerError(f"unsupported archive version {shown} (this motionrep reads {ARCHIVE_VERSION})",
-                                 self.path)
-        clips = f.get("clips")
-        if not isinstance(clips, h5py.Group):
+        if shown not in READABLE_ARCHIVE_VERSIONS:
+            raise ContainerError(f"unsupported archive version {shown} (this motionrep reads "
+                                 f"{', '.join(map(str, READABLE_ARCHIVE_VERSIONS))})", self.path)
+        if clips is None:
             raise ContainerError("invalid archive: no group '/clips'", self.path)
+        for name, kind in clips.items():
+            if kind != "dataset":
+                raise ContainerError(f"invalid archive: clip {name!r} is not a dataset but a {kind}"
+                                     + ("; motionrep follows no links in a file" if "link" in kind else ""), self.path)
         return clips
 
     @property
@@ -98,25 +114,41 @@ class Archive:
         """The clip names, sorted."""
         return sorted(self._clips)
 
-    def _dataset(self, name: str) -> Any:
-        import h5py
+    def _dataset(self, name: str) -> dict[str, Any]:
+        from .io._h5read import H5Error
 
         if name not in self._clips:
             raise ContainerError(f"no clip {name!r} in archive; clips: {', '.join(self.names)}", self.path)
-        ds = self._clips[name]
-        if not isinstance(ds, h5py.Dataset) or ds.ndim != 1 or ds.dtype != np.uint8:
+        try:
+            desc = self._file.describe(f"clips/{name}")
+        except H5Error as exc:
+            raise ContainerError(f"cannot read clip {name!r}: {exc}", self.path) from None
+        if desc["shape"] is None or len(desc["shape"]) != 1 or desc["dtype"] != np.uint8:
             raise ContainerError(f"invalid archive: clip {name!r} is not a 1-D uint8 dataset", self.path)
-        return ds
+        return desc
 
     def size(self, name: str) -> int:
         """Bytes of clip ``name``'s container (not read)."""
-        return int(self._dataset(name).shape[0])
+        return int(self._dataset(name)["shape"][0])
 
     def read_bytes(self, name: str) -> bytes:
-        """The ``.mrc`` bytes of clip ``name``, unverified."""
+        """The ``.mrc`` bytes of clip ``name``, unverified.
+
+        Raises:
+            ContainerError: naming the file and clip if it cannot be read, fails its checksum, or is larger than
+                the ``max_clip_bytes`` limit (checked before reading).
+        """
+        from .limits import ENVIRONMENT, current
+        from .io._h5read import H5Error
+
+        size = self.size(name)
+        lim = current().max_clip_bytes
+        if size > lim:
+            raise ContainerError(f"clip {name!r}: a {size}-byte container, more than the limit of {lim} bytes "
+                                 f"(raise {ENVIRONMENT['max_clip_bytes']} to read it)", self.path)
         try:
-            return self._dataset(name)[()].tobytes()
-        except OSError as exc:
+            return self._file.read(f"clips/{name}", lim).tobytes()
+        except H5Error as exc:
             raise ContainerError(f"cannot read clip {name!r}: {exc}", self.path) from None
 
     def container(self, name: str) -> Container:
@@ -140,14 +172,12 @@ class Archive:
 
 def is_archive(path: str | os.PathLike[str]) -> bool:
     """True if ``path`` is an HDF5 archive of ``.mrc`` containers."""
-    import h5py
-
-    from .io._hdf5 import root_format
+    from .io._hdf5 import open_hdf5_file, root_format
 
     try:
-        with h5py.File(path, "r") as f:
-            return root_format(f) == ARCHIVE_FORMAT
-    except OSError:
+        with open_hdf5_file(path, ContainerError) as f:
+            return root_format(f, ContainerError) == ARCHIVE_FORMAT
+    except ContainerError:
         return False
 
 

@@ -19,6 +19,11 @@ Reading checks, in order: length at least 24 bytes, magic, the stored length aga
 (truncation or extension), the CRC-32 (every single-byte change; CRC-32 detects every error burst of up to 32
 bits), then the container version, the metadata and the array table.  A check that fails raises
 :class:`~motionrep.errors.ContainerError` naming the file; garbage is never decoded.
+
+A valid checksum says the file is intact, not that whoever wrote it meant well, so the metadata is then checked
+as untrusted input: it is inflated only up to the ``max_metadata_bytes`` limit, every field must have its
+documented type, array shapes must describe exactly the payload, and ``num_frames`` must be within the
+``max_frames`` and ``max_clip_bytes`` limits (:mod:`motionrep.limits`) before anything is decoded.
 """
 
 from __future__ import annotations
@@ -35,6 +40,8 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from .limits import ENVIRONMENT, check_clip
+from .limits import current as current_limits
 from ._model import Skeleton
 from .errors import ContainerError, ValidationError
 
@@ -140,17 +147,34 @@ def skeleton_from_json(obj: Mapping[str, Any]) -> Skeleton:
     Raises:
         ValidationError: if the object does not describe a valid skeleton.
     """
+    names = _get(obj, "names", (list,), "skeleton")
+    if not all(isinstance(n, str) for n in names):
+        raise ValidationError("invalid skeleton in container: 'skeleton.names' must be an array of strings")
+    channels = _get(obj, "channels", (list,), "skeleton")
+    if not all(isinstance(c, str) for c in channels):
+        raise ValidationError("invalid skeleton in container: 'skeleton.channels' must be an array of strings")
+    numbers = {}
+    for key, kind in (("parents", "int"), ("end_site_parents", "int"), ("offsets", "xyz"),
+                      ("end_site_offsets", "xyz")):
+        value = _get(obj, key, (list,), "skeleton")
+        rows = value if kind == "xyz" else [value]
+        if not all(isinstance(r, list) and (kind != "xyz" or len(r) == 3)
+                   and all(isinstance(x, int if kind == "int" else (int, float)) and not isinstance(x, bool)
+                           for x in r) for r in rows):
+            want = "an array of integers" if kind == "int" else "an array of [x, y, z] numbers"
+            raise ValidationError(f"invalid skeleton in container: 'skeleton.{key}' must be {want}")
+        numbers[key] = value
     try:
         return Skeleton(
-            names=tuple(obj["names"]),
-            parents=np.array(obj["parents"], dtype=np.int64),
-            offsets=np.array(obj["offsets"], dtype=np.float64).reshape(-1, 3),
-            channels=tuple(tuple(c.split()) for c in obj["channels"]),
-            end_site_parents=np.array(obj["end_site_parents"], dtype=np.int64),
-            end_site_offsets=np.array(obj["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
-            units=obj.get("units"),
+            names=tuple(names),
+            parents=np.array(numbers["parents"], dtype=np.int64),
+            offsets=np.array(numbers["offsets"], dtype=np.float64).reshape(-1, 3),
+            channels=tuple(tuple(c.split()) for c in channels),
+            end_site_parents=np.array(numbers["end_site_parents"], dtype=np.int64),
+            end_site_offsets=np.array(numbers["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
+            units=_get(obj, "units", (str, type(None)), "skeleton", required=False),
         )
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         if isinstance(exc, ValidationError):
             raise
         raise ValidationError(f"invalid skeleton in container: {type(exc).__name__}: {exc}") from None
@@ -266,60 +290,214 @@ def unpack(data: bytes, path: str | os.PathLike[str] | None = None) -> Container
     start = _PREAMBLE.size
     if start + meta_len > n - _CRC.size:
         raise ContainerError("invalid .mrc file: metadata length exceeds the file", path)
+    meta = _metadata(data[start:start + meta_len], path)
     try:
-        meta = json.loads(zlib.decompress(data[start:start + meta_len]).decode("utf-8"))
-    except (zlib.error, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ContainerError(f"invalid .mrc metadata: {exc}", path) from None
-    try:
-        return _from_meta(meta, memoryview(data)[start + meta_len: n - _CRC.size], path)
+        return _from_meta(meta, memoryview(data)[start + meta_len: n - _CRC.size], path, n)
     except ContainerError:
         raise
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+    except (ValidationError, KeyError, TypeError, ValueError, AttributeError, OverflowError, RecursionError) as exc:
         raise ContainerError(f"invalid .mrc metadata: {type(exc).__name__}: {exc}", path) from None
 
 
-def _from_meta(meta: dict[str, Any], payload: memoryview, path) -> Container:
-    arrays: dict[str, NDArray[Any]] = {}
+def _metadata(blob: bytes, path) -> dict[str, Any]:
+    """Inflate (at most ``max_metadata_bytes``) and parse the metadata JSON."""
+    limit = current_limits().max_metadata_bytes
+    try:
+        inflater = zlib.decompressobj()
+        text = inflater.decompress(blob, limit + 1)
+        if len(text) > limit or (inflater.unconsumed_tail and not inflater.eof):
+            raise ContainerError(f"invalid .mrc file: its metadata inflates to more than {limit} bytes, the limit "
+                                 f"(raise {ENVIRONMENT['max_metadata_bytes']} to read it)", path)
+        if not inflater.eof:
+            raise ContainerError("invalid .mrc metadata: the zlib stream is truncated", path)
+        if inflater.unused_data:
+            raise ContainerError("invalid .mrc metadata: bytes after the end of the zlib stream", path)
+        meta = json.loads(text.decode("utf-8"))
+    except ContainerError:
+        raise
+    except RecursionError:
+        raise ContainerError("invalid .mrc metadata: JSON nested too deeply", path) from None
+    except MemoryError:
+        raise ContainerError("invalid .mrc metadata: not enough memory to parse it", path) from None
+    except (zlib.error, UnicodeDecodeError, ValueError) as exc:  # json.JSONDecodeError is a ValueError
+        raise ContainerError(f"invalid .mrc metadata: {exc}", path) from None
+    if not isinstance(meta, dict):
+        raise ContainerError(f"invalid .mrc metadata: a JSON object was expected, found {type(meta).__name__}",
+                             path)
+    return meta
+
+
+# ---- typed access to the metadata: untrusted JSON ----------------------------------------------------------------
+def _get(obj: Mapping[str, Any], key: str, types: tuple[type, ...], where: str, required: bool = True) -> Any:
+    if not isinstance(obj, Mapping):
+        raise ValidationError(f"'{where}' must be an object, got {type(obj).__name__}")
+    full = f"{where}.{key}" if where else key
+    if key not in obj:
+        if required:
+            raise ValidationError(f"'{full}' is missing")
+        return None
+    value = obj[key]
+    if value is None and type(None) in types:
+        return None
+    if isinstance(value, bool) and bool not in types:
+        ok = False
+    else:
+        ok = isinstance(value, tuple(t for t in types if t is not type(None)))
+    if not ok:
+        want = " or ".join(_JSON_NAMES.get(t, t.__name__) for t in types)
+        raise ValidationError(f"'{full}' must be {want}, got {_json_name(value)}")
+    return value
+
+
+_JSON_NAMES = {str: "a string", int: "an integer", float: "a number", dict: "an object", list: "an array",
+               type(None): "null", bool: "true/false"}
+
+
+def _json_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true/false"
+    return {str: "a string", int: "an integer", float: "a number", dict: "an object", list: "an array",
+            type(None): "null"}.get(type(value), type(value).__name__)
+
+
+def _number(obj: Mapping[str, Any], key: str, where: str, required: bool = True, null: bool = False) -> float | None:
+    value = _get(obj, key, (int, float, type(None)) if null else (int, float), where, required)
+    if value is not None and not math.isfinite(float(value)):
+        raise ValidationError(f"'{f'{where}.{key}' if where else key}' must be finite")
+    return None if value is None else float(value)
+
+
+#: Outcome keys every shipped codec uses, and their types (``codec.info``); other keys may be any plain JSON.
+_INFO_INTEGERS = ("K", "rank", "hidden", "windows", "iterations")
+#: ``evaluation`` keys and whether each is a number, an integer or a string (all but ``units``/``bound`` required).
+_EVALUATION = {"max_error": "number", "max_error_percent": "number", "mean_error": "number",
+               "mean_error_percent": "number", "frame": "integer", "joint": "string", "height": "number",
+               "units": "string?", "num_frames": "integer", "num_points": "integer", "bound": "number?"}
+
+
+_MAX_DEPTH = 32  # nesting of arrays and objects inside one metadata field (motionrep writes at most 3)
+
+
+def _plain(value: Any, where: str) -> None:
+    """``value`` is JSON made of numbers, strings, booleans, null, arrays and objects, nested at most
+    ``_MAX_DEPTH`` deep (whoever prints or copies it later may recurse)."""
+    stack = [(value, where, 0)]
+    while stack:
+        v, w, depth = stack.pop()
+        if depth > _MAX_DEPTH:
+            raise ValidationError(f"'{w}' is nested more than {_MAX_DEPTH} levels deep")
+        if isinstance(v, Mapping):
+            stack.extend((x, f"{w}.{k}", depth + 1) for k, x in v.items())
+        elif isinstance(v, list):
+            stack.extend((x, w, depth + 1) for x in v)
+        elif not (v is None or isinstance(v, (bool, int, float, str))):
+            raise ValidationError(f"'{w}' holds {type(v).__name__}, not JSON")
+
+
+def _check_info(info: Mapping[str, Any]) -> None:
+    for key in _INFO_INTEGERS:
+        if key in info:
+            v = info[key]
+            items = v if isinstance(v, list) else [v]
+            if not all(isinstance(x, int) and not isinstance(x, bool) for x in items):
+                raise ValidationError(f"'codec.info.{key}' must be an integer or an array of integers")
+    if "omega" in info:
+        v = info["omega"]
+        flat = [x for row in v for x in (row if isinstance(row, list) else [row])] if isinstance(v, list) else None
+        if flat is None or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                                   for x in flat):
+            raise ValidationError("'codec.info.omega' must be an array of numbers (or of arrays of numbers)")
+
+
+def _check_evaluation(ev: Mapping[str, Any]) -> None:
+    for key, kind in _EVALUATION.items():
+        optional = kind.endswith("?")
+        kind = kind.rstrip("?")
+        if kind == "number":
+            _number(ev, key, "evaluation", required=not optional, null=optional)
+        elif kind == "integer":
+            _get(ev, key, (int,), "evaluation")
+        else:
+            _get(ev, key, (str, type(None)) if optional else (str,), "evaluation", required=not optional)
+
+
+def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) -> Container:
+    """The container described by ``meta`` (parsed, untrusted JSON) over ``payload``; every field is type-checked
+    and the sizes checked against the payload and the limits before any array is made."""
+    table = _get(meta, "arrays", (list,), "")
+    entries = []
+    seen: set[str] = set()
     offset = 0
-    for entry in meta["arrays"]:
-        name, kind, shape = entry["name"], entry["dtype"], tuple(int(s) for s in entry["shape"])
-        if kind not in _DTYPES or any(s < 0 for s in shape) or name in arrays:
-            raise ContainerError(f"invalid .mrc array table entry {entry!r}", path)
+    for i, entry in enumerate(table):
+        where = f"arrays[{i}]"
+        name = _get(entry, "name", (str,), where)
+        kind = _get(entry, "dtype", (str,), where)
+        shape = _get(entry, "shape", (list,), where)
+        if kind not in _DTYPES:
+            raise ContainerError(f"invalid .mrc array table: '{where}.dtype' is {kind!r}, not one of "
+                                 + ", ".join(_DTYPES), path)
+        if not name or name in seen:
+            raise ContainerError(f"invalid .mrc array table: '{where}.name' {name[:80]!r} is empty or repeated", path)
+        seen.add(name)
+        if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in shape) or len(shape) > 32:
+            raise ContainerError(f"invalid .mrc array table: '{where}.shape' must be at most 32 integers >= 0, got "
+                                 f"{shape!r}"[:200], path)
         dtype = np.dtype(_DTYPES[kind]).newbyteorder("<")
-        size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        size = math.prod(shape) * dtype.itemsize  # Python integers: a huge shape cannot overflow
         if offset + size > len(payload):
-            raise ContainerError(f"invalid .mrc file: array {name!r} runs past the payload", path)
-        a = np.frombuffer(payload[offset:offset + size], dtype=dtype).reshape(shape).astype(dtype.newbyteorder("="))
-        a.flags.writeable = False
-        arrays[name] = a
+            raise ContainerError(f"invalid .mrc file: array {name!r} of shape {tuple(shape)} runs past the payload "
+                                 f"({len(payload)} bytes)"[:300], path)
+        entries.append((name, dtype, tuple(shape), offset, size))
         offset += size
     if offset != len(payload):
         raise ContainerError(f"invalid .mrc file: {len(payload) - offset} payload bytes not described by the "
                              "array table", path)
-    codec, rep = meta["codec"], meta["representation"]
-    num_frames = int(meta["num_frames"])
-    fps = float(meta["fps"])
-    if num_frames < 1 or not (math.isfinite(fps) and fps > 0):
+    codec = _get(meta, "codec", (dict,), "")
+    rep = _get(meta, "representation", (dict,), "")
+    num_frames = _get(meta, "num_frames", (int,), "")
+    fps = _number(meta, "fps", "")
+    if num_frames < 1 or not fps > 0:
         raise ContainerError(f"invalid .mrc file: {num_frames} frames at {fps} fps", path)
     try:
-        skeleton = skeleton_from_json(meta["skeleton"])
+        skeleton = skeleton_from_json(_get(meta, "skeleton", (dict,), ""))
     except ValidationError as exc:
         raise ContainerError(str(exc), path) from None
+    too_big = check_clip(num_frames, "num_frames", joints=skeleton.num_joints,
+                                translated=int(skeleton.translated_joints.shape[0]),
+                                angles=skeleton.num_rotation_channels,
+                                mrc_bytes=file_size)
+    if too_big:
+        raise ContainerError(f"invalid .mrc file: {too_big}", path)
+    params = _get(codec, "params", (dict, type(None)), "codec", required=False) or {}
+    info = _get(codec, "info", (dict, type(None)), "codec", required=False) or {}
+    evaluation = _get(meta, "evaluation", (dict, type(None)), "", required=False)
+    extra = _get(meta, "extra", (dict, type(None)), "", required=False) or {}
+    for value, where in ((params, "codec.params"), (info, "codec.info"), (evaluation, "evaluation"),
+                         (extra, "extra")):
+        _plain(value, where)
+    _check_info(info)
+    if evaluation is not None:
+        _check_evaluation(evaluation)
+    arrays: dict[str, NDArray[Any]] = {}
+    for name, dtype, shape, start, size in entries:
+        a = np.frombuffer(payload[start:start + size], dtype=dtype).reshape(shape).astype(dtype.newbyteorder("="))
+        a.flags.writeable = False
+        arrays[name] = a
     return Container(
-        codec=str(codec["name"]),
-        codec_version=int(codec["version"]),
-        codec_plugin=codec.get("plugin"),
-        params=dict(codec.get("params") or {}),
-        info=dict(codec.get("info") or {}),
-        representation=str(rep["name"]),
-        representation_version=int(rep["version"]),
-        representation_plugin=rep.get("plugin"),
+        codec=_get(codec, "name", (str,), "codec"),
+        codec_version=_get(codec, "version", (int,), "codec"),
+        codec_plugin=_get(codec, "plugin", (str, type(None)), "codec", required=False),
+        params=dict(params),
+        info=dict(info),
+        representation=_get(rep, "name", (str,), "representation"),
+        representation_version=_get(rep, "version", (int,), "representation"),
+        representation_plugin=_get(rep, "plugin", (str, type(None)), "representation", required=False),
         skeleton=skeleton,
         fps=fps,
         num_frames=num_frames,
         arrays=arrays,
-        evaluation=meta.get("evaluation"),
-        extra=dict(meta.get("extra") or {}),
+        evaluation=evaluation,
+        extra=dict(extra),
     )
 
 
@@ -329,8 +507,6 @@ def read_container(path: str | os.PathLike[str]) -> Container:
     Raises:
         ContainerError: naming the file if it cannot be read or fails any check (see :func:`unpack`).
     """
-    try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise ContainerError(f"cannot read file: {exc.strerror or exc}", path) from None
-    return unpack(data, path)
+    from .io._files import read_regular
+
+    return unpack(read_regular(path, ContainerError), path)

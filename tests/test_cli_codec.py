@@ -41,7 +41,7 @@ def test_shipped_demo_clip_is_what_the_generator_makes(tmp_path):
     assert run("example", out).exit_code == 0
     assert out.read_bytes() == demo_path().read_bytes()
     regenerated = tmp_path / "regen.bvh"
-    write(demo_walk(), regenerated)
+    write(demo_walk(), regenerated, decimals=6)
     assert regenerated.read_bytes() == out.read_bytes()
     m = read(out)
     assert (m.num_frames, m.num_joints) == (450, 15) and m.fps == pytest.approx(30.0)

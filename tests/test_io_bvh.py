@@ -38,6 +38,17 @@ def source_values(text: str) -> np.ndarray:
     return values
 
 
+def frame_values(data: bytes) -> np.ndarray:
+    """Every frame value of BVH bytes, each exactly ``float(token)`` (the bulk parser, itself tested against
+    ``float`` below)."""
+    data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    start = data.index(b"\n", data.index(b"Frame Time")) + 1
+    u = np.frombuffer(data, np.uint8, offset=start)
+    values, bad = parse_number_tokens(u, scan_tokens(u))
+    assert bad is None
+    return values
+
+
 def rotation_columns(skeleton: Skeleton) -> np.ndarray:
     return np.array([c.endswith("rotation") for ch in skeleton.channels for c in ch], bool)
 
@@ -117,12 +128,16 @@ def test_real_file_reads_and_round_trips(path):
     assert motion.fps > 0 and np.isfinite(motion.fps)
     # reading: the channel values come back (no rounding at all here)
     assert_channels_match(sk, channel_values(motion), src, atol=1e-9)
-    # BVH -> BVH: every channel value and every joint and end site position of every frame
-    again = parse_bvh(format_bvh(motion))
+    # BVH -> BVH -> BVH: every channel value bit for bit (the file's own angles: full turns beyond +-180, the
+    # Euler branch, signs of zero), the frame rate, and the text is stable from the first rewrite on
+    text2 = format_bvh(motion)
+    again = parse_bvh(text2)
     assert again.skeleton == sk
-    assert again.fps == pytest.approx(motion.fps, rel=1e-14)
-    assert_channels_match(sk, channel_values(again), src, atol=1e-6)
-    assert_same_pose(motion, again, 1e-6)
+    assert again.fps == motion.fps
+    assert np.array_equal(frame_values(text2.encode()).view(np.uint64), frame_values(path.read_bytes()).view(np.uint64))
+    text3 = format_bvh(again)
+    assert text3 == text2
+    assert_same_pose(motion, again, 1e-12)
 
 
 @pytest.mark.parametrize("path", real_params())
@@ -387,13 +402,17 @@ def test_second_euler_solution_round_trips():
         " ".join(f"{v:g}" for v in row) for row in values) + "\n"
     m = parse_bvh(text)
     assert m.euler_branch[:, 0].all() and m.euler_branch[:, 1].all()
-    got = channel_values(m)
+    assert np.array_equal(channel_values(m), values)  # the file's very numbers (Motion.euler_angles)
+    assert np.array_equal(channel_values(parse_bvh(format_bvh(m))), values)
+    # with the branch hint alone: the same solution, unwrapped over frames
+    branch_only = m.replace(euler_angles=None)
+    got = channel_values(branch_only)
     assert_channels_match(m.skeleton, got, values, atol=1e-9)  # the same numbers modulo 360...
     assert got[1, 8] == pytest.approx(-181.0)  # ...unwrapped over frames: -175 -> -181, not -175 -> 179
-    again = parse_bvh(format_bvh(m))
-    assert_channels_match(m.skeleton, channel_values(again), values, atol=1e-6)
-    # without the hint the writer takes the first solution: the same pose, other numbers
-    plain = m.replace(euler_branch=None)
+    again = parse_bvh(format_bvh(branch_only))
+    assert_channels_match(m.skeleton, channel_values(again), values, atol=1e-9)
+    # without either hint the writer takes the first solution: the same pose, other numbers
+    plain = m.replace(euler_branch=None, euler_angles=None)
     other = channel_values(plain)
     assert np.abs(other - values).max() > 50
     assert_same_pose(m, parse_bvh(format_bvh(plain)), 1e-6)
@@ -410,14 +429,15 @@ def test_writer_default_layout_decimals_and_frame_time():
     assert lines[0] == "HIERARCHY" and lines[1] == "ROOT Hips"
     assert f"CHANNELS 6 {' '.join(DEFAULT_ROOT_CHANNELS)}" in text
     assert text.count(f"CHANNELS 3 {' '.join(DEFAULT_JOINT_CHANNELS)}") == 14
-    assert "Frames: 5" in lines and "Frame Time: 0.00833333333333333" in lines
-    frame_lines = lines[lines.index("Frame Time: 0.00833333333333333") + 1:]
+    # 15 digits would read back as 120.00000000000004 fps: the writer takes the 16 that give 120 exactly
+    assert "Frames: 5" in lines and "Frame Time: 0.008333333333333333" in lines
+    frame_lines = lines[lines.index("Frame Time: 0.008333333333333333") + 1:]
     assert len(frame_lines) == 5
     for token in " ".join(frame_lines).split():
         assert len(token.split(".")[1]) == 3, token
     assert "-0.000 " not in text  # no negative zeros
     again = parse_bvh(text)
-    assert again.skeleton.channels == bare.channels
+    assert again.skeleton.channels == bare.channels and again.fps == 120.0
     assert_same_pose(m, again, 1e-5)
     with pytest.raises(ValidationError, match="decimals must be an integer from 0 to 17"):
         format_bvh(m, decimals=18)

@@ -7,7 +7,6 @@ import json
 from collections import Counter
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -122,13 +121,15 @@ def test_evaluate_of_two_databases_opens_each_file_once(tree, tmp_path, monkeypa
     assert run("convert", tree, db).exit_code == 0
     assert run("compress", db, "-o", archive, "--codec", "svd").exit_code == 0
     opened: list[str] = []
+    from motionrep.io._h5read import H5Reader
 
-    class CountingFile(h5py.File):
-        def __init__(self, name, *args, **kwargs):
-            opened.append(Path(name).name)
-            super().__init__(name, *args, **kwargs)
+    original = H5Reader.__init__
 
-    monkeypatch.setattr(h5py, "File", CountingFile)
+    def counting(self, path, *args, **kwargs):  # every HDF5 file is opened through an H5Reader
+        opened.append(Path(path).name)
+        original(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(H5Reader, "__init__", counting)
     for a, b in ((db, archive), (db, db)):
         opened.clear()
         r = run("evaluate", a, b, "--json")

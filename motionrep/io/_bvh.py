@@ -23,8 +23,10 @@ from numpy.typing import NDArray
 
 from .._model import CHANNEL_NAMES, Motion, Skeleton
 from ..errors import BVHFormatError, ValidationError
-from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, quat_to_euler_continuous
+from ..limits import check_clip
+from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
+from ._files import read_regular
 from ._numbers import _python_float, first_control_byte, scan_block
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
@@ -48,11 +50,7 @@ def read_bvh(path: str | os.PathLike[str]) -> Motion:
     Raises:
         BVHFormatError: naming the file and line, if the file is missing, unreadable or malformed.
     """
-    try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise BVHFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
-    return parse_bvh(data, path)
+    return parse_bvh(read_regular(path, BVHFormatError), path)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -293,21 +291,28 @@ def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> 
     header_text = data[: m.start()].decode("utf-8")
     hdr = _parse_hierarchy(header_text, path)
     motion_line = header_text.count("\n") + 1  # line number of "MOTION"
-    frames, frame_time, block_start, block_line = _parse_motion_header(data, m.end(), motion_line, path)
+    frames, frame_time, block_start, block_line, frames_line = _parse_motion_header(data, m.end(), motion_line,
+                                                                                     path)
     channels = tuple(hdr.channels)
     skeleton = Skeleton(
         names=tuple(hdr.names), parents=np.array(hdr.parents), offsets=np.array(hdr.offsets, dtype=np.float64),
         channels=channels, end_site_parents=np.array(hdr.site_parents, dtype=np.int64),
         end_site_offsets=np.array(hdr.site_offsets, dtype=np.float64).reshape(-1, 3))
+    too_big = check_clip(frames, "Frames:", joints=skeleton.num_joints,
+                         translated=skeleton.translated_joints.shape[0],
+                         angles=sum(len(o) for o in skeleton.rotation_orders))
+    if too_big:
+        raise BVHFormatError(too_big, path, frames_line)
     values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path)
     return _motion_from_channels(skeleton, values, 1.0 / frame_time)
 
 
-def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tuple[int, float, int, int]:
+def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tuple[int, float, int, int, int]:
     """Read ``Frames:`` and ``Frame Time:`` after the MOTION line.
 
     ``rest[start:]`` begins at the end of the MOTION line (the file is not copied).  Returns the two values,
-    the offset in ``rest`` where the frame lines begin and the line number of the first of them.
+    the offset in ``rest`` where the frame lines begin, the line number of the first of them and that of the
+    ``Frames:`` line.
     """
     nl = rest.find(b"\n", start)
     pos = len(rest) if nl == -1 else nl + 1
@@ -342,7 +347,10 @@ def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tup
         raise BVHFormatError(f"Frame Time must be a number, found {text!r}", path, ln)
     if not np.isfinite(frame_time) or frame_time <= 0:
         raise BVHFormatError(f"Frame Time must be a finite number > 0, found {text!r}", path, ln)
-    return frames, frame_time, min(pos, len(rest)), line_no + 1
+    if not np.isfinite(1.0 / frame_time):
+        raise BVHFormatError(f"Frame Time {text} is too small: its frame rate 1 / {text} is not a finite number",
+                             path, ln)
+    return frames, frame_time, min(pos, len(rest)), line_no + 1, found["Frames"][1]
 
 
 def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels: int,
@@ -352,11 +360,18 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
     Errors name the offending line.
     """
     u = np.frombuffer(data, np.uint8, offset=start)
-    scan = scan_block(u, channels, frames)
+    # room for the rows the bytes could hold (a value and a separator are two bytes at least), not for what
+    # Frames: declares: a short file declaring a million frames is refused as truncated, not given the memory
+    scan = scan_block(u, channels, min(frames, u.shape[0] // (2 * channels) + 1) if channels else frames)
     if channels == 0:
         if scan.rows:
             raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
                                  first_line + scan.first_data_line)
+        # each frame is an empty line: Frames may not exceed the lines the file has
+        lines = int(np.count_nonzero(u == 10)) + (1 if u.shape[0] and u[-1] != 10 else 0)
+        if lines < frames:
+            raise BVHFormatError(f"truncated motion: Frames: {frames} but only {lines} (empty) frame lines", path,
+                                 first_line + lines)
         return np.zeros((frames, 0))
     if scan.rows < frames:  # named: the line where the first missing frame should be
         line = first_line + (scan.last_data_line + 1 if scan.rows else 0)
@@ -414,14 +429,25 @@ def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Mo
         branch[:, joints] = euler_branch(values[:, np.array(cols)], order, degrees=True)
     root = np.ascontiguousarray(translations[:, 0])
     moved = np.ascontiguousarray(translations[:, 1:])
-    for a in (root, rotations, moved):
+    angles = values[:, _rotation_columns(skeleton)]  # the file's very angles, for writing them back
+    for a in (root, rotations, moved, angles):
         a.flags.writeable = False  # fresh and immutable: Motion keeps them without copying
-    return Motion(skeleton, fps, root, rotations, moved, euler_branch=branch)
+    return Motion(skeleton, fps, root, rotations, moved, euler_branch=branch, euler_angles=angles)
+
+
+def _rotation_columns(skeleton: Skeleton) -> NDArray[np.int64]:
+    """Columns of the rotation channels in the skeleton's channel layout (the order of ``Motion.euler_angles``)."""
+    return np.array([c for c, name in enumerate(n for ch in skeleton.channels for n in ch)
+                     if name.endswith("rotation")], dtype=np.int64)
 
 
 # ---------------------------------------------------------------------------------------------------------------
 # writing
 # ---------------------------------------------------------------------------------------------------------------
+#: Largest difference, per quaternion component, at which ``Motion.euler_angles`` are taken to describe the rotations
+_HINT_TOLERANCE = 1e-9
+
+
 def _fmt_number(v: float) -> str:
     s = np.format_float_positional(float(v), trim="-")
     return "0" if s == "-0" else s
@@ -440,8 +466,9 @@ def _dfs_order(skeleton: Skeleton) -> list[int]:
 def channel_values(motion: Motion) -> NDArray[np.float64]:
     """``(F, C)`` BVH channel values of ``motion`` in the skeleton's channel layout and joint order.
 
-    Euler angles are in degrees, of the solution ``motion.euler_branch`` names (when set) and unwrapped over
-    frames (see :func:`~motionrep.rotations.quat_to_euler_continuous`).
+    Euler angles are in degrees: the source's own angles ``motion.euler_angles`` where the motion has them (and
+    they describe its rotations), bit for bit; otherwise of the solution ``motion.euler_branch`` names (when
+    set), unwrapped over frames (see :func:`~motionrep.rotations.quat_to_euler_continuous`).
 
     Raises:
         ValidationError: if the motion moves a joint along an axis, or rotates it about an axis, for which
@@ -461,13 +488,21 @@ def channel_values(motion: Motion) -> NDArray[np.float64]:
             if np.any(np.abs(np.abs(q[:, 3]) - 1.0) > 1e-9):
                 raise ValidationError(f"joint {sk.names[j]!r} rotates but has no rotation channels")
     eulers: dict[int, NDArray] = {}
+    first = np.cumsum([0] + [len(o) for o in sk.rotation_orders])  # each joint's first column in euler_angles
     for order, joints in by_order.items():
-        branch = None if motion.euler_branch is None else motion.euler_branch[:, joints]
-        try:
-            e = quat_to_euler_continuous(motion.rotations[:, joints], order, degrees=True, branch=branch)
-        except ValidationError:
-            raise ValidationError(f"a joint with rotation channels {order} rotates about another axis too; "
-                                  "its rotation cannot be written in its channel layout") from None
+        e = close = None
+        if motion.euler_angles is not None:  # the source's angles, where they describe the rotations
+            e = motion.euler_angles[:, first[joints][:, None] + np.arange(len(order))]  # (F, n, len(order))
+            q, qh = motion.rotations[:, joints], euler_to_quat(e, order, degrees=True)
+            close = np.minimum(np.abs(qh - q).max(-1), np.abs(qh + q).max(-1)) <= _HINT_TOLERANCE
+        if close is None or not close.all():
+            branch = None if motion.euler_branch is None else motion.euler_branch[:, joints]
+            try:
+                computed = quat_to_euler_continuous(motion.rotations[:, joints], order, degrees=True, branch=branch)
+            except ValidationError:
+                raise ValidationError(f"a joint with rotation channels {order} rotates about another axis too; "
+                                      "its rotation cannot be written in its channel layout") from None
+            e = computed if close is None else np.where(close[..., None], e, computed)
         for k, j in enumerate(joints):
             eulers[j] = e[:, k]
     col = 0
@@ -488,13 +523,15 @@ def channel_values(motion: Motion) -> NDArray[np.float64]:
     return out
 
 
-def format_bvh(motion: Motion, decimals: int = 6) -> str:
+def format_bvh(motion: Motion, decimals: int | None = None) -> str:
     """The BVH text of ``motion`` (LF line endings, tab indentation).
 
     Joints are written depth first, children in index order, with the skeleton's names, OFFSETs, channel
     layout and rotation orders; End Sites follow their joint's child joints.  OFFSETs are written in their
-    shortest exact decimal form; frame values with ``decimals`` digits after the point (default 6: an error of
-    at most 5e-7 degree or file unit).
+    shortest exact decimal form.  Frame values are written losslessly by default: each with the fewest digits
+    that read back to the very same double (the source file's own angles when the motion was read from BVH, see
+    ``Motion.euler_angles``); ``decimals=N`` writes them with ``N`` digits after the point instead (rounded: an
+    error of at most ``0.5 * 10**-N`` degree or file unit).
 
     Raises:
         ValidationError: if the motion cannot be written in its channel layout without loss.
@@ -505,10 +542,11 @@ def format_bvh(motion: Motion, decimals: int = 6) -> str:
     return _bvh_bytes(motion, decimals).decode("utf-8")
 
 
-def _bvh_bytes(motion: Motion, decimals: int) -> bytes:
+def _bvh_bytes(motion: Motion, decimals: int | None) -> bytes:
     """The UTF-8 BVH text of ``motion`` (see :func:`format_bvh`)."""
-    if not isinstance(decimals, (int, np.integer)) or not 0 <= decimals <= 17:
-        raise ValidationError(f"decimals must be an integer from 0 to 17, got {decimals!r}")
+    if decimals is not None and (isinstance(decimals, bool) or not isinstance(decimals, (int, np.integer))
+                                 or not 0 <= decimals <= 17):
+        raise ValidationError(f"decimals must be an integer from 0 to 17 (or None: exact), got {decimals!r}")
     sk = motion.skeleton
     values = channel_values(motion)
     order = _dfs_order(sk)
@@ -539,11 +577,22 @@ def _bvh_bytes(motion: Motion, decimals: int) -> bytes:
         lines.append(f"{ind}}}")
     lines.append("MOTION")
     lines.append(f"Frames: {motion.num_frames}")
-    lines.append(f"Frame Time: {1.0 / motion.fps:.15g}")
+    lines.append(f"Frame Time: {_frame_time(motion.fps)}")
     header = "\n".join(lines) + "\n"
     if values.shape[1] == 0:
         return (header + "\n" * motion.num_frames).encode("utf-8")
-    rounded = np.round(values, decimals) + 0.0  # + 0.0 turns -0.0 into 0.0
+    if decimals is None:
+        return header.encode("utf-8") + _format_shortest(values)
+    scale = 10.0 ** decimals
+    # + 0.0 turns -0.0 into 0.0; values too large to have digits at 10**-decimals are kept (rounding them could
+    # overflow to inf)
+    small = np.abs(values) < 2.0 ** 52 / scale
+    if small.all():
+        rounded = np.round(values, decimals)
+    else:
+        rounded = values.copy()
+        rounded[small] = np.round(values[small], decimals)
+    rounded += 0.0
     fast = _format_fixed(rounded, decimals)
     if fast is not None:
         return header.encode("utf-8") + fast
@@ -553,6 +602,125 @@ def _bvh_bytes(motion: Motion, decimals: int) -> bytes:
 
 
 _FORMAT_CHUNK = 8192  # values per chunk in _format_fixed (temporaries stay in cache)
+
+
+def _frame_time(fps: float) -> str:
+    """``1 / fps`` as written after ``Frame Time:``: with 15 significant digits when that reads back to the same
+    frame rate (a frame time read from a file with up to 15 digits is written back unchanged), else with the
+    fewest digits that do."""
+    t = 1.0 / fps
+    for digits in (15, 16, 17):
+        text = f"{t:.{digits}g}"
+        if 1.0 / float(text) == fps:
+            return text
+    return repr(t)
+
+
+_MAX_SAFE = 2.0 ** 53  # integers below this are exact doubles
+_POW10 = 10.0 ** np.arange(18)
+_SHORTEST_CHUNK = 1 << 15  # values per chunk in _format_shortest
+_WIDTH = 26  # bytes per value row in _format_shortest: the longest repr() of a double (24) and a separator
+
+
+def _shortest_decimals(a: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """For magnitudes ``a``: the fewest decimals ``d`` (0..17) and the integer ``m`` (< 2**53) such that the decimal
+    ``m * 10**-d`` reads back as ``a`` exactly; ``d = -1`` where there is none.
+
+    ``m / 10**d`` with ``m < 2**53`` and ``d <= 22`` is one correctly rounded division of two exact doubles, so it
+    is the double nearest the decimal: what every correct reader (``float``, ``strtod``) returns for it.
+    """
+    d = np.full(a.shape, -1, np.int64)
+    m = np.zeros(a.shape)
+    small = np.minimum(a, _MAX_SAFE)  # larger values have no such decimal (they go to repr)
+    cand = np.empty(a.shape)
+    for k in range(18):
+        np.multiply(small, _POW10[k], out=cand)
+        np.rint(cand, out=cand)
+        ok = (cand < _MAX_SAFE) & (cand / _POW10[k] == a) & (d < 0)
+        d[ok] = k
+        m[ok] = cand[ok]
+        if not (d < 0).any():
+            break
+    return d, m
+
+
+def _format_shortest(values: NDArray[np.float64]) -> bytes:
+    """``values`` ``(F, C)`` as lines of single-space separated numbers, each the shortest decimal (fixed point,
+    at most 17 decimals and 16 significant digits) that reads back to the same double, ``-0`` for negative zero;
+    a value that needs more digits is written with ``repr`` (17 significant digits, exponent form when Python
+    uses it).  Never ``inf`` for a finite value.
+
+    Built with whole-array operations: values are grouped by their number of decimals; each group's digits are
+    made column by column, right-aligned in ``_WIDTH``-byte rows ending with the separator, and the padding is
+    dropped with one boolean selection.
+    """
+    F, C = values.shape
+    flat = values.ravel()
+    pieces = []
+    cols = np.arange(_WIDTH)
+    for a in range(0, flat.shape[0], _SHORTEST_CHUNK):
+        v = flat[a:a + _SHORTEST_CHUNK]
+        n = v.shape[0]
+        d, m = _shortest_decimals(np.abs(v))
+        negative = np.signbit(v)
+        rows = np.empty((n, _WIDTH), np.uint8)
+        start = np.empty(n, np.int64)
+        for k in np.unique(d).tolist():
+            idx = np.flatnonzero(d == k)
+            if k < 0:
+                rows[idx], start[idx] = _repr_rows(v[idx])
+            else:
+                rows[idx], start[idx] = _fixed_rows(m[idx], negative[idx], k)
+        rows[:, _WIDTH - 1] = np.where((np.arange(a, a + n) % C) == C - 1, 10, 32)
+        pieces.append(rows[cols[None, :] >= start[:, None]].tobytes())
+    return b"".join(pieces)
+
+
+def _fixed_rows(m: NDArray[np.float64], negative: NDArray[np.bool_], decimals: int
+                ) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    """Rows of ``_WIDTH`` bytes holding ``-m * 10**-decimals`` (where ``negative``) right-aligned before the last
+    column, and the first column of each; ``m`` holds integers below 2**53, whose digits come from exact
+    divisions by 10."""
+    n = m.shape[0]
+    chunk = np.zeros((_WIDTH, n), np.uint8)  # column-major: each column is contiguous
+    col = _WIDTH - 1
+    x = m.copy()
+    q = np.empty(n)
+    for _ in range(decimals):
+        col -= 1
+        np.floor(x / 10.0, out=q)
+        chunk[col] = x - 10.0 * q + 48.0
+        x, q = q, x
+    if decimals:
+        col -= 1
+        chunk[col] = 46
+    digits = np.ones(n, np.int64)
+    for i in range(16):  # the integer part: at least one digit
+        col -= 1
+        if i:
+            digits += x > 0
+        np.floor(x / 10.0, out=q)
+        chunk[col] = x - 10.0 * q + 48.0
+        x, q = q, x
+        if not x.any():
+            break
+    start = _WIDTH - 1 - decimals - (1 if decimals else 0) - digits - negative
+    neg = np.flatnonzero(negative)
+    chunk[start[neg], neg] = 45
+    return chunk.T, start
+
+
+def _repr_rows(v: NDArray[np.float64]) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    """Rows of ``_WIDTH`` bytes holding ``repr`` of each value right-aligned before the last column, and the first
+    column of each."""
+    texts = [repr(x) for x in v.tolist()]
+    length = np.fromiter(map(len, texts), np.int64, len(texts))
+    left = np.array(texts, dtype=f"S{_WIDTH - 1}").view(np.uint8).reshape(-1, _WIDTH - 1)
+    start = _WIDTH - 1 - length
+    source = np.arange(_WIDTH)[None, :] - start[:, None]  # column of the text that lands in each row column
+    rows = np.take_along_axis(left, np.clip(source, 0, _WIDTH - 2), axis=1)
+    rows = np.concatenate([rows, np.zeros((len(texts), 1), np.uint8)], axis=1)[:, :_WIDTH]
+    return rows, start
 
 
 def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
@@ -630,7 +798,7 @@ def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
     return text[keep].tobytes()
 
 
-def write_bvh(motion: Motion, path: str | os.PathLike[str], decimals: int = 6) -> None:
+def write_bvh(motion: Motion, path: str | os.PathLike[str], decimals: int | None = None) -> None:
     """Write ``motion`` as BVH to ``path`` atomically (see :func:`format_bvh`)."""
     data = _bvh_bytes(motion, decimals)
     with atomic_path(path) as tmp:

@@ -1,10 +1,15 @@
 """HDF5 reader and writer: one clip, or a database of named clips, each a motion or a representation's features.
 
 The layout is ``specs/formats/hdf5.md``: root attributes ``format = "motionrep-hdf5"`` and ``format_version``
-(1), one group per clip under ``/clips``, metadata as attributes, per-frame data as chunked gzip-compressed
-datasets, strings as variable-length UTF-8.  Quaternions are ``(F, J, 4)`` **xyzw**.  Reading a named clip opens
-only that clip's group.  Every array round-trips bit for bit.  Problems raise
+(2; version 1 files are still read), one group per clip under ``/clips``, metadata as attributes, per-frame data as
+chunked gzip-compressed datasets, strings as fixed-length UTF-8, a Fletcher-32 checksum on every dataset and the
+HDF5 1.10 object formats, whose metadata carries checksums too.  Quaternions are ``(F, J, 4)`` **xyzw**.  Reading
+a named clip opens only that clip's group.  Every array round-trips bit for bit.  Problems raise
 :class:`~motionrep.errors.HDF5FormatError` naming the file (and the clip).
+
+Files are read through :mod:`motionrep.io._h5read`: in a worker process under a watchdog (the ``read_timeout``
+limit), never following links or external storage, with every declared shape checked against the limits of
+:mod:`motionrep.limits` before its data is read.
 
 A file written by :func:`write_hdf5` is a database with one clip, named after the file's stem by default.
 :class:`HDF5Database` is a file open for reading, any number of clips read from it one at a time.
@@ -24,10 +29,13 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from ..limits import current as current_limits
 from .._model import Motion
 from ..errors import FormatError, HDF5FormatError, ValidationError
 from ._atomic import atomic_path
 from ._features import FeatureClip, motion_from_features
+from ._files import check_regular, open_regular
+from ._h5read import H5Error, H5Reader
 from ._stored import (
     KIND_FEATURES,
     KIND_MOTION,
@@ -60,16 +68,20 @@ __all__ = [
 
 #: Value of the root ``format`` attribute of every motionrep HDF5 file.
 HDF5_FORMAT = "motionrep-hdf5"
-#: Newest HDF5 format version this motionrep writes and reads (older versions stay readable).
-HDF5_FORMAT_VERSION = 1
+#: Newest HDF5 format version this motionrep writes and reads (older versions stay readable).  Version 2: a
+#: Fletcher-32 checksum on every non-empty dataset, fixed-length UTF-8 strings (variable-length strings cannot
+#: carry a checksum), HDF5 1.10 object formats (checksummed metadata and chunk indexes), the optional
+#: ``euler_angles`` dataset.
+HDF5_FORMAT_VERSION = 2
 #: The group holding one subgroup per clip.
 CLIPS_GROUP = "clips"
 
 _GZIP_LEVEL = 4
+# HDF5 1.10 object formats: the superblock, object headers (attributes), link storage and chunk indexes all carry
+# checksums (1.8's version-1 B-trees of chunks do not: a damaged one silently reads zeros)
+LIBVER = ("v110", "v110")
 _CHUNK_BYTES = 1 << 18  # aim for chunks of about 256 KiB (h5py advises 10 KiB - 1 MiB)
 _MAX_LISTED = 20
-# Errors h5py raises on damaged or unexpected content.
-_H5_ERRORS = (OSError, ValueError, TypeError, KeyError, RuntimeError)
 
 
 def default_clip_name(path: str | os.PathLike[str]) -> str:
@@ -94,19 +106,30 @@ def _attr(value: Any) -> Any:
 
 
 def _dataset(group: h5py.Group, name: str, value: Any, compress: bool) -> None:
-    if isinstance(value, list):  # strings
-        group.create_dataset(name, data=np.array(value, dtype=h5py.string_dtype("utf-8")).reshape(-1))
+    """A dataset with a Fletcher-32 checksum (empty ones have no data to check: HDF5 cannot chunk them)."""
+    if isinstance(value, list):  # strings: fixed-length UTF-8, NUL-padded (names never hold NUL)
+        encoded = [v.encode("utf-8") for v in value]
+        length = max([1, *map(len, encoded)])
+        dtype = h5py.string_dtype("utf-8", length)
+        a = np.array(encoded, dtype=dtype).reshape(-1)
+        if a.size == 0:
+            group.create_dataset(name, shape=(0,), dtype=dtype)
+        else:
+            group.create_dataset(name, data=a, dtype=dtype, fletcher32=True)
         return
     a = np.asarray(value)
     if a.dtype == np.bool_:
         a = a.astype(np.uint8)
-    if not compress or a.size == 0 or a.ndim == 0:  # h5py cannot chunk empty datasets
+    if a.size == 0:  # h5py cannot chunk empty datasets
         group.create_dataset(name, data=a)
+        return
+    if not compress:
+        group.create_dataset(name, data=a, fletcher32=True)
         return
     row = max(1, a[0].nbytes)
     rows = int(min(a.shape[0], max(1, _CHUNK_BYTES // row)))
     group.create_dataset(name, data=a, chunks=(rows,) + a.shape[1:], compression="gzip",
-                         compression_opts=_GZIP_LEVEL, shuffle=True)
+                         compression_opts=_GZIP_LEVEL, shuffle=True, fletcher32=True)
 
 
 def _write_clip(clips: h5py.Group, name: str, item: Motion | FeatureClip) -> None:
@@ -149,7 +172,7 @@ def write_database(clips: Iterable[tuple[str, Motion | FeatureClip]] | Mapping[s
     written: list[str] = []
     seen: set[str] = set()
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with h5py.File(tmp, "w", libver=LIBVER) as f:
             f.attrs["format"] = HDF5_FORMAT
             f.attrs["format_version"] = np.int64(HDF5_FORMAT_VERSION)
             f.attrs["quat_order"] = QUAT_ORDER
@@ -193,51 +216,39 @@ def write_hdf5_features(features: FeatureClip, path: str | os.PathLike[str], cli
 # ---------------------------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------------------------
-def open_hdf5_file(path: str | os.PathLike[str], error: type[FormatError] = HDF5FormatError) -> h5py.File:
-    """``path`` opened read-only with h5py; a missing, unreadable or non-HDF5 file raises ``error`` naming it."""
+def open_hdf5_file(path: str | os.PathLike[str], error: type[FormatError] = HDF5FormatError) -> H5Reader:
+    """``path`` opened for reading through the watchdog (:class:`~motionrep.io._h5read.H5Reader`); a missing,
+    unreadable, non-regular or non-HDF5 file raises ``error`` naming it."""
+    check_regular(path, error)
     try:
-        return h5py.File(path, "r")
-    except FileNotFoundError:
-        raise error("no such file", path) from None
-    except OSError as exc:
+        return H5Reader(path)
+    except H5Error as exc:
         try:
-            with open(path, "rb") as fh:
+            with open_regular(path, error) as fh:
                 magic = fh.read(8)
-        except OSError as exc2:
-            raise error(f"cannot read file: {exc2.strerror or exc2}", path) from None
+        except (FormatError, OSError):
+            magic = b""
         if magic != b"\x89HDF\r\n\x1a\n":
             raise error("not an HDF5 file (no HDF5 signature)", path) from None
         raise error(f"cannot open HDF5 file: {exc}", path) from None
 
 
-def root_format(f: h5py.File) -> str | None:
+def root_format(f: H5Reader, error: type[FormatError] = HDF5FormatError) -> str | None:
     """The root ``format`` attribute of an open HDF5 file (``"motionrep-hdf5"``, ``"motionrep-mrc-archive"``), or
-    None when it has none or it is not text."""
+    None when it has none or it is not text.
+
+    Raises:
+        FormatError: (``error``) naming the file when its root attributes cannot be read (a damaged file).
+    """
     try:
-        return _decode_text(f.attrs["format"]) if "format" in f.attrs else None
-    except _H5_ERRORS:
-        return None
+        attrs = f.attrs("")
+    except H5Error as exc:
+        raise error(f"cannot read the root attributes: {exc}", f.path) from None
+    return _decode_text(attrs["format"]) if "format" in attrs else None
 
 
-def _clips_group(f: h5py.File, path: str | os.PathLike[str]) -> h5py.Group:
-    """The ``/clips`` group of an open motionrep HDF5 file, after checking its header."""
-    attrs = f.attrs
-    if "format" not in attrs:
-        raise HDF5FormatError("not a motionrep HDF5 file: the root group has no 'format' attribute", path)
-    name = _decode_text(attrs["format"])
-    if name != HDF5_FORMAT:
-        raise HDF5FormatError(f"not a motionrep HDF5 file: root attribute 'format' is {name!r}, expected "
-                              f"{HDF5_FORMAT!r}", path)
-    version = np.asarray(attrs.get("format_version", -1))
-    if version.ndim != 0 or version.dtype.kind not in "iu" or int(version) < 1:
-        raise HDF5FormatError(f"missing or invalid root attribute 'format_version' ({version!r})", path)
-    if int(version) > HDF5_FORMAT_VERSION:
-        raise HDF5FormatError(f"HDF5 format version {int(version)} is newer than the newest this motionrep "
-                              f"reads ({HDF5_FORMAT_VERSION}); upgrade motionrep to read it", path)
-    clips = f.get(CLIPS_GROUP)
-    if not isinstance(clips, h5py.Group):
-        raise HDF5FormatError(f"missing group '/{CLIPS_GROUP}'", path)
-    return clips
+def _a(kind: str) -> str:
+    return ("an " if kind[0] in "aeiou" else "a ") + kind
 
 
 def _decode_text(value: Any) -> str | None:
@@ -251,13 +262,53 @@ def _decode_text(value: Any) -> str | None:
     return str(value) if isinstance(value, str) else None
 
 
+def _check_header(f: H5Reader, path: str | os.PathLike[str]) -> tuple[int, list[str]]:
+    """The format version and the clip names of an open motionrep HDF5 file, after checking its header and that
+    ``/clips`` holds only groups (links are refused)."""
+    try:
+        attrs = f.attrs("")
+    except H5Error as exc:
+        raise HDF5FormatError(f"cannot read the root attributes: {exc}", path) from None
+    if "format" not in attrs:
+        raise HDF5FormatError("not a motionrep HDF5 file: the root group has no 'format' attribute", path)
+    name = _decode_text(attrs["format"])
+    if name != HDF5_FORMAT:
+        shown = name if name is not None else "not a string"
+        raise HDF5FormatError(f"not a motionrep HDF5 file: root attribute 'format' is {shown!r}, expected "
+                              f"{HDF5_FORMAT!r}", path)
+    version = attrs.get("format_version", -1)
+    version = np.asarray(-1 if version is Ellipsis else version)
+    if version.ndim != 0 or version.dtype.kind not in "iu" or int(version) < 1:
+        raise HDF5FormatError(f"missing or invalid root attribute 'format_version' ({version!r})", path)
+    if int(version) > HDF5_FORMAT_VERSION:
+        raise HDF5FormatError(f"HDF5 format version {int(version)} is newer than the newest this motionrep "
+                              f"reads ({HDF5_FORMAT_VERSION}); upgrade motionrep to read it", path)
+    try:
+        kinds = dict(f.members(""))
+        if kinds.get(CLIPS_GROUP) != "group":
+            raise HDF5FormatError(f"missing group '/{CLIPS_GROUP}'" + (
+                f" ('/{CLIPS_GROUP}' is {_a(kinds[CLIPS_GROUP])})" if CLIPS_GROUP in kinds else ""), path)
+        members = f.members(CLIPS_GROUP)
+    except H5Error as exc:
+        raise HDF5FormatError(f"cannot list the clips: {exc}", path) from None
+    for clip, kind in members:
+        if kind != "group":
+            raise HDF5FormatError(f"clip {clip!r}: '/{CLIPS_GROUP}/{clip}' is {_a(kind)}, not a group"
+                                  + ("; motionrep follows no links in a file" if "link" in kind else ""), path)
+    return int(version), [c for c, _ in members]
+
+
 class _HDF5Source(ClipSource):
     _ARRAY_KEYS = ("root_translation", "rotations", "joint_translations", "features", "feature_names",
-                   "euler_branch")
+                   "euler_branch", "euler_angles")
 
-    def __init__(self, group: h5py.Group, path: str | os.PathLike[str], clip: str):
+    def __init__(self, reader: H5Reader, path: str | os.PathLike[str], clip: str):
         super().__init__(path, clip, HDF5FormatError)
-        self.group = group
+        self.reader = reader
+        self.base = f"{CLIPS_GROUP}/{clip}"
+        self._attrs: dict[str, Any] | None = None
+        self._members: dict[str, dict[str, str]] = {}
+        self._described: dict[str, dict[str, Any]] = {}
 
     def _dataset_path(self, key: str) -> str | None:
         if key.startswith("skeleton."):
@@ -268,49 +319,75 @@ class _HDF5Source(ClipSource):
         p = self._dataset_path(key)
         return f"dataset {p!r}" if p is not None else f"attribute {key!r}"
 
+    def _ask(self, what: str, method, *args) -> Any:
+        try:
+            return method(*args)
+        except H5Error as exc:
+            raise self.fail(f"cannot read {what}: {exc}") from None
+
+    def _group_members(self, group: str) -> dict[str, str]:
+        if group not in self._members:
+            full = f"{self.base}/{group}" if group else self.base
+            self._members[group] = dict(self._ask(f"'/{full}'", self.reader.members, full))
+        return self._members[group]
+
     def has(self, key: str) -> bool:
         p = self._dataset_path(key)
-        try:
-            return (p in self.group) if p is not None else (key in self.group.attrs)
-        except _H5_ERRORS as exc:
-            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        if p is None:
+            return key in self._all_attrs()
+        group, _, name = p.rpartition("/")
+        if group and self._group_members("").get(group) != "group":
+            return False
+        kind = self._group_members(group).get(name)
+        if kind is not None and kind != "dataset":
+            raise self.fail(f"{self.where(key)} is {_a(kind)}, not a dataset"
+                            + ("; motionrep follows no links in a file" if "link" in kind else ""))
+        return kind is not None
 
-    def _dataset(self, key: str) -> h5py.Dataset:
-        try:
-            obj = self.group.get(self._dataset_path(key))
-        except _H5_ERRORS as exc:
-            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
-        if not isinstance(obj, h5py.Dataset):
-            raise self.fail(f"{self.where(key)} is not a dataset")
-        return obj
+    def _all_attrs(self) -> dict[str, Any]:
+        if self._attrs is None:
+            self._attrs = self._ask("the clip's attributes", self.reader.attrs, self.base)
+        return self._attrs
+
+    def _describe(self, key: str) -> dict[str, Any]:
+        if key not in self._described:
+            self.require(key)
+            desc = self._ask(self.where(key), self.reader.describe, f"{self.base}/{self._dataset_path(key)}")
+            if desc["shape"] is None:
+                raise self.fail(f"{self.where(key)} has no data space")
+            self._described[key] = desc
+        return self._described[key]
 
     def scalar(self, key: str) -> Any:
-        try:
-            return self.group.attrs[key]
-        except _H5_ERRORS as exc:
-            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        attrs = self._all_attrs()
+        if key not in attrs:
+            raise self.fail(f"missing {self.where(key)}")
+        if attrs[key] is Ellipsis:
+            raise self.fail(f"{self.where(key)} has an unsupported datatype")
+        return attrs[key]
 
     def shape_dtype(self, key: str) -> tuple[tuple[int, ...], np.dtype]:
-        ds = self._dataset(key)
-        return tuple(ds.shape), ds.dtype
+        desc = self._describe(key)
+        return desc["shape"], np.dtype(object) if desc["dtype"] == "string" else desc["dtype"]
 
     def array(self, key: str) -> NDArray[Any]:
-        ds = self._dataset(key)
-        try:
-            return ds[()]
-        except _H5_ERRORS as exc:
-            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        desc = self._describe(key)
+        if desc["dtype"] == "string":
+            raise self.fail(f"{self.where(key)} must hold numbers, got strings")
+        self.check_size(key, desc["shape"], desc["itemsize"])
+        return self._ask(self.where(key), self.reader.read, f"{self.base}/{self._dataset_path(key)}",
+                         current_limits().max_clip_bytes)
 
     def strings(self, key: str) -> list[str]:
-        ds = self._dataset(key)
-        if h5py.check_string_dtype(ds.dtype) is None:
-            raise self.fail(f"{self.where(key)} must hold strings, got dtype {ds.dtype}")
-        try:
-            return [str(s) for s in ds.asstr("utf-8")[()].tolist()]
-        except UnicodeDecodeError:
-            raise self.fail(f"{self.where(key)} is not valid UTF-8") from None
-        except _H5_ERRORS as exc:
-            raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+        desc = self._describe(key)
+        if desc["dtype"] != "string":
+            raise self.fail(f"{self.where(key)} must hold strings, got dtype {desc['dtype']}")
+        self.check_size(key, desc["shape"], desc["itemsize"] or 1)
+        values = self._ask(self.where(key), self.reader.read, f"{self.base}/{self._dataset_path(key)}",
+                           current_limits().max_clip_bytes)
+        if not all(isinstance(v, str) for v in values):
+            raise self.fail(f"{self.where(key)} is not valid UTF-8")
+        return [v.rstrip("\x00") for v in values]
 
     def euler_branch(self, frames: int, joints: int) -> NDArray[np.bool_] | None:
         if not self.has("euler_branch"):
@@ -321,27 +398,13 @@ class _HDF5Source(ClipSource):
         return a.astype(bool)
 
 
-def _clip_group(clips: h5py.Group, path: str | os.PathLike[str], clip: str | None) -> tuple[str, h5py.Group]:
-    if clip is None:
-        names = list(clips)
-        if len(names) == 1:
-            clip = names[0]
-        elif not names:
-            raise HDF5FormatError("the database holds no clips", path)
-        else:
-            raise HDF5FormatError(f"the database holds {len(names)} clips; choose one with clip=NAME (--clip NAME "
-                                  f"on the command line): {_listing(names)}", path)
-    if not isinstance(clip, str) or clip not in clips:
-        raise HDF5FormatError(f"no clip named {clip!r}; clips in this file: {_listing(list(clips))}", path)
-    group = clips[clip]
-    if not isinstance(group, h5py.Group):
-        raise HDF5FormatError(f"clip {clip!r}: '/{CLIPS_GROUP}/{clip}' is not a group", path)
-    return clip, group
-
-
 class HDF5Database:
     """A motionrep HDF5 file open for reading: its clip names, and any clip read on demand, one at a time, with
     the file opened once for all of them (``with HDF5Database(path) as db: ...``).
+
+    The file is read through the watchdog of :mod:`motionrep.io._h5read` (the ``read_timeout`` limit); links,
+    external storage and virtual datasets are refused, and declared shapes are checked against the limits of
+    :mod:`motionrep.limits` before any data is read.
 
     Args:
         path: the file (named in errors).
@@ -351,11 +414,11 @@ class HDF5Database:
         HDF5FormatError: naming the file if it is missing, not a motionrep HDF5 file or of a newer format version.
     """
 
-    def __init__(self, path: str | os.PathLike[str], file: h5py.File | None = None):
+    def __init__(self, path: str | os.PathLike[str], file: H5Reader | None = None):
         self.path = path
         self._file = open_hdf5_file(path) if file is None else file
         try:
-            self._clips = _clips_group(self._file, path)
+            self.version, self._names = _check_header(self._file, path)
         except BaseException:
             self._file.close()
             raise
@@ -363,7 +426,20 @@ class HDF5Database:
     @property
     def names(self) -> list[str]:
         """The clip names, in stored order (no clip data is read)."""
-        return list(self._clips)
+        return list(self._names)
+
+    def _clip(self, clip: str | None) -> str:
+        names = self._names
+        if clip is None:
+            if len(names) == 1:
+                return names[0]
+            if not names:
+                raise HDF5FormatError("the database holds no clips", self.path)
+            raise HDF5FormatError(f"the database holds {len(names)} clips; choose one with clip=NAME (--clip NAME "
+                                  f"on the command line): {_listing(names)}", self.path)
+        if not isinstance(clip, str) or clip not in names:
+            raise HDF5FormatError(f"no clip named {clip!r}; clips in this file: {_listing(names)}", self.path)
+        return clip
 
     def read_stored(self, clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
         """One clip as stored: its name and a :class:`~motionrep.Motion` or a :class:`FeatureClip`; ``clip`` may be
@@ -371,11 +447,12 @@ class HDF5Database:
 
         Raises:
             HDF5FormatError: naming the file and the clip, if it holds several clips and none was named (the
-                message lists them), has no such clip, or the clip lacks a field or has one of the wrong shape
-                or type.
+                message lists them), has no such clip, the clip lacks a field or has one of the wrong shape or
+                type, exceeds a limit, or the file is damaged (a checksum mismatch, or the HDF5 library failing or
+                taking longer than the limit).
         """
-        name, group = _clip_group(self._clips, self.path, clip)
-        return name, decode_clip(_HDF5Source(group, self.path, name))
+        name = self._clip(clip)
+        return name, decode_clip(_HDF5Source(self._file, self.path, name))
 
     def read(self, clip: str | None = None) -> Motion:
         """One clip's motion; a features clip is decoded through its registered representation.
@@ -392,14 +469,13 @@ class HDF5Database:
         """One summary per clip from attributes and dataset shapes only (see :func:`clip_summaries`)."""
         out = []
         for name in self.names:
-            _, group = _clip_group(self._clips, self.path, name)
-            src = _HDF5Source(group, self.path, name)
+            src = _HDF5Source(self._file, self.path, name)
             kind = src.text("kind")
             fps = src.number("fps", integer=False)
             joints = src.shape_dtype("skeleton.names")[0]
             key = "features" if kind == KIND_FEATURES else "rotations"
             shape = src.shape_dtype(key)[0]
-            if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or fps <= 0:
+            if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or not fps > 0:
                 raise src.fail("malformed clip (kind, fps, skeleton/names or frame data)")
             entry: dict[str, Any] = {"name": name, "kind": kind, "frames": int(shape[0]), "fps": fps,
                                      "duration": shape[0] / fps, "joints": int(joints[0])}
@@ -424,7 +500,8 @@ class HDF5Database:
 def read_hdf5_clip(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
     """Read one clip as stored: its name and a :class:`~motionrep.Motion` or a :class:`FeatureClip`.
 
-    Only the named clip's group is opened; other clips are not read.
+    Only the named clip's group is opened; other clips are not read.  See :class:`HDF5Database` for the checks
+    made on the way.
 
     Args:
         path: the file.
@@ -433,7 +510,8 @@ def read_hdf5_clip(path: str | os.PathLike[str], clip: str | None = None) -> tup
     Raises:
         HDF5FormatError: naming the file and the clip, if the file is missing, not a motionrep HDF5 file, of a
             newer format version, holds several clips and none was named (the message lists them), has no
-            such clip, or the clip lacks a field or has one of the wrong shape or type.
+            such clip, the clip lacks a field or has one of the wrong shape or type, exceeds a limit, or the file
+            is damaged.
     """
     with HDF5Database(path) as db:
         return db.read_stored(clip)

@@ -1,25 +1,30 @@
 """NPZ (numpy archive) reader and writer: one clip per file, a motion or a representation's features.
 
-The layout is ``specs/formats/npz.md``: format name ``"motionrep-npz"``, format version 1, quaternions
-``(F, J, 4)`` **xyzw**, the complete skeleton, strings as fixed-width unicode arrays, so files load with
-``numpy.load(path, allow_pickle=False)``.  Every array round-trips bit for bit.  Problems raise
+The layout is ``specs/formats/npz.md``: format name ``"motionrep-npz"``, format version 2 (version 1 is still
+read), quaternions ``(F, J, 4)`` **xyzw**, the complete skeleton, strings as fixed-width unicode arrays, so files
+load with ``numpy.load(path, allow_pickle=False)``.  Every array round-trips bit for bit.  Problems raise
 :class:`~motionrep.errors.NPZFormatError` naming the file.
+
+Reading never trusts the archive: only a regular file is opened; each member's ``.npy`` header is read and its
+shape and dtype checked against what the clip needs and against the limits of :mod:`motionrep.limits` before
+any data is inflated, and exactly the declared number of bytes is read (a zip bomb is refused from its header).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import zipfile
-import zlib
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion
-from ..errors import NPZFormatError, ValidationError
+from ..errors import MotionrepError, NPZFormatError, ValidationError
 from ._atomic import atomic_path
 from ._features import FeatureClip, motion_from_features
+from ._files import open_regular
 from ._stored import (
     ClipSource,
     decode_clip,
@@ -33,11 +38,14 @@ __all__ = ["NPZ_FORMAT", "NPZ_FORMAT_VERSION", "read_npz", "read_npz_clip", "wri
 
 #: Value of the ``format`` key of every motionrep NPZ file.
 NPZ_FORMAT = "motionrep-npz"
-#: Newest NPZ format version this motionrep writes and reads (older versions stay readable).
-NPZ_FORMAT_VERSION = 1
+#: Newest NPZ format version this motionrep writes and reads (older versions stay readable).  Version 2 adds
+#: the optional ``euler_angles`` key.
+NPZ_FORMAT_VERSION = 2
 
-# Errors numpy and zipfile raise on files that are not (intact) numpy archives.
-_LOAD_ERRORS = (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, NotImplementedError)
+#: Longest string, in characters, a stored string array may hold per element.
+MAX_STRING_CHARS = 1 << 16
+_MAX_HEADER = 10000  # bytes of a member's .npy header (numpy's own limit for untrusted files)
+_READ_CHUNK = 1 << 24
 
 
 def _text_array(values: list[str] | str) -> NDArray[np.str_]:
@@ -101,12 +109,88 @@ def write_npz_features(clip: FeatureClip, path: str | os.PathLike[str], compress
     _save(_archive(scalars, skeleton_fields(clip.skeleton), arrays), path, compress)
 
 
+class _Member:
+    """One ``.npy`` member of the archive: its header, read on its own."""
+
+    __slots__ = ("info", "shape", "fortran", "dtype", "offset")
+
+    def __init__(self, info: zipfile.ZipInfo, shape: tuple[int, ...], fortran: bool, dtype: np.dtype, offset: int):
+        self.info, self.shape, self.fortran, self.dtype, self.offset = info, shape, fortran, dtype, offset
+
+
+class _Archive:
+    """A numpy archive read member by member, headers first (no data is inflated before it is asked for)."""
+
+    def __init__(self, fh: BinaryIO, path: str | os.PathLike[str]):
+        self.path = path
+        self.zip = zipfile.ZipFile(fh)
+        self.infos: dict[str, zipfile.ZipInfo] = {}
+        for info in self.zip.infolist():
+            name = info.filename
+            self.infos[name[:-4] if name.endswith(".npy") else name] = info
+        self.headers: dict[str, _Member] = {}
+
+    def header(self, key: str) -> _Member:
+        if key not in self.headers:
+            info = self.infos[key]
+            with self.zip.open(info) as fp:
+                version = np.lib.format.read_magic(fp)
+                if version == (1, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_1_0(fp, max_header_size=_MAX_HEADER)
+                elif version == (2, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_2_0(fp, max_header_size=_MAX_HEADER)
+                else:
+                    raise ValueError(f".npy format version {version} (motionrep reads 1.0 and 2.0)")
+                offset = fp.tell()
+            if any(not isinstance(n, int) or n < 0 for n in shape):
+                raise ValueError(f"invalid shape {shape!r}")
+            if dtype.hasobject:
+                raise ValueError("it holds Python objects (pickles are never loaded)")
+            if dtype.kind not in "biufUS" or dtype.fields is not None or dtype.subdtype is not None:
+                raise ValueError(f"unsupported dtype {dtype}")
+            self.headers[key] = _Member(info, tuple(shape), fortran, dtype, offset)
+        return self.headers[key]
+
+    def data(self, key: str) -> NDArray[Any]:
+        """The member's array: exactly the bytes its header declares (the caller checked their number)."""
+        m = self.header(key)
+        size = math.prod(m.shape) * m.dtype.itemsize
+        if m.offset + size != m.info.file_size:
+            raise ValueError(f"the member holds {m.info.file_size - m.offset} data bytes but its header declares "
+                             f"{size}")
+        buf = bytearray(size)
+        with self.zip.open(m.info) as fp:
+            fp.read(m.offset)
+            view = memoryview(buf)
+            done = 0
+            while done < size:
+                n = fp.readinto(view[done:done + _READ_CHUNK])
+                if not n:
+                    raise ValueError(f"the member ends after {done} of its {size} data bytes")
+                done += n
+            if fp.read(1):  # also makes zipfile check the member's CRC-32
+                raise ValueError("the member holds more data than its header declares")
+        a = np.frombuffer(buf, dtype=m.dtype).reshape(m.shape, order="F" if m.fortran else "C")
+        return a if a.dtype.isnative else a.astype(a.dtype.newbyteorder("="))
+
+
 class _NPZSource(ClipSource):
-    def __init__(self, archive: Any, path: str | os.PathLike[str]):
+    def __init__(self, archive: _Archive, path: str | os.PathLike[str]):
         super().__init__(path, None, NPZFormatError)
         self.archive = archive
-        self.keys = set(archive.files)
+        self.keys = set(archive.infos)
         self.cache: dict[str, NDArray] = {}
+
+    def _guard(self, key: str, action, *args):
+        """Run one archive access; anything numpy or zipfile raises on a damaged member names the file and key."""
+        try:
+            return action(self.key(key), *args)
+        except MotionrepError:
+            raise
+        except MemoryError:
+            raise self.fail(f"cannot read {self.where(key)}: not enough memory") from None
+        except Exception as exc:  # zipfile, zlib and numpy raise many kinds on damaged members
+            raise self.fail(f"cannot read {self.where(key)}: {type(exc).__name__}: {exc}") from None
 
     @staticmethod
     def key(name: str) -> str:
@@ -121,18 +205,20 @@ class _NPZSource(ClipSource):
     def array(self, key: str) -> NDArray[Any]:
         k = self.key(key)
         if k not in self.cache:
-            try:
-                self.cache[k] = self.archive[k]
-            except _LOAD_ERRORS as exc:
-                raise self.fail(f"cannot read {self.where(key)}: {exc}") from None
+            shape, dtype = self.shape_dtype(key)
+            self.check_size(key, shape, dtype.itemsize)
+            if dtype.kind in "US" and dtype.itemsize > MAX_STRING_CHARS * (4 if dtype.kind == "U" else 1):
+                raise self.fail(f"{self.where(key)} holds strings of up to {dtype.itemsize} bytes each, more than "
+                                f"the {MAX_STRING_CHARS}-character limit")
+            self.cache[k] = self._guard(key, self.archive.data)
         return self.cache[k]
 
     def scalar(self, key: str) -> Any:
         return self.array(key)
 
     def shape_dtype(self, key: str) -> tuple[tuple[int, ...], np.dtype]:
-        a = self.array(key)
-        return a.shape, a.dtype
+        m = self._guard(key, self.archive.header)
+        return m.shape, m.dtype
 
     def strings(self, key: str) -> list[str]:
         a = self.array(key)
@@ -177,23 +263,26 @@ def read_npz_clip(path: str | os.PathLike[str]) -> Motion | FeatureClip:
         NPZFormatError: naming the file, if it is missing, not a motionrep NPZ file, of a newer format version,
             or lacks a key or has one of the wrong shape or dtype.
     """
-    try:
-        with open(path, "rb") as fh:
-            magic = fh.read(4)
-    except OSError as exc:
-        raise NPZFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
-    if magic not in (b"PK\x03\x04", b"PK\x05\x06"):
-        raise NPZFormatError("not an NPZ archive (no zip signature)", path)
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except _LOAD_ERRORS as exc:
-        raise NPZFormatError(f"not an NPZ archive ({exc})", path) from None
-    if not isinstance(archive, np.lib.npyio.NpzFile):
-        raise NPZFormatError("not an NPZ archive (a single .npy array)", path)
-    with archive:
-        src = _NPZSource(archive, path)
-        _check_header(src)
-        return decode_clip(src)
+    with open_regular(path, NPZFormatError) as fh:
+        try:
+            magic = fh.read(6)
+            fh.seek(0)
+        except OSError as exc:
+            raise NPZFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
+        if magic == b"\x93NUMPY":
+            raise NPZFormatError("not an NPZ archive (a single .npy array)", path)
+        if magic[:4] not in (b"PK\x03\x04", b"PK\x05\x06"):
+            raise NPZFormatError("not an NPZ archive (no zip signature)", path)
+        try:
+            archive = _Archive(fh, path)
+        except MemoryError:
+            raise NPZFormatError("not an NPZ archive (its zip directory does not fit in memory)", path) from None
+        except Exception as exc:  # zipfile raises several kinds on a damaged directory
+            raise NPZFormatError(f"not an NPZ archive ({type(exc).__name__}: {exc})", path) from None
+        with archive.zip:
+            src = _NPZSource(archive, path)
+            _check_header(src)
+            return decode_clip(src)
 
 
 def read_npz(path: str | os.PathLike[str]) -> Motion:

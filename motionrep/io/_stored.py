@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..limits import ENVIRONMENT, check_clip
+from ..limits import current as current_limits
 from .._model import Motion, Skeleton
 from ..errors import FormatError, ValidationError
 from ._features import FeatureClip
@@ -100,6 +102,8 @@ def motion_fields(motion: Motion) -> tuple[dict[str, Any], dict[str, Any]]:
     }
     if motion.euler_branch is not None:
         arrays["euler_branch"] = motion.euler_branch
+    if motion.euler_angles is not None:
+        arrays["euler_angles"] = motion.euler_angles
     return scalars, arrays
 
 
@@ -124,7 +128,7 @@ class ClipSource(ABC):
     Logical names: the scalars ``kind``, ``quat_order``, ``fps``, ``units``, ``representation``,
     ``representation_version``; the skeleton arrays ``skeleton.names``, ``skeleton.parents``, ``skeleton.offsets``,
     ``skeleton.channels``, ``skeleton.end_site_parents``, ``skeleton.end_site_offsets``; the arrays
-    ``root_translation``, ``rotations``, ``joint_translations``, ``features``, ``feature_names``.
+    ``root_translation``, ``rotations``, ``joint_translations``, ``euler_angles``, ``features``, ``feature_names``.
     ``euler_branch`` is read through :meth:`euler_branch` because the formats pack it differently.
     """
 
@@ -156,7 +160,8 @@ class ClipSource(ABC):
 
     @abstractmethod
     def array(self, key: str) -> NDArray[Any]:
-        """The stored array's data."""
+        """The stored array's data.  Implementations refuse an array larger than the ``max_clip_bytes`` limit
+        (see :meth:`check_size`) before reading it."""
 
     @abstractmethod
     def strings(self, key: str) -> list[str]:
@@ -167,6 +172,14 @@ class ClipSource(ABC):
         """The ``(F, J)`` Euler-branch hint, or None when absent."""
 
     # ---- typed access --------------------------------------------------------------------------------------
+    def check_size(self, key: str, shape: tuple[int, ...], itemsize: int) -> None:
+        """Refuse an array whose data would take more than the ``max_clip_bytes`` limit (before reading it)."""
+        size = math.prod(int(s) for s in shape) * int(itemsize)
+        lim = current_limits()
+        if size > lim.max_clip_bytes:
+            raise self.fail(f"{self.where(key)} declares shape {tuple(shape)}: {size} bytes, more than the limit of "
+                            f"{lim.max_clip_bytes} (raise {ENVIRONMENT['max_clip_bytes']} to read it)")
+
     def require(self, key: str) -> None:
         if not self.has(key):
             raise self.fail(f"missing {self.where(key)}")
@@ -258,6 +271,7 @@ def decode_clip(src: ClipSource) -> Motion | FeatureClip:
         raise src.fail(f"{src.where('quat_order')} is {order!r}; motionrep files store quaternions as "
                        f"{QUAT_ORDER!r}")
     fps = src.number("fps", integer=False)
+    _check_clip_size(src, kind)
     skeleton = _skeleton(src)
     J = skeleton.num_joints
     try:
@@ -275,10 +289,30 @@ def decode_clip(src: ClipSource) -> Motion | FeatureClip:
         P = skeleton.translated_joints.shape[0]
         jt = src.checked_array("joint_translations", (F, P, 3), _FLOAT, "numbers")
         branch = src.euler_branch(F, J)
+        angles = None
+        if src.has("euler_angles"):
+            angles = src.checked_array("euler_angles", (F, skeleton.num_rotation_channels), _FLOAT, "numbers")
+            angles = np.asarray(angles, dtype=np.float64)
         return Motion(skeleton, fps, np.asarray(root, dtype=np.float64), np.asarray(rotations, dtype=np.float64),
-                      np.asarray(jt, dtype=np.float64), euler_branch=branch)
+                      np.asarray(jt, dtype=np.float64), euler_branch=branch, euler_angles=angles)
     except ValidationError as exc:
         raise src.fail(str(exc)) from None
+
+
+def _check_clip_size(src: ClipSource, kind: str) -> None:
+    """Refuse a clip whose declared frame data exceeds the limits, from shapes alone (nothing is read yet)."""
+    key = "features" if kind == KIND_FEATURES else "rotations"
+    src.require(key)
+    shape, _ = src.shape_dtype(key)
+    if len(shape) < 2:
+        return  # the shape check that follows names the problem
+    frames, width = int(shape[0]), int(shape[1])
+    if kind == KIND_FEATURES:
+        reason = check_clip(frames, src.where(key), features=width)
+    else:
+        reason = check_clip(frames, src.where(key), joints=width, angles=3 * width)
+    if reason:
+        raise src.fail(reason)
 
 
 def packed_bits_length(frames: int, joints: int) -> int:
