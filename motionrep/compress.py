@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._model import Motion
+from ._threads import one_blas_thread
 from .codec import Codec, Payload, frame_times
 from .container import Container, pack, read_container, unpack
 from .errors import BoundNotMetError, CodecError, ParameterError
@@ -251,7 +252,15 @@ class Pipeline:
             ParameterError: a bound in % of a character of height 0, or parameters the codec refuses.
             BoundNotMetError: the bound was not met (measured on the payload decoded from the bytes).
             CodecError: the codec returned something else than a payload, or does not decode deterministically.
+
+        The work runs with one BLAS thread (:func:`motionrep._threads.one_blas_thread`): the bytes never depend
+        on how many threads the process, or a batch worker, has.
         """
+        with one_blas_thread():
+            return self._compress(motion, progress, source_bytes)
+
+    def _compress(self, motion: Motion, progress: ProgressCallback | None, source_bytes: int | None
+                  ) -> CompressResult:
         from . import __version__
         from .plugins import provider_of
 
@@ -392,7 +401,8 @@ def decode_at(container: Container, times: ArrayLike, *, fps: float | None = Non
     """
     from .runtime import Clip
 
-    return Clip(container, path, codec=codec, representation=representation).motion_at(times, fps)
+    with one_blas_thread():  # the decoded values never depend on the thread count
+        return Clip(container, path, codec=codec, representation=representation).motion_at(times, fps)
 
 
 def decompress(data: bytes | Container, fps: float | None = None, *, path: Any = None, codec: Codec | None = None,
