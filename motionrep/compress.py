@@ -257,10 +257,10 @@ class Pipeline:
         on how many threads the process, or a batch worker, has.
         """
         with one_blas_thread():
-            return self._compress(motion, progress, source_bytes)
+            return self._compress(motion, progress, source_bytes, extra)
 
-    def _compress(self, motion: Motion, progress: ProgressCallback | None, source_bytes: int | None
-                  ) -> CompressResult:
+    def _compress(self, motion: Motion, progress: ProgressCallback | None, source_bytes: int | None,
+                  extra: Mapping[str, Any] | None) -> CompressResult:
         from . import __version__
         from .plugins import provider_of
 

@@ -64,11 +64,15 @@ def _check_fps(fps: float) -> float:
 
 def resampled_count(num_frames: int, fps: float, new_fps: float) -> int:
     """Frames of a ``num_frames`` clip at ``fps`` resampled to ``new_fps``: the first frame at 0 s, then one every
-    ``1 / new_fps`` seconds up to the last source frame, which is included when it falls on the new grid."""
+    ``1 / new_fps`` seconds, as many as cover the clip from its first to its last frame to the nearest new frame
+    (the span ``(num_frames - 1) / fps`` in new frames, rounded, halves down), so the last frame is never lost to
+    a frame rate stored with a few digits (a 2.29991 s span at 30 fps is 69 intervals, 70 frames, not 69); a last
+    new frame up to half a frame past the end gives the last source frame."""
     new_fps = _check_fps(new_fps)
     if num_frames <= 1:
         return 1
-    return int(math.floor((num_frames - 1) / fps * new_fps + 1e-9)) + 1
+    # an exact half rounds down (the last new frame is never past the clip's end); 1e-9 absorbs float noise
+    return int(math.ceil((num_frames - 1) / fps * new_fps - 0.5 - 1e-9)) + 1
 
 
 def resample_times(num_frames: int, fps: float, new_fps: float) -> NDArray[np.float64]:
@@ -119,7 +123,8 @@ def resample(motion: Motion, fps: float, num_frames: int | None = None) -> Motio
     Args:
         motion: the clip.
         fps: the new frame rate.
-        num_frames: frames of the result; default :func:`resampled_count` (up to the last source frame).
+        num_frames: frames of the result; default :func:`resampled_count` (up to the last source frame, to the
+            nearest new frame).
 
     Raises:
         ParameterError: for an ``fps`` that is not a positive number.

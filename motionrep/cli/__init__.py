@@ -21,6 +21,7 @@ import sys
 import click
 
 from .. import __version__
+from .._signals import check as check_interrupted
 from ..errors import MotionrepError
 from . import bench, compress, convert, decompress, evaluate, example, info, merge, plugins, render, view
 from ._common import display_name, handling_signals, interrupt_line
@@ -41,7 +42,11 @@ class _Group(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             with handling_signals():
-                return super().invoke(ctx)
+                try:
+                    return super().invoke(ctx)
+                except Exception:
+                    check_interrupted()  # a library turned the interrupt into another exception: it is the interrupt
+                    raise
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP (Interrupted)
             if ctx.obj and ctx.obj.get("debug"):
                 raise

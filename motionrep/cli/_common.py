@@ -28,6 +28,8 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import click
 
+from .._signals import Interrupted
+
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
@@ -267,43 +269,26 @@ def check_overwrite(path: str | os.PathLike[str], force: bool, *, resume: bool =
     raise OutputExistsError(f"exists; use {how}", path)
 
 
-class Interrupted(KeyboardInterrupt):
-    """A command was stopped by a signal (SIGINT, SIGTERM or SIGHUP).
-
-    Attributes:
-        signum: the signal's number.
-        note: what was kept, for the one line the command line prints (set by the code that cleaned up).
-    """
-
-    def __init__(self, signum: int = signal.SIGINT, note: str = ""):
-        super().__init__(signum, note)
-        self.signum, self.note = int(signum), note
-
-    @property
-    def exit_code(self) -> int:
-        return 128 + self.signum
-
-
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    raise Interrupted(signum)
-
-
 @contextlib.contextmanager
 def handling_signals() -> Iterator[None]:
-    """SIGTERM and SIGHUP raise :class:`Interrupted` (like Ctrl-C's KeyboardInterrupt) while the block runs;
-    the previous handlers are restored afterwards.  Outside the main thread nothing is installed."""
+    """SIGINT, SIGTERM and SIGHUP raise :class:`Interrupted` (a ``KeyboardInterrupt``) while the block runs, and
+    are remembered even when a library swallows that exception (:mod:`motionrep._signals`); the previous
+    handlers are restored afterwards.  Outside the main thread nothing is installed."""
     import threading
+
+    from .._signals import SIGNALS, handler, quiet_unraisable, reset
 
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    wanted = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    saved = {s: signal.signal(s, _raise_interrupted) for s in wanted}
+    reset()
+    saved = {s: signal.signal(s, handler) for s in SIGNALS}
     try:
-        yield
+        with quiet_unraisable():
+            yield
     finally:
-        for s, handler in saved.items():
-            signal.signal(s, handler)
+        for s, previous in saved.items():
+            signal.signal(s, previous)
 
 
 def interrupt_line(exc: BaseException) -> tuple[str, int]:

@@ -107,10 +107,13 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @click.option("--representation", "-r", metavar="NAME",
               help="Store the features of this registered representation instead of the motion (.npz/.h5).")
 @click.option("--decimals", type=click.IntRange(0, 17), default=None,
-              help="Digits after the decimal point in BVH output (default 6).")
+              help="Digits after the decimal point in BVH output (default: exact, the shortest decimal that reads "
+                   "back to the same value).")
+@click.option("--append", is_flag=True,
+              help="OUT.h5 exists: add the clips to it (a clip of the same name needs --force to be replaced).")
 @force_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
-            decimals: int | None, force: bool) -> None:
+            decimals: int | None, append: bool, force: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
@@ -139,7 +142,9 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     Standard input and output: IN '-' reads BVH text from standard input;
     OUT '-' writes one clip to standard output, as BVH (or --format npz/h5/glb).
     IN may also be a quoted glob pattern ('clips/*.bvh', 'mocap/**/*.bvh').
-    An OUT that exists (or a file OUT/ would replace) needs --force.
+    An OUT that exists (or a file OUT/ would replace) needs --force; --append
+    adds the clips to an existing .h5 database instead, keeping its other clips
+    exactly (a clip of the same name is replaced only with --force).
 
     \b
     Errors: a bad input stops the run with one line naming the file (exit 1)
@@ -151,6 +156,7 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     Examples:
       motionrep convert walk.bvh walk.npz
       motionrep convert clips/ clips.h5
+      motionrep convert more/ clips.h5 --append
       motionrep convert clips.h5 out/ --format npz
       motionrep convert clips.h5 walk.bvh --clip walk --decimals 4
       motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
@@ -163,11 +169,11 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
     raw_out = paths[-1]
     with stdin_inputs(expand_globs(paths[:-1]), allowed=(".bvh",)) as inputs:
-        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force)
+        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force, append)
 
 
 def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str | None,
-             representation: str | None, decimals: int | None, force: bool) -> None:
+             representation: str | None, decimals: int | None, force: bool, append: bool = False) -> None:
     out = Path(raw_out)
     to_stdout = is_stdio(raw_out)
     to_directory = not to_stdout and (out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == "")
@@ -184,7 +190,14 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
             raise click.UsageError(f"input and output are the same: {p}")
         if not p.is_dir():
             _format_or_usage(p, "input")
-    if not to_directory:
+    if append and (to_directory or to_stdout or out_fmt != "hdf5"):
+        raise click.UsageError("--append adds clips to an .h5 database: OUT must be a .h5/.hdf5 file")
+    append = append and out.exists()
+    if out_fmt == "hdf5" and not to_stdout and out.exists() and not (append or force):
+        from ..errors import OutputExistsError
+
+        raise OutputExistsError("exists; use --force to overwrite it, or --append to add the clips to it", out)
+    if not to_directory and not append:
         check_outputs([raw_out], force)
     if decimals is not None and out_fmt != "bvh":
         raise click.UsageError("--decimals applies only to BVH output")
@@ -214,16 +227,36 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
                                "directory")
     with stdout_output(raw_out, out.suffix) as target:
         if out_fmt == "hdf5":
-            _to_database(refs, target, rep)
+            _to_database(refs, target, rep, append, force)
         else:
             _write_one(next(_converted(refs, rep))[1], target, decimals)
 
 
-def _to_database(refs: list, out: Path, representation: Any) -> None:
-    from ..errors import MotionrepError
+def _to_database(refs: list, out: Path, representation: Any, append: bool = False, force: bool = False) -> None:
+    """Write the clips to the database ``out``; with ``append``, after the clips ``out`` already holds (copied as
+    stored, bit for bit), those of the same name replaced when ``force``."""
+    from ..errors import FormatError, MotionrepError
     from ..io import write_database
+    from ..io._hdf5 import HDF5Database
+
+    kept: list[str] = []
+    if append:
+        with HDF5Database(out) as db:
+            names = db.names
+        new = {r.name for r in refs}
+        clash = [n for n in names if n in new]
+        if clash and not force:
+            from ..sources import listing
+
+            raise FormatError(f"already holds clip{'s' if len(clash) > 1 else ''} {listing(clash)}; use --force "
+                              "to replace them", out)
+        kept = [n for n in names if n not in new]
 
     def clips() -> Iterator[tuple[str, Any]]:
+        if kept:
+            with HDF5Database(out) as db:
+                for name in kept:
+                    yield db.read_stored(name)
         with _bar(_converted(refs, representation), len(refs), f"Converting {len(refs)} clips to {out}") as bar:
             for ref, item in bar:
                 yield ref.name, item

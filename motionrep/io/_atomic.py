@@ -4,32 +4,79 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Iterator
 
+from .._signals import check as _check_interrupts
+
 __all__ = ["atomic_path"]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # it exists, and belongs to someone else
+        return True
+    return True
+
+
+def _remove_stale(directory: Path, target: Path) -> None:
+    """Remove temporary files that a killed writer of ``target`` left (``SIGKILL`` and power cuts cannot be
+    caught): their name holds the writer's process id, and that process is gone."""
+    prefix = f".{target.name}."
+    try:
+        names = [n for n in os.listdir(directory) if n.startswith(prefix) and n.endswith(f".tmp{target.suffix}")]
+    except OSError:
+        return
+    for name in names:
+        pid = name[len(prefix):].split(".", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            with contextlib.suppress(OSError):
+                (directory / name).unlink()
 
 
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path in the target's directory; on success rename it to ``target``.
 
-    If the body raises, the temporary file is removed and ``target`` is left untouched (it does not appear if
-    it did not exist).  The temporary name keeps the target's suffix, so libraries that look at suffixes work.
+    If the body raises (or the process is interrupted: Ctrl-C, SIGTERM, SIGHUP, see :mod:`motionrep._signals`),
+    the temporary file is removed and ``target`` is left untouched (it does not appear if it did not exist).  The
+    temporary name (``.<name>.<pid>.<random>.tmp<suffix>``) keeps the target's suffix, so libraries that look at
+    suffixes work; temporary files of the same target left by a writer that was killed are removed.  A replaced
+    file keeps its permission bits; a new one gets those ``open()`` would give it.  An ``OSError`` (a read-only
+    directory, a full disk) names ``target``, never the temporary file.
     """
     target = Path(target)
     directory = target.parent if str(target.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}", dir=directory)
+    _remove_stale(directory, target)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=f".tmp{target.suffix}",
+                                   dir=directory)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
     os.close(fd)
     tmp_path = Path(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp makes 0600; give the file the permissions open() would
     try:
+        mode = stat.S_IMODE(os.stat(target).st_mode)  # replacing a file: keep its permissions
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask  # mkstemp makes 0600; give the file the permissions open() would
+    try:
+        os.chmod(tmp_path, mode)
         yield tmp_path
-        os.replace(tmp_path, target)
-    except BaseException:
+        _check_interrupts()  # an interrupt a library swallowed while writing: do not complete the file
+        try:
+            os.replace(tmp_path, target)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
+        if isinstance(exc, OSError) and exc.filename == str(tmp_path):
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
         raise
