@@ -24,6 +24,9 @@ A valid checksum says the file is intact, not that whoever wrote it meant well, 
 as untrusted input: it is inflated only up to the ``max_metadata_bytes`` limit, every field must have its
 documented type, array shapes must describe exactly the payload, and ``num_frames`` must be within the
 ``max_frames`` and ``max_clip_bytes`` limits (:mod:`motionrep.limits`) before anything is decoded.
+
+Size: one concern, the ``.mrc`` format; the writer and the reader stay together because each is the other's
+specification, and a third of the length is the reader checking every metadata field of an untrusted file.
 """
 
 from __future__ import annotations
