@@ -241,6 +241,11 @@ def _save(fmt: str, seed: int, work: Path, out_dir: Path) -> None:
     (out_dir / f"{fmt}-seed{seed}.txt").write_text(f"regenerate with tests/fuzz/mutate.py, format {fmt}, seed {seed}\n")
 
 
+_RUSAGE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
+           "print('MAXRSS_KB=%d' % resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+           "sys.exit(r.returncode)")
+
+
 def run_crafted(pythonpath: str | None, timeout: float, memory: int) -> list[dict]:
     from fuzz.crafted import build, check_leak
 
@@ -249,19 +254,23 @@ def run_crafted(pythonpath: str | None, timeout: float, memory: int) -> list[dic
     env = dict(os.environ)
     if pythonpath:
         env["PYTHONPATH"] = os.pathsep.join([pythonpath, str(Path(pythonpath) / "plugins")])
+        env["PYTHONDONTWRITEBYTECODE"] = "1"  # leave the other checkout as it is
     rows = []
     for case in cases:
         out_dir = work / "out" / case.name
         out_dir.mkdir(parents=True)
         out = out_dir / f"out{case.out_suffix}"
-        cmd = [sys.executable, "-m", "motionrep"] + [a.replace("{out}", str(out)) for a in case.command]
+        # a wrapper runs the command and reports its peak resident size (the child's own rusage)
+        cmd = [sys.executable, "-c", _RUSAGE, sys.executable, "-m", "motionrep"] + [
+            a.replace("{out}", str(out)) for a in case.command]
 
         def limit() -> None:
             resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
             os.setsid()
 
         start = time.monotonic()
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, preexec_fn=limit)
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, preexec_fn=limit,
+                                cwd=out_dir)  # not this checkout: '' on sys.path would import it first
         try:
             stdout, stderr = proc.communicate(timeout=timeout)
             hung = False
@@ -269,9 +278,12 @@ def run_crafted(pythonpath: str | None, timeout: float, memory: int) -> list[dic
             os.killpg(proc.pid, signal.SIGKILL)
             stdout, stderr = proc.communicate()
             hung = True
-        _, status, usage = os.wait4(proc.pid, os.WNOHANG) if proc.returncode is None else (0, 0, None)
         seconds = time.monotonic() - start
         text = (stdout + stderr).decode("utf-8", "replace")
+        peak = None
+        if "MAXRSS_KB=" in text:
+            text, _, kb = text.rpartition("MAXRSS_KB=")
+            peak = int(kb.strip()) * 1024
         leak = check_leak(list(out_dir.iterdir()))
         ok = None
         if case.kind == "accept" and out.exists():
@@ -279,7 +291,8 @@ def run_crafted(pythonpath: str | None, timeout: float, memory: int) -> list[dic
         rows.append({"case": case.name, "issue": case.issue, "exit": None if hung else proc.returncode,
                      "hang": hung, "seconds": round(seconds, 2), "traceback": "Traceback" in text,
                      "names_file": str(case.path) in text, "output_left": out.exists() and case.kind != "accept",
-                     "leak": leak, "exact": ok, "message": text.strip().splitlines()[-1][:200] if text.strip() else ""})
+                     "leak": leak, "exact": ok, "peak_mb": None if peak is None else round(peak / 2 ** 20),
+                     "message": text.strip().splitlines()[-1][:200] if text.strip() else ""})
     return rows
 
 
@@ -308,8 +321,8 @@ def main() -> None:
         for r in rows:
             verdict = ("HANG" if r["hang"] else "TRACEBACK" if r["traceback"] else "LEAK" if r["leak"]
                        else f"exit {r['exit']}")
-            print(f"{r['case']:30s} {verdict:10s} {r['seconds']:7.2f}s names file: {r['names_file']!s:5s} "
-                  f"{'exact' if r['exact'] else ''} {r['message'][:110]}")
+            print(f"{r['case']:30s} {verdict:10s} {r['seconds']:7.2f}s {r['peak_mb'] or '?':>5} MB names file: "
+                  f"{r['names_file']!s:5s} {'exact' if r['exact'] else ''} {r['message'][:100]}")
     else:
         results["mutants"] = {}
         for fmt in args.formats.split(","):
