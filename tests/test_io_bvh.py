@@ -43,8 +43,7 @@ def frame_values(data: bytes) -> np.ndarray:
     ``float`` below)."""
     data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     start = data.index(b"\n", data.index(b"Frame Time")) + 1
-    u = np.frombuffer(data, np.uint8, offset=start)
-    values, bad = parse_number_tokens(u, scan_tokens(u))
+    values, bad = parse_numbers(data[start:])
     assert bad is None
     return values
 

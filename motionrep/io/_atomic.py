@@ -77,6 +77,7 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
+        _check_interrupts()  # a library turned the interrupt into another exception: report the interrupt
         if isinstance(exc, OSError) and exc.filename == str(tmp_path):
             raise OSError(exc.errno, exc.strerror, str(target)) from None
         raise
