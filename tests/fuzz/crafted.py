@@ -11,6 +11,7 @@ Used by ``tests/test_hostile.py`` (library and command line, in the default test
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import struct
@@ -94,6 +95,19 @@ def write_v1_hdf5(motion: Motion, path: Path, clip: str = "base") -> None:
             else:
                 group.create_dataset(key, data=a, chunks=(min(a.shape[0], max(1, (1 << 18) // max(1, a[0].nbytes))),)
                                      + a.shape[1:], compression="gzip", compression_opts=4, shuffle=True)
+
+
+def write_v1_npz(motion: Motion, path: Path) -> None:
+    """An NPZ file as motionrep 0.1 wrote them (format version 1: no ``euler_angles``)."""
+    buf = io.BytesIO()
+    write(motion.replace(euler_angles=None), path)
+    np.save(buf, np.array(1, dtype=np.int64))
+    with zipfile.ZipFile(path) as src:
+        members = {i.filename: src.read(i) for i in src.infolist()}
+    members["format_version.npy"] = buf.getvalue()
+    with zipfile.ZipFile(path, "w") as out:
+        for name, data in members.items():
+            out.writestr(name, data)
 
 
 def mrc_parts(motion: Motion | None = None) -> tuple[dict, bytes]:
@@ -204,10 +218,12 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     d.mkdir(parents=True, exist_ok=True)
     cases: list[Case] = []
     motion = small_motion()
+    # the cases are built from files of the oldest format versions, which every motionrep reads (so that the same
+    # files can be given to an older checkout: tests/fuzz/run.py --crafted --pythonpath)
     good_h5 = d / "good.h5"
-    write(motion, good_h5)
+    write_v1_hdf5(motion, good_h5, clip="good")
     good_npz = d / "good.npz"
-    write(motion, good_npz)
+    write_v1_npz(motion, good_npz)
     secret = d / "secret.txt"
     secret.write_bytes(SECRET)
     F, J = motion.num_frames, motion.num_joints
@@ -290,8 +306,10 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     (d / "h5-damaged-spin.h5").write_bytes(bytes(spin))
     cases.append(Case("h5-damaged-spin", "the HDF5 library spins in the root-attribute read (hang)",
                       d / "h5-damaged-spin.h5", ["convert", str(d / "h5-damaged-spin.h5"), "{out}"], "HDF5"))
-    flipped = bytearray(good_h5.read_bytes())
-    with h5py.File(good_h5, "r") as f:
+    good_v2 = d / "good-v2.h5"  # the checksums are format version 2's
+    write(motion, good_v2, clip="good")
+    flipped = bytearray(good_v2.read_bytes())
+    with h5py.File(good_v2, "r") as f:
         at = f["clips/good/rotations"].id.get_offset()
         if at is None:  # chunked: the first chunk's address
             at = f["clips/good/rotations"].id.get_chunk_info(0).byte_offset
@@ -423,5 +441,5 @@ def check_leak(outputs: list[Path]) -> bool:
     return False
 
 
-__all__ = ["Case", "build", "SECRET", "check_leak", "write_v1_hdf5", "mrc_parts", "npz_parts", "pack_meta", "pack_raw",
+__all__ = ["Case", "build", "SECRET", "check_leak", "write_v1_hdf5", "write_v1_npz", "mrc_parts", "npz_parts", "pack_meta", "pack_raw",
            "npy_bytes", "npz_with", "zip_bomb", "small_motion"]
