@@ -9,6 +9,7 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
+from .._signals import block, unblock
 from .._signals import check as _check_interrupts
 
 __all__ = ["atomic_path"]
@@ -53,20 +54,25 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     target = Path(target)
     directory = target.parent if str(target.parent) else Path(".")
     _remove_stale(directory, target)
+    block()  # an interrupt between creating the file and the try below would leave it behind
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=f".tmp{target.suffix}",
                                    dir=directory)
-    except OSError as exc:
-        raise OSError(exc.errno, exc.strerror, str(target)) from None
-    os.close(fd)
+    except BaseException as exc:
+        unblock()
+        if isinstance(exc, OSError):
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
+        raise
     tmp_path = Path(tmp)
-    try:
-        mode = stat.S_IMODE(os.stat(target).st_mode)  # replacing a file: keep its permissions
-    except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        mode = 0o666 & ~umask  # mkstemp makes 0600; give the file the permissions open() would
-    try:
+    try:  # from here on, whatever happens (an interrupt included) removes the temporary file
+        unblock()
+        os.close(fd)
+        try:
+            mode = stat.S_IMODE(os.stat(target).st_mode)  # replacing a file: keep its permissions
+        except OSError:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask  # mkstemp makes 0600; give the file the permissions open() would
         os.chmod(tmp_path, mode)
         yield tmp_path
         _check_interrupts()  # an interrupt a library swallowed while writing: do not complete the file

@@ -169,8 +169,8 @@ class _Worker:
         while n:
             left = deadline - time.monotonic()
             if left <= 0 or not select.select([fd], [], [], left)[0]:
-                raise _Timeout(f"the HDF5 library did not finish within {timeout:g} s (a damaged file makes it spin; "
-                               f"the limit is {ENVIRONMENT['read_timeout']})")
+                raise _Timeout(f"the HDF5 library did not finish within {timeout:g} s: a damaged file can make it "
+                               f"spin (if the file is only slow to read, raise {ENVIRONMENT['read_timeout']})")
             b = os.read(fd, min(n, 1 << 22))
             if not b:
                 raise H5Error("the HDF5 library crashed reading it (a damaged file?)")
