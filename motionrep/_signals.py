@@ -26,6 +26,8 @@ import signal
 import sys
 from collections.abc import Iterator
 
+from .errors import Interrupted
+
 __all__ = ["Interrupted", "SIGNALS", "handler", "check", "pending", "reset", "block", "unblock",
            "quiet_unraisable"]
 
@@ -34,23 +36,6 @@ SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP"
 
 _pending: int | None = None
 _deferred = 0  # > 0 while block() holds interrupts back
-
-
-class Interrupted(KeyboardInterrupt):
-    """A command was stopped by a signal (SIGINT, SIGTERM or SIGHUP).
-
-    Attributes:
-        signum: the signal's number.
-        note: what was kept, for the one line the command line prints (set by the code that cleaned up).
-    """
-
-    def __init__(self, signum: int = signal.SIGINT, note: str = ""):
-        super().__init__(signum, note)
-        self.signum, self.note = int(signum), note
-
-    @property
-    def exit_code(self) -> int:
-        return 128 + self.signum
 
 
 def handler(signum: int, frame: object) -> None:

@@ -25,10 +25,14 @@ Hierarchy::
         ├── PayloadError         (also a ValueError) a codec payload is damaged or inconsistent
         ├── BoundNotMetError     the requested error bound could not be reached
         └── TimeLimitError       a clip took longer than its time limit (``--timeout``)
+
+    KeyboardInterrupt
+    └── Interrupted              a command was stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP (``motionrep._signals``)
 """
 
 from __future__ import annotations
 
+import signal
 from os import PathLike
 
 __all__ = [
@@ -50,6 +54,7 @@ __all__ = [
     "BoundNotMetError",
     "TimeLimitError",
     "PayloadError",
+    "Interrupted",
 ]
 
 
@@ -175,3 +180,20 @@ class TimeLimitError(CodecError):
 
     def __reduce__(self):
         return (type(self), (self.args[0] if self.args else "", self.seconds))
+
+
+class Interrupted(KeyboardInterrupt):
+    """A command was stopped by a signal (SIGINT, SIGTERM or SIGHUP); see :mod:`motionrep._signals`.
+
+    Attributes:
+        signum: the signal's number.
+        note: what was kept, for the one line the command line prints (set by the code that cleaned up).
+    """
+
+    def __init__(self, signum: int = signal.SIGINT, note: str = ""):
+        super().__init__(signum, note)
+        self.signum, self.note = int(signum), note
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum

@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._model import Motion, Skeleton
 from .codec import Codec, Payload, frame_times
 from .container import Container, read_container, unpack
-from .errors import ContainerError, MotionrepError, ValidationError
+from .errors import ContainerError, MotionrepError, PayloadError, ValidationError
 from .kinematics import fk_arrays
 from .ops import fixed_axes_restored, resample_times
 from .representation import Poses, Representation, empty_poses
@@ -50,6 +50,8 @@ __all__ = ["Clip", "Pose", "open_clip", "BLOCK"]
 #: Poses decoded together: the block's features and poses stay in the CPU cache.
 BLOCK = 512
 _F64 = np.dtype(np.float64)
+#: What a codec may raise on a damaged payload besides PayloadError; it becomes a ContainerError naming the file.
+_DECODE_ERRORS = (KeyError, ValueError, IndexError, TypeError, ArithmeticError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,9 +99,11 @@ class Clip:
         try:
             self._decoder = codec.decoder(Payload(arrays=container.arrays, info=container.info,
                                                   version=container.codec_version))
+        except PayloadError as exc:  # the codec's own words, with the file named
+            raise self._payload_error(exc) from None
         except MotionrepError:
             raise
-        except (KeyError, ValueError, IndexError, TypeError) as exc:
+        except _DECODE_ERRORS as exc:
             raise self._payload_error(exc) from None
         self.fps = float(container.fps)
         self.num_frames = int(container.num_frames)
@@ -221,14 +225,16 @@ class Clip:
     def _features_at(self, u: NDArray[np.float64]) -> NDArray:
         try:
             return self._decoder(u)
+        except PayloadError as exc:
+            raise self._payload_error(exc) from None
         except MotionrepError:
             raise
-        except (KeyError, ValueError, IndexError, TypeError) as exc:
+        except _DECODE_ERRORS as exc:
             raise self._payload_error(exc) from None
 
     def _payload_error(self, exc: Exception) -> ContainerError:
-        return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {type(exc).__name__}: {exc}",
-                              self._path)
+        what = str(exc) if isinstance(exc, PayloadError) else f"{type(exc).__name__}: {exc}"
+        return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {what}", self._path)
 
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
         """Decode at most :data:`BLOCK` normalised times into ``out``: the codec's features into the block's

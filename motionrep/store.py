@@ -30,6 +30,7 @@ from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import Any, Iterator
 
+from . import _signals
 from .container import SUFFIX, Container
 from .errors import ContainerError, FormatError, OutputExistsError
 
@@ -241,6 +242,7 @@ class ArchiveStore(ClipStore):
         main = threading.current_thread() is threading.main_thread()
         signals = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)] if main else []
         held = {s: signal.signal(s, signal.SIG_IGN) for s in signals}
+        _signals.reset()  # an interrupt that stopped the run is handled: the archive of the finished clips is written
         try:
             write_archive(self._clips(), self.path)
             shutil.rmtree(self.journal, ignore_errors=True)

@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from motionrep import Motion, limits
+from motionrep.compress import decompress, describe_outcome
 from motionrep.container import unpack
 from motionrep.errors import ContainerError, FormatError, MotionrepError
 from motionrep.io import format_bvh, parse_bvh, read, write
@@ -48,12 +49,12 @@ def _check(read_it, path: str) -> None:
     _no_leak(item)
 
 
-@pytest.fixture(scope="module")
-def mrc_base():
-    return mrc_parts()
+@pytest.fixture(scope="module", params=["svd", "transform"])
+def mrc_base(request):
+    return mrc_parts(codec=request.param)
 
 
-@settings(FUZZ, max_examples=150)
+@settings(FUZZ, max_examples=100)
 @given(seed=SEEDS)
 def test_mutated_mrc_gives_a_container_or_a_container_error(mrc_base, seed):
     meta, payload = mrc_base
@@ -64,9 +65,12 @@ def test_mutated_mrc_gives_a_container_or_a_container_error(mrc_base, seed):
         except ContainerError as exc:
             assert exc.path == "fuzz.mrc" and "\n" not in str(exc)
             return
-    # what readers of a container rely on holds
-    assert isinstance(c.codec, str) and isinstance(c.num_frames, int) and c.num_frames >= 1 and c.fps > 0
-    assert c.evaluation is None or isinstance(c.evaluation["max_error"], float | int)
+        # what readers of a container rely on holds
+        assert isinstance(c.codec, str) and isinstance(c.num_frames, int) and c.num_frames >= 1 and c.fps > 0
+        assert c.evaluation is None or isinstance(c.evaluation["max_error"], float | int)
+        # its outcome can be described (motionrep info) and it decodes, or the error names the file
+        describe_outcome(c, detail=True)
+        _check(lambda: decompress(c, path="fuzz.mrc"), "fuzz.mrc")
 
 
 @pytest.fixture(scope="module")

@@ -36,7 +36,8 @@ CASE_NAMES = [c for c in [
     "npz-header-2^33-frames", "npz-damaged-npy-header", "npz-pickled-member", "npz-short-member",
     "mrc-num-frames-1e6", "mrc-num-frames-1e7", "mrc-metadata-inflation", "mrc-deep-json", "mrc-shape-1e30",
     "mrc-evaluation-list", "mrc-omega-text", "mrc-frames-text", "mrc-skeleton-types", "mrc-unknown-codec",
-    "mrc-wrong-representation",
+    "mrc-wrong-representation", "mrc-transform-num-frames-1e6", "mrc-transform-step-text",
+    "mrc-transform-payload-4e9-frames",
     "bvh-frames-1e9-no-channels", "bvh-frame-time-1e-320", "bvh-symlink-to-dev-zero", "bvh-fifo", "fifo.npz",
     "fifo.h5", "fifo.mrc", "bvh-exact-values"]]
 

@@ -28,7 +28,7 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import click
 
-from .._signals import Interrupted
+from ..errors import Interrupted
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",

@@ -110,12 +110,17 @@ def write_v1_npz(motion: Motion, path: Path) -> None:
             out.writestr(name, data)
 
 
-def mrc_parts(motion: Motion | None = None) -> tuple[dict, bytes]:
-    """``(metadata, payload)`` of a real, small ``.mrc`` container (svd, rank 2)."""
+def mrc_parts(motion: Motion | None = None, codec: str = "svd") -> tuple[dict, bytes]:
+    """``(metadata, payload)`` of a real, small ``.mrc`` container: ``svd`` (rank 2) or ``transform`` (the default
+    codec of ``motionrep compress``, at its default bound)."""
     from motionrep.compress import compress_motion
 
-    motion = motion or synthetic_motion(chain_skeleton(3), frames=12, seed=2)
-    data = compress_motion(motion, "svd", params={"rank": 2}, max_error=None).data
+    if codec == "svd":
+        motion = motion or synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+        data = compress_motion(motion, "svd", params={"rank": 2}, max_error=None).data
+    else:
+        motion = motion or synthetic_motion(chain_skeleton(3), frames=40, seed=2)
+        data = compress_motion(motion, codec).data
     meta_len = struct.unpack_from("<I", data, 16)[0]
     meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
     return meta, data[20 + meta_len:-4]
@@ -378,6 +383,24 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
         "'unknown codec' without the file")
     mrc("mrc-wrong-representation", pack_meta(edited(representation__version=99), payload), "representation",
         "the wrong representation version without the file")
+    # the transform codec (the default): its outcome and its own payload header
+    meta, payload = mrc_parts(codec="transform")
+    mrc("mrc-transform-num-frames-1e6", pack_meta(edited(num_frames=10 ** 6), payload), "num_frames",
+        "the frame count claim, with the default codec")
+    mrc("mrc-transform-step-text", pack_meta(edited(codec__info={**meta["codec"]["info"], "step": ["x", None]}),
+                                             payload), "step", "traceback (ValueError) in motionrep info",
+        command="info")
+    from motionrep.coding import IntegerEncoder
+
+    enc = IntegerEncoder()  # a payload header claiming 2^32 frames x 2^20 features, the rest zeros
+    enc.encode_raw([2 ** 32 - 1], 32)
+    enc.encode_raw([2 ** 20 - 1], 20)
+    enc.encode_raw([15], 16)
+    claim = enc.to_bytes() + bytes(len(payload))
+    table = edited()
+    table["arrays"][0]["shape"] = [len(claim)]
+    mrc("mrc-transform-payload-4e9-frames", pack_meta(table, claim), "cannot be held",
+        "payload error without the file")
 
     # ---- BVH ---------------------------------------------------------------------------------------------------
     path = d / "bvh-zero-channels-1e9.bvh"

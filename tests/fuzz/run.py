@@ -63,8 +63,8 @@ def _bases(fmt: str, work: Path):
     m = parse_bvh(format_bvh(small_motion(12)))
     if fmt == "bvh":
         return format_bvh(m).encode()
-    if fmt == "mrc":
-        return mrc_parts()
+    if fmt == "mrc":  # even seeds mutate an svd file, odd ones a transform file (the default codec)
+        return [mrc_parts(), mrc_parts(codec="transform")]
     if fmt == "npz":
         write(m, work / "base.npz")
         return npz_parts(work / "base.npz")
@@ -127,7 +127,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
         if fmt == "bvh":
             data = bvh_mutant(base, rng)
         elif fmt == "mrc":
-            data = mrc_mutant(base[0], base[1], rng)
+            data = mrc_mutant(*base[seed % 2], rng)
         elif fmt == "npz":
             data = npz_mutant(base[0], base[1], rng)
         else:
@@ -143,7 +143,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
             if fmt == "bvh":
                 item = parse_bvh(data, str(path))
             elif fmt == "mrc":
-                item = decompress(unpack(data, str(path)))
+                item = decompress(unpack(data, str(path)), path=str(path))
             else:
                 item = read(path)
             if isinstance(item, Motion):
