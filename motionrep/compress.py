@@ -326,7 +326,12 @@ def describe_outcome(container: Container, *, detail: bool = False, codec: Codec
             codec = get_codec(container.codec)
         except PluginError:
             return describe_info(container.info, detail)
-    return codec.describe(container.info, detail)
+    try:
+        return codec.describe(container.info, detail)
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError):
+        # the info of a file is untrusted and never needed to decode: a value the codec did not write (a crafted
+        # `"step": ["x", null]`) gets the generic description, not a traceback
+        return describe_info(container.info, detail)
 
 
 def compress_motion(motion: Motion, codec: str | Codec = DEFAULT_CODEC, *,

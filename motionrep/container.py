@@ -371,10 +371,7 @@ def _number(obj: Mapping[str, Any], key: str, where: str, required: bool = True,
 
 
 #: Outcome keys every shipped codec uses, and their types (``codec.info``); other keys may be any plain JSON.
-_INFO_INTEGERS = ("K", "rank", "hidden", "windows", "iterations", "bytes", "regions", "region_frames")
-#: Outcome keys that hold an array of finite numbers (transform ``step``) or, where True, also of arrays of them
-#: (fourier ``omega``, one array per window).
-_INFO_NUMBERS = {"omega": True, "step": False}
+_INFO_INTEGERS = ("K", "rank", "hidden", "windows", "iterations")
 #: ``evaluation`` keys and whether each is a number, an integer or a string (all but ``units``/``bound`` required).
 _EVALUATION = {"max_error": "number", "max_error_percent": "number", "mean_error": "number",
                "mean_error_percent": "number", "frame": "integer", "joint": "string", "height": "number",
@@ -407,17 +404,12 @@ def _check_info(info: Mapping[str, Any]) -> None:
             items = v if isinstance(v, list) else [v]
             if not all(isinstance(x, int) and not isinstance(x, bool) for x in items):
                 raise ValidationError(f"'codec.info.{key}' must be an integer or an array of integers")
-    for key, nested in _INFO_NUMBERS.items():
-        if key not in info:
-            continue
-        v = info[key]
-        flat = None
-        if isinstance(v, list):
-            flat = [x for row in v for x in (row if nested and isinstance(row, list) else [row])]
+    if "omega" in info:
+        v = info["omega"]
+        flat = [x for row in v for x in (row if isinstance(row, list) else [row])] if isinstance(v, list) else None
         if flat is None or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
                                    for x in flat):
-            raise ValidationError(f"'codec.info.{key}' must be an array of numbers"
-                                  + (" (or of arrays of numbers)" if nested else ""))
+            raise ValidationError("'codec.info.omega' must be an array of numbers (or of arrays of numbers)")
 
 
 def _check_evaluation(ev: Mapping[str, Any]) -> None:

@@ -93,6 +93,10 @@ def dask_executor(scheduler: Any) -> Iterator[cf.Executor]:
             client.close(timeout=10)
 
 
+#: Seconds between two raises of the time limit's exception while the block has not ended (see :func:`time_limit`).
+_REFIRE_SECONDS = 1.0
+
+
 class _TimeUp(BaseException):
     """Raised asynchronously in the thread that exceeded its time limit (a BaseException, so that no codec's
     ``except Exception`` swallows it)."""
@@ -104,7 +108,9 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
 
     The exception is raised asynchronously in the running thread (``PyThreadState_SetAsyncExc``), so it works in
     a worker process's main thread and in a Dask worker's task threads alike; like a signal, it is seen at the
-    next Python instruction (a long call into BLAS ends first).
+    next Python instruction (a long call into BLAS ends first).  It is raised again every
+    :data:`_REFIRE_SECONDS` until the block ends: one that lands in a callback of the garbage collector (a
+    weakref's) is printed and dropped by Python, not raised.
     """
     if not seconds:
         yield
@@ -112,17 +118,20 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
     import ctypes
 
     lock = threading.Lock()
-    state = {"done": False, "fired": False}
+    state = {"done": False}
+    stop = threading.Event()
     target = threading.get_ident()
 
     def fire() -> None:
-        with lock:
-            if not state["done"]:
-                state["fired"] = True
+        wait = seconds
+        while not stop.wait(wait):
+            with lock:
+                if state["done"]:
+                    return
                 ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target), ctypes.py_object(_TimeUp))
+            wait = _REFIRE_SECONDS
 
-    timer = threading.Timer(seconds, fire)
-    timer.daemon = True
+    timer = threading.Thread(target=fire, daemon=True, name="motionrep-time-limit")
     try:
         try:
             timer.start()
@@ -130,7 +139,7 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
         finally:
             with lock:
                 state["done"] = True
-            timer.cancel()
+            stop.set()
     except _TimeUp:
         raise TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (--timeout)",
                              seconds) from None

@@ -240,6 +240,27 @@ def test_time_limit_stops_python_work_in_any_thread():
     time.sleep(0.05)
 
 
+def test_time_limit_is_raised_again_when_python_drops_it():
+    """Python prints and drops an exception raised in a garbage collector's callback (a weakref's): the limit
+    must still stop the block (a slow clip once ran to the end and the batch exited 0)."""
+    from motionrep.batch import time_limit
+    from motionrep.errors import TimeLimitError
+
+    dropped = []
+    start = time.monotonic()
+    with pytest.raises(TimeLimitError):
+        with time_limit(0.2):
+            while True:
+                try:
+                    while True:
+                        pass
+                except BaseException as exc:  # noqa: BLE001 - stands for the callback that drops it
+                    if dropped:
+                        raise
+                    dropped.append(exc)
+    assert len(dropped) == 1 and time.monotonic() - start < 5
+
+
 def test_timeout_fails_the_slow_clip_and_the_others_go_on(tmp_path):
     src = tmp_path / "clips"
     src.mkdir()
