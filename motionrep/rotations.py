@@ -34,6 +34,7 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from .errors import ValidationError
+from .jit import jit
 
 __all__ = [
     "quat_identity",
@@ -389,24 +390,44 @@ def axis_angle_make_continuous(v: ArrayLike) -> NDArray[np.float64]:
     A rotation vector ``theta * n`` describes the same rotation as ``(theta + 2 pi k) * n`` for every integer
     ``k``; each frame takes the ``k`` that brings it closest (L2) to the previous frame's output.  A frame
     without rotation (``theta = 0``, any axis) takes the previous frame's axis: a whole number of turns about it.
+    Frame by frame, so a compiled loop (:func:`_continuous_kernel`).
     """
     v = _last_dim(v, 3, "v")
     if v.ndim < 2:
         raise ValidationError(f"v must have shape (frames, ..., 3), got {v.shape}")
-    out = v.copy()
     theta = np.linalg.norm(v, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         axis = np.where(theta[..., None] > 1e-12, v / theta[..., None], 0.0)
-    two_pi = 2 * np.pi
-    for f in range(1, v.shape[0]):
-        ax = axis[f]
-        if np.any(theta[f] <= 1e-12):  # no rotation: any axis will do, so keep the previous frame's
-            size = np.linalg.norm(out[f - 1], axis=-1, keepdims=True)
-            before = np.where(size > 1e-12, out[f - 1] / np.where(size > 1e-12, size, 1.0), 0.0)
-            ax = np.where(theta[f][..., None] > 1e-12, ax, before)
-        k = np.round(((ax * out[f - 1]).sum(-1) - theta[f]) / two_pi)
-        out[f] = (theta[f] + two_pi * k)[..., None] * ax
+    out = np.array(v, dtype=np.float64, order="C", copy=True)
+    flat = out.reshape(v.shape[0], -1, 3)
+    _continuous_kernel(np.ascontiguousarray(theta).reshape(flat.shape[:2]),
+                       np.ascontiguousarray(axis).reshape(flat.shape), flat)
     return out
+
+
+@jit
+def _continuous_kernel(theta, axis, out):
+    """``out[f, n] = (theta[f, n] + 2 pi k) axis[f, n]`` for ``f >= 1``, ``k = round((axis . out[f - 1, n] -
+    theta) / 2 pi)``; a rotation of ``theta <= 1e-12`` takes the direction of ``out[f - 1, n]`` (or 0) as its axis.
+    The sums and products in numpy's order (``((a0 b0 + a1 b1) + a2 b2)``), so the result is the one the
+    frame-by-frame numpy loop this replaces gave, bit for bit."""
+    two_pi = 2 * np.pi
+    for f in range(1, out.shape[0]):
+        for n in range(out.shape[1]):
+            p0, p1, p2 = out[f - 1, n, 0], out[f - 1, n, 1], out[f - 1, n, 2]
+            a0, a1, a2 = axis[f, n, 0], axis[f, n, 1], axis[f, n, 2]
+            t = theta[f, n]
+            if t <= 1e-12:  # no rotation: any axis will do, so keep the previous frame's
+                size = np.sqrt((p0 * p0 + p1 * p1) + p2 * p2)
+                if size > 1e-12:
+                    a0, a1, a2 = p0 / size, p1 / size, p2 / size
+                else:
+                    a0, a1, a2 = 0.0, 0.0, 0.0
+            k = np.rint(((a0 * p0 + a1 * p1) + a2 * p2 - t) / two_pi)
+            scale = t + two_pi * k
+            out[f, n, 0] = scale * a0
+            out[f, n, 1] = scale * a1
+            out[f, n, 2] = scale * a2
 
 
 def quat_make_continuous(q: ArrayLike) -> NDArray[np.float64]:

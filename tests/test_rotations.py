@@ -222,6 +222,34 @@ def test_axis_angle_make_continuous():
         axis_angle_make_continuous(np.zeros(3))
 
 
+def test_axis_angle_make_continuous_frame_by_frame():
+    """The compiled loop against the definition, written out: each frame takes the whole number of turns that
+    brings it closest to the previous output; a frame without rotation takes the previous output's axis."""
+    rng = np.random.default_rng(11)
+    v = rng.normal(size=(300, 5, 3)) * 3.0
+    v[rng.random((300, 5)) < 0.1] = 0.0  # frames without rotation
+    v[0, 1] = 0.0
+    v[1:4, 1] = 0.0  # ... several in a row, from the first frame on
+
+    want = v.copy()
+    for f in range(1, v.shape[0]):
+        for n in range(v.shape[1]):
+            theta = np.linalg.norm(v[f, n])
+            prev = want[f - 1, n]
+            if theta > 1e-12:
+                axis = v[f, n] / theta
+            else:
+                size = np.linalg.norm(prev)
+                axis = prev / size if size > 1e-12 else np.zeros(3)
+            k = np.round((axis @ prev - theta) / (2 * np.pi))
+            want[f, n] = (theta + 2 * np.pi * k) * axis
+    got = axis_angle_make_continuous(v)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)  # the same arithmetic up to the order of the sums
+    assert same_rotation(axis_angle_to_quat(got), axis_angle_to_quat(v), atol=1e-9)
+    # one joint alone gives what it gives in the batch
+    assert np.array_equal(axis_angle_make_continuous(v[:, 2]), got[:, 2])
+
+
 def test_quat_make_continuous():
     rng = np.random.default_rng(5)
     angles = np.cumsum(rng.uniform(-5, 5, (100, 3, 3)), axis=0)

@@ -106,14 +106,25 @@ class _Plan:
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+        return self._quantise_with_steps(region_exp, rounding)[0]
+
+    def _quantise_with_steps(self, region_exp: NDArray[np.int64], rounding: float
+                             ) -> tuple[list[NDArray[np.int64]], list[NDArray[np.float64]]]:
         out = []
-        for c, step in zip(self.coefficients, steps_of(self.exponents(region_exp))):
+        steps = steps_of(self.exponents(region_exp))
+        for c, step in zip(self.coefficients, steps):
             a = np.floor(np.abs(c) / step + rounding)
             if a.size and not float(a.max()) <= MAX_MAGNITUDE:
                 raise BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
                                        "--max-error", None, None)
             out.append((np.sign(c) * a).astype(np.int64))
-        return out
+        return out, steps
+
+    def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
+        """``(F, D)`` features the payload of region exponents ``k`` decodes to: ``reconstruct(self.quantised(k,
+        rounding))`` without computing the steps twice (the same operations, so the same bits)."""
+        q, steps = self._quantise_with_steps(region_exp, rounding)
+        return _synthesised([c * step for c, step in zip(q, steps)], self.levels)
 
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
@@ -129,22 +140,36 @@ def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
     return [np.asarray(table)[e - low] for e in exponents]
 
 
-def _sliding_min(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
-    """The minimum of ``values[i - span : i + span + 1]`` for each ``i``, the ends repeated (scipy's
-    ``minimum_filter1d(values, 2 span + 1, mode="nearest")``, without importing scipy.ndimage: 1.5 s of start-up
-    for every process that opens a transform clip)."""
-    padded = np.pad(values, span, mode="edge")
-    return np.lib.stride_tricks.sliding_window_view(padded, 2 * span + 1).min(axis=1)
-
-
 def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray[np.int64]], reach: list[int],
                           feature_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
     """Per coefficient array, ``(n, D)`` exponents ``b_c + min(k_r over the regions within reach)``."""
     out = []
     for rows, span in zip(region_of, reach):
-        k = _sliding_min(region_exp, span) if span > 0 else region_exp
+        k = window_minimum(region_exp, span)
         out.append(k[rows][:, None] + feature_exp[None, :])
     return out
+
+
+def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
+    """``(n,)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` (the ends extended by their nearest
+    value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ... values by doubling, then
+    each window as two overlapping power-of-two windows (scipy's ``minimum_filter1d(values, 2 span + 1,
+    mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up for every process that opens a transform
+    clip; a sliding window view would take O(n span) time, and the coarse levels' spans of a long clip reach
+    thousands of regions)."""
+    v = np.asarray(values)
+    n = v.shape[0]
+    if span <= 0 or n == 0:
+        return v
+    if span >= n - 1:  # every window holds every value
+        return np.full(n, v.min(), dtype=v.dtype)
+    width = 2 * span + 1
+    m = np.concatenate([np.full(span, v[0]), v, np.full(span, v[-1])])
+    p = 1
+    while 2 * p <= width:  # m[i] = min of the p values from i on
+        m = np.minimum(m[:-p], m[p:])
+        p *= 2
+    return np.minimum(m[:n], m[width - p:width - p + n])
 
 
 def reconstruct(q: Quantised) -> NDArray[np.float64]:
@@ -159,7 +184,11 @@ def reconstruct(q: Quantised) -> NDArray[np.float64]:
         raise PayloadError("transform payload: coefficient arrays do not fit the clip")
     if any(e.size and int(np.abs(e).max()) > MAX_EXPONENT for e in exps):
         raise PayloadError("transform payload: a step is out of range")
-    values = [c * step for c, step in zip(q.coefficients, steps_of(exps))]
+    return _synthesised([c * step for c, step in zip(q.coefficients, steps_of(exps))], levels)
+
+
+def _synthesised(values: list[NDArray[np.float64]], levels: int) -> NDArray[np.float64]:
+    """The inverse wavelet of dequantised coefficients, checked to be finite."""
     out = inverse(values) if levels else values[0]
     if not np.all(np.isfinite(out)):
         raise PayloadError("transform payload: the coefficients decode to values that are not finite")
@@ -314,7 +343,10 @@ class TransformCodec(Codec):
         if np.any(np.abs(k[:, None] + feature_exp[None, :]) > MAX_EXPONENT):
             raise BoundNotMetError("transform: the steps needed are out of range", None, bound)
         payload = self._payload(plan.quantised(k, params.rounding))
-        if bound is not None:
+        # the search ends on a whole-clip measurement of exactly these values (frame_errors) within the bound; the
+        # core measures the stored bytes again in any case. A fixed step, or a context that measures region by
+        # region, is measured here
+        if bound is not None and (params.step is not None or getattr(context, "frame_errors", None) is None):
             reached = context.evaluate_payload(payload).max_error
             if not reached <= bound:
                 raise BoundNotMetError(f"transform: step={params.step:g} reaches an L-inf error of {reached:.4g}, "
@@ -330,7 +362,7 @@ class TransformCodec(Codec):
         R = plan.regions
 
         def region_errors(k: NDArray[np.int64]) -> NDArray[np.float64]:
-            return errors(reconstruct(plan.quantised(k, rounding)))
+            return errors(plan.decoded(k, rounding))
 
         def passes(k: NDArray[np.int64]) -> NDArray[np.bool_]:
             return region_errors(k) <= bound

@@ -84,13 +84,15 @@ def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
     assert np.array_equal(single.T, np.repeat(decoder.frames[:1], 2, axis=0))  # a one-frame clip
 
 
-def test_sliding_min_is_scipys_minimum_filter_with_nearest_ends():
+def test_window_minimum_is_scipys_minimum_filter_with_nearest_ends():
     from scipy.ndimage import minimum_filter1d
 
-    from motionrep_transform._codec import _sliding_min
+    from motionrep_transform._codec import window_minimum
 
     rng = np.random.default_rng(0)
-    for n in (1, 2, 3, 7, 50):
-        for span in (1, 2, 5, 60):
+    for n in (1, 2, 3, 7, 50, 200):
+        for span in (1, 2, 3, 5, 8, 31, 49, 60, 1000):
             v = rng.integers(-20, 20, n)
-            assert np.array_equal(_sliding_min(v, span), minimum_filter1d(v, 2 * span + 1, mode="nearest"))
+            got = window_minimum(v, span)
+            assert got.dtype == v.dtype and np.array_equal(got, minimum_filter1d(v, 2 * span + 1, mode="nearest"))
+        assert window_minimum(v, 0) is v
