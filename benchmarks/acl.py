@@ -29,9 +29,10 @@ Usage::
 ``speed`` measures, on the eight CMU-31 clips at 2 %, in one process, best of ``--repeat``: the encode
 (``compress_motion``, the clip already read: features, the codec's search, the core's two checks); preparing a
 payload for decoding (``codec.decoder(payload)``: range decoding and the inverse wavelet); sampling the prepared
-decoder at the frame times, in blocks of 8192 into one buffer (features, frames/s); and ``motionrep.open(...).poses`` (local rotations and root
-translation, poses/s: the runtime decoder, the representation's decoding included). The load average is stored
-beside every figure.
+decoder at the frame times (131072 of them), in blocks of ``motionrep.runtime.BLOCK`` into one feature-major
+buffer through its compiled kernel, as ``motionrep.open`` calls it (features, frames/s); and
+``motionrep.open(...).poses`` (local rotations and root translation, poses/s: the runtime decoder, the
+representation's decoding included). The load average is stored beside every figure.
 
 ``entropy`` codes the same quantised coefficients (transform at each bound on the eight CMU-31 clips) three
 ways: the payload the codec writes (context models, range coder), ``lzma`` (preset 9 | extreme, raw LZMA2) and,
@@ -354,7 +355,7 @@ def speed(args: argparse.Namespace) -> None:
     from motionrep.compress import compress_motion
     from motionrep.io import read
     from motionrep.plugins import get_codec
-    from motionrep.runtime import open_clip
+    from motionrep.runtime import BLOCK, open_clip
 
     codec = get_codec("transform")
     codec.warm_up()
@@ -377,16 +378,26 @@ def speed(args: argparse.Namespace) -> None:
         F = motion.num_frames
         prepare = best(lambda: codec.decoder(payload))
         decoder = codec.decoder(payload)
-        block = np.resize(frame_times(F), 8192)  # blocks of 8192 times into one buffer, as the runtime samples
-        out = np.empty((block.size, decoder.width))
-        sample = best(lambda: [decoder(block, out) for _ in range(16)]) / 16
+        u = np.resize(frame_times(F), 131072)  # the clip's frame times, repeated
+        kernel = getattr(decoder, "kernel", None)
+        block = np.empty((decoder.width, BLOCK))  # feature-major, as motionrep.open decodes a block
+
+        def sample_all():
+            for a in range(0, u.size, BLOCK):
+                if kernel is not None:  # the compiled sampler, as motionrep.open calls it
+                    kernel.dispatcher(u[a:a + BLOCK], block, *decoder.kernel_args)
+                else:
+                    decoder(u[a:a + BLOCK])
+
+        sample_all()  # compiled on first call
+        sample = best(sample_all)
         clip = open_clip(result.data)
         seconds = np.tile(np.arange(F) / motion.fps, max(1, 100_000 // F))
         clip.poses(seconds)
         poses = best(lambda: clip.poses(seconds))
         row = {"clip": str(path.relative_to(DATA)).removesuffix(".bvh"), "frames": F,
                "joints": motion.skeleton.num_joints, "encode_seconds": encode, "prepare_seconds": prepare,
-               "prepare_frames_per_second": F / prepare, "sample_frames_per_second": block.size / sample,
+               "prepare_frames_per_second": F / prepare, "sample_frames_per_second": u.size / sample,
                "runtime_poses_per_second": seconds.size / poses, "load": _load()}
         rows.append(row)
         print(f"{row['clip']:32s} {F:5d} frames: encode {encode:.2f} s, prepare {1000 * prepare:.1f} ms "
