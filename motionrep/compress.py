@@ -103,6 +103,20 @@ class MaxError:
                                  "--max-error as a distance in file units")
         return self.value / 100.0 * height
 
+    def read_as(self, height: float, units: str | None) -> str:
+        """How this bound was read, in the one phrase every report uses: ``2% of height 152 = 3.04 cm``, or
+        ``1.5 cm = 0.99% of height (read as a distance in file units; write 1.5% for a percentage)``.
+
+        Raises:
+            ParameterError: for a percentage of a character whose height is 0.
+        """
+        unit = units or "file units"
+        bound = self.bound(height)
+        if self.percent:
+            return f"{self} of height {height:.4g} = {bound:.4g} {unit}"
+        pct = f" = {100 * bound / height:.3g}% of height" if height > 0 else ""
+        return f"{bound:.4g} {unit}{pct} (read as a distance in file units; write {self}% for a percentage)"
+
     def __str__(self) -> str:
         return f"{self.value:g}%" if self.percent else f"{self.value:g}"
 
@@ -161,6 +175,13 @@ class CompressResult:
     evaluations: int
     outcome: str = ""
 
+    def bound_read_as(self) -> str | None:
+        """How ``--max-error`` was read for this clip (:meth:`MaxError.read_as`); None without a bound."""
+        asked = parse_max_error(self.container.extra.get("max_error"))
+        if asked is None or self.bound is None:
+            return None
+        return asked.read_as(self.report.height, self.report.units)
+
     def as_dict(self) -> dict[str, Any]:
         """A JSON-serialisable summary (what ``motionrep compress --json`` prints)."""
         c = self.container
@@ -170,6 +191,7 @@ class CompressResult:
             "representation": c.representation, "representation_version": c.representation_version,
             "frames": c.num_frames, "joints": c.skeleton.num_joints, "end_sites": c.skeleton.num_end_sites,
             "fps": c.fps, "bound": self.bound, "max_error_request": c.extra.get("max_error"),
+            "max_error_read_as": self.bound_read_as(),
             "evaluation": self.report.as_dict(), "figures": self.figures.as_dict(), "bytes": len(self.data),
             "seconds": self.seconds, "evaluations": self.evaluations,
         }

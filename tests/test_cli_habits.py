@@ -1,6 +1,6 @@
 """Unix habits of the command line (issue 16): ``-`` for standard input and output, several inputs and glob
-patterns, ``--force`` before overwriting, ``--debug`` anywhere, a light start, messages that name what differs,
-reports in argument order that say how ``--max-error`` was read."""
+patterns, ``-f`` / ``--force`` before overwriting, ``--debug`` anywhere, a light start, messages that name what
+differs, reports in argument order that say how ``--max-error`` was read."""
 
 from __future__ import annotations
 
@@ -74,6 +74,75 @@ def test_errors_about_standard_input_name_it(tmp_path):
     assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>")
 
 
+def test_compress_from_standard_input_to_standard_output(tmp_path, walk, walk_mrc):
+    r = run("compress", "-", "-o", "-", "--codec", "svd", input=walk.read_bytes())
+    assert r.exit_code == 0, r.output
+    assert r.stdout_bytes == walk_mrc.read_bytes()  # the same bytes as from the file to a file
+    assert "<stdin>: 40 frames" in r.stderr and "wrote <stdout>: " in r.stderr  # the report on stderr
+    r = run("compress", "-", "-o", tmp_path / "piped.mrc", "--codec", "svd", input=walk.read_bytes())
+    assert r.exit_code == 0 and (tmp_path / "piped.mrc").read_bytes() == walk_mrc.read_bytes()
+    assert r.stdout.startswith("<stdin>: 40 frames")
+
+
+def test_compress_to_standard_output_writes_nothing_on_error(walk):
+    broken = walk.read_bytes()[:300]
+    r = run("compress", "-", "-o", "-", "--codec", "svd", input=broken)
+    assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>:") and r.stdout_bytes == b""
+    r = run("compress", walk, "-o", "-", "--codec", "svd", "-p", "rank=1", "--max-error", "0.01%")
+    assert r.exit_code == 1 and "above the bound" in error_line(r) and r.stdout_bytes == b""
+    r = run("compress", walk, "-o", "-", "--json")
+    assert r.exit_code == 2 and "--json" in error_line(r) and r.stdout_bytes == b""
+
+
+def test_decompress_from_standard_input_to_standard_output(tmp_path, walk_mrc):
+    assert run("decompress", walk_mrc, "-o", tmp_path / "file.bvh").exit_code == 0
+    r = run("decompress", "-", "-o", "-", input=walk_mrc.read_bytes())
+    assert r.exit_code == 0, r.output
+    assert r.stdout_bytes == (tmp_path / "file.bvh").read_bytes() and "wrote <stdout>: 40 frames" in r.stderr
+    r = run("decompress", walk_mrc, "-o", "-", "--format", "npz")
+    assert r.exit_code == 0, r.output
+    (tmp_path / "piped.npz").write_bytes(r.stdout_bytes)
+    assert run("decompress", walk_mrc, "-o", tmp_path / "file.npz").exit_code == 0
+    assert np.array_equal(read(tmp_path / "piped.npz").rotations, read(tmp_path / "file.npz").rotations)
+
+
+def test_decompress_standard_input_errors(tmp_path, walk, walk_mrc):
+    r = run("decompress", "-", "-o", "-", input=walk_mrc.read_bytes()[:-20])  # truncated: nothing written
+    assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>: ") and r.stdout_bytes == b""
+    r = run("decompress", "-", "-o", tmp_path / "x.bvh", input=walk.read_bytes())
+    assert r.exit_code == 2 and "standard input is not a .mrc file" in error_line(r)
+    assert not (tmp_path / "x.bvh").exists()
+    r = run("decompress", walk_mrc, "-o", tmp_path / "x.bvh", "--format", "npz")
+    assert r.exit_code == 2 and "--format applies only" in error_line(r)
+
+
+def test_decompress_format_names_the_files_of_a_directory(tmp_path, walk):
+    (tmp_path / "clips").mkdir()
+    write(read(walk), tmp_path / "clips" / "a.bvh")
+    write(read(walk), tmp_path / "clips" / "b.bvh")
+    assert run("compress", tmp_path / "clips", "-o", tmp_path / "mrc", "--codec", "svd").exit_code == 0
+    r = run("decompress", tmp_path / "mrc", "-o", tmp_path / "out", "--format", "npz")
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.npz", "b.npz"]
+    r = run("decompress", tmp_path / "mrc", "-o", "-")
+    assert r.exit_code == 2 and "<stdout> holds one clip but the inputs hold 2" in error_line(r)
+
+
+def test_evaluate_one_side_from_standard_input(walk, walk_mrc):
+    expected = json.loads(run("evaluate", walk, walk_mrc, "--json").output)
+    r = run("evaluate", walk, "-", "--json", input=walk_mrc.read_bytes())
+    assert r.exit_code == 0, r.output
+    got = json.loads(r.output)
+    assert got["candidate"] == "<stdin>" and got["reference"] == str(walk)
+    assert got["max_error"] == expected["max_error"] and got["frame"] == expected["frame"]
+    r = run("evaluate", "-", walk_mrc, input=walk.read_bytes())
+    assert r.exit_code == 0 and r.output.startswith(f"<stdin> vs {walk_mrc}: 40 frames")
+    r = run("evaluate", "-", "-", input=walk.read_bytes())
+    assert r.exit_code == 2 and "can be read only once" in error_line(r)
+    r = run("evaluate", walk, "-", input=b"HIERARCHY\nROOT Hips\n{\n")
+    assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>:")
+
+
 # ---- several inputs and glob patterns --------------------------------------------------------------------------
 def test_globs_and_several_inputs(tmp_path, walk):
     (tmp_path / "clips").mkdir()
@@ -118,6 +187,23 @@ def test_force_covers_the_files_of_a_directory_output(tmp_path, walk):
     r = run("convert", walk, out, "--format", "npz")
     assert r.exit_code == 1 and "walk.npz: exists; use --force" in error_line(r)
     assert run("convert", walk, out, "--format", "npz", "--force").exit_code == 0
+
+
+def test_f_is_force_in_every_command_that_writes(tmp_path, walk):
+    """One shared definition: every command with --force takes -f too, and -f means nothing else anywhere."""
+    with_force = set()
+    for name, command in cli.commands.items():
+        for param in command.params:
+            if "-f" in param.opts or "--force" in param.opts:
+                assert set(param.opts) == {"-f", "--force"}, (name, param.opts)
+                with_force.add(name)
+    assert {"convert", "compress", "decompress", "render", "view", "merge", "example"} <= with_force
+    target = tmp_path / "out.npz"
+    target.write_bytes(b"precious")
+    assert run("convert", walk, target).exit_code == 1
+    r = run("convert", walk, target, "-f")
+    assert r.exit_code == 0, r.output
+    assert read(target).num_frames == 40
 
 
 # ---- --debug anywhere, a light start -----------------------------------------------------------------------------
@@ -175,6 +261,29 @@ def test_render_and_view_say_how_max_error_was_read(tmp_path, walk, walk_mrc):
     r = run("render", walk, walk_mrc, "-o", tmp_path / "r.png", "--count", "1", "--size", "240x200")
     assert r.exit_code == 0, r.output
     assert "bound: 2% of height 152 = 3.04 file units, as" in r.stderr
+
+
+def test_compress_says_how_max_error_was_read(tmp_path, walk):
+    out = tmp_path / "w.mrc"
+    r = run("compress", walk, "-o", out, "--codec", "svd")
+    assert r.exit_code == 0, r.output
+    assert "bound --max-error 2% of height 152 = 3.04 file units" in r.output
+    phrase = "1.5 file units = 0.987% of height (read as a distance in file units; write 1.5% for a percentage)"
+    r = run("compress", walk, "-o", out, "--codec", "svd", "--max-error", "1.5", "--json", "-f")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["max_error_read_as"] == phrase
+    assert f"bound --max-error {phrase}" in run("info", out).output  # info says it in the same words
+    r = run("compress", walk, "-o", out, "--codec", "svd", "-p", "rank=6", "--max-error", "none", "--json", "-f")
+    assert r.exit_code == 0 and json.loads(r.output)["max_error_read_as"] is None
+    (tmp_path / "clips").mkdir()
+    write(read(walk), tmp_path / "clips" / "a.bvh")
+    r = run("compress", tmp_path / "clips", "-o", tmp_path / "arch.h5", "--codec", "svd", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["clips"]["a"]["max_error_read_as"] == "2% of height 152 = 3.04 file units"
+    r = run("compress", tmp_path / "clips", "-o", tmp_path / "arch.h5", "--codec", "svd", "-f")
+    assert r.exit_code == 0, r.output
+    line = next(x for x in r.stdout.splitlines() if x.startswith("a: "))  # clip a's line
+    assert "%), bound --max-error 2% of height 152 = 3.04 file units, paper ratio" in line
 
 
 # ---- set-up: one install ---------------------------------------------------------------------------------------

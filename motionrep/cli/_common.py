@@ -33,17 +33,21 @@ from ..errors import Interrupted
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
-           "expand_globs", "display_name", "STDIN_NAME", "bound_for", "describe_bound"]
+           "expand_globs", "display_name", "STDIN_NAME", "STDOUT_NAME", "bound_for", "OUT_FORMATS"]
 
 #: A path given as ``-``: standard input (an input) or standard output (an output).
 STDIO = "-"
 #: How messages name standard input.
 STDIN_NAME = "<stdin>"
+#: How messages name standard output.
+STDOUT_NAME = "<stdout>"
 # temporary files standing for standard input, and how messages should name them
 _DISPLAY: dict[str, str] = {}
 
 #: Suffixes of the motion files commands write (the format from the suffix).
 MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+#: ``--format`` of a command writing motions to standard output or a directory: the suffix each name stands for.
+OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5", "glb": ".glb", "gltf": ".gltf"}
 
 
 def is_stdio(path: Any) -> bool:
@@ -153,19 +157,7 @@ def expand_globs(inputs: Iterable[Any]) -> list[Any]:
     return out
 
 
-# ---- the bound, and how it was read --------------------------------------------------------------------------
-def describe_bound(max_error: Any, bound: float, height: float, units: str | None) -> str:
-    """How ``--max-error`` was read, in one phrase every report uses: ``2% of height 152 = 3.04 cm`` or
-    ``1.5 cm = 0.99% of height (read as a distance in file units; write 1.5% for a percentage)``."""
-    unit = units or "file units"
-    text = str(max_error)
-    if getattr(max_error, "percent", text.strip().endswith("%")):
-        return f"{text} of height {height:.4g} = {bound:.4g} {unit}"
-    pct = f" = {100 * bound / height:.3g}% of height" if height > 0 else ""
-    return (f"{bound:.4g} {unit}{pct} (read as a distance in file units; write {text.strip()}% for a "
-            "percentage)")
-
-
+# ---- the bound, and how it was read (motionrep.compress.MaxError.read_as) ------------------------------------
 def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
               ) -> tuple[float | None, str | None]:
     """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
@@ -189,7 +181,7 @@ def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], 
         if parsed is None:
             return None, None
         bound = parsed.bound(height)
-        return bound, f"--max-error {describe_bound(parsed, bound, height, units)}"
+        return bound, f"--max-error {parsed.read_as(height, units)}"
     for path in candidates:
         with open_source(path) as src:
             if src.kind not in ("compressed", "archive"):
@@ -201,7 +193,7 @@ def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], 
             continue
         h = character_height(c.skeleton)
         bound = parsed.bound(h)
-        return bound, f"{describe_bound(parsed, bound, h, c.skeleton.units)}, as {display_name(str(path))} was " \
+        return bound, f"{parsed.read_as(h, c.skeleton.units)}, as {display_name(str(path))} was " \
                       "compressed"
     return None, None
 
@@ -245,8 +237,8 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
 
 
 def force_option(command: Callable) -> Callable:
-    """The ``--force`` flag of every command that writes an output (:func:`check_overwrite`)."""
-    return click.option("--force", is_flag=True,
+    """The ``-f`` / ``--force`` flag of every command that writes an output (:func:`check_overwrite`)."""
+    return click.option("-f", "--force", is_flag=True,
                         help="Overwrite an existing output (without it, an existing output is an error).")(command)
 
 

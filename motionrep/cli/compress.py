@@ -18,8 +18,9 @@ from typing import Any
 
 import click
 
-from ._common import (BatchProgress, CodecProgress, Interrupted, check_overwrite, collect, echo_json, force_option,
-                      parse_params)
+from ._common import (STDOUT_NAME, BatchProgress, CodecProgress, Interrupted, check_overwrite, collect,
+                      display_name, echo_json, force_option, is_stdio, parse_params, stdin_inputs,
+                      stdout_output)
 
 __all__ = ["compress"]
 
@@ -31,7 +32,8 @@ DEFAULT_MAX_ERROR = "2%"
 
 def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
     c, r, f = result.container, result.report, result.figures
-    bound = "none" if result.bound is None else f"{result.bound:.4g} ({c.extra.get('max_error')})"
+    how = result.bound_read_as()
+    bound = "none (--max-error none)" if how is None else f"--max-error {how}"
     from ..compress import describe_outcome
 
     return [
@@ -48,8 +50,8 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
 @click.command("compress")
 @click.argument("inputs", metavar="IN...", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(path_type=Path),
-              help="OUT.mrc for one clip; for several clips (a directory, a database): OUT.h5 (one archive) or "
-                   "OUT/ (.mrc files).")
+              help="OUT.mrc for one clip ('-': standard output); for several clips (a directory, a database): "
+                   "OUT.h5 (one archive) or OUT/ (.mrc files).")
 @click.option("--codec", "-c", default=DEFAULT_CODEC, show_default=True, help="Codec name (see motionrep plugins).")
 @click.option("--representation", "-r", default=DEFAULT_REPRESENTATION, show_default=True,
               help="Representation the codec compresses.")
@@ -97,6 +99,16 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
     (the others are kept), 130 on Ctrl-C.
 
     \b
+    The report says how --max-error was read ("2% of height 152 = 3.04 cm",
+    or "1.5 cm = 0.99% of height (read as a distance in file units...)");
+    --json: "bound" (file units), "max_error_request" and "max_error_read_as".
+
+    \b
+    Standard input and output: IN '-' reads BVH text from standard input
+    (named <stdin>); -o - writes the .mrc to standard output once it is
+    complete, the report going to stderr (not with --json). -f is --force.
+
+    \b
     Examples:
       motionrep compress walk.bvh -o walk.mrc
       motionrep compress walk.bvh -o walk.mrc --max-error 0.5 -p region=32
@@ -105,11 +117,22 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2 --resume
       motionrep compress clips/ -o clips.h5 --scheduler tcp://10.0.0.5:8786
+      cat walk.bvh | motionrep compress - -o - > walk.mrc
     """
     from ..compress import Pipeline
 
     pipeline = Pipeline.build(codec, representation, parse_params(params), max_error, seed)  # before any work
-    to_mrc = output.suffix.lower() == ".mrc"
+    to_stdout = is_stdio(output)
+    if to_stdout and as_json:
+        raise click.UsageError("-o - writes the .mrc to standard output, where --json would print too: give one")
+    with stdin_inputs(inputs, allowed=(".bvh",)) as given:
+        _compress(given, output, pipeline, clip, jobs, scheduler, send_clips, resume, force, timeout, as_json)
+
+
+def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs: int, scheduler: str | None,
+              send_clips: bool, resume: bool, force: bool, timeout: float | None, as_json: bool) -> None:
+    to_stdout = is_stdio(output)
+    to_mrc = to_stdout or output.suffix.lower() == ".mrc"
     to_archive = output.suffix.lower() in (".h5", ".hdf5")
     if not (to_mrc or to_archive or not output.suffix):
         raise click.UsageError(f"output {output}: write one clip to OUT.mrc, many to OUT.h5 (one archive) or a "
@@ -120,17 +143,19 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
         raise click.UsageError("--send-clips applies with --scheduler")
     if resume and force:
         raise click.UsageError("--resume keeps what the output holds and --force overwrites it: give one")
-    refs = collect(inputs, clip=clip, exclude=[output, journal_of(output)])
+    refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output, journal_of(output)])
     if to_mrc:
         if len(refs) != 1:
             from ..sources import listing
 
-            raise click.UsageError(f"output {output}: the inputs hold {len(refs)} clips "
+            shown = STDOUT_NAME if to_stdout else output
+            raise click.UsageError(f"output {shown}: the inputs hold {len(refs)} clips "
                                    f"({listing([r.name for r in refs])}); a .mrc file holds one: write them to "
                                    "OUT.h5 or a directory, or pick one with --clip")
         if resume:
             raise click.UsageError("--resume applies to many clips (OUT.h5 or a directory)")
-        check_overwrite(output, force)
+        if not to_stdout:
+            check_overwrite(output, force)
         _compress_one(refs[0], output, pipeline, as_json, timeout)
     else:
         _compress_many(refs, output, pipeline, as_json, jobs=jobs, scheduler=scheduler, send_clips=send_clips,
@@ -148,28 +173,33 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
     from ..container import write_container
     from ..sources import open_source
 
-    with time_limit(timeout, f"{ref.source}"):
+    with time_limit(timeout, display_name(ref.source)):
         with open_source(ref.path) as src:
             motion = src.read(ref.clip)
         progress = None if as_json else CodecProgress(pipeline.codec)
         result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
-    write_container(result.data, output)
+    with stdout_output(output, ".mrc") as target:
+        write_container(result.data, target)
+    source = display_name(ref.source)
     if as_json:
-        echo_json(dict(result.as_dict(), input=ref.source, output=str(output)))
-    else:
-        for line in _report_lines(ref.source, result, str(output)):
-            click.echo(line)
+        echo_json(dict(result.as_dict(), input=source, output=str(output)))
+    else:  # the report goes to stderr when the .mrc went to standard output
+        to_stdout = is_stdio(output)
+        for line in _report_lines(source, result, STDOUT_NAME if to_stdout else str(output)):
+            click.echo(line, err=to_stdout)
 
 
 def _clip_line(o: Any) -> str:
     s = o.summary
     if o.failed:
-        return f"{o.name}: FAILED: {s['error']}"
+        return f"{o.name}: FAILED: {display_name(s['error'])}"
     if o.skipped:
         return f"{o.name}: kept (compressed by an earlier run from the same source and setting)"
     ev, fig = s["evaluation"], s["figures"]
+    how = s.get("max_error_read_as")
+    bound = "none" if how is None else f"--max-error {how}"
     return (f"{o.name}: {s['bytes']} bytes, L-inf {ev['max_error']:.4g} ({ev['max_error_percent']:.3g}%), "
-            f"paper ratio {fig['paper_ratio']:.1f}x, {s['outcome']}")
+            f"bound {bound}, paper ratio {fig['paper_ratio']:.1f}x, {s['outcome']}")
 
 
 def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jobs: int, scheduler: str | None,
@@ -232,7 +262,7 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
                             client_cpu_seconds=time.process_time() - cpu)
     failed = [o for o in outcomes if o.failed]
     if as_json:
-        echo_json({"input": [r.source for r in refs], "output": str(output),
+        echo_json({"input": [display_name(r.source) for r in refs], "output": str(output),
                    "clips": {o.name: dict(o.summary, status=o.status) for o in outcomes},
                    "totals": totals.as_dict()})
     else:

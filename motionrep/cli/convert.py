@@ -16,12 +16,11 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (STDIO, check_outputs, collect, expand_globs, force_option, is_stdio, stdin_inputs,
-                      stdout_output)
+from ._common import (OUT_FORMATS, STDIO, check_outputs, collect, expand_globs, force_option, is_stdio,
+                      stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
-_OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5", "glb": ".glb", "gltf": ".gltf"}
 _MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
 
 
@@ -102,7 +101,7 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @click.argument("paths", nargs=-1, required=True, metavar="IN... OUT")
 @click.option("--clip", metavar="NAME",
               help="Take only this clip out of the (single) HDF5 database or glTF file given.")
-@click.option("--format", "out_format", type=click.Choice(sorted(_OUT_FORMATS)), default=None,
+@click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
               help="File format written when OUT is a directory (default: bvh).")
 @click.option("--representation", "-r", metavar="NAME",
               help="Store the features of this registered representation instead of the motion (.npz/.h5).")
@@ -180,7 +179,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
     if to_directory and out.exists() and not out.is_dir():
         raise click.UsageError(f"output {out} exists and is not a directory")
     if to_stdout:
-        out = Path(f"stdout{_OUT_FORMATS[out_format or 'bvh']}")
+        out = Path(f"stdout{OUT_FORMATS[out_format or 'bvh']}")
     out_fmt = {"h5": "hdf5"}.get(out_format or "bvh", out_format or "bvh") if to_directory else \
         _format_or_usage(out, "output")
     if out_format is not None and not (to_directory or to_stdout):
@@ -215,7 +214,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
 
     refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [out])
     if to_directory:
-        suffix = _OUT_FORMATS[out_format or "bvh"]
+        suffix = OUT_FORMATS[out_format or "bvh"]
         check_outputs([out / (r.name + suffix) for r in refs], force)
         _to_directory(refs, out, suffix, rep, decimals)
         return

@@ -11,7 +11,8 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import MOTION_OUT_SUFFIXES, check_overwrite, collect, force_option, usage_suffix
+from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_overwrite, collect, force_option,
+                      is_stdio, stdin_inputs, stdout_output, usage_suffix)
 
 __all__ = ["decompress"]
 
@@ -40,18 +41,27 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
 @click.command("decompress")
 @click.argument("inputs", metavar="IN...", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(path_type=Path),
-              help="OUT.bvh, OUT.npz or OUT.h5 for one clip; for several, OUT.h5 (a motion database) or a "
-                   "directory (one .bvh per clip).")
+              help="OUT.bvh, OUT.npz or OUT.h5 for one clip ('-': standard output, see --format); for several, "
+                   "OUT.h5 (a motion database) or a directory (one .bvh per clip, or --format).")
 @click.option("--fps", type=float, default=None, help="Resample to this frame rate (decoded at the new times).")
 @click.option("--clip", metavar="NAME", help="Only this clip of an archive.")
+@click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
+              help="File format written to standard output (-o -) or into a directory OUT/ (default: bvh).")
 @force_option
-def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, force: bool) -> None:
+def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, out_format: str | None,
+               force: bool) -> None:
     """Decode compressed clips IN (.mrc files, archives, or directories of them) into motion files.
 
     Clips are named as compress named them (a directory's .mrc files by their
     path relative to it, an archive's by its clip names). One clip goes to
     OUT.bvh / OUT.npz / OUT.h5; several to OUT.h5 (a database) or the
-    directory OUT/ (one .bvh per clip). An existing output needs --force.
+    directory OUT/ (one .bvh per clip, or --format). An existing output needs
+    --force (-f).
+
+    \b
+    Standard input and output: IN '-' reads one .mrc file from standard
+    input; -o - writes the one decoded clip to standard output, as BVH (or
+    --format npz/h5/glb/gltf), only once it is complete.
 
     \b
     Examples:
@@ -59,22 +69,41 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
       motionrep decompress walk.mrc -o walk60.bvh --fps 60
       motionrep decompress clips.h5 -o clips_decoded.h5
       motionrep decompress clips_mrc/ -o clips_decoded/
+      cat walk.mrc | motionrep decompress - -o - | head
     """
-    from ..compress import write_decoded
-
     if fps is not None and not fps > 0:
         raise click.BadParameter("must be > 0", param_hint="--fps")
+    to_stdout = is_stdio(output)
+    if out_format is not None and not (to_stdout or not output.suffix):
+        raise click.UsageError("--format applies only when OUT is '-' or a directory; otherwise the suffix decides")
     for p in inputs:
-        if not p.is_dir():
+        if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
-    refs = collect(inputs, clip=clip, exclude=[output], scan=COMPRESSED_SUFFIXES)
-    to_file = output.suffix.lower() in MOTION_OUT_SUFFIXES
+    with stdin_inputs(inputs, allowed=(".mrc",)) as given:
+        _decompress(given, output, fps, clip, OUT_FORMATS[out_format or "bvh"], force)
+
+
+def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool) -> None:
+    from ..compress import write_decoded
+
+    to_stdout = is_stdio(output)
+    refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output], scan=COMPRESSED_SUFFIXES)
+    if to_stdout and len(refs) != 1:
+        from ..sources import listing
+
+        raise click.UsageError(f"{STDOUT_NAME} holds one clip but the inputs hold {len(refs)} "
+                               f"({listing([r.name for r in refs])}); pick one with --clip, or write OUT.h5 or a "
+                               "directory")
+    to_file = to_stdout or output.suffix.lower() in MOTION_OUT_SUFFIXES
     if len(refs) == 1 and to_file:
-        check_overwrite(output, force)
-        ref, motion = next(decoded_clips(refs, fps))
-        write_decoded(motion, output)
+        if not to_stdout:
+            check_overwrite(output, force)
+        with stdout_output(output, suffix) as target:
+            ref, motion = next(decoded_clips(refs, fps))
+            write_decoded(motion, target)
         which = f" (clip {ref.clip})" if ref.clip is not None else ""
-        click.echo(f"wrote {output}{which}: {motion.num_frames} frames at {motion.fps:g} fps")
+        shown = STDOUT_NAME if to_stdout else output
+        click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {motion.fps:g} fps", err=to_stdout)
         return
     if output.suffix.lower() in (".h5", ".hdf5"):
         from ..io import write_database
@@ -85,10 +114,10 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
         if output.exists() and not output.is_dir():
             raise click.UsageError(f"output {output} exists and is not a directory")
         for ref in refs:
-            check_overwrite(output / f"{ref.name}.bvh", force)
+            check_overwrite(output / f"{ref.name}{suffix}", force)
         output.mkdir(parents=True, exist_ok=True)
         for ref, motion in decoded_clips(refs, fps):
-            write_decoded(motion, output / f"{ref.name}.bvh")
+            write_decoded(motion, output / f"{ref.name}{suffix}")
     else:
         raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "
                                "one with --clip)")

@@ -10,14 +10,14 @@ from pathlib import Path
 
 import click
 
-from ._common import collect, echo_json
+from ._common import STDIN_NAME, collect, echo_json, is_stdio, stdin_inputs
 
 __all__ = ["evaluate"]
 
 
 @click.command("evaluate")
-@click.argument("reference", metavar="REF", type=click.Path(exists=True, path_type=Path))
-@click.argument("candidate", metavar="CAND", type=click.Path(exists=True, path_type=Path))
+@click.argument("reference", metavar="REF", type=click.Path(exists=True, allow_dash=True, path_type=Path))
+@click.argument("candidate", metavar="CAND", type=click.Path(exists=True, allow_dash=True, path_type=Path))
 @click.option("--clip", metavar="NAME", help="Compare only this clip of a database or archive.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) -> None:
@@ -28,7 +28,8 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     files and .mrc files (as written by convert and compress): their clips are
     compared by name (clips named as every command names them), one report per
     clip and the worst of them; --clip NAME compares one clip. Each file is
-    opened once.
+    opened once. One of REF and CAND may be '-': BVH text or a .mrc file
+    from standard input (told by their first bytes), named <stdin>.
 
     \b
     --json: one clip gives the report's keys (max_error, max_error_percent,
@@ -41,7 +42,14 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
       motionrep evaluate walk.bvh walk.mrc
       motionrep evaluate db.h5 db_compressed.h5 --json
       motionrep evaluate clips/ clips_mrc/
+      motionrep decompress walk.mrc -o - | motionrep evaluate walk.bvh -
     """
+    with stdin_inputs([reference, candidate]) as (ref_path, cand_path):
+        shown = [STDIN_NAME if is_stdio(p) else str(p) for p in (reference, candidate)]
+        _evaluate(Path(ref_path), Path(cand_path), shown, clip, as_json)
+
+
+def _evaluate(reference: Path, candidate: Path, shown: list[str], clip: str | None, as_json: bool) -> None:
     from ..batch import evaluate_clips, pair_clips
     from ..errors import ParameterError
     from ..sources import CLIP_SUFFIXES, open_source
@@ -72,19 +80,19 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     if len(reports) == 1:
         report = reports[0][1]
         if as_json:
-            echo_json(dict(report.as_dict(), reference=str(reference), candidate=str(candidate)))
+            echo_json(dict(report.as_dict(), reference=shown[0], candidate=shown[1]))
         else:
             which = f" (clip {clip})" if clip is not None else ""
-            click.echo(f"{reference} vs {candidate}{which}: {report.num_frames} frames, {report.num_points} points")
+            click.echo(f"{shown[0]} vs {shown[1]}{which}: {report.num_frames} frames, {report.num_points} points")
             click.echo(report.summary())
         return
     worst_name, worst = max(reports, key=lambda item: item[1].max_error_percent)
     if as_json:
-        echo_json({"reference": str(reference), "candidate": str(candidate),
+        echo_json({"reference": shown[0], "candidate": shown[1],
                    "clips": [dict(r.as_dict(), clip=n) for n, r in reports],
                    "worst": dict(worst.as_dict(), clip=worst_name)})
         return
-    click.echo(f"{reference} vs {candidate}: {len(reports)} clips")
+    click.echo(f"{shown[0]} vs {shown[1]}: {len(reports)} clips")
     width = max(4, *(len(n) for n, _ in reports))
     click.echo(f"  {'clip':<{width}}  {'frames':>7}  {'L-inf':>10}  {'% height':>8}  {'mean':>10}  worst at")
     for n, r in reports:
