@@ -157,7 +157,7 @@ def expand_globs(inputs: Iterable[Any]) -> list[Any]:
     return out
 
 
-# ---- the bound, and how it was read (motionrep.compress.MaxError.read_as) ------------------------------------
+# ---- the bound, and how it was read (motionrep.bound.MaxError.read_as) ------------------------------------
 def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
               ) -> tuple[float | None, str | None]:
     """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
@@ -166,7 +166,7 @@ def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], 
     Raises:
         click.BadParameter: for a ``--max-error`` that does not parse.
     """
-    from ..compress import parse_max_error
+    from ..bound import parse_max_error
     from ..errors import ParameterError
     from ..kinematics import character_height
     from ..sources import open_source

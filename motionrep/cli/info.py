@@ -67,7 +67,7 @@ def _info_text(d: dict[str, Any]) -> str:
         if e is not None:
             bound = "none" if e.get("bound") is None else _fmt(e["bound"])
             if e.get("bound") is not None and d.get("max_error"):
-                from ..compress import parse_max_error
+                from ..bound import parse_max_error
 
                 bound = f"--max-error {parse_max_error(d['max_error']).read_as(d['height'], d['units'])}"
             lines.append(f"L-inf:      {_fmt(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
