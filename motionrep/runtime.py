@@ -194,9 +194,12 @@ class Clip:
               or not all(a.flags.c_contiguous for a in (out.rotations, out.root_translation, out.joint_translations))
               or out.rotations.dtype not in (np.float64, np.float32)):
             raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
-        for a in range(0, u.size, BLOCK):
-            b = min(u.size, a + BLOCK)
-            self._decode_block(u[a:b], out.rows(slice(a, b)))
+        try:
+            for a in range(0, u.size, BLOCK):
+                b = min(u.size, a + BLOCK)
+                self._decode_block(u[a:b], out.rows(slice(a, b)))
+        except ValidationError as exc:  # the payload decodes to no valid pose: damaged
+            raise self._payload_error(exc) from None
         return out
 
     def positions(self, times: ArrayLike) -> NDArray[np.float64]:
@@ -219,7 +222,10 @@ class Clip:
         without a position channel restored.  ``motionrep.compress.decode_at``, the one decode path, is this."""
         u = np.ascontiguousarray(u, dtype=np.float64).reshape(-1)
         features = np.asarray(self._features_at(u), dtype=np.float64)
-        motion = self._rep.from_features(features, self.skeleton, self.fps if fps is None else float(fps))
+        try:
+            motion = self._rep.from_features(features, self.skeleton, self.fps if fps is None else float(fps))
+        except ValidationError as exc:  # features that are no motion (NaN, quaternions of norm 1e22): damaged
+            raise self._payload_error(exc) from None
         return fixed_axes_restored(motion)
 
     def _features_at(self, u: NDArray[np.float64]) -> NDArray:
@@ -233,7 +239,7 @@ class Clip:
             raise self._payload_error(exc) from None
 
     def _payload_error(self, exc: Exception) -> ContainerError:
-        what = str(exc) if isinstance(exc, PayloadError) else f"{type(exc).__name__}: {exc}"
+        what = str(exc) if isinstance(exc, (PayloadError, ValidationError)) else f"{type(exc).__name__}: {exc}"
         return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {what}", self._path)
 
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:

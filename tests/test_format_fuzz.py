@@ -73,6 +73,16 @@ def test_mutated_mrc_gives_a_container_or_a_container_error(mrc_base, seed):
         _check(lambda: decompress(c, path="fuzz.mrc"), "fuzz.mrc")
 
 
+@pytest.mark.parametrize("seed", [1056, 6360, 8616, 10548, 11916])
+def test_payloads_that_decode_to_no_motion_name_the_file(seed):
+    """Found by tests/fuzz/run.py: svd payloads whose features are NaN or give quaternions of norm 1e22 were a
+    ValidationError without the file."""
+    data = mrc_mutant(*mrc_parts(), random.Random(seed))
+    with limits.override(**SMALL), pytest.raises(ContainerError, match="cannot decode this payload") as info:
+        decompress(unpack(data, "fuzz.mrc"), path="fuzz.mrc")
+    assert info.value.path == "fuzz.mrc"
+
+
 @pytest.fixture(scope="module")
 def npz_base(tmp_path_factory):
     d = tmp_path_factory.mktemp("npz")

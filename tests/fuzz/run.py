@@ -316,7 +316,10 @@ def main() -> None:
     print(f"machine load: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs", flush=True)
     results: dict = {"load": load}
     if args.crafted:
-        rows = run_crafted(args.pythonpath, max(args.timeout, 60.0), args.memory)
+        from motionrep import limits
+
+        # beyond the reader's own watchdog (read_timeout, 60 s by default): the damaged HDF5 case ends there
+        rows = run_crafted(args.pythonpath, max(args.timeout, limits.current().read_timeout + 60.0), args.memory)
         results["crafted"] = rows
         for r in rows:
             verdict = ("HANG" if r["hang"] else "TRACEBACK" if r["traceback"] else "LEAK" if r["leak"]
