@@ -19,11 +19,13 @@ A refusal raises :class:`Refused` with a message; anything h5py raises is left t
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import pickle
 import struct
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import h5py
@@ -173,7 +175,12 @@ class Session:
             if ds.id.get_num_chunks() != expected:  # a damaged chunk index reads fill values, silently
                 raise Refused(f"dataset '/{path}' has {ds.id.get_num_chunks()} of its {expected} chunks: the file "
                               "is damaged")
-        if desc["dtype"] == "string":
+        with address_space(4 * size + 2 * self.files[fid].id.get_filesize() + _HEADROOM):
+            return self._read_data(ds, desc["dtype"] == "string")
+
+    @staticmethod
+    def _read_data(ds: h5py.Dataset, strings: bool) -> Any:
+        if strings:
             raw = ds[()]
             items = raw.ravel().tolist() if isinstance(raw, np.ndarray) else [raw]
             out = []
@@ -186,6 +193,35 @@ class Session:
                 out.append(v)
             return out
         return ds[()]
+
+
+#: What one dataset read may add to the reader's address space beyond its data and the file (library buffers).
+_HEADROOM = 64 << 20
+
+
+@contextlib.contextmanager
+def address_space(extra: int) -> Iterator[None]:
+    """Let this process's address space grow by at most ``extra`` bytes while the block runs (``RLIMIT_AS``;
+    Linux, elsewhere nothing): a damaged size inside the file (a global heap collection's, read whole for
+    variable-length strings) then fails an allocation in the HDF5 library instead of taking gigabytes."""
+    try:
+        import resource
+
+        with open("/proc/self/statm", "rb") as fh:
+            used = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    except (ImportError, OSError, ValueError):
+        yield
+        return
+    cap = used + int(extra)
+    for bound in (soft, hard):
+        if bound != resource.RLIM_INFINITY:
+            cap = min(cap, bound)
+    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
 def _check_link(link: Any, where: str) -> None:
