@@ -94,7 +94,7 @@ def dask_executor(scheduler: Any) -> Iterator[cf.Executor]:
 
 
 #: Seconds between two raises of the time limit's exception while the block has not ended (see :func:`time_limit`).
-_REFIRE_SECONDS = 1.0
+_REFIRE_SECONDS = 0.1
 
 
 class _TimeUp(BaseException):
