@@ -14,6 +14,7 @@ import concurrent.futures as cf
 import contextlib
 import os
 import signal
+import sys
 import threading
 from typing import Any, Iterator
 
@@ -102,6 +103,24 @@ class _TimeUp(BaseException):
     ``except Exception`` swallows it)."""
 
 
+class _DropTimeUp:
+    """An ``unraisablehook`` that drops Python's "Exception ignored" report of a :class:`_TimeUp` that landed in a
+    garbage collector's callback (the limit is raised again, so nothing is lost) and passes every other report on."""
+
+    def __init__(self, hook) -> None:
+        self.hook = hook
+
+    def __call__(self, unraisable) -> None:
+        if not isinstance(unraisable.exc_value, _TimeUp):
+            self.hook(unraisable)
+
+
+def _drop_time_up_reports() -> None:
+    """Install :class:`_DropTimeUp` in this process, once: a user sees no traceback of a dropped time limit."""
+    if not isinstance(sys.unraisablehook, _DropTimeUp):
+        sys.unraisablehook = _DropTimeUp(sys.unraisablehook)
+
+
 @contextlib.contextmanager
 def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
     """Raise :class:`~motionrep.errors.TimeLimitError` in this thread when the block runs longer than ``seconds``.
@@ -110,12 +129,14 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
     a worker process's main thread and in a Dask worker's task threads alike; like a signal, it is seen at the
     next Python instruction (a long call into BLAS ends first).  It is raised again every
     :data:`_REFIRE_SECONDS` until the block ends: one that lands in a callback of the garbage collector (a
-    weakref's) is printed and dropped by Python, not raised.
+    weakref's) is dropped by Python, not raised, and its report is not printed (:class:`_DropTimeUp`).
     """
     if not seconds:
         yield
         return
     import ctypes
+
+    _drop_time_up_reports()
 
     lock = threading.Lock()
     state = {"done": False}

@@ -261,6 +261,41 @@ def test_time_limit_is_raised_again_when_python_drops_it():
     assert len(dropped) == 1 and time.monotonic() - start < 5
 
 
+_DROPPED_TIME_LIMIT = """
+import weakref
+from motionrep.batch import time_limit
+from motionrep.errors import TimeLimitError
+from motionrep.executors import _TimeUp
+
+class Thing:
+    pass
+
+def callback(_ref):
+    raise _TimeUp
+
+def other(_ref):
+    raise ValueError("a report that is not the time limit's")
+
+try:
+    with time_limit(0.2):
+        refs = [weakref.ref(Thing(), callback)]  # the object dies at once: the callback's _TimeUp is dropped
+        while True:
+            pass
+except TimeLimitError:
+    print("stopped")
+kept = weakref.ref(Thing(), other)  # its callback runs now: Python reports it on stderr
+"""
+
+
+def test_a_dropped_time_limit_prints_no_traceback():
+    """A time limit that lands in a weakref's callback is dropped by Python with an "Exception ignored" report on
+    stderr: the user must not see that traceback; other such reports are still printed."""
+    r = subprocess.run([sys.executable, "-c", _DROPPED_TIME_LIMIT], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "stopped"
+    assert "_TimeUp" not in r.stderr
+    assert "a report that is not the time limit's" in r.stderr
+
+
 def test_timeout_fails_the_slow_clip_and_the_others_go_on(tmp_path):
     src = tmp_path / "clips"
     src.mkdir()
