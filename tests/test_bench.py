@@ -426,6 +426,24 @@ def test_runs_that_end_with_an_error_exit_1_after_the_table(clip_dir, tmp_path):
     assert len(read_csv(out / "bench.csv")) == 3
 
 
+def test_out_and_plot_do_not_replace_an_earlier_run_without_force(clip_dir, tmp_path):
+    out, plot = tmp_path / "res", tmp_path / "rd.png"
+    out.mkdir()
+    (out / "bench.json").write_text("an earlier run")
+    plot.write_bytes(b"an earlier plot")
+    r = run("bench", clip_dir, "-c", "svd", "--out", out, "--plot", plot, "--decode-poses", "0", "-q")
+    _one_line_error(r, 1, "bench.json", "--force")
+    assert (out / "bench.json").read_text() == "an earlier run" and r.stdout == ""
+    assert not (out / "bench.csv").exists()
+    (out / "bench.json").unlink()
+    r = run("bench", clip_dir, "-c", "svd", "--out", out, "--plot", plot, "--decode-poses", "0", "-q")
+    _one_line_error(r, 1, "rd.png", "--force")
+    assert plot.read_bytes() == b"an earlier plot"
+    r = run("bench", clip_dir, "-c", "svd", "--out", out, "--plot", plot, "--decode-poses", "0", "-q", "-f")
+    assert r.exit_code == 0, r.output
+    assert (out / "bench.json").read_text() != "an earlier run" and plot.read_bytes() != b"an earlier plot"
+
+
 def test_missing_input_is_a_usage_error(tmp_path):
     r = run("bench", tmp_path / "nope.bvh")
     assert r.exit_code == 2 and "does not exist" in r.stderr

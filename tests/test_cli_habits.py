@@ -197,7 +197,7 @@ def test_f_is_force_in_every_command_that_writes(tmp_path, walk):
             if "-f" in param.opts or "--force" in param.opts:
                 assert set(param.opts) == {"-f", "--force"}, (name, param.opts)
                 with_force.add(name)
-    assert {"convert", "compress", "decompress", "render", "view", "merge", "example"} <= with_force
+    assert {"convert", "compress", "decompress", "render", "view", "merge", "example", "bench"} <= with_force
     target = tmp_path / "out.npz"
     target.write_bytes(b"precious")
     assert run("convert", walk, target).exit_code == 1

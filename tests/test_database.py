@@ -300,8 +300,8 @@ def test_timeout_fails_the_slow_clip_and_the_others_go_on(tmp_path):
     src = tmp_path / "clips"
     src.mkdir()
     write(synthetic_motion(chain_skeleton(3), frames=20, fps=30, seed=1), src / "short.bvh")
-    # several seconds of svd: a limit that lands in a garbage-collector callback is dropped and raised again a
-    # second later, and the clip must still be running then (3,000 frames once finished first, and the run exited 0)
+    # several seconds of svd: a limit that lands in a garbage-collector callback is dropped and raised again
+    # later, and the clip must still be running then (3,000 frames once finished first, and the run exited 0)
     write(synthetic_motion(chain_skeleton(30), frames=12000, fps=120, seed=2), src / "long.npz")
     out = tmp_path / "out"
     r = run("compress", src, "-o", out, "--codec", "svd", "--timeout", "0.3", "--json")

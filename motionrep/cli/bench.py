@@ -3,7 +3,8 @@
 Exit codes: 0 when every run finished (a bound that a codec could not meet is an outcome, a ``failed`` row, not
 an error); 1 for a library error before any work (unknown codec or representation, a parameter no codec has or
 an invalid value, an unreadable input, matplotlib missing for ``--plot``), or after the table when some runs
-ended with an error (for example ``svd`` without ``rank`` and without a bound); 2 for a usage error (malformed
+ended with an error (for example ``svd`` without ``rank`` and without a bound), or when ``--out`` or
+``--plot`` would replace an earlier run's files without ``--force``; 2 for a usage error (malformed
 ``-p``, unknown plot suffix).
 """
 
@@ -14,7 +15,7 @@ from typing import Any
 
 import click
 
-from ._common import BatchProgress, collect
+from ._common import BatchProgress, check_outputs, collect, force_option
 
 __all__ = ["bench"]
 
@@ -37,15 +38,17 @@ __all__ = ["bench"]
 @click.option("--jobs", "-j", default=1, show_default=True, type=click.IntRange(1, 256),
               help="Worker processes (spawned; each uses one BLAS thread).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path),
-              help="Directory for bench.csv, bench.json and bench.md (created if needed).")
+              help="Directory for bench.csv, bench.json and bench.md (created if needed; existing ones need "
+                   "--force).")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path),
               help="Draw error vs compression ratio to this .png, .svg or .pdf (needs matplotlib).")
 @click.option("--decode-poses", default=None, type=click.IntRange(0, 10**8), metavar="N",
               help="Poses decoded at random times to measure decode speed (0: skip). Default: 20000.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+@force_option
 def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tuple[str, ...],
           max_errors: tuple[str, ...], params: tuple[str, ...], seed: int, jobs: int, out: Path | None,
-          plot: Path | None, decode_poses: int | None, quiet: bool) -> None:
+          plot: Path | None, decode_poses: int | None, quiet: bool, force: bool) -> None:
     """Compare codecs on FILES_OR_DIRS (.bvh, .npz, .h5 databases; directories recursively).
 
     Runs every codec x representation x bound (or parameter value) x clip through the compression pipeline (the
@@ -74,6 +77,8 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
         raise click.BadParameter(str(exc), param_hint="-p/--param") from None
     if plot is not None and plot.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise click.BadParameter(f"{plot}: use a .png, .svg or .pdf file", param_hint="--plot")
+    outputs = [out / name for name in _OUT_FILES] if out is not None else []
+    check_outputs([*outputs, plot], force)  # before any work: an earlier run's results are not replaced silently
     if plot is not None:
         from ..bench import require_matplotlib
 
@@ -114,6 +119,10 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     if errors:
         raise click.ClickException(f"{len(errors)} of {len(rows)} runs ended with an error (first: {errors[0].clip}, "
                                    f"{errors[0].codec}: {errors[0].message})")
+
+
+#: The files ``--out DIR`` writes.
+_OUT_FILES = ("bench.csv", "bench.json", "bench.md")
 
 
 def _write_text(path: Path, text: str) -> None:
