@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,6 +39,20 @@ DEFAULT_ROOT_CHANNELS: tuple[str, ...] = ("Xposition", "Yposition", "Zposition",
 DEFAULT_JOINT_CHANNELS: tuple[str, ...] = ("Zrotation", "Xrotation", "Yrotation")
 
 _UNIT_TOLERANCE = 1e-6
+
+
+def _checked_motion_header(skeleton: Any, fps: Any) -> float:
+    """``fps`` as a float after checking what every clip class needs: ``skeleton`` a :class:`Skeleton` and ``fps``
+    a finite number > 0 (raises :class:`ValidationError` otherwise)."""
+    if not isinstance(skeleton, Skeleton):
+        raise ValidationError(f"skeleton must be a Skeleton, got {type(skeleton).__name__}")
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise ValidationError(f"fps must be a number, got {fps!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise ValidationError(f"fps must be finite and > 0, got {fps!r}")
+    return value
 
 
 def _readonly(a: NDArray) -> NDArray:
@@ -305,14 +319,7 @@ class Motion:
     euler_angles: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        if not isinstance(self.skeleton, Skeleton):
-            raise ValidationError(f"skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise ValidationError(f"fps must be a number, got {self.fps!r}") from None
-        if not np.isfinite(fps) or fps <= 0:
-            raise ValidationError(f"fps must be finite and > 0, got {self.fps!r}")
+        fps = _checked_motion_header(self.skeleton, self.fps)
         J = self.skeleton.num_joints
         rot = _as_float_array(self.rotations, "rotations", (None, J, 4))
         F = rot.shape[0]

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import ParameterError
 
-__all__ = ["Codec", "Payload", "EncodeContext", "frame_times", "parse_params", "params_help",
+__all__ = ["Codec", "Payload", "EncodeContext", "CompiledDecoder", "frame_times", "parse_params", "params_help",
            "describe_info", "describe_progress", "codec_problems"]
 
 
@@ -148,7 +148,8 @@ class Codec(ABC):
         C-contiguous ``(D, >= m)`` float64 array to write **feature-major** (feature ``d`` of time ``i`` at
         ``out[d, i]``: the layout in which a codec computes a block, and in which the representations' compiled
         conversions read it, ``motionrep.poseplan``).  It must write the values ``__call__`` gives, and keep no
-        state between calls.  The shipped codecs' decoders do.
+        state between calls; subclassing :class:`CompiledDecoder` gives the plain call from the kernel.  The
+        shipped codecs' decoders do.
         """
         return _DecodeCall(self, payload)
 
@@ -252,6 +253,29 @@ def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
         else:
             parts.append(f"{key}={value}")
     return " ".join(parts)
+
+
+class CompiledDecoder:
+    """Base of a prepared decoder with a compiled kernel (see :meth:`Codec.decoder`): a subclass sets, in its
+    ``__init__``, ``width`` (features per time ``D``), ``dtype`` (its arithmetic, float32 or float64), ``kernel``
+    (a function compiled with ``motionrep.jit.jit``) and ``kernel_args`` (a tuple), and this class gives the
+    ``decoder(times, out=None)`` call from them, so the runtime decoder's blocks and a plain call run one kernel.
+    """
+
+    width: int
+    dtype: np.dtype
+    kernel: Any
+    kernel_args: tuple
+
+    def __call__(self, times: ArrayLike, out: NDArray[np.floating] | None = None) -> NDArray[np.floating]:
+        """``(T, D)`` features at normalised ``times`` ``(T,)`` in :attr:`dtype` (into ``out`` when given)."""
+        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+        features = np.empty((self.width, t.size))
+        self.kernel.dispatcher(t, features, *self.kernel_args)
+        if out is None:
+            return features.T.astype(self.dtype)
+        out[...] = features.T
+        return out
 
 
 class _DecodeCall:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion, Skeleton, _readonly
+from .._model import Motion, Skeleton, _checked_motion_header, _readonly
 from ..errors import ValidationError
 
 __all__ = ["FeatureClip", "features_from_motion", "motion_from_features"]
@@ -44,14 +44,7 @@ class FeatureClip:
     feature_names: tuple[str, ...]
 
     def __post_init__(self) -> None:
-        if not isinstance(self.skeleton, Skeleton):
-            raise ValidationError(f"skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise ValidationError(f"fps must be a number, got {self.fps!r}") from None
-        if not np.isfinite(fps) or fps <= 0:
-            raise ValidationError(f"fps must be finite and > 0, got {self.fps!r}")
+        fps = _checked_motion_header(self.skeleton, self.fps)
         if not isinstance(self.representation, str) or not self.representation:
             raise ValidationError(f"representation must be a non-empty name, got {self.representation!r}")
         version = self.representation_version

@@ -25,6 +25,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from motionrep.codec import CompiledDecoder
 from motionrep.jit import affine_block, affine_one, jit, jit_inline, sincos
 
 __all__ = ["fourier_features", "elu", "Network", "Networks", "network_forward", "network_dtype", "ARRAY_NAMES",
@@ -228,7 +229,7 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
             begin = end
 
 
-class Networks:
+class Networks(CompiledDecoder):
     """One network, or a clip's windows of networks, checked and converted once to the arithmetic's dtype,
     ready to decode any number of times.
 
@@ -237,7 +238,8 @@ class Networks:
         dtype: the arithmetic (float32, or float64 for payload versions 1 and 2).
         kernel, kernel_args: the compiled decoder and its prepared arguments: ``kernel(times, out,
             *kernel_args)`` writes the features at ``times (T,)`` into ``out (D, >= T)`` float64, feature-major
-            (what ``motionrep.open`` calls for each block of poses).
+            (what ``motionrep.open`` calls for each block of poses; a plain call runs it too,
+            ``motionrep.codec.CompiledDecoder``).
 
     Raises:
         ValueError: if the arrays' shapes do not fit together.
@@ -282,16 +284,6 @@ class Networks:
         self.kernel_args = (int(e[-1]) + 1, windowed, dt == np.float64, e, np.array(ks, np.int64),
                             np.array(hs, np.int64), np.concatenate(omegas) if omegas else np.zeros(0), offsets, weights,
                             np.ascontiguousarray(np.stack(biases), dtype=dt))
-
-    def __call__(self, times: ArrayLike, out: NDArray | None = None) -> NDArray:
-        """``(T, D)`` features at ``times`` ``(T,)`` in the arithmetic's dtype (into ``out`` when given)."""
-        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
-        features = np.empty((self.width, t.size))
-        self.kernel.dispatcher(t, features, *self.kernel_args)
-        if out is None:
-            return features.T.astype(self.dtype)
-        out[...] = features.T
-        return out
 
 
 class Network(Networks):

@@ -20,7 +20,7 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload
+from motionrep.codec import Codec, CompiledDecoder, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 from motionrep.jit import affine_block, affine_one, jit
 
@@ -162,7 +162,7 @@ def _decode_kernel(times, out, coeff, mean, basis_t, basis):
                 out[d, a + i] = Y[d, i]
 
 
-class SVDDecoder:
+class SVDDecoder(CompiledDecoder):
     """An ``svd`` payload checked and converted once, ready to decode any number of times: one compiled pass per
     block of times (``_decode_kernel``), in ``dtype`` (float32 for payload version 2, float64 for version 1).
 
@@ -184,13 +184,3 @@ class SVDDecoder:
         self.kernel = _decode_kernel
         self.kernel_args = (np.ascontiguousarray(coeff, dtype=dtype), np.ascontiguousarray(mean, dtype=dtype),
                             np.ascontiguousarray(basis.T), basis)
-
-    def __call__(self, times: ArrayLike, out: NDArray | None = None) -> NDArray:
-        """``(T, D)`` features at normalised ``times`` ``(T,)`` in ``dtype`` (into ``out`` when given)."""
-        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
-        features = np.empty((self.width, t.size))
-        self.kernel.dispatcher(t, features, *self.kernel_args)
-        if out is None:
-            return features.T.astype(self.dtype)
-        out[...] = features.T
-        return out
