@@ -3,7 +3,9 @@
 Stages (each runs its grid through ``motionrep.bench``, i.e. ``compress_motion`` and the shared evaluator, and
 appends every finished run to ``benchmarks/results/paper_runs.jsonl``, so an interrupted run resumes where it
 stopped; runs made with other codec or pipeline sources than the current ones (:func:`code_hash`) are run
-again unless ``--keep-stale``; ``--fresh`` starts over):
+again unless ``--keep-stale``; ``--fresh`` starts over). Every Fourier run pins the paper's layout,
+``dtype=float32 window=0`` (:data:`PAPER_LAYOUT`), so the paper's ratio is the paper's whatever the codecs'
+defaults; the runs recorded before it was pinned are read with it (:func:`paper_params`)):
 
 ``fig2``
     Fig. 2: ``adaptive-fourier`` at 2 % of the character height over every CMU clip (and ``svd`` at the same
@@ -23,8 +25,8 @@ again unless ``--keep-stale``; ``--fresh`` starts over):
     (without their leading T-pose frame), with each installed representation (``root-quat-axis-angle``,
     ``dual-quaternion``, ``ortho6d``, ``euler``).
 ``report``
-    Writes ``benchmarks/results/paper.md`` (tables, the comparison with the paper, machine and date), the CSV and
-    JSON of each stage (``fig2.csv`` ...) and the plots (``fig2.png``, ``fig3*.png``, ``reps.png``).
+    Writes ``benchmarks/results/paper.md`` (tables, the comparison with the paper, the ``.mrc`` and payload bytes
+    and bits/bone/frame of every run, machines and date), the CSV and JSON of each stage (``fig2.csv`` ...) and the plots (``fig2.png``, ``fig3*.png``, ``reps.png``).
 
 The trimmed clips are written to an HDF5 database outside the repository (``$TMPDIR/motionrep_paper/
 cmu_trimmed.h5``, rebuilt deterministically from ../shared/data when missing).
@@ -56,11 +58,25 @@ RESULTS = REPO / "benchmarks" / "results"
 RUNS = RESULTS / "paper_runs.jsonl"
 
 #: Four 31-joint clips of different kinds for Fig. 3 and the representation comparison.
-SUBSET = ("InverseKinematics/02_01", "pybvh/cmu_12_01_walk", "bvh11/131_03", "RGBDAcquisition/102_01cc")
+SUBSET = ("InverseKinematics__02_01", "pybvh__cmu_12_01_walk", "bvh11__131_03", "RGBDAcquisition__102_01cc")
 REPRESENTATIONS = ("root-quat-axis-angle", "dual-quaternion", "ortho6d", "euler")
 RIGS = {31: "31-joint cgspeed rig (120 fps)", 43: "43-joint Second-Life-style rig (120 fps)",
         165: "165-joint retargeted rig (MocapNET, 25 fps)"}
 PAPER_CLAIM = "2-15x at < 2 % of the character height (Fig. 2, 116 CMU clips, 'in most cases')"
+
+#: The paper's layout, pinned for every Fourier run: float32 weights and one network for the whole clip
+#: (Algorithm 1). The codecs' defaults are the quantised, range-coded payload (version 3) and windows chosen by
+#: measurement; with those the parameter count, hence the paper's ratio, would not be the paper's.
+PAPER_LAYOUT: dict[str, list[str]] = {"dtype": ["float32"], "window": ["0"]}
+FOURIER = ("adaptive-fourier", "naive-fourier")
+
+#: Code versions (:func:`code_hash`) of the runs recorded before the layout was pinned (2026-11-22, payload
+#: versions 1 and 2): the Fourier codecs' defaults were then ``dtype=float32`` and ``window=0``, so their runs
+#: without those parameters are the pinned runs (:func:`paper_params`). A run from another code version that
+#: does not name the layout is not taken for one.
+RAW_DEFAULT_CODES = frozenset({"5d10d7d576ad", "0a11ab28fb09", "4b9cbd20ea10"})
+#: The machine of those runs (they did not record it; from the report written with them on 2026-11-22).
+RAW_DEFAULT_MACHINE = "2 CPUs (Intel(R) Xeon(R) Processor @ 2.50GHz), Python 3.11.7, torch 2.13.0+cpu"
 
 
 def code_hash() -> str:
@@ -74,8 +90,40 @@ def code_hash() -> str:
     return h.hexdigest()[:12]
 
 
-def run_key(row: dict) -> tuple:
-    return (row["source"], row["codec"], row["representation"], row["max_error"], row["params"], row["seed"])
+def paper_params(row: dict, code: str) -> str:
+    """The parameters of a recorded run as :func:`stage_grid` spells them now: a Fourier run recorded by a code
+    version of :data:`RAW_DEFAULT_CODES` without ``dtype`` / ``window`` gets the values it was made with (the
+    defaults of that time, the paper's layout); other runs keep theirs."""
+    text = row["params"]
+    names = {p.split("=", 1)[0] for p in text.split()}
+    if row["codec"] in FOURIER and code.split("->")[0] in RAW_DEFAULT_CODES and not names & set(PAPER_LAYOUT):
+        text = " ".join([text] * bool(text) + [f"{k}={v[0]}" for k, v in PAPER_LAYOUT.items()])
+    return text
+
+
+def clip_name(name: str) -> str:
+    """A clip's name as :func:`motionrep.sources.collect_clips` gives it (runs recorded before 2026-12-01 named
+    ``InverseKinematics/02_01`` what is now ``InverseKinematics__02_01``)."""
+    return name.replace("/", "__")
+
+
+def _trimmed_source(source: str) -> bool:
+    """Whether a run's source is the clip without its leading transition (a clip of :data:`TRIMMED`), wherever
+    ``$TMPDIR`` was when it ran."""
+    return f"{TRIMMED.name}[" in source
+
+
+def run_key(row: dict, code: str) -> tuple:
+    """What makes two runs the same: the clip (by name, as in the file or trimmed; not by path, which depends
+    on the worktree), codec, representation, bound, parameters (:func:`paper_params`) and seed."""
+    return (clip_name(row["clip"]), _trimmed_source(row["source"]), row["codec"], row["representation"],
+            row["max_error"], paper_params(row, code), row["seed"])
+
+
+def task_key(task) -> tuple:
+    """:func:`run_key` of the run a :class:`~motionrep.bench.BenchTask` makes."""
+    return (task.clip.name, _trimmed_source(task.clip.source), task.codec, task.representation, task.max_error,
+            " ".join(f"{k}={v}" for k, v in task.params), task.seed)
 
 
 def load_runs() -> list[dict]:
@@ -120,7 +168,7 @@ def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
     names = {c.name: c.name.replace("/", "__") for c in clips}
     if TRIMMED.exists() and set(list_clips(TRIMMED)) == set(names.values()):
         meta = json.loads((TRIMMED.with_suffix(".json")).read_text())
-        dropped = meta["dropped"]
+        dropped = {clip_name(k): v for k, v in meta["dropped"].items()}
     else:
         TRIMMED.parent.mkdir(parents=True, exist_ok=True)
         items = []
@@ -142,31 +190,32 @@ def stage_grid(stage: str, clips, bounds: list[str]):
     by_name = {c.name: c for c in clips}
     trimmed_by_name = {c.name: c for c in trimmed}
     subset = [by_name[n] for n in SUBSET if n in by_name]
+    layout = dict(PAPER_LAYOUT)
     if stage == "fig2":
         ordered = sorted(trimmed, key=lambda c: (_joints(by_name[c.name]) != 31, _joints(by_name[c.name]) == 43,
                                                  _frames(by_name[c.name]), c.name))
-        return (bench_tasks(ordered, ["adaptive-fourier"], ["root-quat-axis-angle"], bounds)
+        return (bench_tasks(ordered, ["adaptive-fourier"], ["root-quat-axis-angle"], bounds, layout)
                 + bench_tasks(ordered, ["svd"], ["root-quat-axis-angle"], bounds))
     if stage == "fig2raw":
         # the 31- and 165-joint clips that start with a transition, as in the file and without it, in one run
         # (so that both sides use the same code); the salsa clips are left out (4 min per failed run)
         names = [c.name for c in clips if dropped[c.name] and _joints(c) != 43]
         pool = [c for n in names for c in (by_name[n], trimmed_by_name[n])]
-        return (bench_tasks(pool, ["adaptive-fourier"], ["root-quat-axis-angle"], bounds)
+        return (bench_tasks(pool, ["adaptive-fourier"], ["root-quat-axis-angle"], bounds, layout)
                 + bench_tasks(pool, ["svd"], ["root-quat-axis-angle"], bounds))
     if stage in ("fig3", "fig3t"):
         pool = subset if stage == "fig3" else [trimmed_by_name[c.name] for c in subset if dropped[c.name]]
         return (bench_tasks(pool, ["svd"], ["root-quat-axis-angle"], [None], parse_sweep(["rank=1..40"]))
-                + bench_tasks(pool, ["adaptive-fourier", "naive-fourier"], ["root-quat-axis-angle"], [None],
-                              parse_sweep(["k=1..10"])))
+                + bench_tasks(pool, list(FOURIER), ["root-quat-axis-angle"], [None],
+                              {**parse_sweep(["k=1..10"]), **layout}))
     if stage == "reps":
         pool = [trimmed_by_name[c.name] for c in subset]
         return (bench_tasks(pool, ["svd"], list(REPRESENTATIONS), ["2%"])
-                + bench_tasks(pool, ["adaptive-fourier"], list(REPRESENTATIONS), ["2%"]))
+                + bench_tasks(pool, ["adaptive-fourier"], list(REPRESENTATIONS), ["2%"], layout))
     raise SystemExit(f"unknown stage {stage!r}")
 
 
-_INFO: dict[str, tuple[int, int]] = {}
+_INFO: dict[str, tuple[int, int, int, int]] = {}
 
 
 def _joints(clip) -> int:
@@ -177,10 +226,11 @@ def _frames(clip) -> int:
     return _info(clip)[1]
 
 
-def _info(clip) -> tuple[int, int]:
+def _info(clip) -> tuple[int, int, int, int]:
+    """Joints, frames, end sites and BVH channels per frame of ``clip``."""
     if clip.name not in _INFO:
         m = clip.read()
-        _INFO[clip.name] = (m.num_joints, m.num_frames)
+        _INFO[clip.name] = (m.num_joints, m.num_frames, m.skeleton.num_end_sites, m.skeleton.num_channels)
     return _INFO[clip.name]
 
 
@@ -192,25 +242,28 @@ def run(stages: list[str], jobs: int, bounds: list[str], fresh: bool, rerun_stal
     if fresh and RUNS.exists():
         RUNS.unlink()
     clips = collect_clips([CMU])
+    machine = machine_info()
+    where = (f"{machine['cpus']} CPUs ({machine['cpu']}), Python {machine['python']}, "
+             + ", ".join(f"{k} {v}" for k, v in machine["versions"].items() if v))
     for stage in stages:
         # each stage starts new worker processes, which import the sources as they are now
         code = code_hash()
-        done = {run_key(r["row"]) for r in load_runs() if r["code"] == code or not rerun_stale}
+        done = {run_key(r["row"], r["code"]) for r in load_runs() if r["code"] == code or not rerun_stale}
         tasks = [t for t in stage_grid(stage, clips, bounds)]
-        todo = [t for t in tasks if (t.clip.source, t.codec, t.representation, t.max_error,
-                                     " ".join(f"{k}={v}" for k, v in t.params), t.seed) not in done]
+        todo = [t for t in tasks if task_key(t) not in done]
         print(f"{stage}: {len(tasks)} runs, {len(tasks) - len(todo)} already done, {len(todo)} to run "
               f"({time.strftime('%H:%M:%S')})", flush=True)
         if not todo:
             continue
         count = [0]
 
-        def on_done(row, stage=stage, total=len(todo), code=code):
+        def on_done(row, stage=stage, total=len(todo), code=code, where=where):
             count[0] += 1
             now = code_hash()  # the sources changed during the run: the row is marked stale (rerun next time)
             with RUNS.open("a") as fh:
                 fh.write(json.dumps({"stage": stage, "code": code if now == code else f"{code}->{now}",
-                                     "load": os.getloadavg()[0], "row": _finite(row.as_dict())}) + "\n")
+                                     "load": os.getloadavg()[0], "machine": where,
+                                     "row": _finite(row.as_dict())}) + "\n")
             err = "-" if row.error_percent is None else f"{row.error_percent:.2f}%"
             ratio = "-" if row.paper_ratio is None else f"{row.paper_ratio:.2f}"
             secs = "-" if row.encode_seconds is None else f"{row.encode_seconds:.0f}s"
@@ -219,7 +272,7 @@ def run(stages: list[str], jobs: int, bounds: list[str], fresh: bool, rerun_stal
                   f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
         run_bench(todo, jobs=jobs, on_done=on_done)
-    print("machine:", json.dumps(machine_info()), flush=True)
+    print("machine:", json.dumps(machine), flush=True)
 
 
 def _finite(obj):
@@ -245,15 +298,43 @@ def rows_of(stage: str, clips) -> list:
     codes: dict[tuple, str] = {}
     bounds: set = set()
     for r in load_runs():
-        latest[run_key(r["row"])] = r["row"]
-        codes[run_key(r["row"])] = r["code"]
+        key = run_key(r["row"], r["code"])
+        latest[key] = {**r["row"], "clip": key[0], "params": key[5]}
+        codes[key] = r["code"]
         if r["stage"] == stage:
             bounds.add(r["row"]["max_error"])
-    grid = [(t.clip.source, t.codec, t.representation, t.max_error, " ".join(f"{k}={v}" for k, v in t.params),
-             t.seed) for t in stage_grid(stage, clips, _bounds_of([{"max_error": b} for b in bounds]))]
+    grid = [task_key(t) for t in stage_grid(stage, clips, _bounds_of([{"max_error": b} for b in bounds]))]
     keys = [k for k in dict.fromkeys(grid) if k in latest]
     _STAGE_CODES[stage] = sorted({codes[k] for k in keys})
-    return [BenchRow(**latest[k]) for k in keys]
+    refs = {c.name: c for c in clips}
+    return [BenchRow(**with_bone_figures(latest[k], refs)) for k in keys]
+
+
+def with_bone_figures(row: dict, refs: dict) -> dict:
+    """``row`` with ``payload_bytes`` and ``bits_per_bone_frame`` (figure (e) of :mod:`motionrep.evaluate`:
+    payload bits per frame and bone, bones = joints + end sites, ACL's count) where a run recorded before
+    ``motionrep.bench`` wrote them lacks them.  Its payload is then derived from its stored numbers: every
+    array of those runs' layouts is float32 (svd: ``mean``, ``coefficients``, ``basis``; a Fourier network with
+    ``dtype=float32``: ``omega``, ``W0`` ... ``b2``), so it is 4 bytes per parameter; the figure itself comes
+    from :func:`motionrep.evaluate.compression_figures` with the clip's skeleton. Rows of other layouts are
+    left without it."""
+    from motionrep.evaluate import compression_figures
+
+    if row.get("payload_bytes") is not None or row["status"] != "ok" or not _all_float32(row):
+        return row
+    joints, _, end_sites, channels = _info(refs[row["clip"]])
+    f = compression_figures(num_frames=row["frames"], feature_width=row["feature_width"],
+                            num_parameters=row["parameters"], num_channels=channels, num_joints=joints,
+                            compressed_bytes=row["bytes"], num_end_sites=end_sites,
+                            payload_bytes=4 * row["parameters"])
+    return {**row, "payload_bytes": f.payload_bytes, "bits_per_bone_frame": f.bits_per_bone_frame}
+
+
+def _all_float32(row: dict) -> bool:
+    params = dict(p.split("=", 1) for p in row["params"].split())
+    if row["codec"] == "svd":
+        return params.get("dtype", "float32") == "float32"
+    return row["codec"] in FOURIER and params.get("dtype") == "float32" and params.get("window") == "0"
 
 
 _STAGE_CODES: dict[str, list[str]] = {}
@@ -271,6 +352,10 @@ def _bounds_of(rows) -> list[str]:
 
 def _pct(v):
     return "-" if v is None else f"{v:.2f}"
+
+
+def _bytes(v):
+    return "-" if v is None else f"{v:,.0f}"
 
 
 def _med(vals):
@@ -303,17 +388,25 @@ def report() -> None:
     md: list[str] = ["# Tojo et al. (2022) reproduced on the CMU clips in ../shared/data/cmu", ""]
     md += [f"Generated by `benchmarks/paper.py report` on {machine['date']} from {len(runs)} runs in "
            f"`paper_runs.jsonl`.", "",
-           f"Machine: {machine['cpus']} CPUs ({machine['cpu']}), Python {machine['python']}, "
-           + ", ".join(f"{k} {v}" for k, v in machine["versions"].items() if v) + ". "
-           f"Shared with other engineers' jobs: the 1-minute load average while the runs finished was "
+           "Runs made on: " + "; ".join(sorted({_machine_of(r) for r in runs})) + ". "
+           f"Report written on: {machine['cpus']} CPUs ({machine['cpu']}). Shared with other engineers' jobs: the 1-minute load average while the runs finished was "
            f"{min(loads):.1f}-{max(loads):.1f} (median {statistics.median(loads):.1f}) on 2 cores, so encode "
            f"seconds are pessimistic and noisy; errors and ratios do not depend on load." if loads else "", "",
            f"Code (SHA-256 of codec, representation and pipeline sources): {', '.join(codes)}.", "",
            "Every number comes from `motionrep.bench` (`compress_motion`: encode, pack to `.mrc` bytes, decode "
            "from the bytes, shared FK-based L-inf error over all joints and end sites). Error is in % of the "
            "character height; the ratio is the paper's: frames x feature width / stored parameters (every stored "
-           "number counted, frequencies and biases included). Codec defaults unless stated (adaptive-fourier: "
-           "max_k 24, float32 weights, L-BFGS, seed 0).", ""]
+           "number counted, frequencies and biases included). The Fourier runs pin the paper's layout, "
+           "`-p dtype=float32 window=0` (float32 weights, one network for the whole clip; the codecs' defaults "
+           "are now the quantised, range-coded payload and windows chosen by measurement, whose ratio would not "
+           "be the paper's); other parameters are the codec defaults unless stated (adaptive-fourier: max_k 24, "
+           "seed 0). Sizes: `bytes` is the `.mrc` file, `payload bytes` the codec's arrays without the skeleton "
+           "and metadata every file has, and bits/bone/frame is `8 x payload bytes / (frames x (joints + end "
+           "sites))` (`motionrep.evaluate.compression_figures`, ACL's bone count, as `motionrep info` and "
+           "`motionrep bench` report it). Runs recorded before `motionrep bench` wrote the payload size (code "
+           + ", ".join(sorted(RAW_DEFAULT_CODES)) + ") have it derived: every array of their layouts is float32, "
+           "so their payload is 4 bytes per stored parameter (checked against `Container.payload_bytes` for "
+           "svd and both Fourier codecs with `dtype=float32 window=0`); failed runs have no file.", ""]
 
     # ---- data ------------------------------------------------------------------------------------------------
     trimmed, dropped = trimmed_clips(clips)
@@ -393,6 +486,12 @@ def report() -> None:
     print(f"wrote {RESULTS / 'paper.md'}")
 
 
+def _machine_of(record: dict) -> str:
+    if "machine" in record:
+        return record["machine"]
+    return RAW_DEFAULT_MACHINE if record["code"].split("->")[0] in RAW_DEFAULT_CODES else "not recorded"
+
+
 def _rig(joints: int) -> str:
     return RIGS.get(joints, f"{joints}-joint rig")
 
@@ -408,8 +507,9 @@ def _fig2_section(rows) -> list[str]:
             continue
         md += [f"### Bound {bound}", "",
                "| rig | clips | met the bound | paper ratio: min / median / max (runs that met it) | K median "
-               "| failed: best error %, median (max) | svd met / ratio median (same bound) | encode s, median |",
-               "|---|---:|---:|---|---:|---:|---:|---:|"]
+               "| .mrc bytes, median | bits/bone/frame, median | failed: best error %, median (max) "
+               "| svd met / ratio median / bits/bone/frame median (same bound) | encode s, median |",
+               "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
         for joints in sorted({r.joints for r in ad}):
             g = [r for r in ad if r.joints == joints]
             ok = [r for r in g if r.status == "ok"]
@@ -420,15 +520,20 @@ def _fig2_section(rows) -> list[str]:
             bad = [r.error_percent for r in g if r.status == "failed" and r.error_percent is not None]
             fail = f"{statistics.median(bad):.2f} ({max(bad):.2f})" if bad else "-"
             svn = sum(1 for r in g if r.clip in sv and sv[r.clip].status == "ok")
+            svb = [sv[r.clip].bits_per_bone_frame for r in g if r.clip in sv and sv[r.clip].status == "ok"]
             md.append(f"| {_rig(joints)} | {len(g)} | {len(ok)} | {rng} | "
-                      f"{statistics.median(ks) if ks else '-'} | {fail} | {svn} / {_pct(_med(svr))} | "
-                      f"{_pct(_med(r.encode_seconds for r in ok))} |")
+                      f"{statistics.median(ks) if ks else '-'} | {_bytes(_med(r.bytes for r in ok))} | "
+                      f"{_pct(_med(r.bits_per_bone_frame for r in ok))} | {fail} | "
+                      f"{svn} / {_pct(_med(svr))} / {_pct(_med(svb))} | {_pct(_med(r.encode_seconds for r in ok))} |")
         ok = [r for r in ad if r.status == "ok"]
         ratios = sorted(r.paper_ratio for r in ok)
         in_claim = sum(2 <= x <= 15 for x in ratios)
         md += ["", f"Overall at {bound}: {len(ok)} of {len(ad)} clips met the bound with adaptive-fourier (max_k "
                f"24); their paper ratios range {ratios[0]:.2f}-{ratios[-1]:.2f}x (median "
-               f"{statistics.median(ratios):.2f}x), {in_claim} of them within 2-15x." if ratios else
+               f"{statistics.median(ratios):.2f}x), {in_claim} of them within 2-15x; their files are "
+               f"{_bytes(min(r.bytes for r in ok))}-{_bytes(max(r.bytes for r in ok))} bytes, "
+               f"{_pct(min(r.bits_per_bone_frame for r in ok))}-{_pct(max(r.bits_per_bone_frame for r in ok))} "
+               f"bits/bone/frame (median {_pct(_med(r.bits_per_bone_frame for r in ok))})." if ratios else
                f"Overall at {bound}: no clip met the bound.", ""]
         wins = [(r, sv[r.clip]) for r in ok if r.clip in sv and sv[r.clip].status == "ok"]
         if wins:
@@ -443,8 +548,8 @@ def _fig2_section(rows) -> list[str]:
 
 def _raw_vs_trimmed(rows, dropped) -> list[str]:
     """Rows of ``fig2raw``: each clip as in the file and without its leading transition (same run)."""
-    trimmed = {(r.clip, r.codec, r.max_error): r for r in rows if r.source.startswith(str(TRIMMED))}
-    raw = [r for r in rows if not r.source.startswith(str(TRIMMED))]
+    trimmed = {(r.clip, r.codec, r.max_error): r for r in rows if _trimmed_source(r.source)}
+    raw = [r for r in rows if not _trimmed_source(r.source)]
     md = ["| clip | frames dropped | codec | bound | as in the file | without the leading transition |",
           "|---|---:|---|---|---|---|"]
 
@@ -560,7 +665,7 @@ def _fig3_section(rows) -> list[str]:
                     n += 1
                     wins += y < e
             cmp[other] = f"{wins} of {n}" if n else "- (no overlap)"
-        k10 = {c: next((r for r in g if r.codec == c and r.params == "k=10"), None) for c in
+        k10 = {c: next((r for r in g if r.codec == c and "k=10" in r.params.split()), None) for c in
                ("adaptive-fourier", "naive-fourier")}
         a10 = k10["adaptive-fourier"]
         svd_at = _interp_error(curves["svd"], a10.paper_ratio) if a10 else None
@@ -572,12 +677,15 @@ def _fig3_section(rows) -> list[str]:
     md += ["", "Per-K medians over the clips:", ""]
     from motionrep.bench import summarize
 
-    md += ["| codec | size | clips | median L-inf % | median paper ratio |", "|---|---|---:|---:|---:|"]
+    md += ["| codec | size | clips | median L-inf % | median paper ratio | median .mrc bytes "
+           "| median payload bytes | median bits/bone/frame |", "|---|---|---:|---:|---:|---:|---:|---:|"]
     for s in summarize(rows):
         if s.codec == "svd" and s.params not in {f"rank={k}" for k in (1, 2, 3, 5, 8, 10, 15, 20, 30, 40)}:
             continue
+        ok = [r for r in rows if r.status == "ok" and (r.codec, r.params) == (s.codec, s.params)]
         md.append(f"| {s.codec} | {s.params} | {s.ok} | {_pct(s.median_error_percent)} | "
-                  f"{_pct(s.median_paper_ratio)} |")
+                  f"{_pct(s.median_paper_ratio)} | {_bytes(_med(r.bytes for r in ok))} | "
+                  f"{_bytes(_med(r.payload_bytes for r in ok))} | {_pct(s.median_bits_per_bone_frame)} |")
     return md + [""]
 
 
@@ -601,7 +709,8 @@ def _reps_section(rows) -> list[str]:
                 else:
                     cells.append(r.outcome.replace("|", "/"))
             md.append(f"| {clip} | {codec} | " + " | ".join(cells) + " |")
-    md += ["", "Median bytes ratio at 2 % (paper's ratio in brackets; runs that met the bound / runs):", "",
+    md += ["", "Median bytes ratio at 2 % (paper's ratio and median bits/bone/frame in brackets; runs that met "
+           "the bound / runs):", "",
            "| codec | " + " | ".join(REPRESENTATIONS) + " |", "|---|" + "---|" * len(REPRESENTATIONS)]
     for codec in ("adaptive-fourier", "svd"):
         cells = []
@@ -609,7 +718,8 @@ def _reps_section(rows) -> list[str]:
             g = [r for r in rows if r.codec == codec and r.representation == rep]
             ok = [r for r in g if r.status == "ok"]
             cells.append(f"{statistics.median(r.bytes_ratio for r in ok):.2f} "
-                         f"({statistics.median(r.paper_ratio for r in ok):.2f}) ({len(ok)}/{len(g)})" if ok
+                         f"({statistics.median(r.paper_ratio for r in ok):.2f}, "
+                         f"{_pct(_med(r.bits_per_bone_frame for r in ok))} b/bone/frame) ({len(ok)}/{len(g)})" if ok
                          else f"- (0/{len(g)})")
         md.append(f"| {codec} | " + " | ".join(cells) + " |")
     return md + [""]
