@@ -125,7 +125,9 @@ class Session:
             if not (dtype.kind in _KINDS or h5py.check_string_dtype(dtype) is not None):
                 out[name] = Ellipsis
                 continue
-            value = obj.attrs[name]
+            # an attribute is small, but a damaged variable-length string's heap size is read whole, as a dataset's
+            with address_space(2 * self.files[fid].id.get_filesize() + _HEADROOM):
+                value = obj.attrs[name]
             if isinstance(value, np.ndarray) and value.dtype.kind == "O":
                 value = [v.decode("utf-8", "surrogateescape") if isinstance(v, bytes) else str(v)
                          for v in value.ravel().tolist()]
