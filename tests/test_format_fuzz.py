@@ -49,7 +49,7 @@ def _check(read_it, path: str) -> None:
     _no_leak(item)
 
 
-@pytest.fixture(scope="module", params=["svd", "transform"])
+@pytest.fixture(scope="module", params=["svd", "transform", "adaptive-fourier"])
 def mrc_base(request):
     return mrc_parts(codec=request.param)
 

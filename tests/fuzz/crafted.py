@@ -110,17 +110,19 @@ def write_v1_npz(motion: Motion, path: Path) -> None:
             out.writestr(name, data)
 
 
-def mrc_parts(motion: Motion | None = None, codec: str = "svd") -> tuple[dict, bytes]:
-    """``(metadata, payload)`` of a real, small ``.mrc`` container: ``svd`` (rank 2) or ``transform`` (the default
-    codec of ``motionrep compress``, at its default bound)."""
+def mrc_parts(motion: Motion | None = None, codec: str = "svd",
+              params: dict[str, str] | None = None) -> tuple[dict, bytes]:
+    """``(metadata, payload)`` of a real, small ``.mrc`` container: ``svd`` (rank 2), or any other codec (e.g.
+    ``transform``, the default codec of ``motionrep compress``, or ``adaptive-fourier``) with ``params`` at its
+    default bound."""
     from motionrep.compress import compress_motion
 
-    if codec == "svd":
+    if codec == "svd" and not params:
         motion = motion or synthetic_motion(chain_skeleton(3), frames=12, seed=2)
         data = compress_motion(motion, "svd", params={"rank": 2}, max_error=None).data
     else:
         motion = motion or synthetic_motion(chain_skeleton(3), frames=40, seed=2)
-        data = compress_motion(motion, codec).data
+        data = compress_motion(motion, codec, params=params).data
     meta_len = struct.unpack_from("<I", data, 16)[0]
     meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
     return meta, data[20 + meta_len:-4]

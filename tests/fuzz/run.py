@@ -2,6 +2,8 @@
 
     python tests/fuzz/run.py --mutants 100000                 # every format, 100,000 mutants each
     python tests/fuzz/run.py --formats h5 --mutants 20000     # one format
+    python tests/fuzz/run.py --formats mrc --mrc-codecs adaptive-fourier,adaptive-fourier:window=16
+                                                              # .mrc mutants of other codecs' payloads
     python tests/fuzz/run.py --crafted                        # the crafted cases, through the command line
     python tests/fuzz/run.py --crafted --pythonpath /old/tree # the same against another checkout (before/after)
 
@@ -9,7 +11,8 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 ``tests/test_hostile.py`` run small versions of it there.
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
-``motionrep.io.read`` (``.mrc``: ``unpack`` then ``decompress``), under the small limits ``SMALL`` below; the
+``motionrep.io.read`` (``.mrc``: ``unpack`` then ``decompress``; seed ``s`` mutates the file of codec
+``s mod n`` of the ``n`` in ``--mrc-codecs``), under the small limits ``SMALL`` below; the
 child reports every outcome on a pipe.  Counted per format:
 
 - ``refused``: motionrep's own error naming the file (the expected answer to a damaged file);
@@ -47,6 +50,16 @@ sys.path.insert(0, str(HERE.parent))
 
 SMALL = dict(max_frames=100_000, max_clip_bytes=32 << 20, max_metadata_bytes=1 << 20, read_timeout=10)
 FORMATS = ("bvh", "mrc", "npz", "h5")
+MRC_CODECS = "svd,transform"
+
+
+def _codec_specs(text: str) -> list[tuple[str, dict[str, str]]]:
+    """``"svd,adaptive-fourier:window=16:dtype=float32"`` -> ``[("svd", {}), ("adaptive-fourier", {...})]``."""
+    specs = []
+    for item in text.split(","):
+        name, *pairs = item.strip().split(":")
+        specs.append((name, dict(p.split("=", 1) for p in pairs)))
+    return specs
 
 
 def _budget(size: int) -> int:
@@ -56,15 +69,15 @@ def _budget(size: int) -> int:
 # ---------------------------------------------------------------------------------------------------------------
 # the child: read mutants, report outcomes
 # ---------------------------------------------------------------------------------------------------------------
-def _bases(fmt: str, work: Path):
+def _bases(fmt: str, work: Path, mrc_codecs: str = MRC_CODECS):
     from fuzz.crafted import mrc_parts, npz_parts, small_motion, write_v1_hdf5
     from motionrep.io import format_bvh, parse_bvh, write
 
     m = parse_bvh(format_bvh(small_motion(12)))
     if fmt == "bvh":
         return format_bvh(m).encode()
-    if fmt == "mrc":  # even seeds mutate an svd file, odd ones a transform file (the default codec)
-        return [mrc_parts(), mrc_parts(codec="transform")]
+    if fmt == "mrc":  # by default even seeds mutate an svd file, odd ones a transform file (the default codec)
+        return [mrc_parts(codec=name, params=params or None) for name, params in _codec_specs(mrc_codecs)]
     if fmt == "npz":
         write(m, work / "base.npz")
         return npz_parts(work / "base.npz")
@@ -100,7 +113,7 @@ def _reset_worker_peak() -> None:
             pass
 
 
-def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
+def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs: str = MRC_CODECS) -> None:
     import tracemalloc
 
     import numpy as np
@@ -115,7 +128,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
 
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     limits.set_limits(**SMALL)
-    base = _bases(fmt, work)
+    base = _bases(fmt, work, mrc_codecs)
     path = work / f"mutant.{fmt}"
     baseline = 0
     if fmt == "h5":  # start the reader process first: its own footprint (numpy, h5py) is not any read's
@@ -127,7 +140,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
         if fmt == "bvh":
             data = bvh_mutant(base, rng)
         elif fmt == "mrc":
-            data = mrc_mutant(*base[seed % 2], rng)
+            data = mrc_mutant(*base[seed % len(base)], rng)
         elif fmt == "npz":
             data = npz_mutant(base[0], base[1], rng)
         else:
@@ -179,7 +192,8 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int) -> None:
 # ---------------------------------------------------------------------------------------------------------------
 # the parent: run children, count, restart after a hang
 # ---------------------------------------------------------------------------------------------------------------
-def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path, seed0: int) -> Counter:
+def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path, seed0: int,
+               mrc_codecs: str = MRC_CODECS) -> Counter:
     counts: Counter = Counter()
     details: dict[str, Counter] = {}
     work = Path(tempfile.mkdtemp(prefix=f"fuzz-{fmt}-"))
@@ -188,7 +202,7 @@ def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path,
     peak_max = 0
     while next_seed < end:
         proc = subprocess.Popen([sys.executable, __file__, "--child", fmt, str(next_seed), str(end - next_seed),
-                                 str(work), str(memory)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                 str(work), str(memory), mrc_codecs], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                 start_new_session=True)
         buf = b""
         last = time.monotonic()
@@ -209,7 +223,7 @@ def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path,
                     peak_max = max(peak_max, r["peak"])
                     if r["outcome"] not in ("read", "refused"):
                         details.setdefault(r["outcome"], Counter())[r["detail"][:160]] += 1
-                        _save(fmt, r["seed"], work, out_dir)
+                        _save(fmt, r["seed"], work, out_dir, mrc_codecs)
                     next_seed = r["seed"] + 1
                     done = next_seed - seed0
                     if done % 5000 == 0:
@@ -219,14 +233,14 @@ def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path,
                 os.killpg(proc.pid, signal.SIGKILL)
                 counts["hang"] += 1
                 details.setdefault("hang", Counter())[f"seed {next_seed}"] += 1
-                _save(fmt, next_seed, work, out_dir)
+                _save(fmt, next_seed, work, out_dir, mrc_codecs)
                 next_seed += 1
                 break
         proc.wait()
         if proc.returncode not in (0, None, -signal.SIGKILL) and next_seed < end:
             counts["traceback"] += 1  # the child died: count the mutant it was on, go on after it
             details.setdefault("traceback", Counter())[f"child died ({proc.returncode}) at seed {next_seed}"] += 1
-            _save(fmt, next_seed, work, out_dir)
+            _save(fmt, next_seed, work, out_dir, mrc_codecs)
             next_seed += 1
     counts["seconds"] = round(time.monotonic() - started)
     counts["peak_bytes_max"] = peak_max
@@ -236,9 +250,11 @@ def run_format(fmt: str, count: int, timeout: float, memory: int, out_dir: Path,
     return counts
 
 
-def _save(fmt: str, seed: int, work: Path, out_dir: Path) -> None:
+def _save(fmt: str, seed: int, work: Path, out_dir: Path, mrc_codecs: str = MRC_CODECS) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / f"{fmt}-seed{seed}.txt").write_text(f"regenerate with tests/fuzz/mutate.py, format {fmt}, seed {seed}\n")
+    bases = f", --mrc-codecs {mrc_codecs}" if fmt == "mrc" else ""
+    (out_dir / f"{fmt}-seed{seed}.txt").write_text(
+        f"regenerate with tests/fuzz/mutate.py, format {fmt}, seed {seed}{bases}\n")
 
 
 _RUSAGE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
@@ -298,13 +314,16 @@ def run_crafted(pythonpath: str | None, timeout: float, memory: int) -> list[dic
 
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        fmt, start, count, work, memory = sys.argv[2:7]
-        child(fmt, int(start), int(count), Path(work), int(memory))
+        fmt, start, count, work, memory, mrc_codecs = sys.argv[2:8]
+        child(fmt, int(start), int(count), Path(work), int(memory), mrc_codecs)
         return
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--mutants", type=int, default=100_000, help="mutants per format (default 100,000)")
     ap.add_argument("--formats", default=",".join(FORMATS), help="comma-separated: " + ", ".join(FORMATS))
     ap.add_argument("--seed", type=int, default=0, help="first seed")
+    ap.add_argument("--mrc-codecs", default=MRC_CODECS,
+                    help="codecs whose .mrc files are mutated, one after the other, with parameters after colons "
+                         f"(default {MRC_CODECS}; e.g. adaptive-fourier,naive-fourier:dtype=float32)")
     ap.add_argument("--timeout", type=float, default=30.0, help="seconds without an answer that make a hang")
     ap.add_argument("--memory", type=int, default=4 << 30, help="address-space limit of the reading process")
     ap.add_argument("--out", type=Path, default=Path("fuzz-findings"), help="where unexpected mutants are listed")
@@ -330,7 +349,7 @@ def main() -> None:
         results["mutants"] = {}
         for fmt in args.formats.split(","):
             print(f"{fmt}: {args.mutants} mutants", flush=True)
-            counts = run_format(fmt, args.mutants, args.timeout, args.memory, args.out, args.seed)
+            counts = run_format(fmt, args.mutants, args.timeout, args.memory, args.out, args.seed, args.mrc_codecs)
             results["mutants"][fmt] = dict(counts)
             print(f"{fmt}: {dict(counts)}", flush=True)
     if args.json:
