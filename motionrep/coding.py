@@ -14,6 +14,10 @@ module to turn them into as few bytes as possible and back, the same way on ever
   stored earlier in the stream, or is derived from what was decoded before); raw unsigned fields for headers.
 * :func:`encode_integers` / :func:`decode_integers`: the simple case, groups of integers each coded under its
   own fitted model, the models stored in the stream.
+* :class:`MatrixModel`, :func:`fit_matrix_model`, :meth:`IntegerEncoder.encode_matrices` /
+  :meth:`IntegerDecoder.decode_matrices`: matrices of integers (a network's layers) each under one model, or one
+  model per row or per column (rows of very different magnitudes), whichever codes it in fewer bits, the line
+  models' parameters coded compactly in the stream, all of them in a few coder calls.
 * :func:`largest_passing`, :func:`largest_passing_each`: bisection of an integer step index to a bound, one
   index or many in lockstep.
 
@@ -45,7 +49,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -65,7 +69,10 @@ __all__ = [
     "decode_integers",
     "largest_passing",
     "largest_passing_each",
+    "MatrixModel",
+    "fit_matrix_model",
     "MAX_MAGNITUDE",
+    "LINE_LEVELS",
 ]
 
 #: Magnitudes below this are coded as their own token; larger ones as a bit-length bucket plus raw bits.
@@ -164,13 +171,20 @@ def _tail_probabilities(decay: int) -> tuple[float, ...]:
     return tuple(p)
 
 
+@lru_cache(maxsize=65536)
+def _probabilities(zero: int, decay: int) -> NDArray[np.float64]:
+    """:attr:`Model.probabilities` (read-only, cached)."""
+    z = _zero_probability(zero)
+    p = np.array([z] + [(1.0 - z) * t for t in _tail_probabilities(decay)])
+    p.flags.writeable = False
+    return p
+
+
 @lru_cache(maxsize=4096)
 def _categorical(zero: int, decay: int):
     import constriction
 
-    z = _zero_probability(zero)
-    probs = np.array([z] + [(1.0 - z) * p for p in _tail_probabilities(decay)], dtype=np.float64)
-    return constriction.stream.model.Categorical(probs, perfect=False)
+    return constriction.stream.model.Categorical(_probabilities(zero, decay).copy(), perfect=False)
 
 
 @lru_cache(maxsize=None)
@@ -213,8 +227,7 @@ class Model:
     @property
     def probabilities(self) -> NDArray[np.float64]:
         """``(NUM_TOKENS,)`` token probabilities (token ``a`` for magnitude ``a < 16``, then one per bit length)."""
-        z = _zero_probability(self.zero)
-        return np.array([z] + [(1.0 - z) * p for p in _tail_probabilities(self.decay)])
+        return _probabilities(self.zero, self.decay).copy()
 
     def cost(self, values: ArrayLike) -> float:
         """Ideal code length of ``values`` under this model, in bits (the coder comes within a few bytes)."""
@@ -314,6 +327,10 @@ class IntegerEncoder:
             return
         tokens, extra, _ = _tokenize(v)
         self._coder.encode(tokens.astype(np.int32), _categorical(model.zero, model.decay))
+        self._encode_signs_and_bits(v, extra)
+
+    def _encode_signs_and_bits(self, v: NDArray[np.int64], extra: NDArray[np.int64]) -> None:
+        """The signs of the non-zero values of ``v``, then the raw low bits of the large ones (``extra`` bits)."""
         nonzero = v != 0
         if nonzero.any():
             self._coder.encode((v[nonzero] < 0).astype(np.int32), _uniform(1))
@@ -344,6 +361,58 @@ class IntegerEncoder:
         """Append models as two raw bytes each."""
         self.encode_raw(np.array([(m.zero, m.decay) for m in models], dtype=np.int64).reshape(-1), 8)
 
+    def encode_matrices(self, matrices: Sequence[ArrayLike], models: Sequence["MatrixModel"] | None = None) -> None:
+        """Append integer matrices ``(rows, cols)`` (a network's layers; a vector is a ``(1, n)`` matrix), each
+        under its :class:`MatrixModel` (default: :func:`fit_matrix_model` of each): the layouts, the models'
+        parameters, then every value, in a fixed number of coder calls however many matrices there are
+        (``specs/coding.md``, *Matrices*).  The shapes are not stored: :meth:`IntegerDecoder.decode_matrices` is
+        given them."""
+        arrays = []
+        for m in matrices:
+            a = np.asarray(m)
+            if a.ndim != 2:
+                raise ParameterError(f"encode_matrices needs 2-d arrays, got shape {a.shape}")
+            if a.size and a.dtype.kind not in "iu":
+                raise ParameterError(f"can only code integers, got {a.dtype}")
+            arrays.append(a.astype(np.int64))
+        chosen = [fit_matrix_model(a) for a in arrays] if models is None else list(models)
+        if len(chosen) != len(arrays):
+            raise ParameterError(f"{len(arrays)} matrices need as many models, got {len(chosen)}")
+        lines = [a.T if mm.layout == 2 else a for a, mm in zip(arrays, chosen)]
+        for mm, line in zip(chosen, lines):
+            if mm.layout and len(mm.models) != line.shape[0]:
+                raise ParameterError(f"a layout-{mm.layout} MatrixModel of {len(mm.models)} models cannot code "
+                                     f"{line.shape[0]} lines")
+        self.encode_raw([mm.layout for mm in chosen], 2)
+        fields: list[int] = []
+        level_parts, decay_parts = [], []
+        for mm in chosen:
+            if mm.layout == 0:
+                fields += [mm.models[0].zero, mm.models[0].decay]
+                continue
+            p = _line_parameters(mm.models)
+            fields += [p.base_level, p.base_decay, p.level_model.zero, p.level_model.decay, p.decay_model.zero,
+                       p.decay_model.decay]
+            level_parts.append((p.level_deltas, [p.level_model]))
+            decay_parts.append((p.decay_deltas, [p.decay_model]))
+        self.encode_raw(fields, 8)
+        for parts in (level_parts, decay_parts):
+            self._encode_each(*_per_value(parts, lambda v: v.size))
+        self._encode_each(*_per_value([(line, mm.models) for mm, line in zip(chosen, lines)],
+                                      lambda v: v.shape[1] if v.ndim == 2 else v.size))
+
+    def _encode_each(self, values: NDArray[np.int64], which: NDArray[np.int64], models: Sequence[Model]) -> None:
+        """``values``, value ``i`` under ``models[which[i]]``: the tokens (with a table of per-token
+        probabilities, in chunks), then the signs and raw bits as :meth:`encode` writes them."""
+        if values.size == 0:
+            return
+        tokens, extra, _ = _tokenize(values)
+        table = _model_table(models)
+        for start in range(0, values.size, _TABLE_CHUNK):
+            at = slice(start, start + _TABLE_CHUNK)
+            self._coder.encode(tokens[at].astype(np.int32), _categorical_family(), table[which[at]])
+        self._encode_signs_and_bits(values, extra)
+
     def to_bytes(self) -> bytes:
         """The coded bytes (a multiple of 4; empty when nothing was coded)."""
         return self._coder.get_compressed().astype("<u4").tobytes()
@@ -371,11 +440,13 @@ class IntegerDecoder:
         self._decoder = constriction.stream.queue.RangeDecoder(words)
         self._words = words.size
 
-    def _pull(self, model, count: int) -> NDArray[np.int64]:
-        """``count`` symbols from the range decoder; its complaints (data that no model could have written, as
-        an ``AssertionError`` or ``ValueError``) become :class:`PayloadError`."""
+    def _pull(self, model, count: int, table: NDArray[np.float64] | None = None) -> NDArray[np.int64]:
+        """``count`` symbols from the range decoder (with ``table``: one per row, each under its row of
+        probabilities); its complaints (data that no model could have written, as an ``AssertionError`` or
+        ``ValueError``) become :class:`PayloadError`."""
         try:
-            out = np.asarray(self._decoder.decode(model, count), dtype=np.int64)
+            raw = self._decoder.decode(model, count) if table is None else self._decoder.decode(model, table)
+            out = np.asarray(raw, dtype=np.int64)
         except (AssertionError, ValueError, RuntimeError, OverflowError) as exc:
             raise PayloadError(f"coded integers are damaged ({str(exc).strip() or type(exc).__name__})") from None
         if out.shape != (count,):
@@ -392,7 +463,11 @@ class IntegerDecoder:
         n = self._check_count(count)
         if n == 0:
             return np.zeros(0, np.int64)
-        tokens = self._pull(_categorical(model.zero, model.decay), n)
+        return self._values_of(self._pull(_categorical(model.zero, model.decay), n))
+
+    def _values_of(self, tokens: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The values of decoded ``tokens``: their signs and raw low bits read next."""
+        n = tokens.size
         if int(tokens.max()) >= NUM_TOKENS or int(tokens.min()) < 0:
             raise PayloadError("coded integers are damaged (token out of range)")
         nonzero = tokens != 0
@@ -430,6 +505,89 @@ class IntegerDecoder:
         pairs = self.decode_raw(2 * self._check_count(count), 8).reshape(-1, 2)
         return [Model(int(z), int(d)) for z, d in pairs]
 
+    def decode_matrices(self, shapes: Sequence[tuple[int, int]]) -> list[NDArray[np.int64]]:
+        """The next matrices, of these ``(rows, cols)`` shapes, written by :meth:`IntegerEncoder.encode_matrices`.
+
+        Raises:
+            PayloadError: for a layout or line model out of range (damaged data).
+        """
+        shapes = [(self._check_count(r), self._check_count(c)) for r, c in shapes]
+        layouts = self.decode_raw(len(shapes), 2)
+        if np.any(layouts == 3):
+            raise PayloadError("coded integers are damaged (matrix layout 3)")
+        fields = self.decode_raw(int(np.sum(np.where(layouts == 0, 2, 6))), 8)
+        line_shapes = [(c, r) if layout == 2 else (r, c) for (r, c), layout in zip(shapes, layouts)]
+        singles, params, at = {}, {}, 0
+        for k, layout in enumerate(layouts.tolist()):
+            f = fields[at:at + (2 if layout == 0 else 6)].tolist()
+            at += len(f)
+            if layout == 0:
+                singles[k] = Model(f[0], f[1])
+            else:
+                if f[0] >= LINE_LEVELS:
+                    raise PayloadError("coded integers are damaged (line model level out of range)")
+                params[k] = (f[0], f[1], Model(f[2], f[3]), Model(f[4], f[5]))
+        lines_of = {k: line_shapes[k][0] for k in params}
+        levels = self._decode_each([(lines_of[k], params[k][2]) for k in params])
+        line_keys: dict[int, NDArray[np.int64]] = {}  # zero * 256 + decay of each line's model
+        coded_counts, start = [], 0
+        for k in params:
+            lv = levels[start:start + lines_of[k]] + params[k][0]
+            start += lines_of[k]
+            if np.any(lv < 0) or np.any(lv >= LINE_LEVELS):
+                raise PayloadError("coded integers are damaged (line model level out of range)")
+            line_keys[k] = lv
+            coded_counts.append(int(np.count_nonzero(lv < LINE_LEVELS - 1)))
+        decays = self._decode_each([(n, params[k][3]) for n, k in zip(coded_counts, params)])
+        start = 0
+        for n, k in zip(coded_counts, params):
+            lv = line_keys[k]
+            d = np.zeros(lv.size, np.int64)
+            d[lv < LINE_LEVELS - 1] = decays[start:start + n] + params[k][1]
+            start += n
+            if np.any(d < 0) or np.any(d > 255):
+                raise PayloadError("coded integers are damaged (line model decay out of range)")
+            line_keys[k] = np.minimum(16 * lv, 255) * 256 + d
+        groups = []
+        for k, (n, length) in enumerate(line_shapes):
+            keys = np.full(n, singles[k].zero * 256 + singles[k].decay, np.int64) if k in singles else line_keys[k]
+            groups.append((n * length, keys, length))
+        values = self._decode_each([(n, keys) for n, keys, _ in groups], [length for *_, length in groups])
+        out, start = [], 0
+        for (n, _, length), layout, (r, c) in zip(groups, layouts.tolist(), shapes):
+            block = values[start:start + n].reshape(r if layout != 2 else c, c if layout != 2 else r)
+            start += n
+            out.append(block.T.copy() if layout == 2 else block)
+        return out
+
+    def _decode_each(self, groups: Sequence[tuple[int, Model | NDArray[np.int64]]],
+                     lengths: Sequence[int] | None = None) -> NDArray[np.int64]:
+        """What :meth:`IntegerEncoder._encode_each` wrote for ``groups`` of ``(count, model)``: a group's values
+        under its one model, or (with ``lengths``) ``(count, keys)``, its lines of ``length`` values each under
+        the line's model, ``keys = zero * 256 + decay`` per line."""
+        keys, which_parts = [], []
+        for g, (count, model) in enumerate(groups):
+            base = sum(k.size for k in keys)
+            if lengths is None:
+                keys.append(np.array([model.zero * 256 + model.decay], np.int64))
+                which_parts.append(np.full(count, base, np.int64))
+            else:
+                keys.append(np.asarray(model, np.int64))
+                which_parts.append(base + np.arange(count, dtype=np.int64) // max(lengths[g], 1))
+        total = int(sum(count for count, _ in groups))
+        if total == 0:
+            return np.zeros(0, np.int64)
+        which = np.concatenate(which_parts)
+        distinct, index = np.unique(np.concatenate(keys), return_inverse=True)
+        table = np.stack([_probabilities(int(k) // 256, int(k) % 256) for k in distinct.tolist()])
+        which = index.reshape(-1)[which]
+        tokens = np.empty(total, np.int64)
+        for start in range(0, total, _TABLE_CHUNK):
+            at = slice(start, start + _TABLE_CHUNK)
+            rows = which[at]
+            tokens[at] = self._pull(_categorical_family(), rows.size, table[rows])
+        return self._values_of(tokens)
+
     def finish(self) -> None:
         """Check that the data held nothing beyond what was decoded.
 
@@ -438,6 +596,149 @@ class IntegerDecoder:
         """
         if not self._decoder.maybe_exhausted():
             raise PayloadError("coded integers are damaged (data left over after the last value)")
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# matrices: one model, or one per row or column
+# ---------------------------------------------------------------------------------------------------------------
+#: Levels of a line model (0..16): zero index ``min(16 level, 255)``; level 16 (a line of zeros) has decay 0.
+LINE_LEVELS = 17
+
+
+@dataclass(frozen=True)
+class MatrixModel:
+    """How :meth:`IntegerEncoder.encode_matrices` codes a matrix of integers.
+
+    Attributes:
+        layout: 0: one model for the whole matrix; 1: one per row; 2: one per column.
+        models: the one model, or one per row (column), each with a zero index ``min(16 l, 255)`` for a level
+            ``l`` in 0..16 and, at level 16, decay 0.
+    """
+
+    layout: int
+    models: tuple[Model, ...]
+
+    def __post_init__(self) -> None:
+        if self.layout not in (0, 1, 2):
+            raise ParameterError(f"MatrixModel.layout must be 0, 1 or 2, got {self.layout!r}")
+        if self.layout == 0 and len(self.models) != 1:
+            raise ParameterError("a layout-0 MatrixModel has exactly one model")
+        if self.layout:
+            for m in self.models:
+                if not (m.zero % 16 == 0 or (m.zero == 255 and m.decay == 0)):
+                    raise ParameterError(f"line model {m} is not at a level (zero index 16 l, or 255 with decay 0)")
+
+    def cost(self, values: ArrayLike) -> float:
+        """Ideal length in bits of ``values`` ``(rows, cols)`` coded under this model, its parameters included
+        (what :meth:`IntegerEncoder.encode_matrices` writes for it, within a few bytes)."""
+        v = np.asarray(values, dtype=np.int64)
+        if self.layout == 0:
+            return 2.0 + 16.0 + self.models[0].cost(v)
+        lines = v.T if self.layout == 2 else v
+        params = _line_parameters(self.models)
+        return (2.0 + 48.0 + params.level_model.cost(params.level_deltas)
+                + params.decay_model.cost(params.decay_deltas)
+                + sum(m.cost(line) for m, line in zip(self.models, lines)))
+
+
+class _LineParameters(NamedTuple):
+    base_level: int
+    base_decay: int
+    level_model: Model
+    decay_model: Model
+    level_deltas: NDArray[np.int64]
+    decay_deltas: NDArray[np.int64]
+
+
+def _line_parameters(models: Sequence[Model]) -> _LineParameters:
+    """The stored form of line models: levels and the decays of lines below the top level, as differences from
+    their medians (rounded down), each group under its own fitted model."""
+    zeros = np.array([m.zero for m in models], np.int64)
+    decays = np.array([m.decay for m in models], np.int64)
+    levels = np.where(zeros == 255, LINE_LEVELS - 1, zeros // 16)
+    coded = decays[levels < LINE_LEVELS - 1]
+    base_level = int(np.floor(np.median(levels))) if levels.size else 0
+    base_decay = int(np.floor(np.median(coded))) if coded.size else 0
+    level_deltas, decay_deltas = levels - base_level, coded - base_decay
+    return _LineParameters(base_level, base_decay, fit_model(level_deltas),
+                           fit_model(decay_deltas), level_deltas, decay_deltas)
+
+
+#: Tokens coded per call with a table of per-token probabilities (bounds the table's memory: 4.7 MB).
+_TABLE_CHUNK = 8192
+
+
+@lru_cache(maxsize=None)
+def _categorical_family():
+    import constriction
+
+    return constriction.stream.model.Categorical(perfect=False)
+
+
+def _model_table(models: Sequence[Model]) -> NDArray[np.float64]:
+    """``(len(models), NUM_TOKENS)``: each model's token probabilities (the same doubles as its
+    ``Categorical``); a model that occurs several times is looked up once."""
+    if not len(models):
+        return np.zeros((0, NUM_TOKENS))
+    return np.stack([_probabilities(m.zero, m.decay) for m in models])
+
+
+def _per_value(parts, line_length) -> tuple[NDArray[np.int64], NDArray[np.int64], list[Model]]:
+    """Flattened values, the index of each value's model, and the models, from ``(values, models)`` parts: a
+    part's values under its one model, or its lines (rows of a 2-d array) each under its own model."""
+    values, which, models = [], [], []
+    for v, part_models in parts:
+        v = np.asarray(v, np.int64)
+        base = len(models)
+        models.extend(part_models)
+        flat = v.reshape(-1)
+        if len(part_models) == 1:
+            which.append(np.full(flat.size, base, np.int64))
+        else:
+            length = line_length(v)
+            which.append(base + np.arange(flat.size, dtype=np.int64) // max(length, 1))
+        values.append(flat)
+    if not values:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), models
+    return np.concatenate(values), np.concatenate(which), models
+
+
+def _fit_lines(lines: NDArray[np.int64]) -> tuple[tuple[Model, ...], float]:
+    """One model at a level per line of ``lines (n, m)`` and the lines' ideal code length in bits."""
+    n, m = lines.shape
+    tokens, extra, nonzero = _tokenize(lines.reshape(-1))
+    counts = np.bincount((np.arange(n).repeat(m) * NUM_TOKENS + tokens), minlength=n * NUM_TOKENS)
+    counts = counts.reshape(n, NUM_TOKENS).astype(np.float64)
+    zero_bits, tail_bits = _fit_tables()
+    level_zero = np.array([16 * level for level in range(LINE_LEVELS - 1)])
+    nz = m - counts[:, 0]
+    zc = counts[:, :1] * zero_bits[level_zero, 0][None, :] + nz[:, None] * zero_bits[level_zero, 1][None, :]
+    tc = counts[:, 1:] @ tail_bits.T
+    level = np.argmin(zc, axis=1)
+    decay = np.argmin(tc, axis=1)
+    empty = nz == 0
+    bits = np.where(empty, m * zero_bits[255, 0], zc[np.arange(n), level] + tc[np.arange(n), decay])
+    models = tuple(Model(255, 0) if e else Model(16 * int(lv), int(d)) for e, lv, d in zip(empty, level, decay))
+    return models, float(bits.sum() + extra.sum() + nonzero)
+
+
+def fit_matrix_model(values: ArrayLike) -> MatrixModel:
+    """The :class:`MatrixModel` (one model, one per row or one per column) that codes the ``(rows, cols)``
+    integer matrix ``values`` in the fewest bits, parameters included (ties: the lower layout)."""
+    v = np.asarray(values, dtype=np.int64)
+    if v.ndim != 2:
+        raise ParameterError(f"fit_matrix_model needs a 2-d array, got shape {v.shape}")
+    best = MatrixModel(0, (fit_model(v),))
+    if v.size == 0:
+        return best
+    best_bits = best.cost(v)
+    for layout, lines in ((1, v), (2, v.T)):
+        models, _ = _fit_lines(lines)
+        candidate = MatrixModel(layout, models)
+        bits = candidate.cost(v)
+        if bits < best_bits:
+            best, best_bits = candidate, bits
+    return best
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -189,7 +189,7 @@ def test_info_on_a_compressed_file(clip, tmp_path):
     assert r.exit_code == 0, r.output
     r = run("info", mrc)
     assert r.exit_code == 0, r.output
-    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 3), parameters",
+    for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 4), parameters",
                    "outcome:    K=2, omega=[1, 2] cycles/clip, hidden 10", "features:   root-quat-axis-angle version 1",
                    f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
                    "frames:     40", "channel layout"):

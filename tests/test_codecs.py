@@ -153,9 +153,9 @@ def test_fourier_meets_the_bound_on_a_generated_motion(codec, chain_motion):
         assert info["omega"] == [float(k) for k in range(1, K + 1)]
     h, D = info["hidden"], r.figures.feature_width
     # the paper's count of the network's numbers: frequencies, three weight matrices and three biases; stored as
-    # integers, range-coded in one byte array (payload version 3)
+    # integers, range-coded in one byte array (payload version 4)
     assert info["parameters"] == K + h * (2 * K + 1) + h + h * h + h + D * h + D
-    assert r.container.codec_version == 3 and list(r.container.arrays) == ["data"]
+    assert r.container.codec_version == 4 and list(r.container.arrays) == ["data"]
     assert r.container.arrays["data"].dtype == np.uint8
     assert max_joint_error(chain_motion, decompress(r.data)).max_error == r.report.max_error
     # the paper's raw layout: every stored number is a network number

@@ -8,9 +8,9 @@ import sys
 import numpy as np
 import pytest
 
-from motionrep.coding import (MAX_MAGNITUDE, IntegerDecoder, IntegerEncoder, Model, decode_integers, dequantize,
-                              encode_integers, fit_model, largest_passing, largest_passing_each, quantize,
-                              step_scale)
+from motionrep.coding import (MAX_MAGNITUDE, IntegerDecoder, IntegerEncoder, MatrixModel, Model, decode_integers,
+                              dequantize, encode_integers, fit_matrix_model, fit_model, largest_passing,
+                              largest_passing_each, quantize, step_scale)
 from motionrep.errors import ParameterError, PayloadError
 
 # Bytes written by motionrep 0.1.0 for GOLDEN_GROUPS(); they must decode to the same integers forever (files in
@@ -28,6 +28,28 @@ def golden_groups() -> list[np.ndarray]:
     v[7] = 1000
     v[8] = -(2 ** 40 + 3)
     return [v, np.zeros(50, np.int64), np.arange(-5, 6)]
+
+
+# Bytes of encode_matrices(golden_matrices()) (the Fourier codec's payload version 4 uses them): stable forever too.
+GOLDEN_MATRICES = bytes.fromhex(
+    "631700609146b2113134e3c7d2039bc4a8cf1b77cb16263f5cc5aa861b252683dd7a5f9c6fdf3e9c253c6253da272e0176831e051e"
+    "c235e2cbd7b73b1465729fa63479f4e33a2c1cfa00dffe38525363d6504df8c811d3445956f72b2313ae01e6f98a38d4e6108b0cc4"
+    "51abff2fd9eeacd409ec61017a0dac106c02247d6649fd4d7cf3e03e1eadb4bcac5a6cdef29ddf3e1ead91e1f4c3914d5e5f436f5e"
+    "3bebcc48b1468a1dc815a58fe31bc2be143868ae274b5151fa4750edef54bb061b67c2c61161872f3187d7269dcfed73e661872f31"
+    "87d7269df7b815e7385c446eb5191c5fc7170e7773ec6e0639c6da7301fcecb90f50f71c11209278f70075cf13562089c184151563"
+    "60634000000060")
+
+
+def golden_matrices() -> list[np.ndarray]:
+    """Rows of very different magnitudes (one per row), their transpose (one per column), a plain matrix (one
+    model), an empty one and a vector."""
+    rng = np.random.default_rng(43)
+    rows = np.round(rng.laplace(0, 1, (12, 9)) * (2.0 ** rng.integers(0, 12, (12, 1)))).astype(np.int64)
+    rows[4] = 0
+    rows[7, 3] = -(2 ** 33 + 5)
+    cols = rows[:9, :].T.copy()
+    flat = np.round(rng.laplace(0, 4, (5, 6))).astype(np.int64)
+    return [rows, cols, flat, np.zeros((0, 3), np.int64), np.arange(-3, 4)[None, :]]
 
 
 def round_trip(values: np.ndarray, model: Model | None = None) -> tuple[bytes, np.ndarray]:
@@ -175,9 +197,73 @@ def test_largest_passing_each_in_lockstep():
         largest_passing_each(passes, [0, 0], [1])
 
 
+def test_matrices_golden_bytes_layouts_and_round_trip():
+    matrices = golden_matrices()
+    assert [fit_matrix_model(m).layout for m in matrices] == [1, 2, 0, 0, 0]
+    enc = IntegerEncoder()
+    enc.encode_matrices(matrices)
+    assert enc.to_bytes() == GOLDEN_MATRICES
+    dec = IntegerDecoder(GOLDEN_MATRICES)
+    for a, b in zip(dec.decode_matrices([m.shape for m in matrices]), matrices):
+        np.testing.assert_array_equal(a, b)
+    dec.finish()
+    # one model per row pays where rows differ in scale: fewer bytes than one model, its parameters included
+    rows = matrices[0]
+    single = MatrixModel(0, (fit_model(rows),))
+    assert fit_matrix_model(rows).cost(rows) < 0.9 * single.cost(rows)
+    # any layout the caller chooses decodes, between other items of the stream; cost is what is written
+    for model in (single, fit_matrix_model(rows), MatrixModel(2, tuple(Model(0, fit_model(c).decay) for c in rows.T))):
+        enc = IntegerEncoder()
+        enc.encode_raw([5], 3)
+        enc.encode_matrices([rows], [model])
+        enc.encode_raw([6], 3)
+        data = enc.to_bytes()
+        assert abs(8 * len(data) - model.cost(rows)) < 8 * 12
+        dec = IntegerDecoder(data)
+        assert dec.decode_raw(1, 3)[0] == 5
+        np.testing.assert_array_equal(dec.decode_matrices([rows.shape])[0], rows)
+        assert dec.decode_raw(1, 3)[0] == 6
+        dec.finish()
+    # a row of zeros costs next to nothing under its level-16 model
+    zero_rows = np.zeros((40, 50), np.int64)
+    zero_rows[0, :3] = [1, -2, 3]
+    assert fit_matrix_model(zero_rows).cost(zero_rows) < 16 * 8
+
+
+def test_matrix_models_are_validated_and_damage_is_refused():
+    with pytest.raises(ParameterError):
+        MatrixModel(3, (Model(0, 0),))
+    with pytest.raises(ParameterError):
+        MatrixModel(1, (Model(17, 3),))  # not at a level
+    with pytest.raises(ParameterError):
+        MatrixModel(1, (Model(255, 3),))  # a line of zeros has decay 0
+    with pytest.raises(ParameterError):
+        IntegerEncoder().encode_matrices([np.zeros((2, 2))])  # floats
+    with pytest.raises(ParameterError):
+        IntegerEncoder().encode_matrices([np.zeros((2, 2), np.int64)], [MatrixModel(1, (Model(0, 0),))])
+    enc = IntegerEncoder()
+    enc.encode_raw([3], 2)  # layout 3
+    enc.encode_raw([0] * 8, 8)
+    with pytest.raises(PayloadError, match="layout"):
+        IntegerDecoder(enc.to_bytes()).decode_matrices([(2, 2)])
+    enc = IntegerEncoder()
+    enc.encode_raw([1], 2)
+    enc.encode_raw([17, 0, 0, 0, 0, 0], 8)  # median level 17
+    with pytest.raises(PayloadError, match="level"):
+        IntegerDecoder(enc.to_bytes()).decode_matrices([(2, 2)])
+    matrices = golden_matrices()
+    with pytest.raises(PayloadError):
+        dec = IntegerDecoder(GOLDEN_MATRICES[:-8])
+        dec.decode_matrices([m.shape for m in matrices])
+        dec.finish()
+
+
 def test_bytes_identical_in_another_process():
     code = ("import numpy as np, sys; sys.path.insert(0, 'tests'); from test_coding import golden_groups; "
-            "from motionrep.coding import encode_integers; sys.stdout.write(encode_integers(golden_groups()).hex())")
+            "from test_coding import golden_matrices; from motionrep.coding import encode_integers, IntegerEncoder; "
+            "enc = IntegerEncoder(); enc.encode_matrices(golden_matrices()); "
+            "sys.stdout.write(encode_integers(golden_groups()).hex() + ' ' + enc.to_bytes().hex())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=str(__import__("pathlib").Path(__file__).resolve().parent.parent))
-    assert bytes.fromhex(out.stdout) == GOLDEN
+    groups, matrices = out.stdout.split()
+    assert bytes.fromhex(groups) == GOLDEN and bytes.fromhex(matrices) == GOLDEN_MATRICES

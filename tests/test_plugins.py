@@ -386,7 +386,7 @@ def test_plugins_describe_lists_a_codecs_parameters():
 
     r = CliRunner().invoke(cli, ["plugins", "--describe", "adaptive-fourier"])
     assert r.exit_code == 0, r.output
-    assert "codec adaptive-fourier (plugin motionrep_fourier), format version 3, reads 1, 2, 3" in r.output
+    assert "codec adaptive-fourier (plugin motionrep_fourier), format version 4, reads 1, 2, 3, 4" in r.output
     for line in ("  window  int | None, default None:", "  dtype   quantised | float32 | float16, default quantised:",
                  "  k       int | None, default None:"):
         assert line in r.output, r.output

@@ -44,7 +44,8 @@ class FourierParams:
         "help": "largest K tried when k is not given; the codec fails cleanly if the bound is not met by then"})
     dtype: Literal["quantised", "float32", "float16"] = field(default="quantised", metadata={
         "help": "storage of the weights: quantised (integers times a step per layer, the steps chosen under the "
-                "bound, range-coded; payload version 3) or the paper's raw layout, float32 or float16 weights "
+                "bound, range-coded, one probability model per layer or per row or column of a layer; payload version "
+                "4) or the paper's raw layout, float32 or float16 weights "
                 "(frequencies and output bias float32)"})
     iters: int = field(default=1000, metadata={
         "help": "most L-BFGS iterations per stage (per K)"})
@@ -82,8 +83,8 @@ class FourierParams:
 class _FourierCodec(Codec):
     """Common encode/decode; subclasses choose the frequency schedule."""
 
-    format_version = 3
-    readable_versions = (1, 2, 3)
+    format_version = 4
+    readable_versions = (1, 2, 3, 4)
     Params = FourierParams
     schedule: str
 
@@ -148,11 +149,12 @@ class _FourierCodec(Codec):
 
     def decoder(self, payload: Payload) -> Network | Windows:
         """The payload's network (or windows of networks), converted once (a quantised payload range-decoded
-        and dequantised once); decodes in float32, or in float64 for payload versions 1 and 2
+        and dequantised once; versions 3 and 4 alike); decodes in float32, or in float64 for payload versions 1 and 2
         (``_network.network_dtype``: what those files were measured in when they were written)."""
-        dtype = network_dtype(self.payload_version(payload))
+        version = self.payload_version(payload)
+        dtype = network_dtype(version)
         if "data" in payload.arrays:
-            edges, scale, networks = unpack(payload.arrays["data"])
+            edges, scale, networks = unpack(payload.arrays["data"], version)
             arrays = [dequantized(n, scale) for n in networks]
             if len(arrays) == 1:
                 return Network(arrays[0], dtype=dtype)
@@ -222,7 +224,7 @@ class AdaptiveFourierCodec(_FourierCodec):
     component of the ``w``-weighted residual, among those not yet used; the network grows to
     ``h = 2 (2K + 1)`` with the old weights copied so that its function is unchanged (warm start).
 
-    Payload (format version 3; versions 1 and 2 are read too): with ``dtype=quantised`` (the default) one
+    Payload (format version 4; versions 1 to 3 are read too): with ``dtype=quantised`` (the default) one
     ``data`` array of range-coded integer networks (:mod:`motionrep_fourier._packed`); with ``float32`` or
     ``float16`` the paper's raw layout, ``omega (K,)`` float32 (cycles over the clip, multiples of 1/2),
     ``W0 (h, 2K+1)``, ``b0 (h,)``, ``W1 (h, h)``, ``b1 (h,)``, ``W2 (D, h)`` in ``dtype``, ``b2 (D,)`` float32;

@@ -8,7 +8,7 @@ Decoding is one compiled loop (``motionrep.jit``) per block of :data:`ROWS` time
 times of the block and not over the sum, so a time decodes to the same bits alone or in any batch and on any
 x86-64 CPU (IEEE arithmetic, no fused multiply-add, no BLAS).  The precision is the payload version's
 (:func:`network_dtype`): **float32** (the precision the network was trained in and its weights are stored in;
-ELU from a polynomial, below) for payload version 3, **float64** for payload versions 1 and 2, which were
+ELU from a polynomial, below) from payload version 3, **float64** for payload versions 1 and 2, which were
 measured in float64 when they were written (ELU from ``expm1``), so that every older file decodes to what was
 measured.  The core measures the bound on exactly these values (``Codec.decode``
 returns them as float64).

@@ -1,4 +1,4 @@
-"""The quantised Fourier payload (payload version 3, ``dtype=quantised``): integer networks, range-coded.
+"""The quantised Fourier payload (payload versions 3 and 4, ``dtype=quantised``): integer networks, range-coded.
 
 One or more windows (one for a whole clip), each a network of eq. 2 whose weights are integers times a step:
 ``[W0 | b0] = Q0 * d0``, ``[W1 | b1] = Q1 * d1 * c1`` and ``[W2 | b2] = Q2 * d2 * u * c2``: ``d = step_scale(i)``
@@ -7,7 +7,10 @@ for an integer step index ``i`` per layer and window; column ``k`` of layers 1 a
 so that a unit of large activations gets a finer step); row ``j`` of the output layer times ``u_j =
 step_scale(v_j)``, the clip's per-feature output scale (its weights' reciprocal, so one step means about the
 same joint-position error for every feature); ``omega = o / 2`` for integers ``o``.  All of it is one
-``uint8`` array of range-coded integers (``motionrep.coding``), laid out in ``specs/codecs.md``.
+``uint8`` array of range-coded integers (``motionrep.coding``), laid out in ``specs/codecs.md``: version 3 codes
+each layer's weights under one model; version 4 (written today) codes each layer as a matrix under one model or
+one per row or column, whichever is smaller (``motionrep.coding.fit_matrix_model``: the output layer's rows, one
+per feature, differ in magnitude by orders of magnitude, and a feature that never moves has a row of zeros).
 
 :func:`pack` writes it, :func:`unpack` reads it back to the float32 arrays the decoder evaluates
 (:func:`dequantized`, shared with the encoder so that what it measures is what is decoded).  Numpy only.
@@ -21,10 +24,11 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.coding import IntegerDecoder, IntegerEncoder, fit_model, step_scale
+from motionrep.coding import IntegerDecoder, IntegerEncoder, fit_matrix_model, fit_model, step_scale
 from motionrep.errors import PayloadError
 
-__all__ = ["QuantizedNetwork", "pack", "unpack", "dequantized", "MAX_K", "MAX_WIDTH", "MAX_INDEX"]
+__all__ = ["QuantizedNetwork", "pack", "unpack", "dequantized", "layer_bits", "MAX_K", "MAX_WIDTH", "MAX_INDEX",
+           "VERSION", "VERSIONS"]
 
 #: Largest number of frequencies of one network (as the codecs' ``max_k``).
 MAX_K = 512
@@ -33,6 +37,9 @@ MAX_WIDTH = 1 << 16
 #: Largest magnitude of a step or scale index (``step_scale(512) = 2 ** 64``).
 MAX_INDEX = 512
 _BITS_WIDTH, _BITS_WINDOWS = 16, 24
+#: The payload version :func:`pack` writes, and those :func:`unpack` reads.
+VERSION = 4
+VERSIONS = (3, 4)
 
 
 @dataclass(frozen=True)
@@ -78,9 +85,21 @@ def dequantized(net: QuantizedNetwork, scale: NDArray[np.int64]) -> dict[str, ND
             "W2": A2[:, :-1].astype(np.float32), "b2": A2[:, -1].astype(np.float32)}
 
 
-def pack(edges: Sequence[int], scale: NDArray[np.int64], networks: Sequence[QuantizedNetwork]) -> NDArray[np.uint8]:
+def layer_bits(layers: Sequence[NDArray[np.int64]], version: int = VERSION) -> float:
+    """Ideal coded bits of one network's ``Q0, Q1, Q2`` as payload ``version`` codes them (models included)."""
+    Q0, Q1, Q2 = layers
+    if version == 3:
+        return sum(fit_model(q).cost(q) + 16.0 for q in (Q0, Q1, Q2[:, :-1], Q2[:, -1]))
+    return sum(fit_matrix_model(q).cost(q) for q in (Q0, Q1, Q2[:, :-1], Q2[:, -1:].T))
+
+
+def pack(edges: Sequence[int], scale: NDArray[np.int64], networks: Sequence[QuantizedNetwork],
+         version: int = VERSION) -> NDArray[np.uint8]:
     """The payload's ``data`` array: window ``s`` covers frames ``edges[s] .. edges[s + 1]`` (one window: the
-    whole clip), ``scale (D,)`` the output scale indices, one network per window."""
+    whole clip), ``scale (D,)`` the output scale indices, one network per window; in the layout of payload
+    ``version`` (3 is kept to write old files in tests)."""
+    if version not in VERSIONS:
+        raise ValueError(f"pack: payload version {version} is not one of {VERSIONS}")
     edges = np.asarray(edges, np.int64)
     scale = np.asarray(scale, np.int64).reshape(-1)
     S, D = len(networks), scale.size
@@ -95,27 +114,39 @@ def pack(edges: Sequence[int], scale: NDArray[np.int64], networks: Sequence[Quan
     enc.encode_models(models)
     for g, m in zip(head, models):
         enc.encode(g, m)
-    body = [np.concatenate([n.omega2 for n in networks]).astype(np.int64)]
     for n in networks:
         for layer, shape in zip(n.layers, _shapes(n.K, D)):
             if layer.shape != shape:
                 raise ValueError(f"pack: layer of shape {layer.shape}, expected {shape}")
-        Q2 = n.layers[2]
-        body += [np.concatenate(n.columns), n.layers[0], n.layers[1], Q2[:, :-1], Q2[:, -1]]
-    models = [fit_model(g) for g in body]
-    enc.encode_models(models)
-    for g, m in zip(body, models):
-        enc.encode(g, m)
+    omega2 = np.concatenate([n.omega2 for n in networks]).astype(np.int64)
+    if version == 3:
+        body = [omega2]
+        for n in networks:
+            Q2 = n.layers[2]
+            body += [np.concatenate(n.columns), n.layers[0], n.layers[1], Q2[:, :-1], Q2[:, -1]]
+        models = [fit_model(g) for g in body]
+        enc.encode_models(models)
+        for g, m in zip(body, models):
+            enc.encode(g, m)
+    else:  # version 4: every window's column exponents, layers and output biases as matrices, in few coder calls
+        matrices = [omega2[None, :]]
+        for n in networks:
+            matrices += [np.concatenate(n.columns)[None, :], n.layers[0], n.layers[1], n.layers[2][:, :-1],
+                         n.layers[2][:, -1][None, :]]
+        enc.encode_matrices(matrices)
     return np.frombuffer(enc.to_bytes(), np.uint8).copy()
 
 
-def unpack(data: NDArray[np.uint8]) -> tuple[NDArray[np.int64], NDArray[np.int64], list[QuantizedNetwork]]:
-    """``edges``, the output scale indices and the networks of a payload's ``data`` array.
+def unpack(data: NDArray[np.uint8], version: int = VERSION
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64], list[QuantizedNetwork]]:
+    """``edges``, the output scale indices and the networks of a payload's ``data`` array of payload ``version``.
 
     Raises:
         PayloadError: for data that does not decode to a consistent payload (declared sizes out of range or
             beyond what the data can hold, data left over).
     """
+    if version not in VERSIONS:
+        raise PayloadError(f"quantised Fourier payload: version {version} is not one of {VERSIONS}")
     raw = np.asarray(data, np.uint8).reshape(-1)
     dec = IntegerDecoder(raw.tobytes())
     D = int(dec.decode_raw(1, _BITS_WIDTH)[0])
@@ -137,20 +168,31 @@ def unpack(data: NDArray[np.uint8]) -> tuple[NDArray[np.int64], NDArray[np.int64
     total = int(K.sum()) + sum(a * b for s in shapes for a, b in s) + sum(2 * s[1][1] for s in shapes)
     if total > budget:
         raise PayloadError(f"quantised Fourier payload: {total} weights declared in {raw.size} bytes")
-    models = dec.decode_models(1 + 5 * S)
-    omega2 = dec.decode(int(K.sum()), models[0])
+    if version == 3:
+        models = dec.decode_models(1 + 5 * S)
+        omega2 = dec.decode(int(K.sum()), models[0])
+    else:
+        shapes4 = [(1, int(K.sum()))]
+        for (h, i0), (_, i1), (_, i2) in shapes:
+            shapes4 += [(1, 2 * i1), (h, i0), (h, i1), (D, h), (1, D)]
+        matrices = dec.decode_matrices(shapes4)
+        omega2 = matrices[0][0]
     networks, at = [], 0
     for s in range(S):
         (h, i0), (_, i1), (_, i2) = shapes[s]
-        m = models[1 + 5 * s:6 + 5 * s]
-        columns = dec.decode(2 * i1, m[0])
+        Q2 = np.empty((D, i2), np.int64)
+        if version == 3:
+            m = models[1 + 5 * s:6 + 5 * s]
+            columns = dec.decode(2 * i1, m[0])
+            Q0 = dec.decode(h * i0, m[1]).reshape(h, i0)
+            Q1 = dec.decode(h * i1, m[2]).reshape(h, i1)
+            Q2[:, :-1] = dec.decode(D * h, m[3]).reshape(D, h)
+            Q2[:, -1] = dec.decode(D, m[4])
+        else:
+            columns, Q0, Q1, Q2[:, :-1], Q2[:, -1] = matrices[1 + 5 * s:6 + 5 * s]
+            columns = columns[0]
         if np.any(np.abs(columns) > MAX_INDEX):
             raise PayloadError("quantised Fourier payload: column step out of range")
-        Q0 = dec.decode(h * i0, m[1]).reshape(h, i0)
-        Q1 = dec.decode(h * i1, m[2]).reshape(h, i1)
-        Q2 = np.empty((D, i2), np.int64)
-        Q2[:, :-1] = dec.decode(D * h, m[3]).reshape(D, h)
-        Q2[:, -1] = dec.decode(D, m[4])
         k = int(K[s])
         networks.append(QuantizedNetwork(omega2[at:at + k], steps[s], (Q0, Q1, Q2), (columns[:i1], columns[i1:])))
         at += k

@@ -1,4 +1,4 @@
-"""Quantising a trained Fourier network under the bound (encoder side of payload version 3).
+"""Quantising a trained Fourier network under the bound (encoder side of payload versions 3 and 4).
 
 The network is trained in normalised units (targets ``(Y - mean) / u``, ``u`` the clip's output scale), with
 layer matrices ``A0 = [W0 | b0]``, ``A1 = [W1 | b1]``, ``A2 = [W2 | b2]``.  Each layer gets one step
@@ -25,10 +25,10 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.coding import fit_model, largest_passing, step_scale
+from motionrep.coding import largest_passing, step_scale
 from motionrep.errors import MotionrepError
 
-from ._packed import MAX_INDEX, QuantizedNetwork, dequantized
+from ._packed import MAX_INDEX, QuantizedNetwork, dequantized, layer_bits
 
 __all__ = ["quantise_network", "output_scale", "Candidate"]
 
@@ -188,9 +188,8 @@ def quantise_network(layers: list[NDArray[np.float64]], xT: NDArray[np.float64],
     if base is None:
         return None
 
-    def bits(steps: NDArray[np.int64]) -> float:
-        Q0, Q1, Q2 = candidate.network(steps).layers
-        return sum(fit_model(q).cost(q) for q in (Q0, Q1, Q2[:, :-1], Q2[:, -1]))
+    def bits(steps: NDArray[np.int64]) -> float:  # as the payload codes them
+        return layer_bits(candidate.network(steps).layers)
 
     # the error is an L-inf one, which the mean-squared proportions only approximate: the hidden layers' steps
     # are also tried from three octaves finer to two coarser, the output layer's bisected for each, and the

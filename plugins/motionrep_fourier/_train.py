@@ -537,7 +537,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
         return Payload(arrays, info)
 
     def quantised_payload(net: _Net, x: NDArray[np.float32], aim: float | None) -> Payload | None:
-        """The network rounded under ``aim`` (payload version 3), or None if it cannot be."""
+        """The network rounded under ``aim`` (the quantised payload), or None if it cannot be."""
         xT = np.vstack([x.T.astype(np.float64), np.ones((1, N))])
         found = quantise_network(
             [A.astype(np.float64) for A in net.layers()], xT, target.T.astype(np.float64), mean / unscale,

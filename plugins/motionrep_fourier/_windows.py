@@ -46,8 +46,8 @@ def local_times(times: NDArray[np.float64], num_frames: int, first: ArrayLike, l
 
 
 def join_windows(payloads: Sequence[Payload], edges: NDArray[np.int64]) -> Payload:
-    """One payload from the per-window payloads: quantised ones (each one window of version 3, sharing the
-    output scale) into one version-3 ``data`` array (:func:`~._packed.pack`); float ones (each in the
+    """One payload from the per-window payloads: quantised ones (each one window of the quantised layout, sharing the
+    output scale) into one quantised ``data`` array (:func:`~._packed.pack`); float ones (each in the
     version-1 layout) into the version-2 windowed layout.
 
     Float arrays: ``edges (S + 1,)`` int32; ``k (S,)`` int16, frequencies per window; ``omega (sum k,)``

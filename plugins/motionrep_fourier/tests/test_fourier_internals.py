@@ -255,7 +255,7 @@ def windowed(chain_motion):
 
 def test_windows_meet_the_bound_each_with_its_own_network(windowed, chain_motion):
     r, c = windowed, windowed.container
-    assert c.codec_version == 3 and c.info["windows"] == 3 and len(c.info["K"]) == 3
+    assert c.codec_version == 4 and c.info["windows"] == 3 and len(c.info["K"]) == 3
     assert c.arrays["edges"].tolist() == [0, 16, 31, 47]
     assert r.report.max_error <= r.bound and r.report.max_error_percent <= 3.0
     # every stored number counts: the window table, frequencies, weights, output biases
@@ -347,7 +347,7 @@ def test_version_1_and_2_payloads_decode_in_float64_as_they_were_measured(versio
     """Files written before quantisation (payload version 2: float weights, one network or windows) and before
     windows (version 1, the same arrays as one network of version 2) were measured in float64 when they were
     written: they decode in float64 (the plain formula of eq. 2, to float64 rounding), through the codec, the
-    runtime decoder and decompress alike; version 3 decodes the same arrays in float32."""
+    runtime decoder and decompress alike; versions 3 and 4 decode the same arrays in float32."""
     import dataclasses
 
     import motionrep
@@ -367,7 +367,7 @@ def test_version_1_and_2_payloads_decode_in_float64_as_they_were_measured(versio
 
     r = compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 50,
                                                                                "dtype": "float32"})
-    assert r.container.codec_version == 3 and "edges" not in r.container.arrays
+    assert r.container.codec_version == 4 and "edges" not in r.container.arrays
     t = np.linspace(0.0, 1.0, 301)
     for result in (r, windowed) if version == 2 else (r,):
         old = unpack(pack(dataclasses.replace(result.container, codec_version=version)))
@@ -500,7 +500,7 @@ def test_windows_that_miss_the_bound_are_split_until_they_meet_it(chain_motion, 
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Quantised payload (version 3)
+# Quantised payload (versions 3 and 4)
 # ---------------------------------------------------------------------------------------------------------------
 def _random_networks(rng, Ks, D):
     from motionrep_fourier._packed import QuantizedNetwork
@@ -535,6 +535,61 @@ def test_quantised_payload_round_trips_and_dequantises_the_same_way():
     assert np.array_equal(pack([0, 10, 25, 26, 60], scale, networks), data)  # the same bytes every time
 
 
+def test_quantised_payload_versions_3_and_4_hold_the_same_integers():
+    """Version 4 codes the integers of version 3 under per-row (or per-column) models where that is smaller:
+    both read back to the same networks, and version 4 is smaller when the output layer's rows differ in
+    magnitude (features of different ranges, a feature that never moves), within a few bytes otherwise."""
+    from motionrep.errors import PayloadError
+    from motionrep_fourier._packed import VERSION, pack, unpack
+
+    assert VERSION == 4
+    rng = np.random.default_rng(9)
+    networks = _random_networks(rng, [3, 1], 40)
+    for n in networks:  # rows of the output layer of very different magnitudes, six of them zero
+        n.layers[2][:] = n.layers[2] // (1 << rng.integers(0, 12, (40, 1)))
+        n.layers[2][3:9] = 0
+    scale = rng.integers(-20, 20, 40)
+    data3, data4 = pack([0, 20, 40], scale, networks, 3), pack([0, 20, 40], scale, networks)
+    for data, version in ((data3, 3), (data4, 4)):
+        edges, scale2, back = unpack(data, version)
+        assert edges.tolist() == [0, 20, 40] and scale2.tolist() == scale.tolist()
+        for a, b in zip(networks, back):
+            assert all(np.array_equal(x, y) for x, y in zip(a.layers, b.layers))
+            assert all(np.array_equal(x, y) for x, y in zip(a.columns, b.columns))
+            assert a.omega2.tolist() == b.omega2.tolist() and a.steps.tolist() == b.steps.tolist()
+    assert data4.size < 0.92 * data3.size
+    plain = _random_networks(rng, [2], 5)  # rows alike: one model per layer, as version 3
+    assert pack([0, 9], scale[:5], plain).size <= pack([0, 9], scale[:5], plain, 3).size + 8
+    with pytest.raises(PayloadError, match="version"):
+        unpack(data4, 2)
+
+
+def test_version_3_quantised_files_decode_as_they_were_written(chain_motion):
+    """A file of payload version 3 (the same integers, coded under one model per layer) decodes through the
+    codec, the runtime decoder and decompress to exactly what the version-4 file of the same networks does."""
+    import dataclasses
+
+    import motionrep
+    from motionrep.container import pack, unpack
+    from motionrep_fourier._packed import pack as pack_data, unpack as unpack_data
+
+    r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
+    c = r.container
+    assert c.codec_version == 4 and c.info["windows"] == 3
+    edges, scale, networks = unpack_data(c.arrays["data"])
+    old_data = pack_data(edges, scale, networks, 3)
+    assert not np.array_equal(old_data, c.arrays["data"])
+    old = unpack(pack(dataclasses.replace(c, codec_version=3, arrays={"data": old_data})))
+    assert old.codec_version == 3
+    new, previous = decompress(r.data), decompress(pack(old))
+    np.testing.assert_array_equal(previous.rotations, new.rotations)
+    np.testing.assert_array_equal(previous.root_translation, new.root_translation)
+    assert max_joint_error(chain_motion, previous).max_error <= r.bound
+    seconds = np.linspace(0.0, motionrep.open(r.data).duration, 29)
+    np.testing.assert_array_equal(motionrep.open(pack(old)).poses(seconds).rotations,
+                                  motionrep.open(r.data).poses(seconds).rotations)
+
+
 def test_damaged_quantised_payloads_are_refused_not_decoded_wrongly():
     from motionrep.coding import IntegerEncoder
     from motionrep.errors import PayloadError
@@ -560,14 +615,14 @@ def test_quantised_windows_meet_the_bound_and_decode_once(chain_motion, monkeypa
 
     r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
     c = r.container
-    assert c.codec_version == 3 and list(c.arrays) == ["data"] and c.info["windows"] == 3
+    assert c.codec_version == 4 and list(c.arrays) == ["data"] and c.info["windows"] == 3
     assert edges_of(c) == [0, 16, 31, 47] and len(c.info["steps"]) == 3
     assert r.report.max_error <= r.bound
     assert max_joint_error(chain_motion, decompress(r.data)).max_error == r.report.max_error
     # the payload is range-decoded and dequantised once, when the decoder is prepared, not per call
     calls = []
     real = codecs.unpack
-    monkeypatch.setattr(codecs, "unpack", lambda data: calls.append(1) or real(data))
+    monkeypatch.setattr(codecs, "unpack", lambda *args: calls.append(1) or real(*args))
     from motionrep.codec import Payload
 
     decoder = get_codec("adaptive-fourier").decoder(Payload(c.arrays))
