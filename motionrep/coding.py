@@ -565,27 +565,30 @@ class IntegerDecoder:
         """What :meth:`IntegerEncoder._encode_each` wrote for ``groups`` of ``(count, model)``: a group's values
         under its one model, or (with ``lengths``) ``(count, keys)``, its lines of ``length`` values each under
         the line's model, ``keys = zero * 256 + decay`` per line."""
-        keys, which_parts = [], []
+        keys, firsts, lines_at, line_lengths = [], [], [], []  # per group: its first value, first key, line length
+        total = base = 0
         for g, (count, model) in enumerate(groups):
-            base = sum(k.size for k in keys)
             if lengths is None:
                 keys.append(np.array([model.zero * 256 + model.decay], np.int64))
-                which_parts.append(np.full(count, base, np.int64))
             else:
                 keys.append(np.asarray(model, np.int64))
-                which_parts.append(base + np.arange(count, dtype=np.int64) // max(lengths[g], 1))
-        total = int(sum(count for count, _ in groups))
+            firsts.append(total)
+            lines_at.append(base)
+            line_lengths.append(max(lengths[g], 1) if lengths is not None else max(count, 1))
+            total += int(count)
+            base += keys[-1].size
         if total == 0:
             return np.zeros(0, np.int64)
-        which = np.concatenate(which_parts)
         distinct, index = np.unique(np.concatenate(keys), return_inverse=True)
+        index = index.reshape(-1)
         table = np.stack([_probabilities(int(k) // 256, int(k) % 256) for k in distinct.tolist()])
-        which = index.reshape(-1)[which]
+        firsts_a, lines_a, lengths_a = (np.array(x, np.int64) for x in (firsts, lines_at, line_lengths))
         tokens = np.empty(total, np.int64)
-        for start in range(0, total, _TABLE_CHUNK):
-            at = slice(start, start + _TABLE_CHUNK)
-            rows = which[at]
-            tokens[at] = self._pull(_categorical_family(), rows.size, table[rows])
+        for start in range(0, total, _TABLE_CHUNK):  # each value's line, chunk by chunk (memory of one chunk)
+            at = np.arange(start, min(start + _TABLE_CHUNK, total), dtype=np.int64)
+            g = np.searchsorted(firsts_a, at, side="right") - 1
+            rows = index[lines_a[g] + (at - firsts_a[g]) // lengths_a[g]]
+            tokens[start:start + at.size] = self._pull(_categorical_family(), at.size, table[rows])
         return self._values_of(tokens)
 
     def finish(self) -> None:
