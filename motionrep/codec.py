@@ -18,15 +18,16 @@ import types
 import typing
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+import math
 from typing import Any, Callable, ClassVar, Mapping, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import ParameterError
+from .errors import ParameterError, PayloadError
 
 __all__ = ["Codec", "Payload", "EncodeContext", "CompiledDecoder", "frame_times", "parse_params", "params_help",
-           "describe_info", "describe_progress", "codec_problems"]
+           "describe_info", "describe_progress", "codec_problems", "check_info_numbers"]
 
 
 @dataclass(frozen=True)
@@ -172,6 +173,21 @@ class Codec(ABC):
         """
         return describe_info(info, detail)
 
+    def check_info(self, info: Mapping[str, Any]) -> None:
+        """Refuse an outcome this codec never writes, read from a file (``.mrc``, an archive's clip).
+
+        A file's ``codec.info`` is untrusted: the core has checked only that it is a JSON object of plain values
+        nested at most 32 levels, within the metadata size limit, because its keys are each codec's vocabulary.
+        The core calls this method of the installed codec named in the file before the file's contents are used,
+        and turns the error into a one-line :class:`~motionrep.errors.ContainerError` naming the file.  Accept
+        every outcome any of :attr:`readable_versions` wrote; keys the codec does not know are not its concern.
+        :func:`check_info_numbers` checks one key.  Default: accepts any outcome (the description falls back to
+        :func:`describe_info` when :meth:`describe` fails on a crafted value).
+
+        Raises:
+            PayloadError: naming the key and what it must be.
+        """
+
     def describe_progress(self, stage: str, fields: Mapping[str, Any]) -> str:
         """One line for a progress report ``context.progress(stage, **fields)``.  Default:
         :func:`describe_progress`."""
@@ -214,6 +230,35 @@ def codec_problems(codec: Any, *, complete: bool = False) -> list[str]:
             if not f.metadata.get("help"):
                 out.append(f"parameter {f.name!r} has no help text (field metadata['help'])")
     return out
+
+
+def _numbers_at(value: Any, level: int, integers: bool) -> bool:
+    """``value`` is a number (an integer with ``integers``) inside exactly ``level`` levels of arrays."""
+    if level:
+        return isinstance(value, list) and all(_numbers_at(v, level - 1, integers) for v in value)
+    if isinstance(value, bool):
+        return False
+    return isinstance(value, int) or (not integers and isinstance(value, float) and math.isfinite(value))
+
+
+def check_info_numbers(info: Mapping[str, Any], key: str, *, integers: bool = False,
+                       arrays: tuple[int, int] = (0, 0)) -> None:
+    """Check ``info[key]``, when present, for :meth:`Codec.check_info`: a finite number (an integer, never a
+    boolean, with ``integers``) inside between ``arrays[0]`` and ``arrays[1]`` levels of arrays, e.g. ``(0, 1)``
+    for ``5`` or ``[4, 6]``, ``(1, 2)`` for ``[1.5, 3]`` or ``[[1.5], [2, 3]]``.
+
+    Raises:
+        PayloadError: ``'omega' must be an array of numbers or an array of arrays of numbers``.
+    """
+    if key not in info:
+        return
+    least, most = arrays
+    if any(_numbers_at(info[key], level, integers) for level in range(least, most + 1)):
+        return
+    what = "integers" if integers else "numbers"
+    one = "an integer" if integers else "a number"
+    shapes = [f"an array of {'arrays of ' * (level - 1)}{what}" if level else one for level in range(least, most + 1)]
+    raise PayloadError(f"{key!r} must be {' or '.join(shapes)}")
 
 
 def _number(v: Any) -> str:

@@ -22,8 +22,10 @@ bits), then the container version, the metadata and the array table.  A check th
 
 A valid checksum says the file is intact, not that whoever wrote it meant well, so the metadata is then checked
 as untrusted input: it is inflated only up to the ``max_metadata_bytes`` limit, every field must have its
-documented type, array shapes must describe exactly the payload, and ``num_frames`` must be within the
-``max_frames`` and ``max_clip_bytes`` limits (:mod:`motionrep.limits`) before anything is decoded.
+documented type, array shapes must describe exactly the payload, ``num_frames`` must be within the
+``max_frames`` and ``max_clip_bytes`` limits (:mod:`motionrep.limits`), and the installed codec the file names
+must accept its outcome (``codec.info``: plain JSON here, the codec's own words checked by
+:meth:`motionrep.codec.Codec.check_info`) before anything is decoded.
 
 Size: one concern, the ``.mrc`` format; the writer and the reader stay together because each is the other's
 specification, and a third of the length is the reader checking every metadata field of an untrusted file.
@@ -370,8 +372,6 @@ def _number(obj: Mapping[str, Any], key: str, where: str, required: bool = True,
     return None if value is None else float(value)
 
 
-#: Outcome keys every shipped codec uses, and their types (``codec.info``); other keys may be any plain JSON.
-_INFO_INTEGERS = ("K", "rank", "hidden", "windows", "iterations")
 #: ``evaluation`` keys and whether each is a number, an integer or a string (all but ``units``/``bound`` required).
 _EVALUATION = {"max_error": "number", "max_error_percent": "number", "mean_error": "number",
                "mean_error_percent": "number", "frame": "integer", "joint": "string", "height": "number",
@@ -397,19 +397,23 @@ def _plain(value: Any, where: str) -> None:
             raise ValidationError(f"'{w}' holds {type(v).__name__}, not JSON")
 
 
-def _check_info(info: Mapping[str, Any]) -> None:
-    for key in _INFO_INTEGERS:
-        if key in info:
-            v = info[key]
-            items = v if isinstance(v, list) else [v]
-            if not all(isinstance(x, int) and not isinstance(x, bool) for x in items):
-                raise ValidationError(f"'codec.info.{key}' must be an integer or an array of integers")
-    if "omega" in info:
-        v = info["omega"]
-        flat = [x for row in v for x in (row if isinstance(row, list) else [row])] if isinstance(v, list) else None
-        if flat is None or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-                                   for x in flat):
-            raise ValidationError("'codec.info.omega' must be an array of numbers (or of arrays of numbers)")
+def _check_outcome(codec_name: str, info: Mapping[str, Any], path) -> None:
+    """The installed codec's own check of its outcome (:meth:`motionrep.codec.Codec.check_info`), its error a
+    :class:`ContainerError` naming the file; nothing when no installed codec has that name (decoding then says
+    so, naming the file and the plugin, and the outcome is described generically)."""
+    from .errors import MotionrepError, PluginError
+    from .plugins import get_codec
+
+    try:
+        codec = get_codec(codec_name)
+    except PluginError:
+        return
+    try:
+        codec.check_info(info)
+    except (MotionrepError, TypeError, ValueError, KeyError, IndexError, AttributeError, RecursionError) as exc:
+        what = str(exc) if isinstance(exc, MotionrepError) else f"{type(exc).__name__}: {exc}"
+        raise ContainerError(f"invalid .mrc metadata: codec {codec_name!r} refuses its outcome 'codec.info': "
+                             f"{what}", path) from None
 
 
 def _check_evaluation(ev: Mapping[str, Any]) -> None:
@@ -478,16 +482,17 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
     for value, where in ((params, "codec.params"), (info, "codec.info"), (evaluation, "evaluation"),
                          (extra, "extra")):
         _plain(value, where)
-    _check_info(info)
     if evaluation is not None:
         _check_evaluation(evaluation)
+    codec_name = _get(codec, "name", (str,), "codec")
+    _check_outcome(codec_name, info, path)
     arrays: dict[str, NDArray[Any]] = {}
     for name, dtype, shape, start, size in entries:
         a = np.frombuffer(payload[start:start + size], dtype=dtype).reshape(shape).astype(dtype.newbyteorder("="))
         a.flags.writeable = False
         arrays[name] = a
     return Container(
-        codec=_get(codec, "name", (str,), "codec"),
+        codec=codec_name,
         codec_version=_get(codec, "version", (int,), "codec"),
         codec_plugin=_get(codec, "plugin", (str, type(None)), "codec", required=False),
         params=dict(params),

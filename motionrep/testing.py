@@ -227,7 +227,7 @@ class ConformanceContext(MotionContext):
                          progress=lambda stage, fields: self.progress_log.append((stage, dict(fields))))
 
 
-def _payload_arrays(payload: Payload, where: str) -> dict[str, NDArray]:
+def _payload_arrays(codec: Codec, payload: Payload, where: str) -> dict[str, NDArray]:
     if not isinstance(payload, Payload):
         _fail(f"{where}: encode must return a motionrep.codec.Payload, got {type(payload).__name__}")
     arrays = dict(payload.arrays)
@@ -240,9 +240,13 @@ def _payload_arrays(payload: Payload, where: str) -> dict[str, NDArray]:
             _fail(f"{where}: payload array {key!r} must be a numeric numpy array, got "
                   f"{getattr(a, 'dtype', type(a))}")
     try:
-        json.dumps(dict(payload.info))
+        stored = json.loads(json.dumps(dict(payload.info)))
     except (TypeError, ValueError) as exc:
         _fail(f"{where}: payload info must be JSON-serialisable: {exc}")
+    try:
+        codec.check_info(stored)
+    except Exception as exc:  # noqa: BLE001 - any failure is the finding
+        _fail(f"{where}: check_info refuses the codec's own outcome {stored}: {type(exc).__name__}: {exc}"[:500])
     return arrays
 
 
@@ -256,9 +260,10 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
       ``parse_params({})`` works and an unknown parameter raises :class:`~motionrep.errors.ParameterError`.
     * For every clip (default: one small :func:`synthetic_motion`), encoded from ``representation`` with
       ``params`` and no bound: ``encode`` returns a :class:`~motionrep.codec.Payload` of named numeric arrays
-      with JSON-serialisable ``info``; the same seed gives the same arrays, byte for byte; ``decode`` gives
-      finite ``(T, D)`` float64 at any times in [0, 1] (also one time, and a subset gives the same rows); the
-      arrays survive a save to ``.npz`` and back; ``decode`` does not import torch.
+      with JSON-serialisable ``info`` that the codec's own ``check_info`` accepts once read back from JSON; the
+      same seed gives the same arrays, byte for byte; ``decode`` gives finite ``(T, D)`` float64 at any times in
+      [0, 1] (also one time, and a subset gives the same rows); the arrays survive a save to ``.npz`` and back;
+      ``decode`` does not import torch.
     * With ``bound_fraction`` (times the character height) as the bound, ``encode`` either returns a payload
       whose error, measured by FK, is within the bound, or raises
       :class:`~motionrep.errors.BoundNotMetError` reporting a best error above it.
@@ -308,9 +313,10 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
         F, D = feats.shape
         ctx = ConformanceContext(m, representation, codec, p, None, seed)
         payload = codec.encode(feats.copy(), w.copy(), ctx)
-        arrays = _payload_arrays(payload, where)
-        again = _payload_arrays(codec.encode(feats.copy(), w.copy(),
-                                             ConformanceContext(m, representation, codec, p, None, seed)), where)
+        arrays = _payload_arrays(codec, payload, where)
+        again = _payload_arrays(codec, codec.encode(feats.copy(), w.copy(),
+                                                    ConformanceContext(m, representation, codec, p, None, seed)),
+                                where)
         if sorted(again) != sorted(arrays) or any(
                 again[k].dtype != arrays[k].dtype or again[k].tobytes() != arrays[k].tobytes() for k in arrays):
             _fail(f"{where}: encoding twice with seed {seed} gave different payloads")
@@ -348,7 +354,7 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
                     _fail(f"{where}: BoundNotMetError reports a best error {exc.best_error:.6g} within the bound "
                           f"{bound:.6g}")
             else:
-                _payload_arrays(bounded, where)
+                _payload_arrays(codec, bounded, where)
                 reached = bctx.evaluate_payload(bounded).max_error
                 if reached > bound * (1 + 1e-9):
                     _fail(f"{where}: with bound {bound:.6g} the payload's error is {reached:.6g}")

@@ -164,3 +164,127 @@ def test_metadata_is_small_next_to_the_payload_of_a_long_clip():
     data = compress_motion(motion, "svd", params={"rank": 8}, max_error=None).data
     meta_len = struct.unpack_from("<I", data, 16)[0]
     assert meta_len < 0.1 * len(data)
+
+
+# ---- a codec checks its own outcome (Codec.check_info); the core checks only that it is plain JSON --------------
+@pytest.mark.parametrize("codec, info, message", [
+    ("svd", {"rank": "9"}, "'rank' must be an integer"),
+    ("svd", {"rank": True}, "'rank' must be an integer"),
+    ("adaptive-fourier", {"K": 2, "omega": "abc"}, "'omega' must be an array of numbers or an array of arrays"),
+    ("adaptive-fourier", {"K": [[1]], "omega": [[1.0]]}, "'K' must be an integer or an array of integers"),
+    ("naive-fourier", {"K": 1, "omega": [1.0], "steps": [1.5, 2, 3]}, "'steps' must be an array of integers or"),
+    ("naive-fourier", {"K": 1, "omega": [1.0], "iterations": [3]}, "'iterations' must be an integer"),
+])
+def test_a_shipped_codec_refuses_an_outcome_it_never_writes(small, tmp_path, codec, info, message):
+    path = tmp_path / "edited.mrc"
+    write_container(dataclasses.replace(unpack(small[1].data), codec=codec, info=info), path)
+    with pytest.raises(ContainerError) as caught:
+        read_container(path)
+    line = str(caught.value)
+    assert "\n" not in line and "edited.mrc" in line and f"codec {codec!r} refuses its outcome" in line
+    assert message in line
+
+
+@pytest.mark.parametrize("codec, info", [
+    ("svd", {"rank": 1, "K": "x", "omega": "abc"}),  # another codec's words: not svd's concern
+    ("adaptive-fourier", {"K": 5, "omega": [1.0, 2.5], "hidden": 22, "iterations": 300, "steps": [3, -4, 7],
+                          "parameters": 500}),
+    ("adaptive-fourier", {"windows": 2, "K": [1, 2], "omega": [[1.0], [2.0, 3]], "hidden": [6, 10],
+                          "iterations": 90, "steps": [[1, 2, 3], [4, 5, 6]], "parameters": 77}),
+])
+def test_a_shipped_codec_reads_every_outcome_it_writes(small, codec, info):
+    assert unpack(pack(dataclasses.replace(unpack(small[1].data), codec=codec, info=info))).info == info
+
+
+def _third_party(check_info=None):
+    """A codec of a third party, registered through the public hook: stores the features, decodes the nearest
+    frame; with ``check_info`` given, that is its check of its outcome (otherwise it has none of its own)."""
+    from dataclasses import dataclass, field
+
+    from motionrep import plugins
+    from motionrep.codec import Codec, Payload
+    from motionrep.hookspecs import hookimpl
+
+    @dataclass(frozen=True)
+    class Params:
+        unused: int = field(default=0, metadata={"help": "unused"})
+
+    members = {"name": "stored", "format_version": 1, "Params": Params,
+               "encode": lambda self, features, weights, context: Payload({"f": np.array(features)},
+                                                                         {"K": "its own", "frames": len(features)}),
+               "decode": lambda self, payload, times: np.asarray(payload.arrays["f"], np.float64)[
+                   np.rint(np.asarray(times) * (payload.arrays["f"].shape[0] - 1)).astype(int)]}
+    if check_info is not None:
+        members["check_info"] = lambda self, info: check_info(info)
+    codec = type("Stored", (Codec,), members)()
+
+    class Plugin:
+        @staticmethod
+        @hookimpl
+        def register_codecs(register):
+            register(codec)
+
+    plugins.pm.register(Plugin(), name="test-stored-codec")
+    return codec
+
+
+def test_a_codec_without_its_own_check_reads_any_plain_outcome(small, tmp_path):
+    """The words of the shipped codecs mean nothing to a third party's codec: its ``"K": "its own"`` (which
+    the core once refused as not an integer) is read, described and decoded."""
+    from motionrep.compress import describe_outcome
+
+    codec = _third_party()
+    motion = small[0]
+    data = compress_motion(motion, codec, max_error=None).data
+    c = unpack(data)
+    assert c.info == {"K": "its own", "frames": 12}
+    assert describe_outcome(c) == "K=its own, frames=12"
+    crafted = pack(dataclasses.replace(c, info={"omega": "abc", "rank": [True], "K": {"deep": [[[]]]}}))
+    assert max_joint_error(motion, decompress(crafted)).max_error == c.evaluation["max_error"]
+
+
+def test_a_third_party_check_names_the_file_in_one_line(small, tmp_path):
+    from motionrep.errors import PayloadError
+
+    def strict(info):
+        if info.get("frames") != 12:
+            raise PayloadError("'frames' must be 12")
+        info["K"].upper()  # a bug that a crafted value finds: an AttributeError, not a traceback
+
+    codec = _third_party(strict)
+    c = unpack(compress_motion(small[0], codec, max_error=None).data)
+    path = tmp_path / "third.mrc"
+    for info, message in (({"frames": 11, "K": "x"}, "refuses its outcome 'codec.info': 'frames' must be 12"),
+                          ({"frames": 12, "K": 3}, "refuses its outcome 'codec.info': AttributeError")):
+        write_container(dataclasses.replace(c, info=info), path)
+        with pytest.raises(ContainerError, match=f"third.mrc.*{message}"):
+            read_container(path)
+
+
+def test_the_conformance_suite_checks_the_outcome_against_check_info():
+    from motionrep.errors import PayloadError
+    from motionrep.testing import check_codec
+
+    def refuse_text(info):
+        if isinstance(info.get("K"), str):
+            raise PayloadError("'K' must be an integer")
+
+    with pytest.raises(AssertionError, match="check_info refuses the codec's own outcome .*'K' must be an integer"):
+        check_codec(_third_party(refuse_text), bound_fraction=None)
+
+
+def test_check_info_numbers_says_what_a_key_must_be():
+    from motionrep.codec import check_info_numbers
+    from motionrep.errors import PayloadError
+
+    check_info_numbers({}, "K", integers=True)  # absent: nothing to check
+    check_info_numbers({"K": [4, 6]}, "K", integers=True, arrays=(0, 1))
+    check_info_numbers({"omega": [[1.5], [2, 3]]}, "omega", arrays=(1, 2))
+    for info, key, kwargs, message in (
+            ({"K": 1.0}, "K", {"integers": True}, "'K' must be an integer"),
+            ({"x": float("nan")}, "x", {}, "'x' must be a number"),
+            ({"x": [1, [2]]}, "x", {"arrays": (1, 2)}, "'x' must be an array of numbers or an array of arrays of "
+                                                       "numbers"),
+            ({"x": 1}, "x", {"arrays": (1, 1)}, "'x' must be an array of numbers")):
+        with pytest.raises(PayloadError, match=f"^{message}$".replace("[", r"\[")):
+            check_info_numbers(info, key, **kwargs)

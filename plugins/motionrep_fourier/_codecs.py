@@ -10,7 +10,7 @@ from typing import Any, Callable, Literal, Mapping, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload
+from motionrep.codec import Codec, EncodeContext, Payload, check_info_numbers
 from motionrep.errors import BoundNotMetError, ParameterError
 
 from ._network import Network, network_dtype
@@ -32,6 +32,9 @@ AUTO_MAX_K = 10
 AUTO_WINDOW = 125
 
 _SVD_HINT = "or use --codec svd (it meets any bound)"
+#: Integer outcome keys and the levels of arrays each may have (per window in windows): ``Codec.check_info``.
+_INFO_INTEGERS = {"K": (0, 1), "hidden": (0, 1), "windows": (0, 0), "iterations": (0, 0), "parameters": (0, 0),
+                  "steps": (1, 2)}
 
 
 @dataclass(frozen=True)
@@ -123,6 +126,14 @@ class _FourierCodec(Codec):
             return pieces[0].payload
         edges = np.array([p.first for p in pieces] + [pieces[-1].last], dtype=np.int64)
         return join_windows([p.payload for p in pieces], edges)
+
+    def check_info(self, info: Mapping[str, Any]) -> None:
+        """The outcome of one network or, in windows, of each (``specs/codecs.md``): integer counts, one per
+        window for ``K`` and ``hidden``; ``omega`` an array of numbers, per window in windows; ``steps`` an
+        array of integers, per window in windows."""
+        for key, arrays in _INFO_INTEGERS.items():
+            check_info_numbers(info, key, integers=True, arrays=arrays)
+        check_info_numbers(info, "omega", arrays=(1, 2))
 
     def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
         """``K=5`` (with ``detail``: the frequencies and hidden width); in windows ``3 windows, K=4-6`` (with

@@ -20,7 +20,7 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, CompiledDecoder, EncodeContext, Payload
+from motionrep.codec import Codec, CompiledDecoder, EncodeContext, Payload, check_info_numbers
 from motionrep.errors import BoundNotMetError, ParameterError
 from motionrep.jit import affine_block, affine_one, jit
 
@@ -110,6 +110,10 @@ class SVDCodec(Codec):
             else:
                 lo = mid
         return payload(hi)
+
+    def check_info(self, info: Mapping[str, Any]) -> None:
+        """``rank`` is an integer."""
+        check_info_numbers(info, "rank", integers=True)
 
     def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
         """``rank=9``."""

@@ -377,7 +377,9 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     mrc("mrc-shape-1e30", pack_meta(table, payload), "shape", "traceback (OverflowError)")
     mrc("mrc-evaluation-list", pack_meta(edited(evaluation=[1, 2]), payload), "evaluation",
         "traceback (TypeError) in motionrep info", command="info")
-    mrc("mrc-omega-text", pack_meta(edited(codec__info={"K": 2, "omega": ["x", "y"]}), payload), "omega",
+    # a Fourier codec's outcome, refused by that codec's check (Codec.check_info) before its payload is looked at
+    mrc("mrc-omega-text", pack_meta(edited(codec__name="adaptive-fourier", codec__version=3,
+                                           codec__info={"K": 2, "omega": ["x", "y"]}), payload), "omega",
         "traceback (ValueError) in motionrep info", command="info")
     mrc("mrc-frames-text", pack_meta(edited(num_frames="12"), payload), "num_frames", "traceback or garbage")
     mrc("mrc-skeleton-types", pack_meta(edited(skeleton__names=[1, 2, 3]), payload), "skeleton", "traceback")
