@@ -1,6 +1,6 @@
 """The shape of the code base: the README's layout table names every module and folder, no module-level import
-circle inside ``motionrep``, modules short enough to read (a longer one says why in its docstring), and the
-command-line package light to import."""
+circle inside ``motionrep``, modules short enough to read (a longer one says why in its docstring), no
+``assert`` for validation in library code, and the command-line package light to import."""
 
 from __future__ import annotations
 
@@ -140,3 +140,16 @@ def test_runtime_never_imports_test_support():
             "motionrep.render, motionrep._demo; print('motionrep.testing' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_library_code_validates_without_assert():
+    """Validation raises motionrep's own errors: ``assert`` vanishes under ``python -O`` and would show a user a
+    traceback.  Library code (the core and the shipped plugins, not their tests) has none."""
+    found = []
+    for path in _modules() + sorted((REPO / "plugins").rglob("*.py")):
+        if "tests" in path.relative_to(REPO).parts or "__pycache__" in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Assert):
+                found.append(f"{path.relative_to(REPO)}:{node.lineno}")
+    assert not found, "assert in library code: " + ", ".join(found)

@@ -130,15 +130,18 @@ class _Worker:
         self.lock = threading.Lock()
         self.generation = 0  # bumped at every (re)start: handles of an earlier worker are void
 
-    def _start(self) -> None:
-        self.proc = _launcher.popen([sys.executable, "-c", _BOOT, _WORKER])
+    def _start(self) -> subprocess.Popen:
+        """Start a worker and wait for its greeting; the started process (its ``stdin`` and ``stdout`` are pipes,
+        :meth:`_Launcher.popen`)."""
+        proc = self.proc = _launcher.popen([sys.executable, "-c", _BOOT, _WORKER])
         self.pid = os.getpid()
         self.generation += 1
         try:
-            self._receive(_STARTUP_TIMEOUT)
+            self._receive(proc, _STARTUP_TIMEOUT)
         except H5Error as exc:
             self.stop()
             raise H5Error(f"cannot start the HDF5 reader process: {exc}") from None
+        return proc
 
     def stop(self) -> None:
         proc, self.proc = self.proc, None
@@ -154,10 +157,10 @@ class _Worker:
                 except Exception:  # pragma: no cover
                     pass
 
-    def _receive(self, timeout: float) -> bytes:
-        """One reply (its length prefix first), or H5Error after ``timeout`` seconds or at end of file."""
-        assert self.proc is not None and self.proc.stdout is not None
-        fd = self.proc.stdout.fileno()
+    def _receive(self, proc: subprocess.Popen, timeout: float) -> bytes:
+        """One reply of ``proc`` (its length prefix first), or H5Error after ``timeout`` seconds or at end of
+        file."""
+        fd = proc.stdout.fileno()
         deadline = time.monotonic() + timeout
         head = self._read(fd, _HEAD_SIZE, deadline, timeout)
         size = int.from_bytes(head, "little")
@@ -186,16 +189,16 @@ class _Worker:
                 self.proc, self.pid = None, os.getpid()
             if method == "close" and (self.proc is None or generation != self.generation):
                 return self.generation, None  # its worker is gone, and the file with it
-            if self.proc is None or self.proc.poll() is not None:
+            proc = self.proc
+            if proc is None or proc.poll() is not None:
                 self.stop()
-                self._start()
+                proc = self._start()
             if generation is not None and generation != self.generation:
                 raise H5Error("the file was closed after an earlier failure")
-            assert self.proc is not None and self.proc.stdin is not None
             data = pickle.dumps((method, args), protocol=pickle.HIGHEST_PROTOCOL)
             try:
-                self.proc.stdin.write(len(data).to_bytes(_HEAD_SIZE, "little") + data)
-                body = self._receive(timeout)
+                proc.stdin.write(len(data).to_bytes(_HEAD_SIZE, "little") + data)
+                body = self._receive(proc, timeout)
             except BaseException as exc:  # a timeout, a crash, Ctrl-C: the worker's state is unknown
                 self.stop()
                 if isinstance(exc, (BrokenPipeError, ConnectionError)):
