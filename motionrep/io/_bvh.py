@@ -723,6 +723,18 @@ def _repr_rows(v: NDArray[np.float64]) -> tuple[NDArray[np.uint8], NDArray[np.in
     return rows, start
 
 
+def _last_digit(x: NDArray[np.float64], q: NDArray[np.float64], d: NDArray[np.float64], row: NDArray[np.uint8]
+                ) -> None:
+    """The last decimal digit of the whole numbers ``x`` (below 2**52: exact) into ``row`` as ASCII, and
+    ``x // 10`` into ``q``; ``d`` is scratch of the same shape."""
+    np.divide(x, 10.0, out=q)
+    np.floor(q, out=q)
+    np.multiply(q, -10.0, out=d)
+    d += x
+    d += 48.0
+    row[...] = d
+
+
 def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
     """``rounded`` ``(F, C)`` as lines of ``%.{decimals}f`` values joined by single spaces: the same bytes as
     ``numpy.savetxt``, built with whole-array operations (several times faster).  None when a value is too large
@@ -765,12 +777,7 @@ def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
         x = k - whole * unit  # the decimals, as an integer
         for _ in range(decimals):
             col -= 1
-            np.divide(x, 10.0, out=q)
-            np.floor(q, out=q)
-            np.multiply(q, -10.0, out=d)
-            d += x
-            d += 48.0
-            chunk[col] = d
+            _last_digit(x, q, d, chunk[col])
             x, q = q, x
         if decimals:
             col -= 1
@@ -781,12 +788,7 @@ def _format_fixed(rounded: NDArray[np.float64], decimals: int) -> bytes | None:
             col -= 1
             if i:
                 digits += x > 0
-            np.divide(x, 10.0, out=q)
-            np.floor(q, out=q)
-            np.multiply(q, -10.0, out=d)
-            d += x
-            d += 48.0
-            chunk[col] = d
+            _last_digit(x, q, d, chunk[col])
             x, q = q, x
         start = width - (digits + negative + dec_part + 1)  # first byte of each value
         chunk[0] = 32
