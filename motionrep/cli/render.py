@@ -9,7 +9,7 @@ one line on stderr and no output file left behind; 2 for a usage error (unknown 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import click
 
@@ -27,26 +27,21 @@ def _read(path: Path, clip: str | None) -> Any:
         return src.read(clip if src.kind in ("database", "archive") else None)
 
 
-def _frames_option(ctx: click.Context, param: click.Parameter, value: str | None) -> slice | None:
-    from ..render import parse_frames
+def _parsed_by(parser: str) -> Callable[[click.Context, click.Parameter, str | None], Any]:
+    """A click callback: the option's value parsed by ``motionrep.render.<parser>`` (imported when an option is
+    given), its ``ValidationError`` a usage error."""
 
-    if value is None:
-        return None
-    try:
-        return parse_frames(value)
-    except ValidationError as exc:
-        raise click.BadParameter(str(exc)) from None
+    def callback(ctx: click.Context, param: click.Parameter, value: str | None) -> Any:
+        if value is None:
+            return None
+        from .. import render
 
+        try:
+            return getattr(render, parser)(value)
+        except ValidationError as exc:
+            raise click.BadParameter(str(exc)) from None
 
-def _size_option(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[int, int] | None:
-    from ..render import parse_size
-
-    if value is None:
-        return None
-    try:
-        return parse_size(value)
-    except ValidationError as exc:
-        raise click.BadParameter(str(exc)) from None
+    return callback
 
 
 def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
@@ -64,7 +59,7 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
                 type=click.Path(exists=True, dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="OUT.gif (animation), OUT.png (filmstrip) or OUT.mp4 (animation; needs ffmpeg).")
-@click.option("--frames", metavar="A:B[:STEP]", callback=_frames_option,
+@click.option("--frames", metavar="A:B[:STEP]", callback=_parsed_by("parse_frames"),
               help="Reference frames to show, a Python slice (0:120, 200:, -60:, 0:300:10). With a step, exactly "
                    "those frames are shown; without one, frames are picked by time (animation) or --count are "
                    "spread evenly (filmstrip).  Default: the whole clip.")
@@ -76,7 +71,7 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
 @click.option("--max-frames", type=click.IntRange(min=1), default=150, show_default=True,
               help="Most frames in an animation or pictures in a filmstrip; a longer animation is shown at a "
                    "lower rate, still in real time.")
-@click.option("--size", metavar="WxH", callback=_size_option,
+@click.option("--size", metavar="WxH", callback=_parsed_by("parse_size"),
               help="Output size in pixels (the whole filmstrip for PNG).  Default: fitted to the motion.")
 @click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
