@@ -96,15 +96,8 @@ class Clip:
         self._codec_name = codec.name
         self.container = container
         self.skeleton: Skeleton = container.skeleton
-        try:
-            self._decoder = codec.decoder(Payload(arrays=container.arrays, info=container.info,
-                                                  version=container.codec_version))
-        except PayloadError as exc:  # the codec's own words, with the file named
-            raise self._payload_error(exc) from None
-        except MotionrepError:
-            raise
-        except _DECODE_ERRORS as exc:
-            raise self._payload_error(exc) from None
+        self._decoder = self._codec_call(codec.decoder, Payload(arrays=container.arrays, info=container.info,
+                                                                version=container.codec_version))
         self.fps = float(container.fps)
         self.num_frames = int(container.num_frames)
         self.codec, self.representation = container.codec, container.representation
@@ -229,8 +222,14 @@ class Clip:
         return fixed_axes_restored(motion)
 
     def _features_at(self, u: NDArray[np.float64]) -> NDArray:
+        return self._codec_call(self._decoder, u)
+
+    def _codec_call(self, fn: Any, *args: Any) -> Any:
+        """``fn(*args)``, a call into the codec: its ``PayloadError`` (its own words) or what else a damaged
+        payload makes it raise (:data:`_DECODE_ERRORS`) becomes a ``ContainerError`` naming the file; motionrep's
+        other errors pass as they are."""
         try:
-            return self._decoder(u)
+            return fn(*args)
         except PayloadError as exc:
             raise self._payload_error(exc) from None
         except MotionrepError:
