@@ -7,7 +7,10 @@ Usage::
 Reads every BVH file of at least ``--min-kb`` kilobytes under DATA_DIR (default ``../shared/data`` next to the
 repository; ``edge/malformed`` is skipped) and times, best of ``--repeat`` runs each, in the same process:
 
-* **read** -- motionrep ``read_bvh(path)`` (parse, validate, Euler angles to quaternions, a ``Motion``);
+* **read** -- motionrep ``read_bvh(path)`` (parse, validate, Euler angles to quaternions, a ``Motion``) with the
+  compiled loops (numba is loaded before timing, as in any process that has read more than a few MB); its numpy
+  path (``parse_bvh(path.read_bytes(), compiled=False)``: what a process uses until then, so that reading one clip
+  never imports numba);
   ``numpy.loadtxt(path, skiprows=<header lines>)`` of the same frame numbers (no hierarchy, no rotations);
   pybvh ``read_bvh_file(path, world_up="+y")`` (its fastest setting: no up-axis detection).
 * **FK** -- motionrep ``global_positions(motion)`` and pybvh ``frames_to_node_positions(bvh, root_pos,
@@ -16,7 +19,9 @@ repository; ``edge/malformed`` is skipped) and times, best of ``--repeat`` runs 
 Throughput is file megabytes per second for reading and joint-frames (frames x (joints + end sites)) per second
 for FK; totals are sums of sizes over sums of times.  The summary gives each figure beside the one before the
 compiled reader and FK and beside its target, with the load average at the start and the end, and the start-up
-of a fresh process reading the smallest file.  The ratio columns are ours / theirs (above 1: motionrep is
+of a fresh process reading the smallest file, by the numpy path (the default there) and by the compiled loops
+(numba's import and cached machine code): with the two paths' rates this gives the break-even behind
+``motionrep.io._numbers.NUMPY_PATH_BUDGET``.  The ratio columns are ours / theirs (above 1: motionrep is
 faster).  pybvh is optional: run this script with an interpreter where it is installed (it is not a motionrep
 dependency); without it those columns are skipped.  pybvh only reads files whose root has 6 channels and every
 other joint 3 rotation channels; its ratios are over the files it reads.
@@ -36,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from motionrep.io import read_bvh
+from motionrep.io import parse_bvh, read_bvh
+from motionrep.io._numbers import NUMPY_PATH_BUDGET
 from motionrep.kinematics import global_positions
 
 try:  # optional comparison
@@ -88,6 +94,7 @@ def bench_file(path: Path, repeat: int) -> dict:
     row["points"] = points
     row["frames"] = motion.num_frames
     row["ours_read"] = best_time(lambda: read_bvh(path), repeat)
+    row["numpy_read"] = best_time(lambda: parse_bvh(path.read_bytes(), path, compiled=False), repeat)
     row["loadtxt_read"] = best_time(lambda: np.loadtxt(path, skiprows=skip, ndmin=2), repeat)
     row["ours_fk"] = best_time(lambda: global_positions(motion), repeat)
     if pybvh is not None:
@@ -110,23 +117,31 @@ def bench_file(path: Path, repeat: int) -> dict:
 
 _START_UP = """
 import sys, time
+from pathlib import Path
 t0 = time.perf_counter()
 import motionrep.io
 t1 = time.perf_counter()
-motionrep.io.read_bvh(sys.argv[1])
+motionrep.io.parse_bvh(Path(sys.argv[1]).read_bytes(), compiled=sys.argv[2] == "compiled")
 t2 = time.perf_counter()
-motionrep.io.read_bvh(sys.argv[1])
+motionrep.io.parse_bvh(Path(sys.argv[1]).read_bytes(), compiled=sys.argv[2] == "compiled")
 t3 = time.perf_counter()
-print(t1 - t0, t2 - t1, t3 - t2)
+print(t1 - t0, t2 - t1, t3 - t2, "numba" in sys.modules)
 """
 
 
-def start_up(path: Path) -> dict:
-    """Seconds of a fresh process to import ``motionrep.io``, read ``path`` once (numba loads the cached machine
-    code of the reader's compiled loops then) and read it again."""
-    out = subprocess.run([sys.executable, "-c", _START_UP, str(path)], capture_output=True, text=True, check=True)
-    a, b, c = map(float, out.stdout.split())
-    return {"import": a, "first_read": b, "second_read": c}
+def start_up(path: Path, path_kind: str = "numpy") -> dict:
+    """Seconds of a fresh process to import ``motionrep.io``, read ``path`` once by ``path_kind`` ("numpy", or
+    "compiled": numba is imported and loads the cached machine code of the reader's loops then) and read it
+    again (median of three processes)."""
+    runs = []
+    for _ in range(3):
+        out = subprocess.run([sys.executable, "-c", _START_UP, str(path), path_kind], capture_output=True, text=True,
+                             check=True)
+        a, b, c, numba = out.stdout.split()
+        runs.append((float(a), float(b), float(c), numba == "True"))
+    runs.sort(key=lambda r: r[1])
+    a, b, c, numba = runs[1]
+    return {"import": a, "first_read": b, "second_read": c, "numba": numba}
 
 
 def rate(total, seconds) -> float:
@@ -153,10 +168,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"python {platform.python_version()}, numpy {np.__version__}, "
           f"pybvh {getattr(pybvh, '__version__', 'not installed')}, {platform.machine()}, "
           f"{platform.processor() or 'cpu'}, best of {args.repeat}")
-    head = f"{'file':48s} {'MB':>5s} | {'read MB/s: ours':>15s} {'loadtxt':>8s} {'pybvh':>7s} | " \
+    head = f"{'file':48s} {'MB':>5s} | {'read MB/s: ours':>15s} {'numpy path':>10s} {'loadtxt':>8s} {'pybvh':>7s} | " \
            f"{'FK M jf/s: ours':>15s} {'pybvh':>7s}"
     print(head)
     print("-" * len(head))
+    parse_bvh(files[0].read_bytes(), compiled=True)  # numba and the reader's kernels loaded: read_bvh runs compiled
     rows = []
     for path in files:
         r = bench_file(path, args.repeat)
@@ -164,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         name = str(path.relative_to(root)) if path.is_relative_to(root) else str(path)
         pyr = f"{r['mb'] / r['pybvh_read']:7.1f}" if "pybvh_read" in r else f"{'-':>7s}"
         pyf = f"{r['points'] / r['pybvh_fk'] / 1e6:7.2f}" if "pybvh_fk" in r else f"{'-':>7s}"
-        print(f"{name[-48:]:48s} {r['mb']:5.2f} | {r['mb'] / r['ours_read']:15.1f} "
+        print(f"{name[-48:]:48s} {r['mb']:5.2f} | {r['mb'] / r['ours_read']:15.1f} {r['mb'] / r['numpy_read']:10.1f} "
               f"{r['mb'] / r['loadtxt_read']:8.1f} {pyr} | {r['points'] / r['ours_fk'] / 1e6:15.2f} {pyf}")
 
     def total(key, rows_, size_key="mb"):
@@ -173,8 +189,10 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(head))
     read_ours, read_lt = total("ours_read", rows), total("loadtxt_read", rows)
     fk_ours = total("ours_fk", rows, "points") / 1e6
+    read_np = total("numpy_read", rows)
     print(f"all {len(rows)} files: read {read_ours:.1f} MB/s (loadtxt {read_lt:.1f} MB/s, ours/loadtxt "
-          f"{read_ours / read_lt:.2f}); FK {fk_ours:.2f} M joint-frames/s")
+          f"{read_ours / read_lt:.2f}); numpy path {read_np:.1f} MB/s ({read_np / read_lt:.2f}x loadtxt); "
+          f"FK {fk_ours:.2f} M joint-frames/s")
     figures = {"read / loadtxt": read_ours / read_lt}
     long = [r for r in rows if r["frames"] >= LONG_FRAMES]
     if long:
@@ -199,10 +217,22 @@ def main(argv: list[str] | None = None) -> int:
         met = "-" if now is None else ("yes" if now >= target else "no")
         print(f"{name:36s} {previous:9.2f} {shown:>9s} {'>= ' + format(target, 'g'):>9s}  {met}")
     small = min(files, key=lambda p: p.stat().st_size)
-    start = start_up(small)
-    print(f"\nfresh process, import motionrep and read the smallest file ({small.name}, "
-          f"{small.stat().st_size / 1e3:.0f} kB): {start['import']:.2f} s import, {start['first_read']:.3f} s first "
-          f"read (numba loading its cached code), {start['second_read'] * 1e3:.1f} ms second read")
+    kb = small.stat().st_size / 1e3
+    print(f"\nfresh process, import motionrep.io and read the smallest file twice ({small.name}, {kb:.0f} kB), "
+          f"median of 3 processes:")
+    first = {}
+    for kind in ("numpy", "compiled"):
+        start = start_up(small, kind)
+        first[kind] = start["first_read"]
+        print(f"  {kind + ' path':14s} {start['import']:.2f} s import, {start['first_read']:.3f} s first read, "
+              f"{start['second_read'] * 1e3:.1f} ms second read; numba imported: {start['numba']}")
+    # numba's start-up: the compiled first read less its second read; it is won back after reading
+    # start-up / (1 / numpy rate - 1 / compiled rate) megabytes
+    fixed = first["compiled"] - first["numpy"] + sum(r["numpy_read"] - r["ours_read"] for r in rows if r["file"] == small)
+    per_mb = sum(r["numpy_read"] - r["ours_read"] for r in rows) / sum(r["mb"] for r in rows)
+    print(f"numba's start-up in a fresh process ~{fixed:.2f} s; the numpy path costs {per_mb:.3f} s per MB more: "
+          f"break-even at ~{fixed / per_mb:.0f} MB read in one process "
+          f"(motionrep reads {NUMPY_PATH_BUDGET / 1e6:g} MB by the numpy path before it switches)")
     return 0
 
 

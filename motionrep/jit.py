@@ -17,8 +17,12 @@ caller is typed: numba sees the dispatcher through the kernel).  Importing numba
 about as long as importing numpy several times over, so commands that never run a compiled loop (``motionrep
 --help``, ``motionrep plugins``, describing a file) do not pay it.
 
-Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input;
-there is no second, pure-numpy copy of the same computation.  Plugins (shipped or third-party) may compile their
+Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
+There is no second, pure-numpy copy of a computation, with one measured exception: reading BVH text (its number
+parser and its Euler angles to quaternions) has a numpy path, bit-identical to the kernels (tested side by
+side), that a process uses until it has read enough text to win back numba's start-up (``motionrep.io._numbers
+.use_compiled``), so that ``motionrep info clip.bvh`` and other one-clip processes never import numba;
+:func:`sincos_numpy` is :func:`sincos` for it.  Plugins (shipped or third-party) may compile their
 own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
 from Python (the runtime decoder, once per pose) can take :attr:`LazyKernel.dispatcher` once and call it
@@ -33,7 +37,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "affine_block", "affine_one"]
+__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "sincos_numpy", "affine_block", "affine_one"]
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 _lock = threading.Lock()
@@ -112,11 +116,9 @@ def jit_inline(func: Callable) -> LazyKernel:
 
 
 @jit_inline
-def sincos(x):
-    """``(sin x, cos x)`` of a float64 ``x`` to within an ulp, for compiled code (numba's ``np.sin`` calls libm
-    and keeps loops scalar): Cody-Waite reduction by pi / 2 (three parts, exact products for ``|x| < 2^20 pi /
-    2``; beyond, the reduction and so the result lose accuracy gracefully but stay bounded), then fdlibm's
-    kernels on [-pi/4, pi/4]; branch-free, so loops over it vectorise."""
+def _sincos_reduced(x):
+    """``(quadrant, sin r, cos r)`` for ``x = r + quadrant pi / 2`` (quadrant 0-3): the arithmetic shared by
+    :func:`sincos` (compiled, scalars) and :func:`sincos_numpy` (arrays); no branch, so it runs on either."""
     n = np.floor(x * 0.6366197723675814 + 0.5)
     r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21
     z = r * r
@@ -129,13 +131,35 @@ def sincos(x):
     hz = 0.5 * z
     w = 1.0 - hz
     c = w + (((1.0 - w) - hz) + tail)
-    quadrant = n - 4.0 * np.floor(n * 0.25)
+    return n - 4.0 * np.floor(n * 0.25), s, c
+
+
+@jit_inline
+def sincos(x):
+    """``(sin x, cos x)`` of a float64 ``x`` to within an ulp, for compiled code (numba's ``np.sin`` calls libm
+    and keeps loops scalar): Cody-Waite reduction by pi / 2 (three parts, exact products for ``|x| < 2^20 pi /
+    2``; beyond, the reduction and so the result lose accuracy gracefully but stay bounded), then fdlibm's
+    kernels on [-pi/4, pi/4]; branch-free, so loops over it vectorise."""
+    quadrant, s, c = _sincos_reduced(x)
     odd = (quadrant == 1.0) | (quadrant == 3.0)
     s1 = c if odd else s
     c1 = -s if odd else c
     if quadrant >= 2.0:
         return -s1, -c1
     return s1, c1
+
+
+def sincos_numpy(x):
+    """:func:`sincos` on a float64 numpy array, bit for bit: the same operations in the same order, each IEEE in
+    numpy as in the kernel (neither contracts a product and a sum into one fused operation; ``tests/test_bvh_paths
+    .py`` compares the two)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        quadrant, s, c = _sincos_reduced.py_func(x)
+    odd = (quadrant == 1.0) | (quadrant == 3.0)
+    s1 = np.where(odd, c, s)
+    c1 = np.where(odd, -s, c)
+    upper = quadrant >= 2.0
+    return np.where(upper, -s1, s1), np.where(upper, -c1, c1)
 
 
 @jit_inline

@@ -36,9 +36,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ValidationError
-from .jit import jit, jit_inline, sincos
+from .jit import jit, jit_inline, sincos, sincos_numpy
 
-__all__ = ["PosePlan", "decode_planned", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
+__all__ = ["PosePlan", "decode_planned", "decode_euler_numpy", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
            "WORLD_IDENTITY", "SUB_BLOCK"]
 
 QUAT, AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, WORLD_QUAT, WORLD_IDENTITY = range(7)
@@ -110,7 +110,7 @@ class PosePlan:
             if kind in (EULER, EULER_DEGREES) and (np.any(axes[:used.size] < 0) or np.any(axes[:used.size] > 2)
                                                    or np.any(axes[used.size:] != -1)):
                 raise ValidationError(f"pose plan: Euler entry {r} needs an axis 0-2 per angle")
-        world = np.isin(self.kinds, (WORLD_QUAT, WORLD_IDENTITY))
+        world = (self.kinds == WORLD_QUAT) | (self.kinds == WORLD_IDENTITY)
         if world.any() and (not world.all() or not np.array_equal(self.joints, np.arange(J))):
             raise ValidationError("pose plan: world rotations need one entry per joint, in joint order")
         object.__setattr__(self, "_packed", self._pack())
@@ -133,12 +133,14 @@ class PosePlan:
 
     def _pack(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         R, J, P = self.kinds.shape[0], self.num_joints, self.translation_columns.shape[0]
-        identity = np.setdiff1d(np.arange(J), self.joints)
+        unplanned = np.ones(J, bool)
+        unplanned[self.joints] = False
+        identity = np.flatnonzero(unplanned)  # not np.setdiff1d: its np.unique imports numpy.ma (50 ms at start-up)
         parts = [self.kinds, self.columns.ravel(), self.axes.ravel(), self.joints, self.parents, identity,
                  self.translation_columns.ravel()]
         header = np.zeros(_HEADER, np.int64)
         header[[_H_R, _H_J, _H_P, _H_M]] = R, J, P, identity.size
-        header[_H_WORLD] = int(np.isin(self.kinds, (WORLD_QUAT, WORLD_IDENTITY)).any())
+        header[_H_WORLD] = int(((self.kinds == WORLD_QUAT) | (self.kinds == WORLD_IDENTITY)).any())
         offset = _HEADER
         for slot, part in zip(range(_H_KINDS, _H_TCOLS + 1), parts):
             header[slot] = offset
@@ -172,6 +174,39 @@ def decode_planned(features: ArrayLike, plan: PosePlan, rotations: NDArray, root
         plan_i[_H_M] = 0
     decode_feature_major(X, f.shape[0], (plan_i, plan_f), rotations, root_translation, joint_translations,
                          check_finite)
+
+
+def decode_euler_numpy(features: ArrayLike, plan: PosePlan, rotations: NDArray) -> None:
+    """The kernel's ``EULER`` / ``EULER_DEGREES`` conversion in numpy, bit for bit (the same operations in the same
+    order, vectorised over poses and entries instead of poses): for a plan of Euler entries only and no
+    translations, run as :func:`decode_planned` with ``check_finite=False, keep_unplanned=True``.  It lets reading
+    a small BVH file skip numba's start-up (``motionrep.io._numbers.use_compiled``)."""
+    if not ((plan.kinds == EULER) | (plan.kinds == EULER_DEGREES)).all() or plan.translation_columns.shape[0]:
+        raise ValidationError("decode_euler_numpy: the plan must hold Euler entries only, without translations")
+    X = np.asarray(features, dtype=np.float64)
+    T, R = X.shape[0], plan.kinds.shape[0]
+    QX, QY, QZ, QW = np.zeros((T, R)), np.zeros((T, R)), np.zeros((T, R)), np.ones((T, R))
+    degrees = plan.kinds == EULER_DEGREES
+    with np.errstate(invalid="ignore", over="ignore"):
+        for k in range(3):
+            rows = np.flatnonzero(plan.columns[:, k] >= 0)
+            if rows.size == 0:
+                break
+            v = X[:, plan.columns[rows, k]]
+            # as in the kernel: degrees reduced exactly to about [-360, 360], then the half angle in radians
+            half = np.where(degrees[rows], (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0),
+                            0.5 * v)
+            s, cs = sincos_numpy(half)
+            axis = plan.axes[rows, k]
+            ex, ey, ez = (axis == 0).astype(np.float64), (axis == 1).astype(np.float64), (axis == 2).astype(np.float64)
+            bx, by, bz, bw = s * ex, s * ey, s * ez, cs
+            ax, ay, az, aw = QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows]
+            QX[:, rows] = aw * bx + ax * bw + ay * bz - az * by  # _times, term by term
+            QY[:, rows] = aw * by - ax * bz + ay * bw + az * bx
+            QZ[:, rows] = aw * bz + ax * by - ay * bx + az * bw
+            QW[:, rows] = aw * bw - ax * bx - ay * by - az * bz
+    for c, Q in enumerate((QX, QY, QZ, QW)):
+        rotations[:, plan.joints, c] = Q
 
 
 _NO_ROOT, _NO_MOVED = np.zeros((0, 3)), np.zeros((0, 0, 3))

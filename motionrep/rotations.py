@@ -531,10 +531,11 @@ _NO_TRANSLATIONS = (np.zeros((0, 3), np.int64), np.zeros((0, 3)))
 
 
 def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int,
-                     kind: int, axes: ArrayLike | None = None) -> None:
+                     kind: int, axes: ArrayLike | None = None, compiled: bool = True) -> None:
     """Check the arguments of the ``*_columns_*`` functions and run them through the pose-plan kernel
-    (:mod:`motionrep.poseplan`: one entry of ``kind`` per row of ``columns``)."""
-    from .poseplan import PosePlan, decode_planned
+    (:mod:`motionrep.poseplan`: one entry of ``kind`` per row of ``columns``), or its numpy twin of the Euler
+    conversions (``compiled=False``)."""
+    from .poseplan import PosePlan, decode_euler_numpy, decode_planned
 
     f = features if type(features) is np.ndarray else np.asarray(features)
     if f.dtype is not _F64 and f.dtype is not _F32:
@@ -562,7 +563,10 @@ def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, o
     plan = PosePlan(width=f.shape[1], num_joints=J, kinds=np.full(R, kind, np.int64), columns=six, axes=ax,
                     joints=idx, parents=np.arange(J, dtype=np.int64) - 1, translation_columns=_NO_TRANSLATIONS[0],
                     translation_values=_NO_TRANSLATIONS[1])
-    decode_planned(f, plan, out, None, None, check_finite=False, keep_unplanned=True)
+    if compiled:
+        decode_planned(f, plan, out, None, None, check_finite=False, keep_unplanned=True)
+    else:
+        decode_euler_numpy(f, plan, out)
 
 
 def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -626,7 +630,7 @@ def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64
 
 
 def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike, joints: ArrayLike, out: NDArray,
-                          degrees: bool = False) -> None:
+                          degrees: bool = False, compiled: bool = True) -> None:
     """``out[:, joints[r]]`` = the product of the rotations about ``axes[r, k]`` by the angles in
     ``features[:, columns[r, k]]`` (``k`` = 0, 1, 2; intrinsic: the first factor leftmost).
 
@@ -637,13 +641,15 @@ def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike
         joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
         degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
+        compiled: False runs the same arithmetic in numpy instead of the compiled kernel (bit-identical, slower
+            per angle, but without numba's start-up: what reading a small BVH file uses).
 
     Raises:
         ValidationError: for columns, axes or joints out of range.
     """
     from .poseplan import EULER, EULER_DEGREES
 
-    _convert_columns(features, columns, joints, out, 3, EULER_DEGREES if degrees else EULER, axes)
+    _convert_columns(features, columns, joints, out, 3, EULER_DEGREES if degrees else EULER, axes, compiled)
 
 
 def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:

@@ -3,7 +3,8 @@
 The format, and the conventions motionrep applies where BVH files disagree, are in ``specs/formats/bvh.md``.
 In short: rotation channels are intrinsic Euler angles in degrees in the order listed; a position channel
 replaces that axis of the joint's OFFSET; CRLF, CR, tabs, scientific notation, namespaced names
-(``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk with numpy.
+(``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk, by compiled loops or,
+while a process has read little, by numpy (see :func:`parse_bvh`).
 Every problem raises :class:`~motionrep.errors.BVHFormatError` naming the file and the line.
 
 Size: one concern, the BVH format; the reader and the writer are kept together because each is the other's
@@ -27,7 +28,7 @@ from ..limits import check_clip
 from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._files import read_regular
-from ._numbers import _python_float, first_control_byte, scan_block
+from ._numbers import _python_float, first_control_byte, scan_block, use_compiled
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
@@ -260,16 +261,21 @@ def _decode(data: bytes, path) -> bytes:
             line = data.count(b"\n", 0, exc.start) + 1
             raise BVHFormatError(f"not a text file: invalid UTF-8 byte 0x{data[exc.start]:02x}", path,
                                  line) from None
-    u = np.frombuffer(data, np.uint8)
-    bad = first_control_byte(u)  # control bytes other than tab, LF, VT, FF, CR
+    bad = first_control_byte(data)  # control bytes other than tab, LF, VT, FF, CR
     if bad >= 0:
         line = data.count(b"\n", 0, bad) + 1
-        raise BVHFormatError(f"not a text file: control byte 0x{u[bad]:02x}", path, line)
+        raise BVHFormatError(f"not a text file: control byte 0x{data[bad]:02x}", path, line)
     return data
 
 
-def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> Motion:
+def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None, *, compiled: bool | None = None
+              ) -> Motion:
     """Parse BVH text (bytes or str) into a Motion; ``path`` is only used in error messages.
+
+    ``compiled``: parse the frame block and convert its Euler angles with the compiled loops (True) or with numpy
+    (False); None (the default) lets :func:`motionrep.io._numbers.use_compiled` choose by the text's size and
+    whether numba is already loaded.  Both give identical motions and errors; the numpy path spares a process
+    that reads one typical clip numba's start-up (seconds) at the cost of a slower parse.
 
     Raises:
         BVHFormatError: naming ``path`` and the line.
@@ -303,8 +309,10 @@ def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> 
                          angles=sum(len(o) for o in skeleton.rotation_orders))
     if too_big:
         raise BVHFormatError(too_big, path, frames_line)
-    values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path)
-    return _motion_from_channels(skeleton, values, 1.0 / frame_time)
+    if compiled is None:
+        compiled = use_compiled(len(data) - block_start)
+    values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path, compiled)
+    return _motion_from_channels(skeleton, values, 1.0 / frame_time, compiled)
 
 
 def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tuple[int, float, int, int, int]:
@@ -354,7 +362,7 @@ def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tup
 
 
 def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels: int,
-                 path) -> NDArray[np.float64]:
+                 path, compiled: bool = True) -> NDArray[np.float64]:
     """Parse the frame lines ``data[start:]`` in bulk; ``(frames, channels)`` values.
 
     Errors name the offending line.
@@ -362,7 +370,8 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
     u = np.frombuffer(data, np.uint8, offset=start)
     # room for the rows the bytes could hold (a value and a separator are two bytes at least), not for what
     # Frames: declares: a short file declaring a million frames is refused as truncated, not given the memory
-    scan = scan_block(u, channels, min(frames, u.shape[0] // (2 * channels) + 1) if channels else frames)
+    scan = scan_block(u, channels, min(frames, u.shape[0] // (2 * channels) + 1) if channels else frames,
+                      compiled=compiled)
     if channels == 0:
         if scan.rows:
             raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
@@ -390,7 +399,7 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
     return scan.values.reshape(frames, channels)
 
 
-def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Motion:
+def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float, compiled: bool = True) -> Motion:
     """Build a Motion from ``(F, C)`` channel values laid out as the skeleton's channels."""
     F = values.shape[0]
     J = skeleton.num_joints
@@ -424,7 +433,8 @@ def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Mo
         positions, axes = euler_columns([skeleton.rotation_orders[j] for j in rot_joints])
         columns = np.array([[cols[k] if k >= 0 else -1 for k in ks] for cols, ks in zip(rot_cols, positions.tolist())],
                            np.int64)  # a joint's rotation channels need not be next to each other
-        euler_columns_to_quat(values, columns, axes, np.array(rot_joints, np.int64), rotations, degrees=True)
+        euler_columns_to_quat(values, columns, axes, np.array(rot_joints, np.int64), rotations, degrees=True,
+                              compiled=compiled)
     for order, (joints, cols) in by_order.items():
         branch[:, joints] = euler_branch(values[:, np.array(cols)], order, degrees=True)
     root = np.ascontiguousarray(translations[:, 0])

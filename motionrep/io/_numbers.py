@@ -1,4 +1,5 @@
-"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep.jit``).
+"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep.jit``), or with
+numpy and Python's ``float`` while a process has not paid numba's start-up (:func:`use_compiled`).
 
 Every value is bit-identical to ``float(token)``:
 
@@ -14,6 +15,11 @@ Every value is bit-identical to ``float(token)``:
 
 For the BVH block the loop also checks the layout as it goes (rows of ``channels`` values, one per non-blank
 line) and reports where it is wrong; a row beyond the expected count is counted, not parsed.
+
+The numpy path (:func:`_scan_numpy`) finds the same tokens with ``bytes.split`` and converts them with ``float``
+itself: the same values, layout findings and errors (``tests/test_io_bvh.py`` runs both on the same text).  It is
+several times slower per byte but needs no numba, whose import and cached machine code cost a fresh process more
+than reading a typical clip the slow way (:data:`NUMPY_PATH_BUDGET` gives the figures).
 """
 
 from __future__ import annotations
@@ -195,9 +201,45 @@ class BlockScan:
     nonfinite: tuple[int, int, str] | None
 
 
-def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line: bool = True) -> BlockScan:
+#: Bytes of BVH text a process reads through the numpy path (:func:`use_compiled`) before it switches to the
+#: compiled loops for good.  Chosen by measurement (``benchmarks/io.py``, *Which path*, 2026-12-02, load ~2 on the
+#: 2-core AMD EPYC machine): a fresh process pays 1.5-2 s (about 3-5 s at load 7) to import numba and load the
+#: cached machine code of the reader's kernels before it parses a byte; the numpy path parses 15-25 MB/s (7.6 MB/s
+#: at load 8), the compiled one 60-90 MB/s (then also Euler angles: numpy ~40 M angles/s against ~150 M).  Break-even
+#: is at about 25-35 MB of text read in one process; 16 MB keeps the numpy path where it is clearly the faster
+#: (a process reading one typical clip: 0.05-3 MB), and a process that reads much more (a batch) pays numba's
+#: start-up once and then reads at the compiled speed: at worst about 2x the best choice in hindsight.
+NUMPY_PATH_BUDGET = 16_000_000
+_numpy_path_bytes = 0
+
+
+def use_compiled(size: int) -> bool:
+    """Whether to read ``size`` bytes of numbers with the compiled loops (True) or the numpy path (False).
+
+    The compiled loops once numba is imported in this process (its start-up is paid) or once this process has read
+    :data:`NUMPY_PATH_BUDGET` bytes the slow way; the numpy path before that.  Both give identical values and
+    errors (tested), so the choice only changes the time.
+    """
+    global _numpy_path_bytes
+    from ..jit import numba_loaded
+
+    if numba_loaded() or _numpy_path_bytes + size > NUMPY_PATH_BUDGET:
+        return True
+    _numpy_path_bytes += size
+    return False
+
+
+def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line: bool = True,
+               compiled: bool | None = None) -> BlockScan:
     """Parse the whitespace-separated numbers of the bytes ``u``: rows of ``width`` values, one per non-blank
-    line, at most ``rows_max`` of them stored (``by_line``), or every token in order."""
+    line, at most ``rows_max`` of them stored (``by_line``), or every token in order.
+
+    ``compiled``: run the compiled loop (True) or the numpy path (False); None chooses by :func:`use_compiled`.
+    """
+    if compiled is None:
+        compiled = use_compiled(u.shape[0])
+    if not compiled:
+        return _scan_numpy(u.tobytes(), width, rows_max, by_line)
     size = rows_max * width if by_line else u.shape[0] // 2 + 1  # tokens are at least one byte and a separator
     values = np.empty(size)
     info = np.zeros(8, np.int64)
@@ -223,22 +265,121 @@ def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line:
                      int(info[_LAST_DATA]), int(info[_FIRST_DATA]), int(info[_EXTRA]), bad, nonfinite)
 
 
-def parse_numbers(data: bytes | NDArray[np.uint8]) -> tuple[NDArray[np.float64], int | None]:
+# every byte the compiled loop takes as a separator (<= 32) but the line feed, as a space: then ``bytes.split()``
+# finds exactly its tokens (it would not split at bytes 0-8 or 14-31 itself)
+_TO_SPACE = bytes.maketrans(bytes(b for b in range(33) if b != 10), b" " * 32)
+
+
+def _scan_numpy(data: bytes, width: int, rows_max: int, by_line: bool) -> BlockScan:
+    """:func:`scan_block` without numba: the same tokens, layout checks, values and errors (tested side by side).
+
+    Tokens come from ``bytes.split`` (line by line when ``by_line``) and are converted by Python's ``float``
+    (the compiled loop's values are bit-identical to it), all at once when the text is ASCII without ``_``.
+    """
+    text = data.translate(_TO_SPACE)
+    chunks: list[tuple[int, int, int]] = []  # (first slot, tokens, line) of each stored run of tokens
+    rows = wrong_count = 0
+    first_wrong = last_data = first_data = extra = -1
+    if by_line:
+        tokens: list[bytes] = []
+        short = False
+        for line_no, line in enumerate(text.split(b"\n")):
+            words = line.split()
+            if not words:
+                continue
+            n = len(words)
+            if n != width and first_wrong < 0:
+                first_wrong, wrong_count = line_no, n
+            if first_data < 0:
+                first_data = line_no
+            last_data = line_no
+            if rows == rows_max:
+                extra = line_no
+            if rows < rows_max:
+                stored = words if n <= width else words[:width]
+                short |= n < width
+                chunks.append((rows * width, len(stored), line_no))
+                tokens.extend(stored)
+            rows += 1
+        values = np.empty(rows_max * width)
+    else:
+        tokens = text.split()
+        values = np.empty(len(tokens))
+        chunks.append((0, len(tokens), -1))  # lines found on demand (only for an error)
+    converted, bad_index = _floats(tokens, data.isascii() and b"_" not in data)
+    if by_line and short:
+        k = 0
+        for slot, n, _ in chunks:
+            values[slot:slot + n] = converted[k:k + n]
+            k += n
+    else:
+        values[:converted.shape[0]] = converted
+    bad = nonfinite = None
+    finite = np.isfinite(converted[:bad_index])
+    if bad_index is not None:
+        bad = _located(bad_index, tokens, chunks, text, by_line)
+    if not finite.all():
+        nonfinite = _located(int(np.argmin(finite)), tokens, chunks, text, by_line)
+    return BlockScan(values, rows, first_wrong, wrong_count, last_data, first_data, extra, bad, nonfinite)
+
+
+def _floats(tokens: list[bytes], clean: bool) -> tuple[NDArray[np.float64], int | None]:
+    """``float`` of each token, and the index of the first that is not a number (None if all are); values from
+    that index on are NaN.  ``clean``: the tokens are ASCII without ``_`` (``float`` alone decides)."""
+    n = len(tokens)
+    if clean:
+        try:
+            return np.fromiter(map(float, tokens), np.float64, n), None
+        except ValueError:
+            pass
+    out = np.full(n, np.nan)
+    for k, token in enumerate(tokens):
+        v = _python_float(token)
+        if v is None:
+            return out, k
+        out[k] = v
+    return out, None
+
+
+def _located(index: int, tokens: list[bytes], chunks: list[tuple[int, int, int]], text: bytes,
+             by_line: bool) -> tuple[int, int, str]:
+    """``(slot, line, text)`` of stored token ``index`` (as the compiled loop reports it)."""
+    label = tokens[index].decode("utf-8", "replace")[:40]
+    if not by_line:
+        seen = 0
+        for line_no, line in enumerate(text.split(b"\n")):
+            seen += len(line.split())
+            if seen > index:
+                return index, line_no, label
+    k = 0
+    for slot, n, line_no in chunks:
+        if index < k + n:
+            return slot + index - k, line_no, label
+        k += n
+    raise AssertionError("token index out of range")  # pragma: no cover
+
+
+def parse_numbers(data: bytes | NDArray[np.uint8], compiled: bool | None = None
+                  ) -> tuple[NDArray[np.float64], int | None]:
     """Values of all whitespace-separated tokens of ``data``, bit-identical to ``float(token)``, and the index of
-    the first token that is not a number (None if all are; ``nan`` and ``inf`` are numbers here)."""
+    the first token that is not a number (None if all are; ``nan`` and ``inf`` are numbers here).  ``compiled``
+    as for :func:`scan_block`."""
     u = np.frombuffer(data, np.uint8) if isinstance(data, (bytes, bytearray, memoryview)) else data
-    scan = scan_block(u, by_line=False)
+    scan = scan_block(u, by_line=False, compiled=compiled)
     return scan.values, None if scan.bad is None else scan.bad[0]
 
 
-@jit
-def first_control_byte(u):
-    """Offset of the first control byte of ``u`` other than tab, LF, VT, FF, CR (bytes 9..13), or -1."""
-    for i in range(u.shape[0]):
-        c = u[i]
-        if c < 32 and (c < 9 or c > 13):
-            return i
-    return -1
+# every byte but the control bytes a text file may not hold (bytes 0-8 and 14-31)
+_NOT_CONTROL = bytes(range(9, 14)) + bytes(range(32, 256))
+
+
+def first_control_byte(data: bytes) -> int:
+    """Offset of the first control byte of ``data`` other than tab, LF, VT, FF, CR (bytes 9..13), or -1.
+
+    ``bytes.translate`` deletes every other byte in one C pass (hundreds of MB/s, no numba): what is left are
+    the control bytes in file order, and the first of them is found with ``bytes.find``."""
+    rest = data.translate(None, _NOT_CONTROL)
+    return data.find(rest[:1]) if rest else -1
 
 
 def _python_float(token: bytes) -> float | None:
