@@ -26,6 +26,13 @@ anywhere in a batch; float32 rotations are the float64 ones rounded.  Conversion
 * ``WORLD_QUAT`` / ``WORLD_IDENTITY``: a rotation in world axes, ``r / |r|`` (or the parent's, for a joint that
   does not rotate), made local: ``conj(G_parent) r``, ``G`` the world rotations decoded so far (the
   dual-quaternion representation's real parts); a plan with one such joint has one for every joint.
+
+:func:`decode_euler_numpy` is the kernel's Euler conversion in numpy, bit for bit, for reading small BVH files
+without numba (``motionrep.io._numbers.use_compiled``).
+
+Size: one concern, features to poses; the kernel is one function by design (one compiled pass for every kind),
+its inline helpers are one conversion each, and the numpy copy of its Euler branch stands beside the arithmetic it
+must reproduce operation for operation.
 """
 
 from __future__ import annotations

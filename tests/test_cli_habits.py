@@ -238,6 +238,15 @@ def test_help_and_info_start_light(walk):
     assert not _tops(info) & (heavy - {"numpy"})
 
 
+def test_info_on_hdf5_leaves_h5py_to_the_reader_process(tmp_path, walk):
+    """Reading HDF5 runs h5py in a worker process (motionrep.io._h5read); the command's own process does not
+    import it (nor numba or scipy)."""
+    h5 = tmp_path / "walk.h5"
+    write(read(walk), h5)
+    info = _imported_by(["info", str(h5)])
+    assert not _tops(info) & {"h5py", "numba", "scipy", "torch", "pluggy"}
+
+
 # ---- messages -------------------------------------------------------------------------------------------------
 def test_evaluate_names_the_first_differing_joint_and_keeps_argument_order(tmp_path, walk):
     text = walk.read_text().replace("LeftUpLeg", "leftupleg")

@@ -28,10 +28,22 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-import h5py
 import numpy as np
 
 __all__ = ["Session", "Refused", "ALLOWED_FILTERS", "serve"]
+
+h5py: Any = None  # the module, imported by the first Session (see _load_h5py)
+
+
+def _load_h5py() -> None:
+    """Import h5py for this module.  The worker and an in-process session need it; a process that only forwards
+    requests to a worker (:mod:`motionrep.io._h5read` imports :class:`Refused` from here) does not, and is spared
+    its start-up (h5py's import costs about as much as numpy's)."""
+    global h5py
+    if h5py is None:
+        import h5py as module
+
+        h5py = module
 
 #: HDF5 filters a motionrep file may use: deflate (gzip), shuffle, Fletcher-32 checksum, LZF (built into h5py).
 ALLOWED_FILTERS = {1: "deflate", 2: "shuffle", 3: "fletcher32", 32000: "lzf"}
@@ -54,6 +66,7 @@ class Session:
     """Open HDF5 files by integer handle, and the requests a reader makes of them."""
 
     def __init__(self) -> None:
+        _load_h5py()
         self.files: dict[int, h5py.File] = {}
         self.next_id = 1
         _no_plugins()

@@ -23,9 +23,8 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import h5py
 import numpy as np
 from numpy.typing import NDArray
 
@@ -33,6 +32,9 @@ from ..limits import current as current_limits
 from .._model import Motion
 from ..errors import FormatError, HDF5FormatError, ValidationError
 from ._atomic import atomic_path
+
+if TYPE_CHECKING:  # h5py is imported by the writer only: reading runs h5py in a worker process (_h5read)
+    import h5py
 from ._features import FeatureClip, motion_from_features
 from ._files import check_regular, open_regular
 from ._h5read import H5Error, H5Reader
@@ -107,6 +109,8 @@ def _attr(value: Any) -> Any:
 
 def _dataset(group: h5py.Group, name: str, value: Any, compress: bool) -> None:
     """A dataset with a Fletcher-32 checksum (empty ones have no data to check: HDF5 cannot chunk them)."""
+    import h5py
+
     if isinstance(value, list):  # strings: fixed-length UTF-8, NUL-padded (names never hold NUL)
         encoded = [v.encode("utf-8") for v in value]
         length = max([1, *map(len, encoded)])
@@ -168,6 +172,8 @@ def write_database(clips: Iterable[tuple[str, Motion | FeatureClip]] | Mapping[s
         HDF5FormatError: naming the file, for an invalid or duplicate clip name or an empty ``clips``.
         ValidationError: for a value that is neither a Motion nor a FeatureClip, or a string with NUL.
     """
+    import h5py
+
     pairs = clips.items() if isinstance(clips, Mapping) else clips
     written: list[str] = []
     seen: set[str] = set()
