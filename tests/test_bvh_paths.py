@@ -109,6 +109,16 @@ def test_edited_frames_read_alike(edit):
     assert_same(*read_both(VALID.replace(old, new)))
 
 
+@pytest.mark.parametrize("batch", [1, 5, 9, 1 << 16])
+def test_batches_of_the_numpy_path_change_nothing(batch, monkeypatch):
+    monkeypatch.setattr(_numbers, "_BATCH", batch)  # tokens converted at a time
+    texts = [bvh_text(NUMBERS * 3), VALID.replace("1 2 3 90 0 0 0 0 0", "1 2 3 90 0 0 0 nan 0"),
+             VALID.replace("0 0 0 0 90 0 -90 0 0", "0 0 0 0 90 0 -90 inf 0").replace("1 2 3 90", "1 inf 3 x"),
+             VALID.replace("1 2 3 90 0 0 0 0 0", "1 2 3 90 0 0 0 0"), VALID.replace("-90 0 0", "-90 0 0 junk")]
+    for text in texts:
+        assert_same(*read_both(text))
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated())
 def test_mutated_text_reads_alike(data):

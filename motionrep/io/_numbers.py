@@ -202,13 +202,13 @@ class BlockScan:
 
 
 #: Bytes of BVH text a process reads through the numpy path (:func:`use_compiled`) before it switches to the
-#: compiled loops for good.  Chosen by measurement (``benchmarks/io.py``, *Which path*, 2026-12-02, load ~2 on the
-#: 2-core AMD EPYC machine): a fresh process pays 1.5-2 s (about 3-5 s at load 7) to import numba and load the
-#: cached machine code of the reader's kernels before it parses a byte; the numpy path parses 15-25 MB/s (7.6 MB/s
-#: at load 8), the compiled one 60-90 MB/s (then also Euler angles: numpy ~40 M angles/s against ~150 M).  Break-even
-#: is at about 25-35 MB of text read in one process; 16 MB keeps the numpy path where it is clearly the faster
-#: (a process reading one typical clip: 0.05-3 MB), and a process that reads much more (a batch) pays numba's
-#: start-up once and then reads at the compiled speed: at worst about 2x the best choice in hindsight.
+#: compiled loops for good: the break-even measured by ``benchmarks/io.py`` (2026-12-02, 46 real files, load 5 on
+#: the shared 2-core AMD EPYC machine): a fresh process pays 1.96 s to import numba and load the cached machine
+#: code of the reader's kernels (1.5-2 s at load 1) before it reads a byte; the numpy path then reads 6.8 MB/s, the
+#: compiled one 28.6 MB/s, i.e. 0.112 s more per MB, so numba's start-up is won back after ~18 MB read in one
+#: process.  Below that the numpy path is the faster (a process reading one typical clip: 0.05-3 MB); a process
+#: that reads more (a batch) pays numba's start-up once and then reads at the compiled speed: at worst about twice
+#: the best choice in hindsight (the rent-or-buy rule).
 NUMPY_PATH_BUDGET = 16_000_000
 _numpy_path_bytes = 0
 
@@ -270,57 +270,75 @@ def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line:
 _TO_SPACE = bytes.maketrans(bytes(b for b in range(33) if b != 10), b" " * 32)
 
 
+_BATCH = 1 << 16  # tokens converted at a time: only one batch's token objects are alive, not the whole file's
+
+
 def _scan_numpy(data: bytes, width: int, rows_max: int, by_line: bool) -> BlockScan:
     """:func:`scan_block` without numba: the same tokens, layout checks, values and errors (tested side by side).
 
     Tokens come from ``bytes.split`` (line by line when ``by_line``) and are converted by Python's ``float``
-    (the compiled loop's values are bit-identical to it), all at once when the text is ASCII without ``_``.
+    (the compiled loop's values are bit-identical to it), a batch of lines at a time, each batch at once when the
+    text is ASCII without ``_``.
     """
     text = data.translate(_TO_SPACE)
-    chunks: list[tuple[int, int, int]] = []  # (first slot, tokens, line) of each stored run of tokens
+    clean = data.isascii() and b"_" not in data
+    if not by_line:
+        tokens = text.split()
+        values, index = _floats(tokens, clean)
+        whole = [(0, len(tokens), -1)]  # lines found on demand (only for an error)
+        finite = np.isfinite(values[:index])
+        return BlockScan(values, 0, -1, 0, -1, -1, -1,
+                         None if index is None else _located(index, tokens, whole, text, False),
+                         None if finite.all() else _located(int(np.argmin(finite)), tokens, whole, text, False))
+    values = np.empty(rows_max * width)
+    pending: list[bytes] = []
+    chunks: list[tuple[int, int, int]] = []  # (first slot, tokens, line) of each line's stored tokens in `pending`
+    found: dict[str, tuple[int, int, str]] = {}  # "bad", "nonfinite": as the compiled loop reports them
+
+    def convert() -> None:
+        converted, index = _floats(pending, clean)
+        first, last = chunks[0], chunks[-1]
+        if last[0] + last[1] - first[0] == len(pending):  # no short line: one run of slots
+            values[first[0]:first[0] + len(pending)] = converted
+        else:
+            k = 0
+            for slot, n, _ in chunks:
+                values[slot:slot + n] = converted[k:k + n]
+                k += n
+        finite = np.isfinite(converted[:index])  # the first non-finite value before the first non-number
+        if "nonfinite" not in found and not finite.all():
+            found["nonfinite"] = _located(int(np.argmin(finite)), pending, chunks, text, True)
+        if index is not None:
+            found["bad"] = _located(index, pending, chunks, text, True)
+        pending.clear()
+        chunks.clear()
+
     rows = wrong_count = 0
     first_wrong = last_data = first_data = extra = -1
-    if by_line:
-        tokens: list[bytes] = []
-        short = False
-        for line_no, line in enumerate(text.split(b"\n")):
-            words = line.split()
-            if not words:
-                continue
-            n = len(words)
-            if n != width and first_wrong < 0:
-                first_wrong, wrong_count = line_no, n
-            if first_data < 0:
-                first_data = line_no
-            last_data = line_no
-            if rows == rows_max:
-                extra = line_no
-            if rows < rows_max:
-                stored = words if n <= width else words[:width]
-                short |= n < width
+    for line_no, line in enumerate(text.split(b"\n")):
+        words = line.split()
+        if not words:
+            continue
+        n = len(words)
+        if n != width and first_wrong < 0:
+            first_wrong, wrong_count = line_no, n
+        if first_data < 0:
+            first_data = line_no
+        last_data = line_no
+        if rows == rows_max:
+            extra = line_no
+        if rows < rows_max and "bad" not in found:  # after a non-number the compiled loop stops converting too
+            stored = words if n <= width else words[:width]
+            if stored:
                 chunks.append((rows * width, len(stored), line_no))
-                tokens.extend(stored)
-            rows += 1
-        values = np.empty(rows_max * width)
-    else:
-        tokens = text.split()
-        values = np.empty(len(tokens))
-        chunks.append((0, len(tokens), -1))  # lines found on demand (only for an error)
-    converted, bad_index = _floats(tokens, data.isascii() and b"_" not in data)
-    if by_line and short:
-        k = 0
-        for slot, n, _ in chunks:
-            values[slot:slot + n] = converted[k:k + n]
-            k += n
-    else:
-        values[:converted.shape[0]] = converted
-    bad = nonfinite = None
-    finite = np.isfinite(converted[:bad_index])
-    if bad_index is not None:
-        bad = _located(bad_index, tokens, chunks, text, by_line)
-    if not finite.all():
-        nonfinite = _located(int(np.argmin(finite)), tokens, chunks, text, by_line)
-    return BlockScan(values, rows, first_wrong, wrong_count, last_data, first_data, extra, bad, nonfinite)
+                pending.extend(stored)
+                if len(pending) >= _BATCH:
+                    convert()
+        rows += 1
+    if pending:
+        convert()
+    return BlockScan(values, rows, first_wrong, wrong_count, last_data, first_data, extra, found.get("bad"),
+                     found.get("nonfinite"))
 
 
 def _floats(tokens: list[bytes], clean: bool) -> tuple[NDArray[np.float64], int | None]:

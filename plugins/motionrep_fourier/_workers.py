@@ -14,8 +14,7 @@ import math
 import multiprocessing
 import os
 import threading
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from typing import Any, Callable, Iterable, Iterator, NamedTuple
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,6 +25,9 @@ from motionrep.errors import BoundNotMetError
 from ._network import network_forward
 from ._packed import dequantized, unpack
 from ._windows import local_times
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
 
 __all__ = ["Task", "Outcome", "WindowJob", "Runner", "worker_count", "WindowContext"]
 
@@ -168,6 +170,10 @@ class Runner:
             while (task := self._next()) is not None:
                 yield task, self.job(task)  # the context counted this task's evaluations itself
             return
+        # imported here: concurrent.futures.process (and multiprocessing's connections) cost start-up time that a
+        # process which only describes or decodes a file (`motionrep info clip.mrc`) should not pay
+        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
         global _JOB
         fork = multiprocessing.get_context("fork")
         self.job.relay = relay = fork.SimpleQueue()  # the workers' progress, passed on here
