@@ -207,11 +207,9 @@ def decode_euler_numpy(features: ArrayLike, plan: PosePlan, rotations: NDArray) 
             axis = plan.axes[rows, k]
             ex, ey, ez = (axis == 0).astype(np.float64), (axis == 1).astype(np.float64), (axis == 2).astype(np.float64)
             bx, by, bz, bw = s * ex, s * ey, s * ez, cs
-            ax, ay, az, aw = QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows]
-            QX[:, rows] = aw * bx + ax * bw + ay * bz - az * by  # _times, term by term
-            QY[:, rows] = aw * by - ax * bz + ay * bw + az * bx
-            QZ[:, rows] = aw * bz + ax * by - ay * bx + az * bw
-            QW[:, rows] = aw * bw - ax * bx - ay * by - az * bz
+            # the kernel's product helper itself, run by numpy on the arrays: the same expressions
+            QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows] = _product.py_func(
+                QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows], bx, by, bz, bw)
     for c, Q in enumerate((QX, QY, QZ, QW)):
         rotations[:, plan.joints, c] = Q
 
