@@ -34,7 +34,7 @@ import contextlib
 import os
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Iterator, Sequence, TypeVar
+from typing import Any, Callable, Collection, Iterable, Iterator, Sequence, TypeVar
 
 from ._model import Motion
 from .errors import FormatError, MotionrepError, ParameterError
@@ -244,6 +244,8 @@ class ClipJob:
         timeout: seconds the clip may take (None: no limit).
         data: the bytes of the clip's file, sent by the client to workers that cannot read its path (None: the
             worker reads ``ref.path``).
+        read: for a clip of a database or archive sent that way, ``(motion, source checksum)`` as the client read
+            them, or the error reading it gave (raised in the worker: the clip fails, the others go on).
     """
 
     ref: ClipRef
@@ -251,10 +253,15 @@ class ClipJob:
     expect: str | None = None
     timeout: float | None = None
     data: bytes | None = field(default=None, repr=False)
+    read: tuple[Motion, str] | MotionrepError | None = field(default=None, repr=False)
 
 
 def _read_job(job: ClipJob) -> tuple[Motion, str]:
-    """The clip and its source checksum, from its path or from the bytes the client sent."""
+    """The clip and its source checksum, from its path or from what the client sent."""
+    if isinstance(job.read, MotionrepError):
+        raise job.read
+    if job.read is not None:
+        return job.read
     if job.data is None:
         return job.ref.read_with_checksum()
     import tempfile
@@ -295,7 +302,7 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
                    on_done: Callable[[ClipOutcome], None] | None = None, expect: dict[str, str] | None = None,
-                   timeout: float | None = None, send_data: bool = False) -> list[ClipOutcome]:
+                   timeout: float | None = None, send_data: bool | Collection[str] = False) -> list[ClipOutcome]:
     """Compress every clip with ``pipeline`` (a :class:`motionrep.compress.Pipeline`); a clip that fails (bound
     not met, unreadable, over its time limit) gives a failed :class:`ClipOutcome` and the others go on.
 
@@ -307,25 +314,32 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
         expect: ``{name: source checksum}`` of clips the output already holds with this setting: such a clip is
             skipped when its source is unchanged (``--resume``).
         timeout: seconds each clip may take.
-        send_data: read each clip's file here and send its bytes to the worker (workers that do not share this
-            file system); by default workers read the clips by path.
+        send_data: read clips here and send them to the workers (workers that do not share this file system):
+            True for every clip, or the paths (``ref.path``) of the files whose clips are sent; a file of one clip
+            is sent as its bytes, a clip of a database or archive as the clip read here and its source checksum.
+            By default workers read the clips by path.
 
     Returns:
         One outcome per clip, in ``refs`` order.
     """
     expect = expect or {}
 
+    sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
+
     def jobs_of() -> Iterator[ClipJob]:
         for ref in refs:
-            data = None
-            if send_data and ref.clip is None:
-                with open(ref.path, "rb") as f:
-                    data = f.read()
-            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data)
+            data = read = None
+            if send_data is True or (sent is not None and ref.path in sent):
+                if ref.clip is None:
+                    with open(ref.path, "rb") as f:
+                        data = f.read()
+                else:
+                    try:
+                        read = ref.read_with_checksum()
+                    except MotionrepError as exc:
+                        read = exc
+            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read)
 
-    if send_data and any(ref.clip is not None for ref in refs):
-        raise ParameterError("sending clips to the workers works for files of one clip (BVH, NPZ, .mrc); workers "
-                             "must read databases and archives by path")
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
     return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
                      on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),

@@ -18,6 +18,8 @@ setting                    environment variable                default      what
                                                                             the file (any file may decode to 64 MiB)
 ``read_timeout``           ``MOTIONREP_READ_TIMEOUT``          60 s         seconds one HDF5 read may take (0: no
                                                                             watchdog)
+``max_stdin_bytes``        ``MOTIONREP_MAX_STDIN_BYTES``       16 GiB       standard input (``-``), copied to a
+                                                                            temporary file to be read
 =========================  ==================================  ===========  ========================================
 
 Byte sizes in the environment accept ``K``, ``M``, ``G`` suffixes (powers of 1024).  In Python::
@@ -42,7 +44,8 @@ from dataclasses import dataclass
 
 from .errors import ValidationError
 
-__all__ = ["Limits", "DEFAULTS", "ENVIRONMENT", "current", "override", "set_limits", "clip_bytes", "check_clip"]
+__all__ = ["Limits", "DEFAULTS", "ENVIRONMENT", "current", "override", "set_limits", "clip_bytes", "check_clip",
+           "size_text"]
 
 
 @dataclass(frozen=True)
@@ -58,9 +61,10 @@ class Limits:
     max_metadata_bytes: int = 16 << 20
     max_mrc_expansion: int = 10_000
     read_timeout: float = 60.0
+    max_stdin_bytes: int = 16 << 30
 
     def __post_init__(self) -> None:
-        for name in ("max_frames", "max_clip_bytes", "max_metadata_bytes", "max_mrc_expansion"):
+        for name in ("max_frames", "max_clip_bytes", "max_metadata_bytes", "max_mrc_expansion", "max_stdin_bytes"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValidationError(f"limit {name} must be a positive integer, got {value!r}")
@@ -75,7 +79,8 @@ DEFAULTS = Limits()
 #: Environment variable of each setting.
 ENVIRONMENT = {"max_frames": "MOTIONREP_MAX_FRAMES", "max_clip_bytes": "MOTIONREP_MAX_CLIP_BYTES",
                "max_metadata_bytes": "MOTIONREP_MAX_METADATA_BYTES",
-               "max_mrc_expansion": "MOTIONREP_MAX_MRC_EXPANSION", "read_timeout": "MOTIONREP_READ_TIMEOUT"}
+               "max_mrc_expansion": "MOTIONREP_MAX_MRC_EXPANSION", "read_timeout": "MOTIONREP_READ_TIMEOUT",
+               "max_stdin_bytes": "MOTIONREP_MAX_STDIN_BYTES"}
 #: Clip memory any ``.mrc`` file may decode to, whatever its size (``max_mrc_expansion`` applies beyond it).
 MRC_FREE_BYTES = 64 << 20
 
@@ -172,16 +177,17 @@ def check_clip(frames: int, what: str, *, joints: int = 0, translated: int = 0, 
                 f"(raise {ENVIRONMENT['max_frames']} to read it)")
     size = clip_bytes(frames, joints, translated, angles, features)
     if size > lim.max_clip_bytes:
-        return (f"{what}: a clip of {frames} frames needs {_size(size)} in memory, more than the limit of "
-                f"{_size(lim.max_clip_bytes)} (raise {ENVIRONMENT['max_clip_bytes']} to read it)")
+        return (f"{what}: a clip of {frames} frames needs {size_text(size)} in memory, more than the limit of "
+                f"{size_text(lim.max_clip_bytes)} (raise {ENVIRONMENT['max_clip_bytes']} to read it)")
     if mrc_bytes is not None and size > max(MRC_FREE_BYTES, lim.max_mrc_expansion * mrc_bytes):
-        return (f"{what}: a clip of {frames} frames needs {_size(size)} in memory, more than "
+        return (f"{what}: a clip of {frames} frames needs {size_text(size)} in memory, more than "
                 f"{lim.max_mrc_expansion} times the {mrc_bytes}-byte container (raise "
                 f"{ENVIRONMENT['max_mrc_expansion']} to read it)")
     return None
 
 
-def _size(n: int) -> str:
+def size_text(n: int) -> str:
+    """``n`` bytes for a message: ``1.5 GiB``, ``12.0 MiB``, ``300 bytes``."""
     for unit, shift in (("GiB", 30), ("MiB", 20), ("KiB", 10)):
         if n >= 1 << shift:
             return f"{n / (1 << shift):.1f} {unit}"

@@ -58,7 +58,7 @@ def test_bvh_from_standard_input(tmp_path, walk):
     assert r.exit_code == 0, r.output
     assert np.array_equal(read(tmp_path / "from_stdin.npz").rotations, read(walk).rotations)
     r = run("convert", "-", tmp_path / "x.npz", input=b"not a motion")
-    assert r.exit_code == 2 and "standard input is not BVH text" in error_line(r)
+    assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>: is not BVH text, an NPZ file")
 
 
 def test_a_compressed_clip_from_standard_input(tmp_path, walk, walk_mrc):
@@ -110,7 +110,8 @@ def test_decompress_standard_input_errors(tmp_path, walk, walk_mrc):
     r = run("decompress", "-", "-o", "-", input=walk_mrc.read_bytes()[:-20])  # truncated: nothing written
     assert r.exit_code == 1 and error_line(r).startswith("Error: <stdin>: ") and r.stdout_bytes == b""
     r = run("decompress", "-", "-o", tmp_path / "x.bvh", input=walk.read_bytes())
-    assert r.exit_code == 2 and "standard input is not a .mrc file" in error_line(r)
+    assert r.exit_code == 1 and "<stdin>: is BVH text; this command reads a .mrc file or an HDF5 file" \
+        in error_line(r)
     assert not (tmp_path / "x.bvh").exists()
     r = run("decompress", walk_mrc, "-o", tmp_path / "x.bvh", "--format", "npz")
     assert r.exit_code == 2 and "--format applies only" in error_line(r)

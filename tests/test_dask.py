@@ -85,6 +85,21 @@ def test_the_cluster_runs_a_batch(cluster, tmp_path):
     assert r.exit_code == 2
 
 
+def test_standard_input_is_sent_to_the_cluster(cluster, tmp_path):
+    """'-' with --scheduler: Dask workers cannot read this machine's standard input (or its temporary copy), so
+    the client reads the clips and sends them, and says so in one line; the same bytes as from the file."""
+    _, db = _inputs(tmp_path)
+    local = tmp_path / "local.h5"
+    assert run("compress", db, "-o", local, "--codec", "svd").exit_code == 0
+    r = CliRunner().invoke(cli, ["compress", "-", "-o", str(tmp_path / "piped.h5"), "--codec", "svd", "--json",
+                                 "--scheduler", cluster.scheduler_address], input=db.read_bytes())
+    assert r.exit_code == 0, r.output
+    assert r.stderr.splitlines()[0] == ("note: <stdin> is read here and its clips sent to the Dask workers (as "
+                                        "--send-clips does)")
+    assert json.loads(r.stdout)["totals"]["compressed"] == 3
+    assert _archive_bytes(tmp_path / "piped.h5") == _archive_bytes(local)
+
+
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setattr("motionrep.executors.CONNECT_TIMEOUT", "1s")
     src, _ = _inputs(tmp_path)

@@ -121,7 +121,7 @@ def test_the_command_modules_are_light():
     for module in sorted((PACKAGE / "cli").glob("*.py")):
         if module.name == "__init__.py":
             continue
-        imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli"}
+        imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli"}
         assert imported <= {"motionrep.errors"}, f"{module.name} imports {sorted(imported)} at module level"
 
 

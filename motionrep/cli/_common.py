@@ -1,6 +1,7 @@
 """What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks, the one
 overwrite policy (``--force``), the one way a run ends on a signal (:class:`Interrupted`), ``-`` for
-standard input and output, glob patterns in inputs, and how ``--max-error`` was read.
+standard output (standard input: :mod:`motionrep.cli._stdin`, re-exported here), glob patterns in inputs, and
+how ``--max-error`` was read.
 
 Overwrite policy, the same for every command: an output that exists is an error (exit 1, naming it and saying
 ``--force``) unless ``--force`` is given; a command that can go on with what an interrupted run left
@@ -29,37 +30,20 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 import click
 
 from ..errors import Interrupted
+from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
-           "expand_globs", "display_name", "STDIN_NAME", "STDOUT_NAME", "bound_for", "OUT_FORMATS"]
+           "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS"]
 
-#: A path given as ``-``: standard input (an input) or standard output (an output).
-STDIO = "-"
-#: How messages name standard input.
-STDIN_NAME = "<stdin>"
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"
-# temporary files standing for standard input, and how messages should name them
-_DISPLAY: dict[str, str] = {}
 
 #: Suffixes of the motion files commands write (the format from the suffix).
 MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
 #: ``--format`` of a command writing motions to standard output or a directory: the suffix each name stands for.
 OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5", "glb": ".glb", "gltf": ".gltf"}
-
-
-def is_stdio(path: Any) -> bool:
-    """True for ``-`` (standard input or output)."""
-    return str(path) == STDIO
-
-
-def display_name(text: str) -> str:
-    """``text`` with the temporary files standing for standard input named ``<stdin>``."""
-    for tmp, shown in _DISPLAY.items():
-        text = text.replace(tmp, shown)
-    return text
 
 
 # ---- several outputs --------------------------------------------------------------------------------------------
@@ -71,53 +55,6 @@ def check_outputs(paths: Iterable[Any], force: bool) -> None:
 
 
 # ---- standard input and output -----------------------------------------------------------------------------------
-def _sniff(data: bytes) -> str | None:
-    """The suffix of what ``data`` holds: ``.mrc`` (its magic) or ``.bvh`` (text starting with HIERARCHY)."""
-    from ..container import MAGIC
-
-    if data.startswith(MAGIC):
-        return ".mrc"
-    head = data[:64].lstrip(b"\xef\xbb\xbf \t\r\n")
-    if head[:9].upper() == b"HIERARCHY":
-        return ".bvh"
-    return None
-
-
-@contextlib.contextmanager
-def stdin_inputs(paths: Sequence[Any], allowed: Iterable[str] = (".bvh", ".mrc")) -> Iterator[list[Any]]:
-    """``paths`` with ``-`` replaced by a temporary file holding standard input, its format told by its first
-    bytes (BVH text, or a ``.mrc`` container); messages name it ``<stdin>``.  At most one ``-``.
-
-    Raises:
-        click.UsageError: for two ``-``, or standard input that is not one of the ``allowed`` formats.
-    """
-    dashes = [i for i, p in enumerate(paths) if is_stdio(p)]
-    if not dashes:
-        yield list(paths)
-        return
-    if len(dashes) > 1:
-        raise click.UsageError("standard input ('-') can be read only once")
-    allowed = tuple(allowed)
-    if sys.stdin is None or sys.stdin.isatty():
-        raise click.UsageError("'-' reads standard input, but nothing is piped into it")
-    data = sys.stdin.buffer.read()
-    suffix = _sniff(data)
-    if suffix not in allowed:
-        what = " or ".join({".bvh": "BVH text", ".mrc": "a .mrc file"}[a] for a in allowed)
-        found = "is empty" if not data else f"is not {what}"
-        raise click.UsageError(f"standard input {found}: this command reads {what} from '-'")
-    folder = tempfile.mkdtemp(prefix="motionrep-stdin-")
-    tmp = Path(folder) / f"stdin{suffix}"
-    tmp.write_bytes(data)
-    _DISPLAY[str(tmp)] = STDIN_NAME
-    try:
-        out = list(paths)
-        out[dashes[0]] = tmp
-        yield out
-    finally:  # the name stays known: the error being raised, if any, is printed after this
-        shutil.rmtree(folder, ignore_errors=True)
-
-
 @contextlib.contextmanager
 def stdout_output(path: Any, suffix: str) -> Iterator[Path]:
     """The file to write: ``path`` itself, or for ``-`` a temporary ``stdout<suffix>`` file that is copied to

@@ -18,9 +18,9 @@ from typing import Any
 
 import click
 
-from ._common import (STDOUT_NAME, BatchProgress, CodecProgress, Interrupted, check_overwrite, collect,
-                      display_name, echo_json, force_option, is_stdio, parse_params, stdin_inputs,
-                      stdout_output)
+from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
+                      check_overwrite, collect, display_name, echo_json, force_option, is_stdio, parse_params,
+                      stdin_inputs, stdout_output)
 
 __all__ = ["compress"]
 
@@ -67,8 +67,9 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
               help="Run the clips on this Dask distributed scheduler (tcp://host:8786) instead of local worker "
                    "processes; needs pip install 'motionrep[dask]'.")
 @click.option("--send-clips", is_flag=True,
-              help="With --scheduler: read each clip's file here and send its bytes to the workers (for workers "
-                   "that do not see this file system); by default they read the clips by path.")
+              help="With --scheduler: read each clip here and send it to the workers (for workers that do not see "
+                   "this file system); by default they read the clips by path. Standard input ('-') is always "
+                   "sent.")
 @click.option("--resume", is_flag=True,
               help="Keep the clips the output already holds from the same source (SHA-256) with the same codec, "
                    "parameters, representation, bound and seed; compress the others.")
@@ -104,9 +105,11 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
     --json: "bound" (file units), "max_error_request" and "max_error_read_as".
 
     \b
-    Standard input and output: IN '-' reads BVH text from standard input
-    (named <stdin>); -o - writes the .mrc to standard output once it is
-    complete, the report going to stderr (not with --json). -f is --force.
+    Standard input and output: IN '-' reads a motion file from standard input
+    (BVH, NPZ, an HDF5 database, .glb; told by its first bytes, named
+    <stdin>); with --scheduler its clips are sent to the workers, which cannot
+    read it (a note says so). -o - writes the .mrc to standard output once it
+    is complete, the report going to stderr (not with --json). -f is --force.
 
     \b
     Examples:
@@ -118,6 +121,7 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
       motionrep compress clips/ -o clips.h5 --codec svd --jobs 2 --resume
       motionrep compress clips/ -o clips.h5 --scheduler tcp://10.0.0.5:8786
       cat walk.bvh | motionrep compress - -o - > walk.mrc
+      cat db.h5 | motionrep compress - -o db_mrc.h5 --scheduler tcp://10.0.0.5:8786
     """
     from ..compress import Pipeline
 
@@ -125,12 +129,15 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
     to_stdout = is_stdio(output)
     if to_stdout and as_json:
         raise click.UsageError("-o - writes the .mrc to standard output, where --json would print too: give one")
-    with stdin_inputs(inputs, allowed=(".bvh",)) as given:
-        _compress(given, output, pipeline, clip, jobs, scheduler, send_clips, resume, force, timeout, as_json)
+    with stdin_inputs(inputs, allowed=MOTION_FORMATS) as given:
+        piped = [str(g) for p, g in zip(inputs, given) if is_stdio(p)]
+        _compress(given, output, pipeline, clip, jobs, scheduler, send_clips or piped, resume, force, timeout,
+                  as_json)
 
 
 def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs: int, scheduler: str | None,
-              send_clips: bool, resume: bool, force: bool, timeout: float | None, as_json: bool) -> None:
+              send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None, as_json: bool
+              ) -> None:
     to_stdout = is_stdio(output)
     to_mrc = to_stdout or output.suffix.lower() == ".mrc"
     to_archive = output.suffix.lower() in (".h5", ".hdf5")
@@ -139,7 +146,7 @@ def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs:
                                "directory")
     if scheduler and jobs > 1:
         raise click.UsageError("--jobs runs local worker processes and --scheduler a Dask cluster: give one")
-    if send_clips and not scheduler:
+    if send_clips is True and not scheduler:
         raise click.UsageError("--send-clips applies with --scheduler")
     if resume and force:
         raise click.UsageError("--resume keeps what the output holds and --force overwrites it: give one")
@@ -203,7 +210,7 @@ def _clip_line(o: Any) -> str:
 
 
 def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jobs: int, scheduler: str | None,
-                   send_clips: bool, resume: bool, force: bool, timeout: float | None) -> None:
+                   send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None) -> None:
     import contextlib
     import time
 
@@ -231,6 +238,9 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             if key is not None:
                 expect[ref.name] = key
                 kept[ref.name] = container_summary(container, store.sizes[ref.name], ref.source, ref.source_bytes)
+    if scheduler and send_clips and send_clips is not True:  # '-': Dask workers cannot read this machine's stdin
+        click.echo(f"note: {STDIN_NAME} is read here and its clips sent to the Dask workers (as --send-clips does)",
+                   err=True)
     outcomes: list = []
     with contextlib.ExitStack() as stack:
         executor = stack.enter_context(dask_executor(scheduler)) if scheduler else None
@@ -245,7 +255,7 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
 
         try:
             compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
-                           timeout=timeout, send_data=send_clips)
+                           timeout=timeout, send_data=send_clips if scheduler else False)
         except KeyboardInterrupt as exc:
             store.close()
             finished = sum(1 for o in outcomes if not o.failed)

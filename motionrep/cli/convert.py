@@ -16,8 +16,8 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (OUT_FORMATS, STDIO, check_outputs, collect, expand_globs, force_option, is_stdio,
-                      stdin_inputs, stdout_output)
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_outputs, collect, expand_globs, force_option,
+                      is_stdio, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
@@ -138,7 +138,8 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     An archive of compressed clips (written by compress) is decoded.
 
     \b
-    Standard input and output: IN '-' reads BVH text from standard input;
+    Standard input and output: IN '-' reads a motion file from standard input
+    (BVH, NPZ, an HDF5 database or archive, .glb; told by its first bytes);
     OUT '-' writes one clip to standard output, as BVH (or --format npz/h5/glb).
     IN may also be a quoted glob pattern ('clips/*.bvh', 'mocap/**/*.bvh').
     An OUT that exists (or a file OUT/ would replace) needs --force; --append
@@ -167,7 +168,7 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     if len(paths) < 2:
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
     raw_out = paths[-1]
-    with stdin_inputs(expand_globs(paths[:-1]), allowed=(".bvh",)) as inputs:
+    with stdin_inputs(expand_globs(paths[:-1]), allowed=MOTION_FORMATS) as inputs:
         _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force, append)
 
 

@@ -59,9 +59,10 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
     --force (-f).
 
     \b
-    Standard input and output: IN '-' reads one .mrc file from standard
-    input; -o - writes the one decoded clip to standard output, as BVH (or
-    --format npz/h5/glb/gltf), only once it is complete.
+    Standard input and output: IN '-' reads a .mrc file or an archive from
+    standard input (told by its first bytes, named <stdin>); -o - writes the
+    one decoded clip to standard output, as BVH (or --format npz/h5/glb/gltf),
+    only once it is complete.
 
     \b
     Examples:
@@ -70,6 +71,7 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
       motionrep decompress clips.h5 -o clips_decoded.h5
       motionrep decompress clips_mrc/ -o clips_decoded/
       cat walk.mrc | motionrep decompress - -o - | head
+      cat clips.h5 | motionrep decompress - -o clips_decoded/
     """
     if fps is not None and not fps > 0:
         raise click.BadParameter("must be > 0", param_hint="--fps")
@@ -79,7 +81,7 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
     for p in inputs:
         if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
-    with stdin_inputs(inputs, allowed=(".mrc",)) as given:
+    with stdin_inputs(inputs, allowed=(".mrc", ".h5")) as given:
         _decompress(given, output, fps, clip, OUT_FORMATS[out_format or "bvh"], force)
 
 
@@ -115,8 +117,8 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             raise click.UsageError(f"output {output} exists and is not a directory")
         for ref in refs:
             check_overwrite(output / f"{ref.name}{suffix}", force)
-        output.mkdir(parents=True, exist_ok=True)
         for ref, motion in decoded_clips(refs, fps):
+            output.mkdir(parents=True, exist_ok=True)  # once the first clip is decoded: no empty OUT/ on error
             write_decoded(motion, output / f"{ref.name}{suffix}")
     else:
         raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "

@@ -28,8 +28,8 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
     files and .mrc files (as written by convert and compress): their clips are
     compared by name (clips named as every command names them), one report per
     clip and the worst of them; --clip NAME compares one clip. Each file is
-    opened once. One of REF and CAND may be '-': BVH text or a .mrc file
-    from standard input (told by their first bytes), named <stdin>.
+    opened once. One of REF and CAND may be '-': BVH, NPZ, HDF5, .glb or .mrc
+    from standard input, told by its first bytes, named <stdin>.
 
     \b
     --json: one clip gives the report's keys (max_error, max_error_percent,
@@ -43,6 +43,7 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) 
       motionrep evaluate db.h5 db_compressed.h5 --json
       motionrep evaluate clips/ clips_mrc/
       motionrep decompress walk.mrc -o - | motionrep evaluate walk.bvh -
+      motionrep evaluate - db.h5 < db_compressed.h5
     """
     with stdin_inputs([reference, candidate]) as (ref_path, cand_path):
         shown = [STDIN_NAME if is_stdio(p) else str(p) for p in (reference, candidate)]

@@ -106,7 +106,8 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
 
     \b
     FILE may be several files, quoted glob patterns ('clips/*.bvh'), or '-'
-    (BVH text or a .mrc file from standard input); each is described in turn.
+    (BVH, NPZ, HDF5, .glb or .mrc from standard input, told by its first
+    bytes: cat db.h5 | motionrep info -); each is described in turn.
 
     \b
     For an HDF5 database of several clips (without --clip): each clip's name,

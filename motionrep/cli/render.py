@@ -86,9 +86,9 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
            max_error: str | None, force: bool) -> None:
     """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, the worst joint circled.
 
-    REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH or .mrc
-    from standard input).  A CAND at another frame rate is resampled at REF's frame times when both span the
-    same time.  A panel under the pictures shows the error over time and the bound.
+    REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH, NPZ,
+    HDF5, .glb or .mrc from standard input).  A CAND at another frame rate is resampled at REF's frame times when
+    both span the same time.  A panel under the pictures shows the error over time and the bound.
 
     \b
     Examples:

@@ -71,9 +71,9 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
     candidate frame by frame with the bound and the worst frame one click away,
     and each clip's facts (codec, parameters, sizes, ratios, errors).  REF and
     CAND may be any motion file motionrep reads, .mrc and .glb included, of the
-    same skeleton; '-' reads BVH or .mrc from standard input; quoted glob
-    patterns give several candidates.  A CAND at another frame rate is resampled
-    at REF's frame times.
+    same skeleton; '-' reads BVH, NPZ, HDF5, .glb or .mrc from standard input;
+    quoted glob patterns give several candidates.  A CAND at another frame
+    rate is resampled at REF's frame times.
 
     \b
     Examples:

@@ -12,10 +12,11 @@ from typing import Iterator
 from .._signals import block, unblock
 from .._signals import check as _check_interrupts
 
-__all__ = ["atomic_path"]
+__all__ = ["atomic_path", "pid_alive"]
 
 
-def _alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """True while process ``pid`` exists (ours or another user's): whether a temporary file it left is stale."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -35,7 +36,7 @@ def _remove_stale(directory: Path, target: Path) -> None:
         return
     for name in names:
         pid = name[len(prefix):].split(".", 1)[0]
-        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+        if pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
             with contextlib.suppress(OSError):
                 (directory / name).unlink()
 
