@@ -29,12 +29,14 @@ from motionrep.codec import CompiledDecoder
 from motionrep.jit import affine_block, affine_one, jit, jit_inline, sincos
 
 __all__ = ["fourier_features", "elu", "Network", "Networks", "network_forward", "network_dtype", "ARRAY_NAMES",
-           "ROWS"]
+           "ROWS", "GROUP"]
 
 #: Payload arrays, in storage order.
 ARRAY_NAMES = ("omega", "W0", "b0", "W1", "b1", "W2", "b2")
 #: Times evaluated together: the block's activations stay in the CPU cache and in vector registers.
 ROWS = 64
+#: Times grouped by window before they are evaluated (one runtime block, ``motionrep.runtime.BLOCK``, or more).
+GROUP = 1024
 #: Payload versions decoded in float64 (their files were measured in float64 when they were written).
 FLOAT64_VERSIONS = (1, 2)
 # per window, the offsets in the flat weights of W0, b0, W1, b1, W2 and of the transposes W0T, W1T, W2T
@@ -121,7 +123,12 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
     boundary frame taken by the later window, at the local time ``(t (F - 1) - edges[s]) / (edges[s + 1] -
     edges[s])``; otherwise one network at ``t`` itself).  Window ``s`` has ``ks[s]`` frequencies starting at
     ``omega[sum ks[:s]]``, ``hs[s]`` hidden units and its weights at ``weights[offsets[s, :]]`` (W0, b0, W1, b1,
-    W2, then W0T, W1T, W2T), arithmetic in ``weights.dtype``; its output bias is ``b2[s]``."""
+    W2, then W0T, W1T, W2T), arithmetic in ``weights.dtype``; its output bias is ``b2[s]``.
+
+    The times are taken :data:`GROUP` at a time and grouped by window (a stable counting sort), and each
+    window's times of the group run through its network :data:`ROWS` at a time: times in random order spread
+    over the windows still fill whole blocks.  Every time's sums are the same whatever block it is in (see the
+    module docstring), so the grouping changes no bit."""
     T, S, D = times.shape[0], ks.shape[0], b2.shape[1]
     dt = weights.dtype
     cast = dt.type
@@ -138,14 +145,15 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
     H1 = np.empty((H, ROWS), dt)
     Y = np.empty((D, ROWS), dt)
     x1, z0, z1, y1 = np.empty(I, dt), np.empty(H, dt), np.empty(H, dt), np.empty(D, dt)
-    window = np.empty(ROWS, np.int64)
-    tau = np.empty(ROWS)
+    G = max(1, min(GROUP, T))
+    window = np.empty(G, np.int64)
+    tau = np.empty(G)
+    order = np.empty(G, np.int64)  # the group's times grouped by window
     local = np.empty(ROWS)
-    order = np.empty(ROWS, np.int64)  # the block's times grouped by window
     start = np.empty(S + 1, np.int64)
     two_pi = 2.0 * np.pi
-    for a in range(0, T, ROWS):
-        m = min(ROWS, T - a)
+    for a in range(0, T, G):
+        m = min(G, T - a)
         for s in range(S + 1):
             start[s] = 0
         for i in range(m):
@@ -175,9 +183,9 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
         begin = 0
         for s in range(S):
             end = start[s]
-            n = end - begin
-            if n == 0:
+            if end == begin:
                 continue
+            identity = end - begin == m  # the whole group in one window: the (stable) order is the identity
             K, h = ks[s], hs[s]
             inputs = 2 * K + 1
             o = offsets[s]
@@ -187,26 +195,28 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
             bias1 = weights[o[3]:o[3] + h]
             W2 = weights[o[4]:o[4] + D * h].reshape((D, h))
             w_omega = omega[first_omega[s]:first_omega[s] + K]
-            if n == 1:  # one time: the same sums, vectorised over the units (affine_one)
-                t = tau[order[begin]]
-                x1[0] = cast(t)
-                for k in range(K):
-                    sn, cs = sincos(two_pi * t * w_omega[k])
-                    x1[1 + 2 * k] = cast(sn)
-                    x1[2 + 2 * k] = cast(cs)
-                # whole scratch arrays, not slices: the layers touch only their rows, and contiguous arrays
-                # keep the loops vectorised (slices are typed as strided)
-                affine_one(weights[o[5]:o[5] + inputs * h].reshape((inputs, h)), bias0, x1, z0)
-                _elu_vector(z0, h, double)
-                affine_one(weights[o[6]:o[6] + h * h].reshape((h, h)), bias1, z0, z1)
-                _elu_vector(z1, h, double)
-                affine_one(weights[o[7]:o[7] + h * D].reshape((h, D)), b2[s], z1, y1)
-                i = order[begin]
-                for d in range(D):
-                    out[d, a + i] = y1[d]
-            else:
-                for r in range(n):  # the window's times, contiguous: the sines below vectorise
-                    local[r] = tau[order[begin + r]]
+            for c in range(begin, end, ROWS):
+                n = min(ROWS, end - c)
+                if n == 1:  # one time: the same sums, vectorised over the units (affine_one)
+                    t = tau[order[c]]
+                    x1[0] = cast(t)
+                    for k in range(K):
+                        sn, cs = sincos(two_pi * t * w_omega[k])
+                        x1[1 + 2 * k] = cast(sn)
+                        x1[2 + 2 * k] = cast(cs)
+                    # whole scratch arrays, not slices: the layers touch only their rows, and contiguous arrays
+                    # keep the loops vectorised (slices are typed as strided)
+                    affine_one(weights[o[5]:o[5] + inputs * h].reshape((inputs, h)), bias0, x1, z0)
+                    _elu_vector(z0, h, double)
+                    affine_one(weights[o[6]:o[6] + h * h].reshape((h, h)), bias1, z0, z1)
+                    _elu_vector(z1, h, double)
+                    affine_one(weights[o[7]:o[7] + h * D].reshape((h, D)), b2[s], z1, y1)
+                    i = a + order[c]
+                    for d in range(D):
+                        out[d, i] = y1[d]
+                    continue
+                for r in range(n):  # the block's times, contiguous: the sines below vectorise
+                    local[r] = tau[order[c + r]]
                     X[0, r] = cast(local[r])
                 for k in range(K):
                     for r in range(n):
@@ -218,14 +228,14 @@ def _networks_kernel(times, out, frames, windowed, double, edges, ks, hs, omega,
                 affine_block(W1, bias1, H0, H1, n)
                 _elu_block(H1, h, n, double)
                 affine_block(W2, b2[s], H1, Y, n)
-                if n == m:  # the whole block in one window: the (stable) order is the identity
+                if identity:
                     for d in range(D):
                         for r in range(n):
-                            out[d, a + r] = Y[d, r]
+                            out[d, a + c + r] = Y[d, r]
                 else:
                     for d in range(D):
                         for r in range(n):
-                            out[d, a + order[begin + r]] = Y[d, r]
+                            out[d, a + order[c + r]] = Y[d, r]
             begin = end
 
 

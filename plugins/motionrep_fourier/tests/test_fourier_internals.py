@@ -285,6 +285,38 @@ def test_windowed_decoding_follows_each_window_and_is_deterministic(windowed):
     assert np.isfinite(y).all()
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_windowed_times_in_any_order_decode_alike_grouped_or_alone(windowed, dtype):
+    """The kernel groups the times of a call by window (GROUP at a time, then ROWS at a time): random, unsorted,
+    repeated and out-of-range times, shared boundary frames and counts around GROUP and ROWS decode to the same
+    bits in one call as one at a time (the single-time path) and as the same times sorted, in float32 (payload
+    versions >= 3) and float64 (versions 1 and 2), so grouping changes no measured value."""
+    from motionrep_fourier._network import GROUP, ROWS
+    from motionrep_fourier._windows import Windows, split_windows
+
+    arrays = windowed.container.arrays
+    edges, _ = split_windows(arrays)
+    F = int(edges[-1]) + 1
+    net = Windows(arrays, dtype=dtype)
+    rng = np.random.default_rng(11)
+    boundaries = edges / (F - 1)
+    special = np.concatenate([boundaries, np.nextafter(boundaries, -1), np.nextafter(boundaries, 2), [-0.25, 1.5]])
+    for count in (1, 2, ROWS + 1, 3 * ROWS + 5, GROUP - 1, GROUP + 3 * ROWS + 1):
+        t = rng.uniform(-0.05, 1.05, count)
+        t[rng.integers(0, count, count // 3)] = t[0]  # duplicates
+        t[:min(count, special.size)] = special[:count]
+        rng.shuffle(t)
+        y = net(t)
+        assert y.shape == (count, net.width) and np.isfinite(y).all()
+        alone = np.concatenate([net(t[i:i + 1]) for i in range(count)])
+        assert np.array_equal(y, alone)
+        order = np.argsort(t, kind="stable")
+        assert np.array_equal(net(t[order]), y[order])
+    # one time of a window among many of another: the single-time path inside a batch
+    t = np.concatenate([np.full(ROWS + 1, 0.9), [0.05], np.full(7, 0.9)])
+    assert np.array_equal(net(t), np.concatenate([net(t[i:i + 1]) for i in range(t.size)]))
+
+
 def test_windowed_payload_checks_its_layout(windowed):
     from motionrep_fourier._windows import windows_forward
 
