@@ -14,7 +14,8 @@ measured.  The core measures the bound on exactly these values (``Codec.decode``
 returns them as float64).
 
 One kernel serves a single network and a clip in windows (``_windows``; a quantised payload is dequantised to
-the same arrays first): each time is decoded by the network of the window it falls in, at its local time.  It writes the features **feature-major**
+the same arrays first): each time is decoded by the network of the window it falls in, at its local time, the
+call's times grouped by window first (:data:`GROUP` at a time) so that each network runs on whole blocks.  It writes the features **feature-major**
 (``out[d, i]``, the layout of the runtime decoder's blocks, ``motionrep.poseplan``).
 """
 
