@@ -308,9 +308,18 @@ def test_equal_scale_in_screen_space(pair):
 
 # ---- what a new user noticed (issue 16) -------------------------------------------------------------------------
 
-@pytest.mark.parametrize("worst", [0, 13, 118, 299])
-def test_the_worst_frame_is_always_in_the_animation(tmp_path, worst):
+@pytest.mark.parametrize("worst", [0, 1, 13, 118, 298, 299])
+@pytest.mark.parametrize("kind", [".gif", ".mp4"])
+def test_the_worst_frame_is_always_among_the_frames_shown(worst, kind):
     """30 fps shown at 25 fps (and a 300-frame clip at 150 --max-frames) skips frames: never the worst one."""
+    shown, rate, notes = render_frames.animation_frames(np.arange(300), False, 30.0, None, 150, kind, worst)
+    assert worst in shown and len(shown) <= 150 and list(shown) == sorted(set(shown.tolist()))
+    assert 0 < rate < 30.0 and not any("worst" in n for n in notes)
+
+
+def test_the_worst_frame_is_in_the_animation_written(tmp_path):
+    """The same end to end, through the GIF written (one case: rendering 150 frames takes seconds)."""
+    worst = 13
     ref = synthetic_motion(humanoid_skeleton(), frames=300, fps=30.0, seed=2)
     cand = _perturbed(ref, JOINT, worst, radians=0.8)
     result = rmod.render(tmp_path / "w.gif", ref, cand, size=SMALL)
