@@ -142,6 +142,76 @@ def test_number_parser_on_both_paths(compiled):
         assert parse_numbers(f"1.5\n{junk} 2".encode(), compiled=compiled)[1] == 1, junk
 
 
+def random_decimals(rng, n: int) -> list[str]:
+    """Decimal tokens of every shape the plain-row parser meets: signs, leading zeros, no integer or no fraction
+    part, 1-20 significant digits (beyond 2**53 too), tokens of 16 and 17 bytes, exponents (down to subnormals
+    and up to the largest doubles)."""
+    out = []
+    for _ in range(n):
+        sign = rng.choice(["", "", "-", "+"])
+        whole = "".join(rng.choice(list("0123456789"), int(rng.integers(0, 11))))
+        frac = "".join(rng.choice(list("0123456789"), int(rng.integers(0, 11))))
+        dot = rng.random() < 0.8
+        if not whole and not frac:
+            whole = "7"
+        text = sign + whole + ("." + frac if dot else frac)
+        if rng.random() < 0.1:
+            text += rng.choice(["e", "E"]) + rng.choice(["", "-", "+"]) + str(int(rng.integers(0, 330)))
+        out.append(text)
+    return out
+
+
+def plain_block(tokens: list[str], width: int, rng) -> bytes:
+    """``tokens`` as lines of ``width``, with random separators, blank lines and maybe no final line feed."""
+    seps = [" ", "  ", "\t", " \x0b", "\x0c ", " \t "]
+    lines = []
+    for k in range(0, len(tokens), width):
+        lines.append(rng.choice(["", " ", "\t"]) + "".join(t + str(rng.choice(seps)) for t in tokens[k:k + width]))
+        if rng.random() < 0.05:
+            lines.append(str(rng.choice(["", "  ", "\t \x0b"])))
+    return ("\n".join(lines) + str(rng.choice(["", "\n", "\n\n"]))).encode()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_plain_rows_are_float_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    width = int(rng.integers(1, 40))
+    tokens = random_decimals(rng, width * 300)
+    tokens[:len(NUMBERS)] = [t for t in NUMBERS if "e" not in t.lower() or float(t) - float(t) == 0.0]
+    tokens = [t for t in tokens if abs(float(t)) < float("inf")]
+    tokens = tokens[:len(tokens) // width * width]
+    values = _numbers.parse_plain_rows(plain_block(tokens, width, rng), len(tokens) // width, width)
+    assert values is not None
+    assert np.array_equal(bits(values), bits(np.array([float(t) for t in tokens])))
+
+
+@pytest.mark.slow
+def test_plain_rows_on_a_million_random_decimals():
+    rng = np.random.default_rng(99)
+    tokens = [t for t in random_decimals(rng, 1_000_000) if abs(float(t)) < float("inf")]
+    tokens = tokens[:len(tokens) // 10 * 10]
+    values = _numbers.parse_plain_rows(plain_block(tokens, 10, rng), len(tokens) // 10, 10)
+    assert np.array_equal(bits(values), bits(np.array([float(t) for t in tokens])))
+
+
+@pytest.mark.parametrize("block", [
+    b"1 2 3\n4 5\n", b"1 2 3\n4 5 6 7\n", b"1 2 3\n4 5 6\n7 8 9\n", b"1 2 3\n", b"1 2 3\r\n4 5 6\r\n",
+    b"1 nan 3\n4 5 6\n", b"1 inf 3\n4 5 6\n", b"1 1e400 3\n4 5 6\n", b"1 2_0 3\n4 5 6\n", b"1 1-2 3\n4 5 6\n",
+    b"1 1.2.3 3\n4 5 6\n", b"1 . 3\n4 5 6\n", b"1 - 3\n4 5 6\n", b"1 +. 3\n4 5 6\n", b"1 e5 3\n4 5 6\n",
+    b"1 1e 3\n4 5 6\n", b"1 --1 3\n4 5 6\n", b"1 0x1p3 3\n4 5 6\n", b"1 2 3\n4 5 \xd9\xa3\n", b"1 2 3 4 5 6\n",
+    b"1 2 3\x004 5 6\n", b"1 +-2 3\n4 5 6\n", b"1 2. 3.e\n4 5 6\n"])
+def test_plain_rows_give_up_on_any_doubt(block):
+    """Each of these is for the exact path to read or to name: the plain-row parser returns None."""
+    assert _numbers.parse_plain_rows(block.ljust(20, b" "), 2, 3) is None
+
+
+def test_the_numpy_path_reads_plain_frames_without_float(monkeypatch):
+    text = bvh_text([f"{v:.6f}" for v in np.random.default_rng(1).uniform(-500, 500, 9 * 50)])
+    want = parse_bvh(text, compiled=True)
+    monkeypatch.setattr(_numbers, "_scan_numpy", None)  # the exact numpy path is not used at all
+    assert_same(parse_bvh(text, compiled=False), want)
+
+
 def test_block_scans_agree_on_layout_findings():
     cases = [b"1 2 3\n4 5 6\n", b"\n\n1 2 3\n4 5\n7 8 9 10\n", b"1 2 3\n4 5 6\n7 8 9\n", b"1 nan 3\n4 x 6\n",
              b"  \t\n", b"1 2 3", b"1\x00 2\x1f3\n4 5 6", b"1 2 3\r\n4 5 6"]

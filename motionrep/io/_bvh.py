@@ -28,7 +28,7 @@ from ..limits import check_clip
 from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._files import read_regular
-from ._numbers import _python_float, first_control_byte, scan_block, use_compiled
+from ._numbers import _python_float, first_control_byte, parse_plain_rows, scan_block, use_compiled
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
@@ -367,6 +367,10 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
 
     Errors name the offending line.
     """
+    if not compiled and channels:  # plain decimal frame lines: whole-array parsing, exact (else the exact path)
+        plain = parse_plain_rows(data[start:], frames, channels)
+        if plain is not None:
+            return plain.reshape(frames, channels)
     u = np.frombuffer(data, np.uint8, offset=start)
     # room for the rows the bytes could hold (a value and a separator are two bytes at least), not for what
     # Frames: declares: a short file declaring a million frames is refused as truncated, not given the memory
