@@ -205,14 +205,15 @@ class BlockScan:
 
 
 #: Bytes of BVH text a process reads through the numpy path (:func:`use_compiled`) before it switches to the
-#: compiled loops for good: the break-even measured by ``benchmarks/io.py`` (2026-12-02, 46 real files, load 5 on
-#: the shared 2-core AMD EPYC machine): a fresh process pays 1.96 s to import numba and load the cached machine
-#: code of the reader's kernels (1.5-2 s at load 1) before it reads a byte; the numpy path then reads 6.8 MB/s, the
-#: compiled one 28.6 MB/s, i.e. 0.112 s more per MB, so numba's start-up is won back after ~18 MB read in one
-#: process.  Below that the numpy path is the faster (a process reading one typical clip: 0.05-3 MB); a process
-#: that reads more (a batch) pays numba's start-up once and then reads at the compiled speed: at worst about twice
-#: the best choice in hindsight (the rent-or-buy rule).
-NUMPY_PATH_BUDGET = 16_000_000
+#: compiled loops for good: about the break-even measured by ``benchmarks/io.py`` (2026-12-02, 46 real files, the
+#: shared 2-core AMD EPYC machine, load 3.2): a fresh process pays 1.55 s to import numba and load the cached
+#: machine code of the reader's kernels (1.0-2.0 s at loads 3-6) before it reads a byte; the numpy path (plain
+#: frame blocks parsed by :func:`parse_plain_rows`) then reads 21.8 MB/s, the compiled one 57.9 MB/s, i.e. 0.029 s
+#: more per MB, so numba's start-up is won back after ~54 MB read in one process (35-68 MB over those start-up
+#: times; 18 MB before the plain-row parser, when the budget was 16 MB).  Below that the numpy path is the faster (a
+#: process reading one typical clip: 0.05-3 MB); a process that reads more (a batch) pays numba's start-up once and
+#: then reads at the compiled speed: at worst about twice the best choice in hindsight (the rent-or-buy rule).
+NUMPY_PATH_BUDGET = 48_000_000
 _numpy_path_bytes = 0
 
 
