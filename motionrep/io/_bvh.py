@@ -28,7 +28,8 @@ from ..limits import check_clip
 from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._files import read_regular
-from ._numbers import _python_float, first_control_byte, parse_plain_rows, scan_block, use_compiled
+from ._numbers import _python_float, first_control_byte, scan_block, use_compiled
+from ._plain_rows import parse_plain_rows
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
