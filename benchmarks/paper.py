@@ -161,7 +161,7 @@ def leading_transition(motion) -> int:
 def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
     """The clips without their leading transition, from (or written to) the database :data:`TRIMMED`; and the
     number of frames dropped per clip name."""
-    from motionrep.io import list_clips, read, write_database
+    from motionrep.io import list_clips, write_database
     from motionrep.sources import ClipRef
 
     dropped: dict[str, int] = {}

@@ -6,7 +6,6 @@ import csv
 import json
 import math
 import re
-import statistics
 from pathlib import Path
 
 import pytest
@@ -523,7 +522,7 @@ def test_xz_baseline_totals_and_clip_markers(clip_dir, tmp_path):
     assert rows["sub__short"].xz_bytes == len(lzma.compress(format_bvh(short).encode(), preset=9))
     table = (out / "bench.md").read_text()
     total = sum(row.xz_bytes for row in rows.values())
-    assert f"totals: 3 runs on 3 clips: 3 ok, 0 failed (bound not met), 0 errors; encode " in r.output
+    assert "totals: 3 runs on 3 clips: 3 ok, 0 failed (bound not met), 0 errors; encode " in r.output
     assert f"xz -9 of the sources {total:,} bytes" in r.output and "| xz -9 bytes |" in table
     # the plot: one colour per codec, one marker shape per clip
     from motionrep.bench.plot import plot_rate_distortion

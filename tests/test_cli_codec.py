@@ -301,7 +301,7 @@ def test_a_codec_outcome_reads_the_same_in_every_command(tmp_path):
     archive = tmp_path / "all.h5"
     r = run("compress", src, "-o", archive, *fourier)
     assert r.exit_code == 0, r.output
-    assert r.stdout.count(f"paper ratio") == 2 and all(line.endswith(short) for line in r.stdout.splitlines()[:2])
+    assert r.stdout.count("paper ratio") == 2 and all(line.endswith(short) for line in r.stdout.splitlines()[:2])
     assert [c["outcome"] for c in json.loads(run("info", archive, "--json").output)["clips"]] == [short, short]
     out = tmp_path / "bench"
     r = run("bench", src, "-c", "naive-fourier", "-p", "k=1", "-p", "window=10", "-p", "iters=25", "--max-error",

@@ -16,11 +16,10 @@ import pytest
 from helpers import SHARED_DATA, real_params, requires_shared
 from motionrep.codec import Payload, frame_times
 from motionrep.compress import compress_file, compress_motion, decompress, decompress_file
-from motionrep.container import pack, unpack
 from motionrep.errors import BoundNotMetError, ContainerError, MotionrepError, ParameterError, PayloadError
 from motionrep.evaluate import max_joint_error
 from motionrep.io import read
-from motionrep.plugins import get_codec, get_representation
+from motionrep.plugins import get_codec
 from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 from motionrep.testing import check_codec, conformance_motions
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 import io
 import os
 import re
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
