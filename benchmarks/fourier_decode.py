@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import atexit
-import gc
 import importlib.util
 import json
 import os
@@ -35,6 +34,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from speed import _cpu_best as _best  # noqa: E402  (best wall and thread-CPU seconds of repeated runs)
 
 #: (label, codec, params): windows as coded by default, and one network.
 CLIPS = (("adaptive-fourier, windows", "adaptive-fourier", {"k": 10, "iters": 100}),
@@ -59,20 +60,6 @@ def _kernel_at(rev: str):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module._networks_kernel
-
-
-def _best(fn, repeats: int) -> tuple[float, float]:
-    wall = cpu = float("inf")
-    gc.collect()
-    gc.disable()
-    try:
-        for _ in range(repeats):
-            w, c = time.perf_counter(), time.thread_time()
-            fn()
-            wall, cpu = min(wall, time.perf_counter() - w), min(cpu, time.thread_time() - c)
-    finally:
-        gc.enable()
-    return wall, cpu
 
 
 def _use_kernel(clip, kernel) -> None:
