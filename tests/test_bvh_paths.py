@@ -187,9 +187,10 @@ def test_plain_rows_are_float_bit_for_bit(seed):
 
 
 @pytest.mark.slow
-def test_plain_rows_on_a_million_random_decimals():
+def test_plain_rows_on_random_decimals_bit_for_bit():
+    """250,000 random decimals (a million also passed, but took two minutes of the CI's slow step)."""
     rng = np.random.default_rng(99)
-    tokens = [t for t in random_decimals(rng, 1_000_000) if abs(float(t)) < float("inf")]
+    tokens = [t for t in random_decimals(rng, 250_000) if abs(float(t)) < float("inf")]
     tokens = tokens[:len(tokens) // 10 * 10]
     values = parse_plain_rows(plain_block(tokens, 10, rng), len(tokens) // 10, 10)
     assert np.array_equal(bits(values), bits(np.array([float(t) for t in tokens])))
