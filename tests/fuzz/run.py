@@ -11,7 +11,8 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 ``tests/test_hostile.py`` run small versions of it there.
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
-``motionrep.io.read`` (``.mrc``: ``unpack`` then ``decompress``; seed ``s`` mutates the file of codec
+``motionrep.io.read`` (BVH: ``parse_bvh``, its numpy path for even seeds and its compiled path for odd ones;
+``.mrc``: ``unpack`` then ``decompress``; seed ``s`` mutates the file of codec
 ``s mod n`` of the ``n`` in ``--mrc-codecs``), under the small limits ``SMALL`` below; the
 child reports every outcome on a pipe.  Counted per format:
 
@@ -154,7 +155,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
         _reset_worker_peak()
         try:
             if fmt == "bvh":
-                item = parse_bvh(data, str(path))
+                item = parse_bvh(data, str(path), compiled=bool(seed % 2))  # odd seeds: the compiled path
             elif fmt == "mrc":
                 item = decompress(unpack(data, str(path)), path=str(path))
             else:
