@@ -14,11 +14,11 @@ Plugins subclass :class:`Codec` and register an instance through the ``register_
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-import math
 from typing import Any, Callable, ClassVar, Mapping, Protocol
 
 import numpy as np
