@@ -90,9 +90,9 @@ class ClipStore(ABC):
         """What the output already holds, by clip name: the container, or None for one that cannot be read
         (damaged: it will be redone)."""
 
+    @abstractmethod
     def existing_bytes(self, name: str) -> bytes:
         """The stored bytes of clip ``name`` (one of :meth:`existing`)."""
-        raise NotImplementedError
 
     @abstractmethod
     def commit(self, name: str, data: bytes) -> None:
