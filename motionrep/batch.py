@@ -42,7 +42,7 @@ from .executors import _ignore_interrupts, _process_pool, _stop_pool, dask_execu
 from .sources import ClipRef, Source, listing
 
 __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
-           "pair_refs", "evaluate_clips", "evaluate_refs",
+           "pair_refs", "clip_sets", "evaluate_clips", "evaluate_refs",
            "THREAD_VARIABLES", "dask_executor", "time_limit"]
 
 
@@ -349,14 +349,17 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
 # ---------------------------------------------------------------------------------------------------------------
 # evaluate two sources clip by clip
 # ---------------------------------------------------------------------------------------------------------------
-def pair_clips(reference: Source, candidate: Source, clip: str | None = None) -> list[tuple[str, str, str]]:
+def pair_clips(reference: Source, candidate: Source, clip: str | None = None, common: bool = False
+               ) -> list[tuple[str, str, str]]:
     """The clips to compare between two sources, as ``(name, reference clip, candidate clip)``.
 
     A file of one clip is compared with the other file's only clip (or with its clip ``clip``); two databases or
-    archives are compared clip by clip, by name (only ``clip`` when given).
+    archives are compared clip by clip, by name (only ``clip`` when given); with ``common``, only the clips both
+    hold (:func:`clip_sets` lists the others).
 
     Raises:
-        FormatError: when ``clip`` is not in a database or archive given, or two databases hold different clips.
+        FormatError: when ``clip`` is not in a database or archive given, or two databases hold different clips
+            (without ``common``) or none in common.
         ParameterError: when one file holds several clips and the other one, and no ``clip`` says which.
     """
     def names(src: Source) -> list[str]:
@@ -368,6 +371,8 @@ def pair_clips(reference: Source, candidate: Source, clip: str | None = None) ->
     if len(ref_names) == 1 and len(cand_names) == 1:
         return [(ref_names[0], ref_names[0], cand_names[0])]
     if len(ref_names) > 1 and len(cand_names) > 1:
+        if common:
+            return [(n, n, n) for n in _common_names(ref_names, cand_names, candidate.path)]
         _same_names(ref_names, cand_names, str(reference.path), str(candidate.path), "files", candidate.path)
         return [(n, n, n) for n in ref_names]
     many, found = (reference, ref_names) if len(ref_names) > 1 else (candidate, cand_names)
@@ -375,21 +380,41 @@ def pair_clips(reference: Source, candidate: Source, clip: str | None = None) ->
                          "use --clip NAME")
 
 
-def pair_refs(reference: list[ClipRef], candidate: list[ClipRef]) -> list[tuple[str, ClipRef, ClipRef]]:
+def pair_refs(reference: list[ClipRef], candidate: list[ClipRef], common: bool = False
+              ) -> list[tuple[str, ClipRef, ClipRef]]:
     """The clips to compare between two collections of clips (:func:`~motionrep.sources.collect_clips` of each
     side: files, directories, archives), as ``(name, reference clip, candidate clip)``: one clip with the other
-    side's one clip, else clip by clip, by name.
+    side's one clip, else clip by clip, by name (with ``common``: only the clips both sides hold).
 
     Raises:
-        FormatError: when the two sides hold different clips (naming those only on one side).
+        FormatError: when the two sides hold different clips (naming those only on one side; without
+            ``common``), or none in common.
     """
     if len(reference) == 1 and len(candidate) == 1:
         return [(reference[0].name, reference[0], candidate[0])]
     ref, cand = {r.name: r for r in reference}, {r.name: r for r in candidate}
+    if common:
+        return [(n, ref[n], cand[n]) for n in sorted(_common_names(list(ref), list(cand), candidate[0].path))]
     extra = [n for n in cand if n not in ref]
     _same_names(list(ref), list(cand), "the reference", "the candidate", "sides",
                 candidate[0].path if extra else reference[0].path)
     return [(n, ref[n], cand[n]) for n in sorted(ref)]
+
+
+def clip_sets(reference: Sequence[str], candidate: Sequence[str]) -> tuple[list[str], list[str]]:
+    """The clip names only the reference holds and only the candidate holds, in their orders."""
+    ref, cand = set(reference), set(candidate)
+    return [n for n in reference if n not in cand], [n for n in candidate if n not in ref]
+
+
+def _common_names(ref: list[str], cand: list[str], path: Any) -> list[str]:
+    """The names both lists hold (in ``ref`` order); a FormatError when there are none."""
+    shared = set(cand)
+    names = [n for n in ref if n in shared]
+    if not names:
+        raise FormatError(f"the two sides hold no clip in common (reference: {listing(ref)}; candidate: "
+                          f"{listing(cand)})", path)
+    return names
 
 
 def _same_names(ref: list[str], cand: list[str], ref_label: str, cand_label: str, what: str, path: Any) -> None:
@@ -400,13 +425,15 @@ def _same_names(ref: list[str], cand: list[str], ref_label: str, cand_label: str
         where = "; ".join(part for part in (
             f"only in {ref_label}: {listing(missing)}" if missing else "",
             f"only in {cand_label}: {listing(extra)}" if extra else "") if part)
-        raise FormatError(f"the two {what} hold different clips ({where}); use --clip NAME to compare one", path)
+        raise FormatError(f"the two {what} hold different clips ({where}); use --clip NAME to compare one, or "
+                          "--common to compare the clips both hold", path)
 
 
 def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[str, str, str]],
-                   on_done: Callable[[str, Any], None] | None = None) -> list[tuple[str, Any]]:
+                   on_done: Callable[[str, Any], None] | None = None, options: Any = None) -> list[tuple[str, Any]]:
     """The shared error of every pair ``(name, reference clip, candidate clip)``, read from the two open sources
-    (each file opened once), in this process.
+    (each file opened once), in this process; ``options``: a :class:`motionrep.pairing.MatchOptions` (default
+    strict).
 
     Returns:
         ``[(name, ErrorReport)]`` in ``pairs`` order.
@@ -417,7 +444,7 @@ def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[s
     def work(pair: tuple[str, str, str]) -> tuple[str, Any]:
         name, ref_clip, cand_clip = pair
         try:
-            return name, max_joint_error(reference.read(ref_clip), candidate.read(cand_clip))
+            return name, max_joint_error(reference.read(ref_clip), candidate.read(cand_clip), options)
         except ValidationError as exc:  # which files, then what differs
             raise ValidationError(f"{reference.path} vs {candidate.path}: {exc}") from None
 
@@ -426,9 +453,10 @@ def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[s
 
 
 def evaluate_refs(pairs: Sequence[tuple[str, ClipRef, ClipRef]],
-                  on_done: Callable[[str, Any], None] | None = None) -> list[tuple[str, Any]]:
+                  on_done: Callable[[str, Any], None] | None = None, options: Any = None) -> list[tuple[str, Any]]:
     """The shared error of every pair ``(name, reference clip, candidate clip)`` of clips gathered from files,
-    directories and archives (each file opened once for a run of its clips), in this process.
+    directories and archives (each file opened once for a run of its clips), in this process; ``options`` as
+    :func:`evaluate_clips`.
 
     Returns:
         ``[(name, ErrorReport)]`` in ``pairs`` order.
@@ -440,7 +468,7 @@ def evaluate_refs(pairs: Sequence[tuple[str, ClipRef, ClipRef]],
     references = read_refs([a for _, a, _ in pairs])
     candidates = read_refs([b for _, _, b in pairs])
     for (name, _, _), (_, ref), (_, cand) in zip(pairs, references, candidates):
-        report = max_joint_error(ref, cand)
+        report = max_joint_error(ref, cand, options)
         out.append((name, report))
         if on_done is not None:
             on_done(name, report)

@@ -68,6 +68,8 @@ class ErrorReport:
         units: length unit of the reference skeleton when known, else None.
         num_frames: frames compared.
         num_points: points compared per frame (joints + end sites).
+        comparison: what was compared and left out (a :class:`motionrep.pairing.Comparison`), or None for a
+            strict comparison of every point and frame made without :mod:`motionrep.pairing`.
     """
 
     max_error: float
@@ -80,10 +82,13 @@ class ErrorReport:
     units: str | None
     num_frames: int
     num_points: int
+    comparison: Any = None
 
     def as_dict(self) -> dict[str, Any]:
-        """A JSON-serialisable dict of every field."""
-        return asdict(self)
+        """A JSON-serialisable dict of every field (``comparison`` as a dict, or None)."""
+        d = asdict(self)
+        d["comparison"] = None if self.comparison is None else self.comparison.as_dict()
+        return d
 
     def summary(self) -> str:
         """One line: ``L-inf 0.49 (1.89% of height 26.2), mean 0.08 (0.31%), worst at frame 0, LeftHand``."""
@@ -153,25 +158,39 @@ class Evaluator:
         view.flags.writeable = False
         return view
 
-    def __call__(self, candidate: Motion) -> ErrorReport:
+    def __call__(self, candidate: Motion, options: Any = None) -> ErrorReport:
         """Compare ``candidate`` with the reference.
+
+        Args:
+            candidate: the motion to measure.
+            options: a :class:`motionrep.pairing.MatchOptions` saying what may differ (joint order and names,
+                extra joints, end sites, frame rate); default strict. With options the report's ``comparison``
+                says what was compared and left out.
 
         Raises:
             ValidationError: if the skeletons differ in joints, parents or end sites, or the frame counts or
-                frame rates differ.
+                frame rates differ (strict), or cannot be paired under ``options``; the message names the
+                option that would compare them.
         """
+        if options is not None:
+            from .pairing import compare
+
+            return compare(self.reference, candidate, options, evaluator=self)
         ref = self.reference
         what = skeleton_difference(self.skeleton, candidate.skeleton)
         if what is not None:
-            raise ValidationError(f"cannot compare motions of different skeletons: {what}")
+            raise ValidationError(f"cannot compare motions of different skeletons: {what} (--match names compares "
+                                  "joints by name, and the points both have)")
         if candidate.num_frames != ref.num_frames:
             rates = ("" if math.isclose(candidate.fps, ref.fps, rel_tol=1e-6) else
                      f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: --fps {ref.fps:g})")
             raise ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
-                                  f"{candidate.num_frames}{rates}")
+                                  f"{candidate.num_frames}{rates} (--resample samples the candidate at the "
+                                  "reference's frame times)")
         if not math.isclose(candidate.fps, ref.fps, rel_tol=1e-6):
             raise ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
-                                  f"{candidate.fps:g} fps (resample one first)")
+                                  f"{candidate.fps:g} fps (--resample samples the candidate at the reference's "
+                                  "frame times)")
         return self.positions_error(global_positions(candidate))
 
     def positions_error(self, positions: NDArray[np.float64], first: int | None = None) -> ErrorReport:
@@ -197,6 +216,29 @@ class Evaluator:
             num_points=int(dist.shape[1]),
         )
 
+
+    def points_error(self, positions: NDArray[np.float64], points: Any, comparison: Any) -> ErrorReport:
+        """Compare ``(n, P, 3)`` candidate positions with the reference's points ``points`` (``P`` indices into the
+        ``J + E`` FK points) of the frames ``0 .. n - 1``; the report carries ``comparison``
+        (:func:`motionrep.pairing.compare` builds both)."""
+        positions = np.asarray(positions, dtype=np.float64)
+        idx = np.asarray(points, dtype=np.int64)
+        reference = self._positions[:positions.shape[0]][:, idx] if positions.ndim == 3 else None
+        if reference is None or positions.shape != reference.shape or positions.shape[0] < 1 or idx.size < 1:
+            raise ValidationError(f"candidate positions must have shape (n, {idx.size}, 3) with 1 <= n <= "
+                                  f"{self._positions.shape[0]}, got {positions.shape}")
+        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))
+        if not np.all(np.isfinite(dist)):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        flat = int(np.argmax(dist))
+        frame, point = divmod(flat, dist.shape[1])
+        max_error = float(dist.reshape(-1)[flat])
+        mean_error = float(dist.mean())
+        return ErrorReport(max_error=max_error, max_error_percent=_percent(max_error, self.height),
+                           mean_error=mean_error, mean_error_percent=_percent(mean_error, self.height),
+                           frame=frame, joint=self.names[int(idx[point])], height=self.height,
+                           units=self.skeleton.units, num_frames=int(dist.shape[0]), num_points=int(idx.size),
+                           comparison=comparison)
 
     def frame_errors(self, positions: NDArray[np.float64], first: int | None = None) -> NDArray[np.float64]:
         """``(n,)`` largest distance of each frame (over joints and end sites), with the arguments of
@@ -320,13 +362,14 @@ class MotionContext:
             self._progress(stage, fields)
 
 
-def max_joint_error(reference: Motion, candidate: Motion) -> ErrorReport:
+def max_joint_error(reference: Motion, candidate: Motion, options: Any = None) -> ErrorReport:
     """The shared L-infinity joint-position error of ``candidate`` against ``reference``.
 
     Args:
         reference: the original motion.
         candidate: a motion of the same skeleton (same joints, parents and end sites; offsets may differ), with
-            the same number of frames and frame rate.
+            the same number of frames and frame rate (strict), or what ``options`` allows.
+        options: a :class:`motionrep.pairing.MatchOptions` (default strict; see :mod:`motionrep.pairing`).
 
     Returns:
         An :class:`ErrorReport` (file units and percent of the reference's character height).
@@ -334,7 +377,7 @@ def max_joint_error(reference: Motion, candidate: Motion) -> ErrorReport:
     Raises:
         ValidationError: if the motions cannot be compared.
     """
-    return Evaluator(reference)(candidate)
+    return Evaluator(reference)(candidate, options)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, s
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
-           "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS"]
+           "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
+           "match_options", "comparison_options"]
 
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"
@@ -171,6 +172,39 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(allowed))
     return suffix
+
+
+def comparison_options(command: Callable) -> Callable:
+    """``--match``, ``--strip-prefix``, ``--ignore-extra`` and ``--resample`` (see :mod:`motionrep.pairing`), the
+    same for evaluate, view and render; :func:`match_options` turns them into options."""
+    for option in reversed([
+        click.option("--match", "match", type=click.Choice(["order", "names"]), default="order", show_default=True,
+                     help="How joints are paired: 'order' (same joints in the same order, the strict default) or "
+                          "'names' (by name, any order; end sites missing on one side or turned into bone tails "
+                          "are left out or paired by position, and listed)."),
+        click.option("--strip-prefix", "strip_prefix", metavar="PREFIX", multiple=True,
+                     help="With --match names: remove this prefix from joint names first (a namespace such as "
+                          "'mixamorig:'); repeatable."),
+        click.option("--ignore-extra", "ignore_extra", is_flag=True,
+                     help="With --match names: leave out (and list) joints only one side has instead of refusing."),
+        click.option("--resample", is_flag=True,
+                     help="A candidate at another frame rate or length is sampled at the reference's frame times "
+                          "(rotations slerped, translations linear); frames outside the overlap are listed."),
+    ]):
+        command = option(command)
+    return command
+
+
+def match_options(match: str, strip_prefix: Sequence[str], ignore_extra: bool, resample: bool) -> Any:
+    """The :class:`motionrep.pairing.MatchOptions` of the comparison options (the strict default when none is
+    given, so the report still says what it compared; a usage error for --strip-prefix or --ignore-extra without
+    --match names)."""
+    if match != "names" and (strip_prefix or ignore_extra):
+        raise click.UsageError(f"{'--strip-prefix' if strip_prefix else '--ignore-extra'} needs --match names")
+    from ..pairing import MatchOptions
+
+    return MatchOptions(match=match, strip_prefix=tuple(strip_prefix), ignore_extra=ignore_extra,
+                        resample=resample)
 
 
 def force_option(command: Callable) -> Callable:
