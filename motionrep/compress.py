@@ -394,11 +394,12 @@ def decompress_file(source: str | os.PathLike[str], target: str | os.PathLike[st
     return motion
 
 
-def write_decoded(motion: Motion, target: str | os.PathLike[str]) -> None:
-    """Write a decoded motion; BVH with :data:`BVH_DECIMALS` decimals, so the file keeps the decoded values."""
+def write_decoded(motion: Motion, target: str | os.PathLike[str], **options: Any) -> None:
+    """Write a decoded motion; BVH with :data:`BVH_DECIMALS` decimals, so the file keeps the decoded values;
+    ``options`` are the format's write options (glTF ``scale``)."""
     from .io import format_of, write
 
     if format_of(target) == "bvh":
-        write(motion, target, decimals=BVH_DECIMALS)
+        write(motion, target, decimals=BVH_DECIMALS, **options)
     else:
-        write(motion, target)
+        write(motion, target, **options)

@@ -36,7 +36,8 @@ __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgre
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
-           "match_options", "comparison_options"]
+           "match_options", "comparison_options", "gltf_unit_options", "gltf_write_options",
+           "check_gltf_units"]
 
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"
@@ -205,6 +206,41 @@ def match_options(match: str, strip_prefix: Sequence[str], ignore_extra: bool, r
 
     return MatchOptions(match=match, strip_prefix=tuple(strip_prefix), ignore_extra=ignore_extra,
                         resample=resample)
+
+
+def gltf_unit_options(command: Callable) -> Callable:
+    """``--scale`` and ``--units`` of the commands that write glTF (:func:`gltf_write_options` reads them)."""
+    command = click.option("--units", type=click.Choice(["cm", "m", "in", "mm"]), default=None,
+                           help="glTF output: the clip's length unit (written scaled to metres). Default: the "
+                                "units the input states, else a guess that makes the character 1-2.5 m tall "
+                                "(one line says what was assumed).")(command)
+    return click.option("--scale", "gltf_scale", type=float, default=None, metavar="M",
+                        help="glTF output: metres per file unit (instead of --units).")(command)
+
+
+def gltf_write_options(motion: Any, path: Any, scale: float | None, units: str | None,
+                       shown: Any = None) -> dict[str, Any]:
+    """The ``scale`` write option of a glTF output ``path`` (an empty dict for other formats), printing on stderr
+    the one line saying what was assumed when neither ``--scale`` nor ``--units`` was given."""
+    from ..io import format_of, gltf_scale
+
+    if format_of(path) != "gltf":
+        return {}
+    value, note = gltf_scale(motion, scale, units)
+    if note:
+        click.echo(f"note: {shown if shown is not None else path}: {note}", err=True)
+    return {"scale": value}
+
+
+def check_gltf_units(scale: float | None, units: str | None, gltf_out: bool) -> None:
+    """Usage errors: ``--scale`` with ``--units``, either without glTF output, a scale that is not > 0."""
+    if scale is not None and units is not None:
+        raise click.UsageError("give --scale or --units, not both")
+    if (scale is not None or units is not None) and not gltf_out:
+        raise click.UsageError(f"{'--scale' if scale is not None else '--units'} applies only to glTF output "
+                               "(.glb, .gltf)")
+    if scale is not None and not (scale > 0 and scale < float("inf")):
+        raise click.BadParameter("must be a positive number of metres per file unit", param_hint="--scale")
 
 
 def force_option(command: Callable) -> Callable:

@@ -16,8 +16,8 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_outputs, collect, expand_globs, force_option,
-                      is_stdio, stdin_inputs, stdout_output)
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_gltf_units, check_outputs, collect, expand_globs,
+                      force_option, gltf_unit_options, gltf_write_options, is_stdio, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
@@ -68,12 +68,18 @@ def _converted(refs: list, representation: Any) -> Iterator[tuple[Any, Any]]:
         yield ref, item
 
 
-def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | None = None) -> None:
+def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | None = None,
+               units: tuple[float | None, str | None] = (None, None), shown: Any = None) -> None:
     from ..errors import FormatError, MotionrepError
     from ..io import FeatureClip, format_of, write, write_features
 
     options: dict[str, Any] = {}
     fmt = format_of(path)
+    if fmt == "gltf" and not isinstance(item, FeatureClip):
+        try:
+            options.update(gltf_write_options(item, path, *units, shown=shown))
+        except MotionrepError as exc:
+            raise FormatError(f"cannot write: {exc}", path) from None
     if fmt == "bvh" and decimals is not None:
         options["decimals"] = decimals
     if fmt in ("hdf5", "gltf") and clip_name is not None:
@@ -110,9 +116,10 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
                    "back to the same value).")
 @click.option("--append", is_flag=True,
               help="OUT.h5 exists: add the clips to it (a clip of the same name needs --force to be replaced).")
+@gltf_unit_options
 @force_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
-            decimals: int | None, append: bool, force: bool) -> None:
+            decimals: int | None, append: bool, gltf_scale: float | None, units: str | None, force: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
@@ -153,6 +160,14 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     given twice, or IN equal to OUT are usage errors (exit 2).
 
     \b
+    glTF size: glTF is in metres. --units cm|m|in|mm says the clip's unit,
+    --scale M gives metres per file unit; without either, the units the input
+    states, else (BVH states none) the first of m, cm, in, mm that makes the
+    character 1-2.5 m tall, else the scale that makes it 1.8 m; one line on
+    stderr says what was assumed. motionrep reads its glTF back in the clip's
+    own units.
+
+    \b
     Examples:
       motionrep convert walk.bvh walk.npz
       motionrep convert clips/ clips.h5
@@ -164,16 +179,19 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
       motionrep convert robot.glb dance.bvh --clip Dance
       motionrep convert walk.npz - | head
       cat walk.bvh | motionrep convert - walk.glb
+      motionrep convert walk.bvh walk.glb --units cm
     """
     if len(paths) < 2:
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
     raw_out = paths[-1]
     with stdin_inputs(expand_globs(paths[:-1]), allowed=MOTION_FORMATS) as inputs:
-        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force, append)
+        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force, append,
+                 (gltf_scale, units))
 
 
 def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str | None,
-             representation: str | None, decimals: int | None, force: bool, append: bool = False) -> None:
+             representation: str | None, decimals: int | None, force: bool, append: bool = False,
+             units: tuple[float | None, str | None] = (None, None)) -> None:
     out = Path(raw_out)
     to_stdout = is_stdio(raw_out)
     to_directory = not to_stdout and (out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == "")
@@ -201,6 +219,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         check_outputs([raw_out], force)
     if decimals is not None and out_fmt != "bvh":
         raise click.UsageError("--decimals applies only to BVH output")
+    check_gltf_units(*units, out_fmt == "gltf")
     if representation is not None and out_fmt in ("bvh", "gltf"):
         kind = "BVH" if out_fmt == "bvh" else "glTF"
         raise click.UsageError(f"--representation needs .npz or .h5 output: {kind} holds motions, not features")
@@ -217,7 +236,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
     if to_directory:
         suffix = OUT_FORMATS[out_format or "bvh"]
         check_outputs([out / (r.name + suffix) for r in refs], force)
-        _to_directory(refs, out, suffix, rep, decimals)
+        _to_directory(refs, out, suffix, rep, decimals, units)
         return
     if len(refs) != 1 and out_fmt != "hdf5":
         from ..sources import listing
@@ -229,7 +248,8 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         if out_fmt == "hdf5":
             _to_database(refs, target, rep, append, force)
         else:
-            _write_one(next(_converted(refs, rep))[1], target, decimals)
+            _write_one(next(_converted(refs, rep))[1], target, decimals, units=units,
+                       shown=STDIO if to_stdout else out)
 
 
 def _to_database(refs: list, out: Path, representation: Any, append: bool = False, force: bool = False) -> None:
@@ -267,7 +287,8 @@ def _to_database(refs: list, out: Path, representation: Any, append: bool = Fals
         raise _in_file_error(exc, out) from None
 
 
-def _to_directory(refs: list, out: Path, suffix: str, representation: Any, decimals: int | None) -> None:
+def _to_directory(refs: list, out: Path, suffix: str, representation: Any, decimals: int | None,
+                  units: tuple[float | None, str | None] = (None, None)) -> None:
     from ..errors import FormatError, MotionrepError
     from ..sources import listing
 
@@ -278,7 +299,7 @@ def _to_directory(refs: list, out: Path, suffix: str, representation: Any, decim
         with _bar(_converted(refs, representation), len(refs), f"Converting {len(refs)} clips into {out}") as bar:
             for ref, item in bar:
                 target = out / (ref.name + suffix)
-                _write_one(item, target, decimals, clip_name=ref.name)
+                _write_one(item, target, decimals, clip_name=ref.name, units=units)
                 written.append(target.name)
     except MotionrepError as exc:
         exc = _in_file_error(exc, out)

@@ -11,8 +11,9 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_overwrite, collect, force_option,
-                      is_stdio, stdin_inputs, stdout_output, usage_suffix)
+from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_gltf_units, check_overwrite, collect,
+                      force_option, gltf_unit_options, gltf_write_options, is_stdio, stdin_inputs, stdout_output,
+                      usage_suffix)
 
 __all__ = ["decompress"]
 
@@ -47,9 +48,10 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
 @click.option("--clip", metavar="NAME", help="Only this clip of an archive.")
 @click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
               help="File format written to standard output (-o -) or into a directory OUT/ (default: bvh).")
+@gltf_unit_options
 @force_option
 def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, out_format: str | None,
-               force: bool) -> None:
+               gltf_scale: float | None, units: str | None, force: bool) -> None:
     """Decode compressed clips IN (.mrc files, archives, or directories of them) into motion files.
 
     Clips are named as compress named them (a directory's .mrc files by their
@@ -65,8 +67,14 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
     only once it is complete.
 
     \b
+    glTF size: --units cm|m|in|mm or --scale M (metres per file unit); without
+    either, the units the clip states, else the guess of convert (a character
+    1-2.5 m tall), said in one line on stderr.
+
+    \b
     Examples:
       motionrep decompress walk.mrc -o walk2.bvh
+      motionrep decompress walk.mrc -o walk.glb --units cm
       motionrep decompress walk.mrc -o walk60.bvh --fps 60
       motionrep decompress clips.h5 -o clips_decoded.h5
       motionrep decompress clips_mrc/ -o clips_decoded/
@@ -81,12 +89,19 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
     for p in inputs:
         if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
+    suffix = OUT_FORMATS[out_format or "bvh"]
+    gltf_out = (suffix if to_stdout or not output.suffix else output.suffix.lower()) in (".glb", ".gltf")
+    check_gltf_units(gltf_scale, units, gltf_out)
     with stdin_inputs(inputs, allowed=(".mrc", ".h5")) as given:
-        _decompress(given, output, fps, clip, OUT_FORMATS[out_format or "bvh"], force)
+        _decompress(given, output, fps, clip, suffix, force, (gltf_scale, units))
 
 
-def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool) -> None:
+def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool,
+                units: tuple[float | None, str | None] = (None, None)) -> None:
     from ..compress import write_decoded
+
+    def written(motion: Any, target: Path, shown: Any) -> None:
+        write_decoded(motion, target, **gltf_write_options(motion, target, *units, shown=shown))
 
     to_stdout = is_stdio(output)
     refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output], scan=COMPRESSED_SUFFIXES)
@@ -102,7 +117,7 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             check_overwrite(output, force)
         with stdout_output(output, suffix) as target:
             ref, motion = next(decoded_clips(refs, fps))
-            write_decoded(motion, target)
+            written(motion, target, STDOUT_NAME if to_stdout else output)
         which = f" (clip {ref.clip})" if ref.clip is not None else ""
         shown = STDOUT_NAME if to_stdout else output
         click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {motion.fps:g} fps", err=to_stdout)
@@ -119,7 +134,7 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             check_overwrite(output / f"{ref.name}{suffix}", force)
         for ref, motion in decoded_clips(refs, fps):
             output.mkdir(parents=True, exist_ok=True)  # once the first clip is decoded: no empty OUT/ on error
-            write_decoded(motion, output / f"{ref.name}{suffix}")
+            written(motion, output / f"{ref.name}{suffix}", None)
     else:
         raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "
                                "one with --clip)")

@@ -40,7 +40,7 @@ _LAZY = {
     "iter_hdf5_clips": "_hdf5", "list_hdf5_clips": "_hdf5", "read_hdf5": "_hdf5", "read_hdf5_clip": "_hdf5",
     "write_database": "_hdf5", "write_hdf5": "_hdf5", "write_hdf5_features": "_hdf5",
     "gltf_bytes": "_gltf", "iter_gltf_clips": "_gltf", "list_gltf_clips": "_gltf", "read_gltf": "_gltf",
-    "read_gltf_clip": "_gltf", "write_gltf": "_gltf",
+    "read_gltf_clip": "_gltf", "write_gltf": "_gltf", "gltf_scale": "_gltf",
     "read_npz": "_npz", "read_npz_clip": "_npz", "write_npz": "_npz", "write_npz_features": "_npz",
 }
 
@@ -81,6 +81,7 @@ __all__ = [
     "read_gltf",
     "write_gltf",
     "gltf_bytes",
+    "gltf_scale",
     "atomic_path",
 ]
 
