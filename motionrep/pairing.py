@@ -43,7 +43,7 @@ from .kinematics import character_height, global_positions, point_names, rest_po
 
 __all__ = ["MatchOptions", "PointPairing", "FramePairing", "Comparison", "STRICT", "TAIL_TOLERANCE",
            "RESAMPLE_METHOD", "pair_points", "pair_frames", "compare", "paired_positions", "strict_comparison",
-           "ranges"]
+           "ranges", "compared_bones"]
 
 #: A bone tail is paired with an end site when their rest positions are this close, in parts of the height.
 TAIL_TOLERANCE = 0.01
@@ -476,3 +476,19 @@ def paired_positions(reference: Motion, candidate: Motion, options: MatchOptions
     ref_pos = global_positions(reference)[first:last + 1][:, list(points.reference)]
     cand_pos = global_positions(candidate)[:, list(points.candidate)]
     return ref_pos, cand_pos, points, frames
+
+
+def compared_bones(skeleton: Skeleton, points: Sequence[int]) -> NDArray[np.int64]:
+    """``(B, 2)`` bones between the compared points (indices into ``points``, the reference's FK points): each
+    compared point joined to its nearest compared ancestor, so a skeleton with points left out is still drawn
+    as one figure."""
+    J = skeleton.num_joints
+    where = {int(p): k for k, p in enumerate(points)}
+    bones = []
+    for k, p in enumerate(int(x) for x in points):
+        up = int(skeleton.end_site_parents[p - J]) if p >= J else int(skeleton.parents[p])
+        while up >= 0 and up not in where:
+            up = int(skeleton.parents[up])
+        if up >= 0:
+            bones.append((where[up], k))
+    return np.array(bones, dtype=np.int64).reshape(-1, 2)

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from . import __version__
 from ._model import Motion
@@ -113,7 +114,7 @@ def _rounded(values: np.ndarray, digits: int = 6) -> list[float]:
 
 def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Motion] = (), *,
               bound: float | None = None, bound_text: str | None = None, title: str | None = None,
-              up: str = "auto") -> tuple[str, ViewResult]:
+              up: str = "auto", match: Any = None) -> tuple[str, ViewResult]:
     """The viewer page for ``reference`` and ``candidates``, as text, and what it shows.
 
     Args:
@@ -125,6 +126,10 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
         bound_text: how the bound was given and read (``"2% of height = 3.04 cm"``); default: the bound in units.
         title: the page's title; default: the clips' labels.
         up: ``"y"``, ``"z"`` or ``"auto"``: the reference's up axis (:func:`motionrep.render.detect_up_axis`).
+        match: a :class:`motionrep.pairing.MatchOptions` for candidates after another tool (joints by name, end
+            sites missing, another rate or length): each candidate is drawn with its own skeleton at the
+            reference's frame times (held on its last frame after its end), its error is measured on the points
+            and frames paired, and the notes say what was left out.  Default: strict.
 
     Raises:
         ValidationError: skeletons that differ, clips of different length, too many candidates, a bad bound.
@@ -164,13 +169,18 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
 
     clips.append(clip_entry(ref, ref.motion, "reference", REFERENCE_COLOR))
     for i, cand in enumerate(cands):
-        aligned, note = align_candidate(ref.motion, cand.motion, ref.label, cand.label)
-        if note:
-            notes.append(note)
-        pos = global_positions(aligned)
-        report = evaluator.positions_error(pos)
+        if match is not None:
+            aligned, report, dist = _paired(evaluator, cand, match)
+            note = report.comparison.method
+            notes.extend(f"{cand.label}: {line}" for line in report.comparison.lines())
+        else:
+            aligned, note = align_candidate(ref.motion, cand.motion, ref.label, cand.label)
+            if note:
+                notes.append(note)
+            pos = global_positions(aligned)
+            report = evaluator.positions_error(pos)
+            dist = np.sqrt(np.sum((pos - ref_pos) ** 2, axis=-1))  # (F, P)
         reports.append(report)
-        dist = np.sqrt(np.sum((pos - ref_pos) ** 2, axis=-1))  # (F, P)
         entry = clip_entry(cand, aligned, "candidate", CANDIDATE_COLORS[i])
         entry.update({
             "error": {"max": report.max_error, "maxPercent": report.max_error_percent, "mean": report.mean_error,
@@ -211,6 +221,25 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
     worst = reports[0].frame if reports else None
     return page, ViewResult(None, len(page.encode("utf-8")), ref.motion.num_frames, tuple(reports), worst,
                             tuple(notes))
+
+
+def _paired(evaluator: Evaluator, cand: ViewClip, match: Any) -> tuple[Motion, ErrorReport, NDArray]:
+    """A candidate after another tool: at the reference's frame times, its report on the paired points and frames,
+    and ``(F, J + E)`` distances of the reference's points (0 where a point is not paired)."""
+    from .kinematics import global_positions
+    from .ops import interpolate_frames
+    from .pairing import compare, pair_points
+
+    ref = evaluator.reference
+    report = compare(ref, cand.motion, match, evaluator=evaluator)
+    points = pair_points(ref.skeleton, cand.motion.skeleton, match)
+    at = np.minimum(np.arange(ref.num_frames) / ref.fps * cand.motion.fps, cand.motion.num_frames - 1)
+    aligned = interpolate_frames(cand.motion, at, ref.fps)
+    pos = global_positions(aligned)[:, list(points.candidate)]
+    dist = np.zeros((ref.num_frames, len(evaluator.names)))
+    dist[:, list(points.reference)] = np.sqrt(np.sum((pos - evaluator.reference_positions[:, list(points.reference)])
+                                                     ** 2, axis=-1))
+    return aligned, report, dist
 
 
 def write_view(path: str | os.PathLike[str], reference: ViewClip | Motion,

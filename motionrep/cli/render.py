@@ -14,7 +14,8 @@ from typing import Any, Callable
 import click
 
 from ..errors import ValidationError
-from ._common import STDIN_NAME, bound_for, check_outputs, force_option, is_stdio, stdin_inputs
+from ._common import (STDIN_NAME, bound_for, check_outputs, comparison_options, force_option, is_stdio,
+                      match_options, stdin_inputs)
 
 __all__ = ["render"]
 
@@ -80,15 +81,20 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
 @click.option("--max-error", "max_error", metavar="BOUND",
               help="Bound to draw on the error panel: '2%' of the character height or a distance in file units. "
                    "Default: the bound a .mrc candidate was compressed within, if it says.")
+@comparison_options
 @force_option
 def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
            count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
-           max_error: str | None, force: bool) -> None:
+           max_error: str | None, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (),
+           ignore_extra: bool = False, resample: bool = False) -> None:
     """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, the worst joint circled.
 
     REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH, NPZ,
     HDF5, .glb or .mrc from standard input).  A CAND at another frame rate is resampled at REF's frame times when
     both span the same time.  A panel under the pictures shows the error over time and the bound.
+    A CAND after another tool: --match names (--strip-prefix, --ignore-extra)
+    and --resample as in evaluate; only the compared points and frames are
+    drawn, and notes list what was left out.
 
     \b
     Examples:
@@ -99,6 +105,9 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
     """
     from ..render import OUTPUT_SUFFIXES, check_output
     from ..render import render as draw
+
+    options = match_options(match, strip_prefix, ignore_extra, resample)
+    options = None if options.strict else options
 
     if output.suffix.lower() not in OUTPUT_SUFFIXES:
         raise click.UsageError(f"output {output}: cannot draw to {output.suffix or '(no suffix)'!r} files; use one "
@@ -114,7 +123,7 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
     names = _labels(reference, candidate)
     names = tuple(STDIN_NAME if is_stdio(p) else n for p, n in zip((reference, candidate), names))
     result = draw(output, ref, cand, names=names, frames=frames, fps=fps, count=count,
-                  max_frames=max_frames, size=size, up=up, bound=bound)
+                  max_frames=max_frames, size=size, up=up, bound=bound, options=options)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)
     n = len(result.frames)

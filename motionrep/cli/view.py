@@ -12,7 +12,8 @@ from typing import Any
 
 import click
 
-from ._common import STDIN_NAME, bound_for, check_outputs, expand_globs, force_option, is_stdio, stdin_inputs
+from ._common import (STDIN_NAME, bound_for, check_outputs, comparison_options, expand_globs, force_option, is_stdio,
+                      match_options, stdin_inputs)
 
 __all__ = ["view"]
 
@@ -61,9 +62,11 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
                    "Default: the bound the first .mrc candidate was compressed within, if any.")
 @click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
+@comparison_options
 @force_option
 def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | None, max_error: str | None,
-         up: str, force: bool) -> None:
+         up: str, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (), ignore_extra: bool = False,
+         resample: bool = False) -> None:
     """Write one HTML page showing REF and its decoded copies CAND... in 3D.
 
     The skeletons are overlaid (REF red, the candidates blue, green, orange...),
@@ -73,7 +76,9 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
     CAND may be any motion file motionrep reads, .mrc and .glb included, of the
     same skeleton; '-' reads BVH, NPZ, HDF5, .glb or .mrc from standard input;
     quoted glob patterns give several candidates.  A CAND at another frame
-    rate is resampled at REF's frame times.
+    rate is resampled at REF's frame times.  A CAND after another tool:
+    --match names (--strip-prefix, --ignore-extra) and --resample as in
+    evaluate; notes list what each error left out.
 
     \b
     Examples:
@@ -83,6 +88,9 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
     """
     from ..sources import open_source
     from ..view import MAX_CANDIDATES, ViewClip, write_view
+
+    options = match_options(match, strip_prefix, ignore_extra, resample)
+    options = None if options.strict else options
 
     if output.suffix.lower() not in (".html", ".htm"):
         raise click.UsageError(f"output {output}: the viewer is an HTML page; name it OUT.html")
@@ -105,7 +113,7 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
             label = STDIN_NAME if is_stdio(given[k]) else Path(str(given[k])).name
             clips.append(ViewClip(motion, f"{label}[{name}]" if many else label, tuple(facts)))
         bound, how = bound_for(max_error, clips[0].motion, paths[1:], clip)
-    result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up)
+    result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up, match=options)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)
     line = f"wrote {output}: {result.frames} frames, {len(clips)} clip{'s' if len(clips) > 1 else ''}, " \

@@ -43,6 +43,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -126,7 +127,8 @@ def check_output(path: str | os.PathLike[str]) -> str:
 def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | None = None, *,
            names: tuple[str, str] = ("reference", "candidate"), frames: slice | str | None = None,
            fps: float | None = None, count: int = 8, max_frames: int = 150,
-           size: tuple[int, int] | None = None, up: str = "auto", bound: float | None = None) -> RenderResult:
+           size: tuple[int, int] | None = None, up: str = "auto", bound: float | None = None,
+           options: Any = None) -> RenderResult:
     """Draw ``reference`` (red) and ``candidate`` (blue) overlaid, to a GIF/MP4 animation or a PNG filmstrip.
 
     With a candidate, a panel under the pictures shows the error over time (each frame's largest joint error,
@@ -154,6 +156,9 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
             wide) and the error panel for a filmstrip.
         up: ``"y"`` or ``"z"`` for the data's up axis, or ``"auto"`` (:func:`detect_up_axis`).
         bound: an error bound in file units drawn on the error panel (the ``--max-error`` a file was made with).
+        options: a :class:`motionrep.pairing.MatchOptions` for a candidate after another tool (joints by name,
+            end sites missing, another rate): only the compared points and frames are drawn and measured, and
+            the notes say what was left out.  Default: strict.
 
     Returns:
         :class:`RenderResult`.
@@ -187,7 +192,17 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
     names = (str(names[0]), str(names[1]))
 
     notes: list[str] = []
-    if candidate is not None:
+    paired = None
+    if candidate is not None and options is not None:
+        from ..pairing import compare, compared_bones, paired_positions
+
+        error = compare(reference, candidate, options)
+        ref_sub, cand_sub, points, _ = paired_positions(reference, candidate, options)
+        notes.extend(error.comparison.lines())
+        if ref_sub.shape[0] < reference.num_frames:
+            reference = reference.frames(slice(0, ref_sub.shape[0]))
+        paired = (error, ref_sub, cand_sub, compared_bones(reference.skeleton, points.reference), points.names)
+    elif candidate is not None:
         candidate, note = align_candidate(reference, candidate, names[0], names[1])
         if note:
             notes.append(note)
@@ -196,7 +211,14 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
     error = worst = curve = None
     height = character_height(reference.skeleton)
     units = reference.skeleton.units
-    if candidate is None:
+    bones = None
+    if paired is not None:
+        error, ref_pos, cand_pos, bones, names_ = paired
+        worst = Worst(error, names_.index(error.joint))
+        dist = np.linalg.norm(ref_pos - cand_pos, axis=-1)  # (F, P) on the compared points
+        curve = Curve(dist.max(axis=1), dist.argmax(axis=1), names_, None if bound is None else float(bound),
+                      units, height)
+    elif candidate is None:
         ref_pos = global_positions(reference)
         cand_pos = None
     else:
@@ -211,7 +233,8 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
                        units, height)
     if up == "auto":
         up = detect_up_axis(ref_pos[selected])
-    scene = build_scene(ref_pos, cand_pos, bone_segments(reference), up, selected, height, reference.fps)
+    scene = build_scene(ref_pos, cand_pos, bone_segments(reference) if bones is None else bones, up, selected, height,
+                        reference.fps)
 
     rate = None
     worst_frame = None if error is None else error.frame
