@@ -25,6 +25,9 @@ how many threads computed it.
 :func:`compress_clips` (with ``--resume`` checksums and ``--timeout``) and :func:`evaluate_clips` /
 :func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep
 bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
+
+Size: one concern, running many clips; the pool, the thread policy and the pairing of two collections' clips
+(``evaluate`` of two databases, ``--common``) share the clip naming and the one way results come back.
 """
 
 from __future__ import annotations

@@ -27,6 +27,9 @@ Compression figures (:func:`compression_figures`), always reported together:
     metadata every ``.mrc`` file has) divided by ``frames x (joints + end sites)``, ACL's count, so that sizes
     compare with ACL's and between codecs whatever the container adds (None when the payload size is not
     given).
+
+Size: one concern, the shared measure; the error, the encode context built on it and the compression figures
+reported beside it are what every codec is judged by, kept in one place.
 """
 
 from __future__ import annotations

@@ -26,6 +26,9 @@ Frames (``resample=True``): the candidate is evaluated at the reference's frame 
 slerped along the shorter arc, translations linearly (:func:`motionrep.ops.interpolate_frames`), and then run
 through FK.  Reference frames whose time lies after the candidate's last frame (more than 1e-6 of a frame time)
 are left out and listed, and so are candidate frames after the reference's last frame.
+
+Size: one concern, pairing two motions for the shared error; the point pairing (names, prefixes, end sites and
+bone tails), the frame pairing and the report of what was left out describe one another.
 """
 
 from __future__ import annotations
@@ -42,8 +45,8 @@ from .errors import ValidationError
 from .kinematics import character_height, global_positions, point_names, rest_positions
 
 __all__ = ["MatchOptions", "PointPairing", "FramePairing", "Comparison", "STRICT", "TAIL_TOLERANCE",
-           "RESAMPLE_METHOD", "pair_points", "pair_frames", "compare", "paired_positions", "strict_comparison",
-           "ranges", "compared_bones"]
+           "RESAMPLE_METHOD", "pair_points", "pair_frames", "compare", "paired_positions",
+           "compared_bones"]
 
 #: A bone tail is paired with an end site when their rest positions are this close, in parts of the height.
 TAIL_TOLERANCE = 0.01
@@ -213,17 +216,6 @@ _LEFT_OUT_LABELS = (
 
 def _count(runs: Sequence[Sequence[int]]) -> int:
     return sum(b - a + 1 for a, b in runs)
-
-
-def ranges(frames: Sequence[int] | NDArray) -> tuple[tuple[int, int], ...]:
-    """Sorted frame indices as inclusive ``(first, last)`` runs: ``[0, 1, 2, 5] -> ((0, 2), (5, 5))``."""
-    out: list[tuple[int, int]] = []
-    for f in (int(x) for x in frames):
-        if out and f == out[-1][1] + 1:
-            out[-1] = (out[-1][0], f)
-        else:
-            out.append((f, f))
-    return tuple(out)
 
 
 def _key(name: str, prefixes: tuple[str, ...]) -> str:
@@ -420,15 +412,6 @@ def _comparison(points: PointPairing, frames: FramePairing, options: MatchOption
     first, last = frames.compared
     return Comparison(options.match, options.strip_prefix, points.joints, points.end_sites, points.tails,
                       (first, last), last - first + 1, frames.method, left_out)
-
-
-def strict_comparison(skeleton: Skeleton, num_frames: int) -> Comparison:
-    """The :class:`Comparison` of a strict report: every joint, end site and frame."""
-    names = point_names(skeleton)
-    J = skeleton.num_joints
-    idx = tuple(range(len(names)))
-    return _comparison(PointPairing(idx, idx, names, names[:J], names[J:]),
-                       FramePairing((0, num_frames - 1), num_frames, num_frames, np.zeros(0)), STRICT)
 
 
 def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT, evaluator: Any = None) -> Any:
