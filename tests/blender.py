@@ -1,7 +1,7 @@
 """Blender for the round-trip tests: run a script in ``blender -b --factory-startup`` with a timeout, or skip.
 
 ``pytest.skip`` says why when ``blender`` is not on PATH (CI installs Debian's, as the viewer's test installs
-Chromium).  The scripts below are what the tests run inside Blender: import a file, export glTF.
+Chromium).  :data:`ROUND_TRIPS` is what the tests run inside Blender: import a file, export glTF.
 
 Two things Debian's Blender 3.4 needs on a Python 3.11 system: its glTF importer imports numpy (the system
 ``python3-numpy``), and its BVH importer opens files with mode ``'rU'``, which Python 3.11 removed: the BVH
@@ -19,45 +19,50 @@ import pytest
 #: Longest a Blender run may take, in seconds, before the test fails.
 TIMEOUT = 300
 
-#: The scene's frame rate set to the clip's (Blender keys animations in scene frames and exports at them), so
-#: that import and export keep every frame: ``fps`` as an integer and a ``fps_base``.
-_FPS = """
-def set_fps(fps):
-    scene = bpy.context.scene
-    scene.render.fps = max(1, round(fps))
-    scene.render.fps_base = scene.render.fps / fps
-"""
-
-#: motionrep .glb -> Blender's glTF importer -> Blender's glTF exporter.  Arguments: SRC OUT FPS.
-GLTF_ROUND_TRIP = """
-import sys, bpy
-""" + _FPS + """
-src, out, fps = sys.argv[sys.argv.index("--") + 1:][:3]
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
-set_fps(float(fps))
-bpy.ops.import_scene.gltf(filepath=src)
-actions = [a for a in bpy.data.actions]
-start = min(int(a.frame_range[0]) for a in actions)
-end = max(int(round(a.frame_range[1])) for a in actions)
-bpy.context.scene.frame_start, bpy.context.scene.frame_end = start, end
-bpy.ops.export_scene.gltf(filepath=out, export_format="GLB", export_animations=True, export_force_sampling=True,
-                          export_frame_range=False)
-"""
-
-#: A BVH file -> Blender's BVH importer -> Blender's glTF exporter.  Arguments: SRC OUT.
-BVH_TO_GLTF = """
+#: What the tests run inside Blender: jobs given after ``--``, each ``gltf SRC OUT FPS`` (a motionrep .glb ->
+#: Blender's glTF importer -> its glTF exporter, the scene at the clip's rate, so that import and export keep
+#: every frame) or ``bvh SRC OUT`` (a BVH -> Blender's BVH importer -> its glTF exporter), the scene emptied
+#: before each, so that one Blender start serves several round trips.
+ROUND_TRIPS = """
 import builtins, sys, bpy
 _open = builtins.open
 def _open_without_U(file, mode="r", *args, **kwargs):  # Python 3.11 removed 'U'; Blender 3.4's BVH importer uses it
     return _open(file, mode.replace("U", "") if isinstance(mode, str) else mode, *args, **kwargs)
 builtins.open = _open_without_U
-src, out = sys.argv[sys.argv.index("--") + 1:][:2]
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
-bpy.ops.import_anim.bvh(filepath=src, update_scene_fps=True, update_scene_duration=True)
-bpy.ops.export_scene.gltf(filepath=out, export_format="GLB", export_animations=True, export_force_sampling=True,
-                          export_frame_range=True)
+
+def empty():
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    for a in list(bpy.data.actions):
+        bpy.data.actions.remove(a)
+    for a in list(bpy.data.armatures):
+        bpy.data.armatures.remove(a)
+
+def export(out, frame_range):
+    bpy.ops.export_scene.gltf(filepath=out, export_format="GLB", export_animations=True,
+                              export_force_sampling=True, export_frame_range=frame_range)
+
+def gltf(src, out, fps):
+    empty()
+    scene = bpy.context.scene
+    scene.render.fps = max(1, round(float(fps)))
+    scene.render.fps_base = scene.render.fps / float(fps)
+    bpy.ops.import_scene.gltf(filepath=src)
+    export(out, False)
+
+def bvh(src, out):
+    empty()
+    bpy.ops.import_anim.bvh(filepath=src, update_scene_fps=True, update_scene_duration=True)
+    export(out, True)
+
+jobs = sys.argv[sys.argv.index("--") + 1:]
+while jobs:
+    if jobs[0] == "gltf":
+        gltf(*jobs[1:4]); jobs = jobs[4:]
+    elif jobs[0] == "bvh":
+        bvh(*jobs[1:3]); jobs = jobs[3:]
+    else:
+        raise SystemExit(f"unknown job {jobs[0]!r}")
 """
 
 

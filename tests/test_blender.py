@@ -16,18 +16,18 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from blender import BVH_TO_GLTF, GLTF_ROUND_TRIP, run_blender
+from blender import ROUND_TRIPS, run_blender
+from click.testing import CliRunner
 from helpers import HAVE_SHARED, SHARED_DATA
 
 from motionrep import Motion, Skeleton
-from motionrep.io import read, write
+from motionrep.cli import cli
+from motionrep.io import gltf_scale, read, write
 from motionrep.kinematics import character_height
 
 
@@ -40,15 +40,17 @@ REAL_CLIPS = ("cmu/BvhToDeepMimic/02_01.bvh", "other/bandai_namco/dataset-1_dash
               "other/bvh-python-20tab/test_freebvh.bvh")
 
 
-def _cli(*args: str | Path) -> subprocess.CompletedProcess:
-    run = subprocess.run([sys.executable, "-m", "motionrep", *map(str, args)], capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stderr
+#: The real clips as parameters: realdata, slow (a Blender run of 10-30 s each), skipped without ../shared/data.
+real_clips = pytest.mark.parametrize("name", [
+    pytest.param(n, id=n, marks=[pytest.mark.realdata, pytest.mark.slow,
+                                 pytest.mark.skipif(not HAVE_SHARED, reason=f"real clips not found at {SHARED_DATA}")])
+    for n in REAL_CLIPS])
+
+
+def _cli(*args: str | Path):
+    run = CliRunner().invoke(cli, [str(a) for a in args])
+    assert run.exit_code == 0, run.output
     return run
-
-
-def _integer_rate(motion: Motion) -> Motion:
-    return motion.replace(fps=float(round(motion.fps)))
 
 
 def _scaled(motion: Motion, s: float) -> Motion:
@@ -77,25 +79,32 @@ def _small_clip() -> Motion:
     return Motion(sk, 30.0, root, euler_to_quat(angles, "XYZ"), np.zeros((F, 0, 3)))
 
 
-def _gltf_round_trip(motion: Motion, tmp_path: Path) -> tuple[dict, float, str]:
-    """Blender's export of motionrep's .glb of ``motion`` (written with the guessed units), compared by name with
-    ``motion`` in metres; returns the JSON report, the height in Blender (m) and convert's note."""
-    src, glb, out, ref = (tmp_path / n for n in ("src.bvh", "motionrep.glb", "blender.glb", "ref.bvh"))
+def _through_blender(motion: Motion, folder: Path) -> dict:
+    """Both round trips of ``motion`` in one Blender run: its .glb written by ``convert`` with the guessed units,
+    and its BVH imported by Blender; each export compared by name (``evaluate --match names --json``) with the
+    clip (in metres for the glTF one).  Returns the reports, the height in Blender and convert's note."""
+    src, glb, out, ref, bvh_out = (folder / n for n in ("src.bvh", "motionrep.glb", "blender.glb", "ref.bvh",
+                                                         "blender_bvh.glb"))
     write(motion, src)
     note = _cli("convert", src, glb).stderr
-    from motionrep.io import gltf_scale
+    source = read(src)
+    write(_scaled(source, gltf_scale(source)[0]), ref)
+    run_blender(ROUND_TRIPS, "gltf", glb, out, repr(motion.fps), "bvh", src, bvh_out)
+    return {"gltf": json.loads(_cli("evaluate", ref, out, "--match", "names", "--json").stdout),
+            "bvh": json.loads(_cli("evaluate", src, bvh_out, "--match", "names", "--json").stdout),
+            "height": character_height(read(out).skeleton), "note": note}
 
-    scale, _ = gltf_scale(read(src))
-    run_blender(GLTF_ROUND_TRIP, glb, out, repr(motion.fps))
-    write(_scaled(read(src), scale), ref)
-    report = json.loads(_cli("evaluate", ref, out, "--match", "names", "--json").stdout)
-    return report, character_height(read(out).skeleton), note
+
+@pytest.fixture(scope="module")
+def small_clip_through_blender(tmp_path_factory):
+    return _through_blender(_small_clip(), tmp_path_factory.mktemp("blender"))
 
 
-def test_gltf_round_trip_through_blender_small_clip(tmp_path):
-    report, height, note = _gltf_round_trip(_small_clip(), tmp_path)
-    assert "assumed units cm" in note
-    assert math.isclose(height, 1.70, rel_tol=1e-6)  # 170 units (foot end to head end) in cm
+def test_gltf_round_trip_through_blender_small_clip(small_clip_through_blender):
+    result = small_clip_through_blender
+    assert "assumed units cm" in result["note"]
+    assert math.isclose(result["height"], 1.70, rel_tol=1e-6)  # 170 units (foot end to head end) in cm
+    report = result["gltf"]
     assert report["max_error_percent"] < TARGET_PERCENT, report
     comparison = report["comparison"]
     assert len(comparison["joints"]) == 6 and len(comparison["end_sites"]) == 2
@@ -104,47 +113,28 @@ def test_gltf_round_trip_through_blender_small_clip(tmp_path):
     assert not any(comparison["left_out"].values()), comparison["left_out"]
 
 
-@pytest.mark.realdata
-@pytest.mark.slow
-@pytest.mark.skipif(not HAVE_SHARED, reason=f"real clips not found at {SHARED_DATA}")
-@pytest.mark.parametrize("name", REAL_CLIPS)
-def test_gltf_round_trip_through_blender_real_clips(tmp_path, name):
-    motion = _integer_rate(read(SHARED_DATA / name))
-    report, height, _ = _gltf_round_trip(motion, tmp_path)
-    print(f"{name}: glTF -> Blender -> glTF: {report['max_error_percent']:.3g}% of the height, "
-          f"{height:.3f} m tall in Blender")
-    assert 1.0 <= height <= 2.5
-    assert report["max_error_percent"] < TARGET_PERCENT, report
-    comparison = report["comparison"]
-    assert len(comparison["joints"]) == motion.skeleton.num_joints
-    assert len(comparison["end_sites"]) == motion.skeleton.num_end_sites
-    assert not any(comparison["left_out"].values()), comparison["left_out"]
-
-
-def _bvh_through_blender(motion: Motion, tmp_path: Path) -> dict:
-    src, out = tmp_path / "src.bvh", tmp_path / "blender.glb"
-    write(motion, src)
-    run_blender(BVH_TO_GLTF, src, out)
-    return json.loads(_cli("evaluate", src, out, "--match", "names", "--json").stdout)
-
-
-def test_bvh_import_through_blender_small_clip(tmp_path):
-    report = _bvh_through_blender(_small_clip(), tmp_path)
+def test_bvh_import_through_blender_small_clip(small_clip_through_blender):
+    report = small_clip_through_blender["bvh"]
     assert report["max_error_percent"] < TARGET_PERCENT, report
     comparison = report["comparison"]
     assert len(comparison["joints"]) == 6 and comparison["end_sites"] == []
     assert comparison["left_out"]["reference_end_sites"] == ["Head/End Site", "LeftFoot/End Site"]
+    assert comparison["frames"] == [0, 11]
 
 
-@pytest.mark.realdata
-@pytest.mark.slow
-@pytest.mark.skipif(not HAVE_SHARED, reason=f"real clips not found at {SHARED_DATA}")
-@pytest.mark.parametrize("name", REAL_CLIPS)
-def test_bvh_import_through_blender_real_clips(tmp_path, name):
-    motion = _integer_rate(read(SHARED_DATA / name))
-    report = _bvh_through_blender(motion, tmp_path)
-    print(f"{name}: BVH -> Blender -> glTF: {report['max_error_percent']:.3g}% of the height")
-    assert report["max_error_percent"] < TARGET_PERCENT, report
-    comparison = report["comparison"]
-    assert len(comparison["joints"]) == motion.skeleton.num_joints
-    assert len(comparison["left_out"]["reference_end_sites"]) == motion.skeleton.num_end_sites
+@real_clips
+def test_round_trips_through_blender_real_clips(tmp_path, name):
+    motion = read(SHARED_DATA / name)
+    motion = motion.replace(fps=float(round(motion.fps)))  # Blender's exporter ignores fps_base (module doc)
+    result = _through_blender(motion, tmp_path)
+    gltf, bvh = result["gltf"], result["bvh"]
+    print(f"{name}: glTF -> Blender -> glTF {gltf['max_error_percent']:.3g}% of the height, "
+          f"{result['height']:.3f} m tall in Blender; BVH -> Blender -> glTF {bvh['max_error_percent']:.3g}%")
+    assert 1.0 <= result["height"] <= 2.5
+    for report in (gltf, bvh):
+        assert report["max_error_percent"] < TARGET_PERCENT, report
+        assert len(report["comparison"]["joints"]) == motion.skeleton.num_joints
+        assert report["num_frames"] == motion.num_frames
+    assert len(gltf["comparison"]["end_sites"]) == motion.skeleton.num_end_sites
+    assert not any(gltf["comparison"]["left_out"].values()), gltf["comparison"]["left_out"]
+    assert len(bvh["comparison"]["left_out"]["reference_end_sites"]) == motion.skeleton.num_end_sites
