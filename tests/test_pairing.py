@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from helpers import HAVE_SHARED, SHARED_DATA
 from motionrep import Motion, Skeleton
 from motionrep.cli import cli as main
 from motionrep.errors import ValidationError
 from motionrep.evaluate import max_joint_error
-from motionrep.io import write
+from motionrep.io import read, write
 from motionrep.kinematics import global_positions
 from motionrep.ops import resample
 from motionrep.pairing import RESAMPLE_METHOD, MatchOptions, compare, compared_bones, pair_points
@@ -209,3 +210,24 @@ def test_cli_render_and_view_take_the_comparison_options(tmp_path):
     assert "compared: 7 joints by name" in page.output
     strict = runner.invoke(main, ["view", ref, cand, "-o", str(tmp_path / "w.html")])
     assert strict.exit_code == 1 and "--match names" in strict.output
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not HAVE_SHARED, reason=f"real clips not found at {SHARED_DATA}")
+def test_a_real_mixamo_clip_without_its_namespace_end_sites_and_half_its_rate(tmp_path):
+    """Mixamo's ``mixamorig:`` names against the same clip renamed, without end sites and at half the rate:
+    every joint paired, the end sites listed, the frames both have exact."""
+    ref = read(SHARED_DATA / "other/ganimator/Gangnam-Style.bvh")
+    sk = ref.skeleton
+    assert all(n.startswith("mixamorig:") for n in sk.names)
+    bare = Skeleton(tuple(n[len("mixamorig:"):] for n in sk.names), sk.parents, sk.offsets, sk.channels)
+    cand = ref.replace(skeleton=bare, euler_branch=None, euler_angles=None).frames(slice(0, None, 2))
+    cand = cand.replace(fps=ref.fps / 2)
+    options = MatchOptions(match="names", strip_prefix=("mixamorig:",), resample=True)
+    report = max_joint_error(ref, cand, options)
+    assert len(report.comparison.joints) == sk.num_joints and report.comparison.end_sites == ()
+    assert len(report.comparison.left_out["reference_end_sites"]) == sk.num_end_sites
+    assert report.comparison.method == RESAMPLE_METHOD
+    even = compare(ref.frames(slice(0, None, 2)).replace(fps=ref.fps / 2), cand,
+                   MatchOptions(match="names", strip_prefix=("mixamorig:",)))
+    assert even.max_error <= 1e-9 * even.height  # the same numbers: FK rounding only
