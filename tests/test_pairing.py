@@ -231,3 +231,19 @@ def test_a_real_mixamo_clip_without_its_namespace_end_sites_and_half_its_rate(tm
     even = compare(ref.frames(slice(0, None, 2)).replace(fps=ref.fps / 2), cand,
                    MatchOptions(match="names", strip_prefix=("mixamorig:",)))
     assert even.max_error <= 1e-9 * even.height  # the same numbers: FK rounding only
+
+
+def test_cli_evaluate_common_between_two_databases(tmp_path):
+    from motionrep.io import write_database
+
+    write_database([("walk", _clip()), ("run", _clip(frames=30))], tmp_path / "a.h5")
+    write_database([("walk", _clip()), ("jump", _clip(frames=20)), ("run", _clip(frames=30))], tmp_path / "b.h5")
+    runner = CliRunner()
+    refused = runner.invoke(main, ["evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5")])
+    assert refused.exit_code == 1 and "only in" in refused.output and "--common" in refused.output
+    run = runner.invoke(main, ["evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "--common", "--json"])
+    assert run.exit_code == 0, run.output
+    data = json.loads(run.output)
+    assert sorted(c["clip"] for c in data["clips"]) == ["run", "walk"]
+    assert data["only_in_reference"] == [] and data["only_in_candidate"] == ["jump"]
+    assert all(c["max_error"] == 0 for c in data["clips"])
