@@ -138,3 +138,20 @@ def test_round_trips_through_blender_real_clips(tmp_path, name):
     assert len(gltf["comparison"]["end_sites"]) == motion.skeleton.num_end_sites
     assert not any(gltf["comparison"]["left_out"].values()), gltf["comparison"]["left_out"]
     assert len(bvh["comparison"]["left_out"]["reference_end_sites"]) == motion.skeleton.num_end_sites
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+@pytest.mark.skipif(not HAVE_SHARED, reason=f"real clips not found at {SHARED_DATA}")
+def test_blender_at_another_time_base_compares_with_resample(tmp_path):
+    """The issue's case: a CMU clip at 120.00048 fps through Blender's BVH import comes back at 120 fps (its
+    exporter ignores fps_base); strict evaluation refuses and names --resample, which compares every frame at
+    the reference's times and says how (3e-3 % of the height: 4 ppm of time, not geometry)."""
+    src, out = SHARED_DATA / "cmu/BvhToDeepMimic/02_01.bvh", tmp_path / "blender.glb"
+    run_blender(ROUND_TRIPS, "bvh", src, out)
+    refused = CliRunner().invoke(cli, ["evaluate", str(src), str(out), "--match", "names"])
+    assert refused.exit_code == 1 and "120.0005 vs 120 fps" in refused.output and "--resample" in refused.output
+    report = json.loads(_cli("evaluate", src, out, "--match", "names", "--resample", "--json").stdout)
+    assert report["comparison"]["method"].startswith("candidate sampled at the reference's frame times")
+    assert report["num_frames"] == read(src).num_frames
+    assert report["max_error_percent"] < 5e-3, report
