@@ -247,7 +247,10 @@ class Pipeline:
                 f"codec {codec.name!r} did not meet --max-error {self.max_error}: the stored payload decodes with "
                 f"an L-inf error of {report.max_error:.4g} ({report.max_error_percent:.3g}% of height), above the "
                 f"bound {bound:.4g}", best_error=report.max_error, bound=bound)
-        container = dataclasses.replace(container, evaluation=dict(report.as_dict(), bound=bound))
+        # The stored evaluation is always a strict comparison of every point and frame: its ``comparison`` (what
+        # a cross-tool comparison left out) is None and is not stored, so the container's metadata is unchanged.
+        stored = {k: v for k, v in report.as_dict().items() if k != "comparison"}
+        container = dataclasses.replace(container, evaluation=dict(stored, bound=bound))
         data = pack(container)
         again = evaluator(decompress(data, codec=codec, representation=rep))
         if again != report:
