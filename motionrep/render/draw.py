@@ -7,7 +7,7 @@ import contextlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +17,11 @@ from ..evaluate import ErrorReport
 from .scene import Scene, Worst
 
 __all__ = ["REFERENCE_COLOR", "CANDIDATE_COLOR", "MARK_COLOR", "DPI", "require_matplotlib", "describe_error",
-           "Panel", "Curve", "error_panel", "write_animation", "write_filmstrip"]
+           "Panel", "Curve", "error_panel", "zoom_inset", "write_animation", "write_filmstrip", "Progress"]
+
+#: ``progress(done, total)``: called as pictures are drawn (``done`` of ``total``; the last call, ``done ==
+#: total``, comes once the file is written).
+Progress = Callable[[int, int], None]
 
 REFERENCE_COLOR = "#d62728"  # red
 CANDIDATE_COLOR = "#1f5fd6"  # blue
@@ -49,12 +53,17 @@ def describe_error(report: ErrorReport) -> str:
 
 
 class Panel:
-    """The artists of one picture: floor, shadow, both skeletons, the worst-joint marker."""
+    """The artists of one picture: floor, shadow, both skeletons, the worst-joint marker.
 
-    def __init__(self, ax, scene: Scene, worst: Worst | None, linewidth: float, marker: float):
+    The marker circles the worst joint *of the frame shown* (``points[frame]``, each frame's largest error) when
+    ``points`` is given, else the clip's worst joint.
+    """
+
+    def __init__(self, ax, scene: Scene, worst: Worst | None, linewidth: float, marker: float,
+                 points: NDArray[np.int64] | None = None):
         from matplotlib.collections import LineCollection
 
-        self.scene, self.worst = scene, worst
+        self.scene, self.worst, self.points = scene, worst, points
         ax.set_axis_off()
         # one file unit is as long across as up: widen the limits along the axes' longer side
         box = ax.get_position()
@@ -114,7 +123,7 @@ class Panel:
             self.halo.set_segments(s.cand[frame][b] - offset)
             self.cand.set_segments(s.cand[frame][b] - offset)
         if self.ring is not None:
-            p = self.worst.point
+            p = self.worst.point if self.points is None else int(self.points[frame])
             pts = np.stack([s.ref[frame, p], s.cand[frame, p]]) - offset
             self.link.set_data(pts[:, 0], pts[:, 1])
             mid = pts.mean(axis=0)
@@ -153,8 +162,39 @@ def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
         handles.append(Line2D([], [], color=CANDIDATE_COLOR, lw=2, label=f"{names[1]} (decoded)"))
     if worst is not None:
         handles.append(Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec=MARK_COLOR, mew=1.5,
-                              label=f"worst joint: {worst.name}"))
+                              label="each frame's worst joint"))
     return handles
+
+
+def zoom_inset(fig, rect: tuple[float, float, float, float], scene: Scene, worst: Worst, linewidth: float,
+               font: float, frame_fps: float) -> Any:
+    """A picture of the worst frame zoomed on the worst joint (both skeletons around it), in ``rect`` (figure
+    fractions), framed and titled with the joint, the frame and the zoom.  Returns its axes."""
+    from matplotlib.patches import Rectangle
+
+    ax = fig.add_axes(rect)
+    panel = Panel(ax, scene, worst, linewidth=linewidth, marker=linewidth * 9.0)
+    f, p = worst.frame, worst.point
+    panel.show(f)
+    offset = scene.shift[f]
+    a, b = scene.ref[f, p] - offset, scene.cand[f, p] - offset
+    mid = (a + b) / 2
+    full = scene.ylim[1] - scene.ylim[0]
+    # the error fills about a third of the inset, but never less than a tenth of the character's picture
+    half = max(1.5 * float(np.linalg.norm(a - b)), 0.06 * full)
+    box = ax.get_position()
+    fig_w, fig_h = fig.get_size_inches()
+    px = box.width * fig_w / (box.height * fig_h)
+    ax.set_xlim(mid[0] - half * px, mid[0] + half * px)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    zoom = full / (2 * half)
+    ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, facecolor="white", edgecolor="none", zorder=-5))
+    ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, fill=False, edgecolor="#777777", lw=1.0,
+                           zorder=10, clip_on=False))
+    ax.text(0.5, 0.98, f"worst: {worst.name}\nframe {f} ({f / frame_fps:.2f} s), zoom x{zoom:.2g}",
+            transform=ax.transAxes, ha="center", va="top", fontsize=font, zorder=11,
+            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.0})
+    return ax
 
 
 def headline_text(names: tuple[str, str], has_cand: bool, worst: Worst | None, units: str | None) -> str:
@@ -202,10 +242,25 @@ def header_height(font: float, lines: int) -> float:
     return lines * font * 1.4 * DPI / 72.0 + 8.0
 
 
+def _gif_writer(animation: Any) -> Any:
+    """matplotlib's ``PillowWriter``, each frame turned into GIF's palette mode as it is grabbed (as Pillow would
+    when saving), so the time goes into the frames, where progress is reported, not into one long final save."""
+    from PIL import Image
+
+    class GifWriter(animation.PillowWriter):
+        def grab_frame(self, **savefig_kwargs: Any) -> None:
+            super().grab_frame(**savefig_kwargs)
+            im = self._frames[-1]
+            if im.mode == "RGB":
+                self._frames[-1] = im.convert("P", palette=Image.Palette.ADAPTIVE)
+
+    return GifWriter
+
+
 def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int64], fps: float,
                      size: tuple[int, int] | None, names: tuple[str, str], worst: Worst | None,
-                     curve: Curve | None, num_frames: int, clip_fps: float, units: str | None
-                     ) -> tuple[int, int]:
+                     curve: Curve | None, num_frames: int, clip_fps: float, units: str | None,
+                     progress: Progress | None = None) -> tuple[int, int]:
     Figure, FigureCanvasAgg = require_matplotlib()
     from matplotlib import animation
 
@@ -227,7 +282,15 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     bottom = (footer + graph) / h
     ax = fig.add_axes((0.01, bottom, 0.98, max(0.1, top - bottom)))
     scale = float(np.clip(min(w / scene.aspect, h - header - footer - graph) / 380.0, 0.4, 3.0))
-    panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale)
+    panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale,
+                  points=None if curve is None else curve.points)
+    inset = None
+    if worst is not None and scene.cand is not None:
+        # the worst joint at the worst frame, zoomed, in the picture's upper right corner (drawn once)
+        box = ax.get_position()
+        iw, ih = 0.27 * box.width, 0.36 * box.height
+        inset = zoom_inset(fig, (box.x1 - iw - 0.005, box.y1 - ih - 0.005, iw, ih), scene, worst,
+                           linewidth=2.0 * scale, font=font * 0.75, frame_fps=clip_fps)
     cursor = None
     if curve is not None:
         label = font * 2.6 * DPI / 72.0  # x tick labels and the axis label
@@ -252,6 +315,8 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     background = np.asarray(fig.canvas.buffer_rgba()).copy()
     for artist in [headline, legend] + ([] if scene.follows else [panel.floor]):
         artist.set_visible(False)
+    if inset is not None:  # in the bitmap: nothing of it is drawn again
+        inset.set_visible(False)
     fig.figimage(background, xo=0, yo=0, origin="upper", zorder=-1)
     if cursor is not None:  # the error panel is in the bitmap: its axes stay only to place the cursor
         graph_ax = cursor.axes
@@ -264,13 +329,14 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     for artist in moving:
         artist.set_visible(True)
     if kind == ".gif":
-        writer = animation.PillowWriter(fps=fps)
+        writer = _gif_writer(animation)(fps=fps)
     else:
         writer = animation.FFMpegWriter(fps=fps, codec="h264")  # matplotlib adds yuv420p for players
     digits = len(str(num_frames - 1))
     writer.setup(fig, str(path), dpi=DPI)
+    total = len(frames) + 1  # the last step: writing the file (Pillow encodes a GIF at the end)
     try:
-        for f in frames:
+        for k, f in enumerate(frames):
             f = int(f)
             panel.show(f)
             counter.set_text(f"frame {f:>{digits}}/{num_frames - 1} {f / clip_fps:6.2f} s")
@@ -278,11 +344,15 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
                 local.set_text(curve.text(f))
                 cursor.set_xdata([f, f])
             writer.grab_frame()
+            if progress is not None:
+                progress(k + 1, total)
     except BaseException:
         with contextlib.suppress(Exception):  # stop an ffmpeg process; the partial file is removed by the caller
             writer.finish()
         raise
     writer.finish()
+    if progress is not None:
+        progress(total, total)
     return w, h
 
 
@@ -291,7 +361,8 @@ def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
     """Rows, columns and image size of a filmstrip of ``n`` panels each showing a picture of ``aspect``.
 
     Without a size, pictures are about 300 pixels high (less if the strip would exceed 1800 pixels across)
-    and the grid is the one closest to a 16:10 image, empty cells counting against it.  With a size, the grid
+    and the grid is the one closest to a 16:10 image, empty cells counting against it (the writer widens the
+    last cell over any left, so none shows empty).  With a size, the grid
     that draws the pictures largest wins.
     """
     panel_aspect = float(np.clip(aspect, 0.8, 3.0))
@@ -316,7 +387,8 @@ def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
 
 def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: tuple[int, int] | None,
                      names: tuple[str, str], worst: Worst | None, curve: Curve | None, num_frames: int,
-                     clip_fps: float, units: str | None, span: tuple[int, int]) -> tuple[int, int]:
+                     clip_fps: float, units: str | None, span: tuple[int, int],
+                     progress: Progress | None = None) -> tuple[int, int]:
     Figure, FigureCanvasAgg = require_matplotlib()
     head_lines = 2 if worst is not None else 1
     font = 10.0 if size is None else float(np.clip(10.0 * min(size[0] / 1200.0, size[1] / 700.0), 6.0, 12.0))
@@ -324,7 +396,9 @@ def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: t
     title = header_height(title_font, 2 if curve is not None else 1)
     header = header_height(font, head_lines + 1)  # the headline, then the legend in a row
     graph = 0.0 if curve is None else 130.0
-    rows, cols, (w, h) = grid(len(frames), scene.aspect, size, header + graph, title)
+    zoomed = worst is not None and scene.cand is not None
+    cells = len(frames) + int(zoomed)  # with a candidate, one more cell: the worst joint zoomed
+    rows, cols, (w, h) = grid(cells, scene.aspect, size, header + graph, title)
     if curve is not None and size is not None:
         graph = min(graph, 0.25 * h)
     if (h - header - graph) / rows - title < 20 or w / cols < 20:
@@ -336,17 +410,28 @@ def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: t
     cell_w, cell_h = 1.0 / cols, (top - bottom) / rows
     picture_h = (h - header - graph) / rows - title
     scale = float(np.clip(min(w / cols / scene.aspect, picture_h) / 300.0, 0.3, 3.0))
+    # no empty cell: the last cell (the zoom, or the last picture) spans what the last row leaves over
+    spans = [1] * cells
+    spans[-1] += rows * cols - cells
     for k, f in enumerate(frames):
         f = int(f)
         r, c = divmod(k, cols)
-        ax = fig.add_axes((c * cell_w + 0.005 * cell_w, top - (r + 1) * cell_h, 0.99 * cell_w,
+        ax = fig.add_axes((c * cell_w + 0.005 * cell_w, top - (r + 1) * cell_h, (spans[k] - 0.01) * cell_w,
                            cell_h - title / h))
-        Panel(ax, scene, worst, linewidth=1.8 * scale, marker=12.0 * scale).show(f)
+        Panel(ax, scene, worst, linewidth=1.8 * scale, marker=12.0 * scale,
+              points=None if curve is None else curve.points).show(f)
+        if progress is not None:
+            progress(k + 1, len(frames) + 1)
         is_worst = worst is not None and f == worst.frame
         label = f"frame {f} ({f / clip_fps:.2f} s)" + ("  (worst)" if is_worst else "")
         err = "" if curve is None else curve.text(f, short=True)
-        fig.text((c + 0.5) * cell_w, top - r * cell_h, label + (f"\n{err}" if err else ""), ha="center",
-                 va="top", fontsize=title_font, fontweight="bold" if is_worst else "normal")
+        fig.text((c + 0.5 * spans[k]) * cell_w, top - r * cell_h, label + (f"\n{err}" if err else ""),
+                 ha="center", va="top", fontsize=title_font, fontweight="bold" if is_worst else "normal")
+    if zoomed:
+        r, c = divmod(len(frames), cols)
+        zoom_inset(fig, (c * cell_w + 0.02 * cell_w, top - (r + 1) * cell_h + 0.02 * cell_h,
+                         (spans[-1] - 0.04) * cell_w, cell_h - title / h - 0.02 * cell_h), scene, worst,
+                   linewidth=1.8 * scale, font=title_font, frame_fps=clip_fps)
     if curve is not None:
         label = font * 2.6 * DPI / 72.0
         rect = (70.0 / w, label / h, 1.0 - 140.0 / w, max(0.03, (graph - label - 8.0) / h))
@@ -357,4 +442,6 @@ def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: t
                bbox_to_anchor=(0.5, 1.0 - header_height(font, head_lines) / h), fontsize=font * 0.9,
                frameon=False, ncol=3, borderaxespad=0.0, borderpad=0.0, handletextpad=0.5, columnspacing=2.0)
     fig.savefig(str(path), format="png", dpi=DPI, facecolor="white")
+    if progress is not None:
+        progress(len(frames) + 1, len(frames) + 1)
     return w, h
