@@ -290,6 +290,9 @@ def test_new_controls_in_a_browser(browser, three_codecs):
     facts = browser.find_element(By.ID, "facts").text
     for label in labels[1:]:
         assert label in legend and label in hud and label in facts
+    # one duration: the facts and the clock both say frames / fps (60 frames at 30 fps: 2 s)
+    assert "60 at 30 fps (frame time 0.03333333 s), 2 s" in facts
+    assert browser.find_element(By.ID, "clock").text == "frame 0 / 59, 0.000 s of 2 s"
     body = browser.find_element(By.TAG_NAME, "body").text
     for word in ("None", "NaN", "nan", "undefined", "null"):
         assert word not in body.split() and f"={word}" not in body, word
