@@ -534,3 +534,21 @@ def test_progress_bar_only_on_a_terminal(tmp_path, files, monkeypatch):
             bar(done, 3)
     text = term.getvalue()
     assert "drawing a.gif" in text and "3/3" in text
+
+
+def test_the_animation_inset_goes_where_the_figure_passes_least():
+    from matplotlib.figure import Figure
+
+    def scene_with(points):
+        pts = np.array(points, dtype=float)[None]  # one frame, (1, P, 2)
+        return render_scene.Scene(ref=pts, cand=pts.copy(), ref_shadow=pts, bones=np.zeros((0, 2), int),
+                                  floor=np.zeros((0, 2, 2)), xlim=(0.0, 1.0), ylim=(0.0, 1.0),
+                                  shift=np.zeros((1, 2)))
+
+    ax = Figure().add_axes((0, 0, 1, 1))
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    frames = np.array([0])
+    assert render_draw.inset_corner(ax, scene_with([[0.5, 0.5]]), frames, 0.3, 0.3) == (1, 1)  # upper right
+    assert render_draw.inset_corner(ax, scene_with([[0.9, 0.9]]), frames, 0.3, 0.3) == (0, 1)
+    assert render_draw.inset_corner(ax, scene_with([[0.9, 0.9], [0.1, 0.9]]), frames, 0.3, 0.3) == (1, 0)

@@ -17,7 +17,8 @@ from ..evaluate import ErrorReport
 from .scene import Scene, Worst
 
 __all__ = ["REFERENCE_COLOR", "CANDIDATE_COLOR", "MARK_COLOR", "DPI", "require_matplotlib", "describe_error",
-           "Panel", "Curve", "error_panel", "zoom_inset", "write_animation", "write_filmstrip", "Progress"]
+           "Panel", "Curve", "error_panel", "inset_corner", "zoom_inset", "write_animation", "write_filmstrip",
+           "Progress"]
 
 #: ``progress(done, total)``: called as pictures are drawn (``done`` of ``total``; the last call, ``done ==
 #: total``, comes once the file is written).
@@ -166,6 +167,27 @@ def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
     return handles
 
 
+def inset_corner(ax, scene: Scene, frames: NDArray[np.int64], width: float, height: float) -> tuple[int, int]:
+    """The corner of ``ax`` (``(1, 1)`` upper right, ``(0, 1)`` upper left, then the lower ones) where an inset of
+    ``width`` x ``height`` (axes fractions) covers the fewest drawn points over ``frames``: the inset is drawn
+    once, under the moving figures, so it goes where they pass least."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    idx = np.asarray(frames, dtype=np.int64)
+    pts = [scene.ref[idx] - scene.shift[idx][:, None]]
+    if scene.cand is not None:
+        pts.append(scene.cand[idx] - scene.shift[idx][:, None])
+    p = np.concatenate(pts, axis=1)  # (N, P, 2)
+    u, v = (p[..., 0] - x0) / (x1 - x0), (p[..., 1] - y0) / (y1 - y0)
+    best, corner = None, (1, 1)
+    for cx, cy in ((1, 1), (0, 1), (1, 0), (0, 0)):
+        inside_u = (u >= 1 - width) if cx else (u <= width)
+        inside_v = (v >= 1 - height) if cy else (v <= height)
+        covered = int(np.sum(inside_u & inside_v))
+        if best is None or covered < best:
+            best, corner = covered, (cx, cy)
+    return corner
+
+
 def zoom_inset(fig, rect: tuple[float, float, float, float], scene: Scene, worst: Worst, linewidth: float,
                font: float, frame_fps: float) -> Any:
     """A picture of the worst frame zoomed on the worst joint (both skeletons around it), in ``rect`` (figure
@@ -289,7 +311,9 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
         # the worst joint at the worst frame, zoomed, in the picture's upper right corner (drawn once)
         box = ax.get_position()
         iw, ih = 0.27 * box.width, 0.36 * box.height
-        inset = zoom_inset(fig, (box.x1 - iw - 0.005, box.y1 - ih - 0.005, iw, ih), scene, worst,
+        cx, cy = inset_corner(ax, scene, frames, 0.27, 0.36)
+        inset = zoom_inset(fig, (box.x0 + 0.005 + cx * (box.width - iw - 0.01),
+                                 box.y0 + 0.005 + cy * (box.height - ih - 0.01), iw, ih), scene, worst,
                            linewidth=2.0 * scale, font=font * 0.75, frame_fps=clip_fps)
     cursor = None
     if curve is not None:
