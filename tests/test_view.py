@@ -200,6 +200,12 @@ def test_viewer_of_one_clip_in_a_browser(browser, tmp_path):
     write_view(tmp_path / "one.html", motion)
     open_page(browser, tmp_path / "one.html")
     assert browser.execute_script("return window.motionrepViewer.frames") == 20
+    from selenium.webdriver.common.by import By
+
+    # nothing to magnify or colour, and no candidate's worst frame
+    assert not browser.find_element(By.ID, "magnify").is_enabled()
+    assert not browser.find_element(By.ID, "heat").is_enabled()
+    assert not browser.find_element(By.ID, "worst").is_enabled()
     assert colour_pixels(browser.get_screenshot_as_png(), REFERENCE_COLOR) > 150
     assert errors_logged(browser) == []
 
