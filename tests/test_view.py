@@ -318,6 +318,7 @@ def test_new_controls_in_a_browser(browser, three_codecs):
         browser.find_element(By.ID, button).click()
         assert browser.execute_script(viewer + ".frame()") == worst[i]
         assert f"frame {worst[i]}" in browser.find_element(By.ID, button).text
+        assert browser.execute_script(viewer + ".focus()") == i  # the marker and the curve's label follow it
 
     # the magnification slider: clicking it a quarter along sets k near 25; its keys change k; candidate i is
     # drawn at reference + k x (candidate - reference)

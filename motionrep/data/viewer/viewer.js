@@ -269,7 +269,9 @@
   const worstFrame = data.clips.length > 1 ? data.clips[1].error.frame : 0;
   const worstFrames = data.clips.slice(1).map((clip) => clip.error.frame);
 
-  // a wire ball around the joint with the largest error of the frame (first candidate)
+  // a wire ball around the joint with the largest error of the frame, of the candidate in focus (the first, or
+  // the one whose "Worst" button was pressed last)
+  let focus = 0;
   const marker = new T.Mesh(new T.SphereGeometry(1, 12, 6),
     new T.MeshBasicMaterial({ color: "#111111", wireframe: true, transparent: true, opacity: 0.7 }));
   marker.renderOrder = 100;
@@ -291,7 +293,7 @@
     for (const figure of figures) draw(figure);
     const lines = ["frame " + frame + " / " + (F - 1) + "   " + (frame / data.fps).toFixed(3) + " s"];
     if (magnification !== 1 && candidates().length) lines.push("error drawn x" + magnification);
-    const first = candidates()[0];
+    const first = candidates()[focus] || candidates()[0];
     if (first) {
       const j = first.clip.perFrameJoint[frame];
       marker.position.copy(first.positions[Math.min(j, first.positions.length - 1)]);
@@ -399,7 +401,7 @@
       g.arc(curveX(wf, w), y(e[wf]), 4, 0, 2 * Math.PI);
       g.fill();
     }
-    const first = candidates()[0];
+    const first = candidates()[focus] || candidates()[0];
     if (first) {
       const wf = first.clip.error.frame;
       g.fillStyle = "#111";
@@ -545,6 +547,7 @@
         button.style.borderColor = figure.clip.color;
         button.style.color = figure.clip.color;
         button.addEventListener("click", () => {
+          focus = i;
           pause();
           seek(worstFrames[i]);
         });
@@ -597,6 +600,7 @@
         frames: F,
         worstFrame,
         worstFrames,
+        focus: () => focus,
         labels: () => data.clips.map((clip) => clip.name),
         magnification: () => magnification,
         setMagnification,
