@@ -18,6 +18,7 @@ Image = pytest.importorskip("PIL.Image")
 
 from motionrep import render as rmod  # noqa: E402
 from motionrep.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
+from motionrep.render import strip as render_strip  # noqa: E402
 from motionrep.cli import cli  # noqa: E402
 from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
 from motionrep.evaluate import max_joint_error  # noqa: E402
@@ -461,7 +462,8 @@ def test_worst_joint_zoomed_in_filmstrip_and_animation(tmp_path, pair, monkeypat
         insets.append((ax, scene, worst))
         return ax
 
-    monkeypatch.setattr(render_draw, "zoom_inset", spy)
+    monkeypatch.setattr(render_draw, "zoom_inset", spy)  # the animation's
+    monkeypatch.setattr(render_strip, "zoom_inset", spy)  # the filmstrip's
     ref, cand = pair
     for name in ("strip.png", "anim.gif"):
         insets.clear()

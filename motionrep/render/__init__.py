@@ -36,8 +36,9 @@ picked nearest to it, and a filmstrip shows ``count`` evenly spaced frames, the 
 replaced by it.  With a step (``"0:300:10"``) exactly those frames are shown.
 
 The package: :mod:`~motionrep.render.frames` (which frames, at what rate), :mod:`~motionrep.render.scene`
-(the up axis, the alignment, the bones, the camera) and :mod:`~motionrep.render.draw` (matplotlib: the panels,
-the error panel and the two writers); :func:`render` puts them together.
+(the up axis, the alignment, the bones, the camera), :mod:`~motionrep.render.draw` (matplotlib: the panels,
+the zoomed worst joint, the error panel and the animation writer) and :mod:`~motionrep.render.strip` (the
+filmstrip); :func:`render` puts them together.
 """
 
 from __future__ import annotations
@@ -55,10 +56,11 @@ from ..evaluate import ErrorReport, Evaluator
 from ..io import atomic_path
 from ..kinematics import character_height, global_positions, point_names
 from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, Curve, Progress, describe_error, require_matplotlib,
-                   write_animation, write_filmstrip)
+                   write_animation)
 from .frames import (GIF_MAX_FPS, animation_frames, check_size, filmstrip_frames, parse_frames, parse_size,
                      select_frames)
 from .scene import Worst, align_candidate, bone_segments, build_scene, detect_up_axis
+from .strip import write_filmstrip
 
 __all__ = [
     "render",
