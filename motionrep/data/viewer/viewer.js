@@ -406,8 +406,10 @@
       const wf = first.clip.error.frame;
       g.fillStyle = "#111";
       g.textAlign = curveX(wf, w) > w / 2 ? "right" : "left";
+      let labelY = margin.top + 10;
+      if (data.bound !== null && Math.abs(y(data.bound) - 4 - labelY) < 12) labelY = y(data.bound) + 14; // not over the bound's
       g.fillText("worst: frame " + wf + ", " + first.clip.error.joint + " " + fmt(first.clip.error.max, 3) + unit,
-        curveX(wf, w) + (g.textAlign === "right" ? -8 : 8), margin.top + 10);
+        curveX(wf, w) + (g.textAlign === "right" ? -8 : 8), labelY);
     }
     g.strokeStyle = "#111";
     g.lineWidth = 1;
