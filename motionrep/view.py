@@ -60,7 +60,8 @@ def distinct_names(paths: Sequence[str]) -> list[str]:
     >>> distinct_names(["a/svd/walk.mrc", "a/fourier/walk.mrc", "walk.bvh"])
     ['svd/walk.mrc', 'fourier/walk.mrc', 'walk.bvh']
     """
-    parts = [Path(p).parts or (str(p),) for p in paths]
+    parts = [tuple(q.rstrip("/\\") if i == 0 and q == Path(p).anchor else q for i, q in enumerate(Path(p).parts))
+             or (str(p),) for p in paths]  # an anchor "/" joins as "" + "/": "/x/walk.mrc", not "//x/walk.mrc"
     depth = [1] * len(parts)
     while True:
         names = ["/".join(q[-d:]) for q, d in zip(parts, depth)]

@@ -219,6 +219,7 @@ def test_distinct_names_take_enough_of_the_path():
     assert distinct_names(["x/svd/clip.mrc", "x/fourier/clip.mrc", "clip.bvh"]) == [
         "svd/clip.mrc", "fourier/clip.mrc", "clip.bvh"]
     assert distinct_names(["a/b/c.mrc", "d/b/c.mrc"]) == ["a/b/c.mrc", "d/b/c.mrc"]
+    assert distinct_names(["/x/c.mrc", "/y/x/c.mrc"]) == ["/x/c.mrc", "y/x/c.mrc"]
     assert distinct_names(["c.mrc", "c.mrc"]) == ["c.mrc", "c.mrc"]  # the same path twice: nothing tells them apart
 
 
