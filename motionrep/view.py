@@ -11,7 +11,7 @@ frame one click away, and the facts of each clip (codec, parameters, sizes, rati
 was read).  Each clip is named by its label and its codec settings (:attr:`ViewClip.name`); an error
 magnification slider draws every candidate at ``reference + k * (candidate - reference)`` (``k`` from 1 to
 :data:`MAX_MAGNIFICATION`), so an error of 2 % of the height can be seen, and a candidate's joints are coloured
-(and grown) by their error at the frame, from the candidate's colour at zero to amber at the bound (or at the
+(and grown) by their error at the frame, from the candidate's colour at zero to yellow at the bound (or at the
 largest error without one), magenta beyond the bound.  The camera starts on the character as it stands at the
 first frame, filling most of the view's height; a character that moves more than its own height is followed.
 Durations are :func:`motionrep.timefmt.duration` (``frames / fps``) and rates as the file states them.

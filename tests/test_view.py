@@ -363,7 +363,7 @@ def test_new_controls_in_a_browser(browser, three_codecs):
     def rgb(text):
         return np.array([int(text[j:j + 2], 16) for j in (1, 3, 5)])
 
-    hot, own = rgb("#ffb000"), rgb(cand["color"])
+    hot, own = rgb("#ffd400"), rgb(cand["color"])
     t = errors.max() / scale
     assert np.abs(rgb(colours[int(errors.argmax())]) - (own + (hot - own) * min(1.0, t))).max() <= 2
     if errors.min() < 1e-3 * scale:

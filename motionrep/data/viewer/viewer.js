@@ -43,9 +43,9 @@
     $("legend").append(item);
   }
   const hasCandidates = data.clips.length > 1;
-  // the joints of a candidate are coloured by their error: its own colour when exact, amber at the scale (the
+  // the joints of a candidate are coloured by their error: its own colour when exact, yellow at the scale (the
   // bound, or the largest error of all candidates without one), magenta beyond the bound
-  const HOT = "#ffb000";
+  const HOT = "#ffd400";
   const OVER = "#ff00cc";
   let errorScale = data.bound !== null && data.bound > 0 ? data.bound : 0;
   for (const clip of data.clips) if (clip.error && data.bound === null) errorScale = Math.max(errorScale, clip.error.max);
