@@ -370,7 +370,8 @@ class Motion:
 
     @property
     def duration(self) -> float:
-        """Length of the clip in seconds, ``num_frames / fps`` (each frame lasts one frame time)."""
+        """Length of the clip in seconds, ``num_frames / fps`` (each frame lasts one frame time; the one definition,
+        :func:`motionrep.timefmt.duration`, ``specs/times.md``)."""
         return self.num_frames / self.fps
 
     def local_translations(self) -> NDArray[np.float64]:

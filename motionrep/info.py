@@ -16,6 +16,7 @@ from typing import Any
 from ._model import Skeleton
 from .errors import FormatError, MotionrepError
 from .kinematics import character_height
+from .timefmt import duration
 
 __all__ = ["INFO_JSON_VERSION", "info_dict", "skeleton_info"]
 
@@ -103,7 +104,7 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
                                       compressed_bytes=size, num_end_sites=sk.num_end_sites,
                                       payload_bytes=c.payload_bytes).as_dict()
     return {"kind": "compressed", "clip": name, "frames": c.num_frames, "fps": c.fps,
-            "duration": c.num_frames / c.fps, **skeleton_info(sk),
+            "duration": duration(c.num_frames, c.fps), **skeleton_info(sk),
             "codec": {"name": c.codec, "version": c.codec_version, "plugin": c.codec_plugin,
                       "params": dict(c.params), "outcome": dict(c.info),
                       "description": describe_outcome(c, detail=True)},
@@ -123,6 +124,6 @@ def _archive_row(name: str, c: Any, size: int) -> dict[str, Any]:
 
     ev = c.evaluation or {}
     return {"name": name, "codec": c.codec, "representation": c.representation, "outcome": describe_outcome(c),
-            "frames": c.num_frames, "fps": c.fps, "duration": c.num_frames / c.fps,
+            "frames": c.num_frames, "fps": c.fps, "duration": duration(c.num_frames, c.fps),
             "joints": c.skeleton.num_joints, "bytes": size, "max_error": ev.get("max_error"),
             "max_error_percent": ev.get("max_error_percent")}

@@ -6,8 +6,15 @@ Content-Security-Policy forbids any request.  Each clip is embedded as the ``.gl
 (:func:`motionrep.io.gltf_bytes`) and read by three.js's own ``GLTFLoader``, so the page also shows that three.js
 opens motionrep's glTF.  The skeletons are drawn as bones (:func:`motionrep.render.bone_segments`: reference red
 and wider, decoded copies on top in their own colours, so they stay apart where they overlap), with play/pause, a timeline to scrub, orbit and
-zoom, the per-frame error of every candidate under the timeline with the bound drawn and the worst frame one
-click away, and the facts of each clip (codec, parameters, sizes, ratios, the error and how the bound was read).
+zoom, the per-frame error of every candidate under the timeline with the bound drawn and each candidate's worst
+frame one click away, and the facts of each clip (codec, parameters, sizes, ratios, the error and how the bound
+was read).  Each clip is named by its label and its codec settings (:attr:`ViewClip.name`); an error
+magnification slider draws every candidate at ``reference + k * (candidate - reference)`` (``k`` from 1 to
+:data:`MAX_MAGNIFICATION`), so an error of 2 % of the height can be seen, and a candidate's joints are coloured
+(and grown) by their error at the frame, from the candidate's colour at zero to yellow at the bound (or at the
+largest error without one), magenta beyond the bound.  The camera starts on the character as it stands at the
+first frame, filling most of the view's height; a character that moves more than its own height is followed.
+Durations are :func:`motionrep.timefmt.duration` (``frames / fps``) and rates as the file states them.
 
 The errors are the shared measure (:class:`motionrep.evaluate.Evaluator`), computed here in float64; the page
 only draws them.  A candidate at another frame rate is resampled at the reference's frame times first
@@ -36,13 +43,34 @@ from .errors import ValidationError
 from .evaluate import ErrorReport, Evaluator
 from .io import atomic_path
 
-__all__ = ["ViewClip", "ViewResult", "view_html", "write_view", "REFERENCE_COLOR", "CANDIDATE_COLORS"]
+__all__ = ["ViewClip", "ViewResult", "view_html", "write_view", "distinct_names", "REFERENCE_COLOR",
+           "CANDIDATE_COLORS", "MAX_MAGNIFICATION"]
 
 REFERENCE_COLOR = "#d62728"  # red, as in the pictures of motionrep render
 #: Colours of the candidates, in order (blue first, as in motionrep render).
 CANDIDATE_COLORS = ("#1f5fd6", "#1a9e3f", "#e08a00", "#8e44ad", "#17a5b8", "#7f4f24")
 #: Most candidates one page shows.
 MAX_CANDIDATES = len(CANDIDATE_COLORS)
+#: Largest error magnification of the page's slider (a candidate drawn at reference + k x its offset).
+MAX_MAGNIFICATION = 100
+
+
+def distinct_names(paths: Sequence[str]) -> list[str]:
+    """The shortest tail of each path (``walk.mrc``, then ``svd/walk.mrc``...) that tells it from the others.
+
+    >>> distinct_names(["a/svd/walk.mrc", "a/fourier/walk.mrc", "walk.bvh"])
+    ['svd/walk.mrc', 'fourier/walk.mrc', 'walk.bvh']
+    """
+    parts = [tuple(q.rstrip("/\\") if i == 0 and q == Path(p).anchor else q for i, q in enumerate(Path(p).parts))
+             or (str(p),) for p in paths]  # an anchor "/" joins as "" + "/": "/x/walk.mrc", not "//x/walk.mrc"
+    depth = [1] * len(parts)
+    while True:
+        names = ["/".join(q[-d:]) for q, d in zip(parts, depth)]
+        clash = [i for i, n in enumerate(names) if names.count(n) > 1 and depth[i] < len(parts[i])]
+        if not clash:
+            return names
+        for i in clash:
+            depth[i] += 1
 
 
 @dataclass(frozen=True)
@@ -53,11 +81,19 @@ class ViewClip:
         motion: the motion.
         label: its name on the page (usually the file name).
         facts: ``(name, value)`` lines shown with it (codec, parameters, sizes...).
+        settings: the codec and its settings in a few words (``"svd rank=4, within 2%"``), shown after the label
+            in the legend, the HUD and the facts, so that candidates from different codecs are told apart.
     """
 
     motion: Motion
     label: str
     facts: tuple[tuple[str, str], ...] = ()
+    settings: str = ""
+
+    @property
+    def name(self) -> str:
+        """The label with the settings: ``"svd/walk.mrc (svd rank=4, within 2%)"``."""
+        return f"{self.label} ({self.settings})" if self.settings else self.label
 
 
 @dataclass(frozen=True)
@@ -71,6 +107,7 @@ class ViewResult:
         errors: the shared error of each candidate.
         worst_frame: the frame with the largest error of the first candidate (``None`` without candidates).
         notes: things the user should know (resampling).
+        worst_frames: the frame with the largest error of each candidate (the page's "Worst frame" buttons).
     """
 
     path: Path | None
@@ -79,6 +116,7 @@ class ViewResult:
     errors: tuple[ErrorReport, ...]
     worst_frame: int | None
     notes: tuple[str, ...] = field(default=())
+    worst_frames: tuple[int, ...] = field(default=())
 
 
 def _asset(name: str) -> str:
@@ -106,6 +144,15 @@ def _as_clip(item: ViewClip | Motion, label: str) -> ViewClip:
     if isinstance(item, Motion):
         return ViewClip(item, label)
     raise ValidationError(f"a clip to view must be a Motion or a ViewClip, got {type(item).__name__}")
+
+
+def _text(value: Any) -> str:
+    """A fact's value as shown: never Python's ``None`` or ``nan``."""
+    if value is None:
+        return "-"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "-"
+    return str(value)
 
 
 def _rounded(values: np.ndarray, digits: int = 6) -> list[float]:
@@ -137,6 +184,7 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
     from .io import gltf_bytes
     from .kinematics import global_positions, point_names
     from .render import align_candidate, bone_segments, detect_up_axis
+    from .timefmt import duration, duration_text, rate_text
 
     ref = _as_clip(reference, "reference")
     cands = [_as_clip(c, f"candidate {i + 1}") for i, c in enumerate(candidates)]
@@ -160,11 +208,13 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
 
     def clip_entry(clip: ViewClip, motion: Motion, role: str, color: str) -> dict[str, Any]:
         glb = gltf_bytes(motion, clip=clip.label, scale=1.0, up=up)
-        return {"label": clip.label, "role": role, "color": color, "fps": motion.fps,
+        return {"label": clip.label, "settings": clip.settings, "name": clip.name, "role": role, "color": color,
+                "fps": motion.fps, "rateText": rate_text(motion.fps),
+                "durationText": duration_text(motion.num_frames, motion.fps),
                 "segments": bone_segments(motion).tolist(),
                 "frames": motion.num_frames, "joints": motion.num_joints,
                 "endSites": motion.skeleton.num_end_sites,
-                "facts": [[str(k), str(v)] for k, v in clip.facts],
+                "facts": [[_text(k), _text(v)] for k, v in clip.facts],
                 "glb": base64.b64encode(glb).decode("ascii")}
 
     clips.append(clip_entry(ref, ref.motion, "reference", REFERENCE_COLOR))
@@ -174,7 +224,7 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
             note = report.comparison.method
             notes.extend(f"{cand.label}: {line}" for line in report.comparison.lines())
         else:
-            aligned, note = align_candidate(ref.motion, cand.motion, ref.label, cand.label)
+            aligned, note = align_candidate(ref.motion, cand.motion, ref.name, cand.name)
             if note:
                 notes.append(note)
             pos = global_positions(aligned)
@@ -195,6 +245,9 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
     data = {
         "version": __version__,
         "title": title or " vs ".join(c.label for c in [ref, *cands]),
+        "duration": duration(ref.motion.num_frames, ref.motion.fps),
+        "durationText": duration_text(ref.motion.num_frames, ref.motion.fps),
+        "maxMagnification": MAX_MAGNIFICATION,
         "units": units,
         "height": height,
         "fps": ref.motion.fps,
@@ -220,7 +273,7 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
     page = re.sub("|".join(re.escape(k) for k in replacements), lambda m: replacements[m.group(0)], page)
     worst = reports[0].frame if reports else None
     return page, ViewResult(None, len(page.encode("utf-8")), ref.motion.num_frames, tuple(reports), worst,
-                            tuple(notes))
+                            tuple(notes), tuple(r.frame for r in reports))
 
 
 def _paired(evaluator: Evaluator, cand: ViewClip, match: Any) -> tuple[Motion, ErrorReport, NDArray]:
@@ -253,4 +306,5 @@ def write_view(path: str | os.PathLike[str], reference: ViewClip | Motion,
     data = page.encode("utf-8")
     with atomic_path(path) as tmp:
         Path(tmp).write_bytes(data)
-    return ViewResult(Path(path), len(data), result.frames, result.errors, result.worst_frame, result.notes)
+    return ViewResult(Path(path), len(data), result.frames, result.errors, result.worst_frame, result.notes,
+                      result.worst_frames)

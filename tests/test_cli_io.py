@@ -346,7 +346,7 @@ def test_info_text(walk):
     motion = read_bvh(walk)
     height = character_height(motion.skeleton)
     assert "joints:     15" in lines and f"end sites:  {motion.skeleton.num_end_sites}" in lines and "frames:     30" in lines
-    assert "fps:        30" in lines and "duration:   1 s" in lines and "channels:   48" in lines
+    assert "fps:        30 (frame time 0.03333333 s)" in lines and "duration:   1 s" in lines and "channels:   48" in lines
     assert f"height:     {height:.6g} file units (unknown)" in lines
     assert any(ln.split() == ["Hips", "Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation",
                               "[ZXY]"] for ln in lines)

@@ -18,6 +18,7 @@ Image = pytest.importorskip("PIL.Image")
 
 from motionrep import render as rmod  # noqa: E402
 from motionrep.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
+from motionrep.render import strip as render_strip  # noqa: E402
 from motionrep.cli import cli  # noqa: E402
 from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
 from motionrep.evaluate import max_joint_error  # noqa: E402
@@ -418,3 +419,138 @@ def test_real_walk_filmstrip(tmp_path):
     assert abs(result.error.frame - 200) <= 3 and result.error.frame in result.frames
     pixels = _colour_pixels(result.path)
     assert pixels["red"] > 100 and pixels["blue"] > 100, pixels
+
+
+# ---- issue 26: each frame's worst joint, the zoomed worst joint, no empty cell, progress --------------------------
+def _two_bumps(ref):
+    """A candidate whose worst joint is LeftForeArm's around frame 8 and RightUpLeg's around frame 30."""
+    return _perturbed(_perturbed(ref, "LeftForeArm", 8, radians=0.6), "RightUpLeg", 30, radians=0.5)
+
+
+def test_each_frame_circles_its_own_worst_joint(pair):
+    from matplotlib.figure import Figure
+
+    ref = pair[0]
+    cand = _two_bumps(ref)
+    ref_pos, cand_pos = global_positions(ref), global_positions(cand)
+    dist = np.linalg.norm(ref_pos - cand_pos, axis=-1)
+    points = dist.argmax(axis=1)
+    assert points[8] != points[30]  # the two bumps are on different joints
+    bones = rmod.bone_segments(ref)
+    scene = render_scene.build_scene(ref_pos, cand_pos, bones, "y", np.arange(ref.num_frames), 170.0, ref.fps)
+    from motionrep.evaluate import Evaluator
+    from motionrep.kinematics import point_names
+
+    error = Evaluator(ref).positions_error(cand_pos)
+    worst = render_scene.Worst(error, list(point_names(ref.skeleton)).index(error.joint))
+    fig = Figure(figsize=(3, 3))
+    panel = render_draw.Panel(fig.add_axes((0, 0, 1, 1)), scene, worst, 1.0, 8.0, points=points)
+    for f in (8, 30):
+        panel.show(f)
+        p = int(points[f])
+        want = (scene.ref[f, p] + scene.cand[f, p]) / 2 - scene.shift[f]
+        x, y = panel.ring.get_data()
+        assert np.allclose([x[0], y[0]], want), f
+
+
+def test_worst_joint_zoomed_in_filmstrip_and_animation(tmp_path, pair, monkeypatch):
+    insets = []
+    original = render_draw.zoom_inset
+
+    def spy(fig, rect, scene, worst, *args, **kwargs):
+        ax = original(fig, rect, scene, worst, *args, **kwargs)
+        insets.append((ax, scene, worst))
+        return ax
+
+    monkeypatch.setattr(render_draw, "zoom_inset", spy)  # the animation's
+    monkeypatch.setattr(render_strip, "zoom_inset", spy)  # the filmstrip's
+    ref, cand = pair
+    for name in ("strip.png", "anim.gif"):
+        insets.clear()
+        result = rmod.render(tmp_path / name, ref, cand, frames="0:40" if name.endswith("png") else "0:12")
+        assert len(insets) == 1, name
+        ax, scene, worst = insets[0]
+        assert worst.frame == result.error.frame == BUMP_FRAME and worst.name == result.error.joint
+        f, p = worst.frame, worst.point
+        mid = (scene.ref[f, p] + scene.cand[f, p]) / 2 - scene.shift[f]
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        assert x0 < mid[0] < x1 and y0 < mid[1] < y1  # centred on the worst joint
+        zoom = (scene.ylim[1] - scene.ylim[0]) / (y1 - y0)
+        assert zoom > 3, zoom  # and zoomed in
+        assert any("zoom x" in t.get_text() and worst.name in t.get_text() for t in ax.texts)
+
+
+@pytest.mark.parametrize("count, with_candidate", [(8, True), (8, False), (7, True), (5, False), (12, True)])
+def test_no_empty_cell_in_a_filmstrip(tmp_path, pair, monkeypatch, count, with_candidate):
+    """Every row of pictures is filled across: the last cell (the zoom, or the last picture) spans the rest."""
+    boxes = []
+    original_panel = render_draw.Panel.__init__
+
+    def record(self, ax, *args, **kwargs):
+        original_panel(self, ax, *args, **kwargs)
+        boxes.append(ax.get_position())
+
+    monkeypatch.setattr(render_draw.Panel, "__init__", record)
+    ref, cand = pair
+    result = rmod.render(tmp_path / "s.png", ref, cand if with_candidate else None, count=count)
+    assert len(result.frames) == count
+    # Panels: one per picture, and one in the zoomed cell (which is a bit inset in its cell)
+    assert len(boxes) == count + int(with_candidate)
+    rows: dict[float, float] = {}
+    for b in boxes:
+        rows.setdefault(round(b.y1, 2), 0.0)
+        rows[round(b.y1, 2)] += b.width
+    assert len(rows) >= 1
+    for top, width in rows.items():
+        assert width > 0.94, (top, width, count, with_candidate)
+
+
+def test_progress_reaches_the_end(tmp_path, pair):
+    ref, cand = pair
+    for name in ("p.gif", "p.png"):
+        calls = []
+        result = rmod.render(tmp_path / name, ref, cand, frames="0:10" if name.endswith("gif") else None,
+                             progress=lambda done, total: calls.append((done, total)))
+        total = len(result.frames) + 1  # each picture, then writing the file
+        assert [c[0] for c in calls] == list(range(1, total + 1)) and {c[1] for c in calls} == {total}
+
+
+def test_progress_bar_only_on_a_terminal(tmp_path, files, monkeypatch):
+    import io
+
+    from motionrep.cli import render as cli_render
+
+    ref_path, cand_path = files
+    r = CliRunner().invoke(cli, ["render", str(ref_path), str(cand_path), "-o", str(tmp_path / "a.gif"),
+                                 "--frames", "0:6"])
+    assert r.exit_code == 0 and "drawing" not in r.output  # not a terminal: no bar
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    with cli_render._Bar("drawing a.gif") as bar:
+        for done in range(1, 4):
+            bar(done, 3)
+    text = term.getvalue()
+    assert "drawing a.gif" in text and "3/3" in text
+
+
+def test_the_animation_inset_goes_where_the_figure_passes_least():
+    from matplotlib.figure import Figure
+
+    def scene_with(points):
+        pts = np.array(points, dtype=float)[None]  # one frame, (1, P, 2)
+        return render_scene.Scene(ref=pts, cand=pts.copy(), ref_shadow=pts, bones=np.zeros((0, 2), int),
+                                  floor=np.zeros((0, 2, 2)), xlim=(0.0, 1.0), ylim=(0.0, 1.0),
+                                  shift=np.zeros((1, 2)))
+
+    ax = Figure().add_axes((0, 0, 1, 1))
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    frames = np.array([0])
+    assert render_draw.inset_corner(ax, scene_with([[0.5, 0.5]]), frames, 0.3, 0.3) == (1, 1)  # upper right
+    assert render_draw.inset_corner(ax, scene_with([[0.9, 0.9]]), frames, 0.3, 0.3) == (0, 1)
+    assert render_draw.inset_corner(ax, scene_with([[0.9, 0.9], [0.1, 0.9]]), frames, 0.3, 0.3) == (1, 0)

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from motionrep import character_height, global_positions
+from motionrep.compress import decompress
 from motionrep.errors import ValidationError
 from motionrep.io import read, write
 from motionrep.rotations import euler_to_quat, quat_multiply
@@ -199,5 +200,174 @@ def test_viewer_of_one_clip_in_a_browser(browser, tmp_path):
     write_view(tmp_path / "one.html", motion)
     open_page(browser, tmp_path / "one.html")
     assert browser.execute_script("return window.motionrepViewer.frames") == 20
+    from selenium.webdriver.common.by import By
+
+    # nothing to magnify or colour, and no candidate's worst frame
+    assert not browser.find_element(By.ID, "magnify").is_enabled()
+    assert not browser.find_element(By.ID, "heat").is_enabled()
+    assert not browser.find_element(By.ID, "worst").is_enabled()
     assert colour_pixels(browser.get_screenshot_as_png(), REFERENCE_COLOR) > 150
+    assert errors_logged(browser) == []
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# issue 26: labels by codec and path, magnification, per-joint error colours, worst frame per candidate, framing
+# ---------------------------------------------------------------------------------------------------------------
+def test_distinct_names_take_enough_of_the_path():
+    from motionrep.view import distinct_names
+
+    assert distinct_names(["x/svd/clip.mrc", "x/fourier/clip.mrc", "clip.bvh"]) == [
+        "svd/clip.mrc", "fourier/clip.mrc", "clip.bvh"]
+    assert distinct_names(["a/b/c.mrc", "d/b/c.mrc"]) == ["a/b/c.mrc", "d/b/c.mrc"]
+    assert distinct_names(["/x/c.mrc", "/y/x/c.mrc"]) == ["/x/c.mrc", "y/x/c.mrc"]
+    assert distinct_names(["c.mrc", "c.mrc"]) == ["c.mrc", "c.mrc"]  # the same path twice: nothing tells them apart
+
+
+def test_facts_never_show_python_none(walk):
+    reference, candidate = walk
+    page, _ = view_html(reference, [ViewClip(candidate, "c.mrc", (("parameters", None), ("x", float("nan"))))])
+    data = page_data(page)
+    assert data["clips"][1]["facts"] == [["parameters", "-"], ["x", "-"]]
+    assert "None" not in json.dumps(data)
+
+
+def test_page_states_rate_and_one_duration(walk):
+    reference, candidate = walk
+    page, result = view_html(reference, [candidate])
+    data = page_data(page)
+    assert data["duration"] == 3.0 and data["durationText"] == "3 s"  # 90 frames at 30 fps: frames / fps
+    assert data["clips"][0]["rateText"] == "30 fps (frame time 0.03333333 s)"
+    assert result.worst_frames == (result.worst_frame,)
+
+
+@pytest.fixture(scope="module")
+def three_codecs(tmp_path_factory):
+    """A clip and three .mrc files of it from three codecs, each named clip.mrc in its own folder."""
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    root = tmp_path_factory.mktemp("codecs")
+    reference = synthetic_motion(humanoid_skeleton(), frames=60, fps=30.0)
+    write(reference, root / "clip.bvh")
+    runs = {"svd": ["-p", "rank=3"], "naive-fourier": ["-p", "k=2", "-p", "iters=50"],
+            "transform": ["-p", "step=2"]}
+    paths = []
+    for codec, params in runs.items():
+        (root / codec).mkdir()
+        out = root / codec / "clip.mrc"
+        r = CliRunner().invoke(cli, ["compress", str(root / "clip.bvh"), "-o", str(out), "--codec", codec,
+                                     "--max-error", "none", *params])
+        assert r.exit_code == 0, r.output
+        paths.append(out)
+    page = root / "view.html"
+    r = CliRunner().invoke(cli, ["view", str(root / "clip.bvh"), *map(str, paths), "-o", str(page)])
+    assert r.exit_code == 0, r.output
+    return reference, paths, page
+
+
+def test_three_codecs_are_labelled_apart(three_codecs):
+    _, _, page = three_codecs
+    text = page.read_text()
+    data = page_data(text)
+    names = [c["name"] for c in data["clips"][1:]]
+    assert len(set(names)) == 3
+    for name, codec in zip(names, ("svd", "naive-fourier", "transform")):
+        assert name.startswith(f"{codec}/clip.mrc ({codec} "), name
+    assert "rank=3" in names[0] and "K=2" in names[1]
+    params = dict(data["clips"][2]["facts"])["parameters"]
+    assert "window=auto" in params and "k=2" in params  # a parameter left to the codec: auto, not None
+    assert "None" not in json.dumps(data) and "NaN" not in json.dumps(data)
+
+
+def test_new_controls_in_a_browser(browser, three_codecs):
+    """Three candidates from three codecs: labels differ in the legend, HUD and facts; the slider draws a candidate
+    at reference + k x its offset; joints coloured by error; one worst-frame button per candidate; the character
+    fills most of the view's height at start; no None, NaN or undefined on the page."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    reference, paths, page = three_codecs
+    open_page(browser, page)
+    assert errors_logged(browser) == []
+    viewer = "return window.motionrepViewer"
+    labels = browser.execute_script(viewer + ".labels()")
+    assert len(set(labels)) == 4
+    legend = browser.find_element(By.ID, "legend").text
+    hud = browser.find_element(By.ID, "hud").text
+    facts = browser.find_element(By.ID, "facts").text
+    for label in labels[1:]:
+        assert label in legend and label in hud and label in facts
+    # one duration: the facts and the clock both say frames / fps (60 frames at 30 fps: 2 s)
+    assert "60 at 30 fps (frame time 0.03333333 s), 2 s" in facts
+    assert browser.find_element(By.ID, "clock").text == "frame 0 / 59, 0.000 s of 2 s"
+    body = browser.find_element(By.TAG_NAME, "body").text
+    for word in ("None", "NaN", "nan", "undefined", "null"):
+        assert word not in body.split() and f"={word}" not in body, word
+
+    # framing: at start the reference fills most of the view's height (NDC -1..1), all of it inside
+    box = browser.execute_script(viewer + ".screenBox(0)")
+    assert box[3] - box[1] > 1.3, box  # more than 65 % of the height
+    assert -1 <= box[0] and box[2] <= 1 and -1 <= box[1] and box[3] <= 1, box
+
+    # one worst-frame button per candidate, each going to its own candidate's worst frame
+    worst = browser.execute_script(viewer + ".worstFrames")
+    decoded = [decompress(p.read_bytes()) for p in paths]
+    ref_pos = global_positions(reference)
+    expected = [int(np.linalg.norm(global_positions(d) - ref_pos, axis=-1).max(axis=1).argmax()) for d in decoded]
+    assert worst == expected
+    for i, button in enumerate(("worst", "worst-2", "worst-3")):
+        browser.find_element(By.ID, button).click()
+        assert browser.execute_script(viewer + ".frame()") == worst[i]
+        assert f"frame {worst[i]}" in browser.find_element(By.ID, button).text
+        assert browser.execute_script(viewer + ".focus()") == i  # the marker and the curve's label follow it
+
+    # the magnification slider: clicking it a quarter along sets k near 25; its keys change k; candidate i is
+    # drawn at reference + k x (candidate - reference)
+    height = character_height(reference.skeleton)
+    slider = browser.find_element(By.ID, "magnify")
+    ActionChains(browser).move_to_element_with_offset(slider, -slider.size["width"] // 4, 0).click().perform()
+    k = browser.execute_script(viewer + ".magnification()")
+    assert 10 < k < 50, k
+    slider.send_keys(Keys.END)
+    assert browser.execute_script(viewer + ".magnification()") == 100
+    slider.send_keys(Keys.LEFT)
+    k = browser.execute_script(viewer + ".magnification()")
+    assert k == 99 and "x99" in browser.find_element(By.ID, "magnify-value").text
+    f = browser.execute_script(viewer + ".frame()")
+    ref_now = ref_pos[f]
+    for i, d in enumerate(decoded, start=1):
+        drawn = np.array(browser.execute_script(viewer + f".positions({i})"))
+        true = np.array(browser.execute_script(viewer + f".truePositions({i})"))
+        # float32 FK in WebGL, the offset then multiplied by 99: a tolerance of 99 x float32 noise
+        assert np.abs(true - global_positions(d)[f]).max() < 1e-5 * height
+        assert np.abs(drawn - (ref_now + k * (global_positions(d)[f] - ref_now))).max() < 99 * 1e-5 * height
+        assert np.abs(drawn - ref_now).max() > 5 * np.abs(true - ref_now).max()  # it visibly moved
+    assert "error drawn x99" in browser.find_element(By.ID, "hud").text
+    slider.send_keys(Keys.HOME)
+    assert browser.execute_script(viewer + ".magnification()") == 1
+    assert np.allclose(browser.execute_script(viewer + ".positions(1)"),
+                       browser.execute_script(viewer + ".truePositions(1)"))
+
+    # per-joint error colours: the worst joint of the frame is the hottest, a joint without error keeps the colour
+    browser.find_element(By.ID, "worst").click()
+    errors = np.array(browser.execute_script(viewer + ".jointErrors(1)"))
+    colours = browser.execute_script(viewer + ".jointColors(1)")
+    data = page_data(page.read_text())
+    cand = data["clips"][1]
+    assert int(errors.argmax()) == cand["perFrameJoint"][worst[0]]
+    scale = browser.execute_script(viewer + ".errorScale")
+    assert scale == pytest.approx(max(c["error"]["max"] for c in data["clips"][1:]), rel=1e-9)
+
+    def rgb(text):
+        return np.array([int(text[j:j + 2], 16) for j in (1, 3, 5)])
+
+    hot, own = rgb("#ffd400"), rgb(cand["color"])
+    t = errors.max() / scale
+    assert np.abs(rgb(colours[int(errors.argmax())]) - (own + (hot - own) * min(1.0, t))).max() <= 2
+    if errors.min() < 1e-3 * scale:
+        assert np.abs(rgb(colours[int(errors.argmin())]) - own).max() <= 2
+    browser.find_element(By.ID, "heat").click()  # off: every joint in the candidate's colour
+    assert set(browser.execute_script(viewer + ".jointColors(1)")) == {cand["color"]}
     assert errors_logged(browser) == []

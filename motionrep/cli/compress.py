@@ -35,9 +35,10 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
     how = result.bound_read_as()
     bound = "none (--max-error none)" if how is None else f"--max-error {how}"
     from ..compress import describe_outcome
+    from ..timefmt import duration_text, fps_text
 
     return [
-        f"{name}: {c.num_frames} frames at {c.fps:g} fps, {c.skeleton.num_joints} joints "
+        f"{name}: {c.num_frames} frames at {fps_text(c.fps)} fps ({duration_text(c.num_frames, c.fps)}), {c.skeleton.num_joints} joints "
         f"(+{c.skeleton.num_end_sites} end sites)",
         f"representation {c.representation} ({f.feature_width} features); codec {c.codec}: "
         f"{describe_outcome(c, detail=True)}",

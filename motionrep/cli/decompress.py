@@ -120,7 +120,9 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             written(motion, target, STDOUT_NAME if to_stdout else output)
         which = f" (clip {ref.clip})" if ref.clip is not None else ""
         shown = STDOUT_NAME if to_stdout else output
-        click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {motion.fps:g} fps", err=to_stdout)
+        from ..timefmt import fps_text
+
+        click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {fps_text(motion.fps)} fps", err=to_stdout)
         return
     if output.suffix.lower() in (".h5", ".hdf5"):
         from ..io import write_database

@@ -21,6 +21,24 @@ def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
+def _fps(x: float) -> str:
+    from ..timefmt import fps_text
+
+    return fps_text(x)
+
+
+def _rate(x: float) -> str:
+    from ..timefmt import fps_text, frame_time_text
+
+    return f"{fps_text(x)} (frame time {frame_time_text(x)} s)"
+
+
+def _seconds(x: float) -> str:
+    from ..timefmt import seconds_text
+
+    return seconds_text(x)
+
+
 def _info_text(d: dict[str, Any]) -> str:
     lines = [f"file:       {d['file']}"]
     if d["kind"] == "archive":
@@ -31,7 +49,7 @@ def _info_text(d: dict[str, Any]) -> str:
         for c in d["clips"]:
             err = "-" if c["max_error"] is None else f"{_fmt(c['max_error'])} ({c['max_error_percent']:.3g}%)"
             lines.append(f"  {c['name']:<{width}}  {c['codec']:<16}  {c['outcome']:<10}  {c['frames']:>7}  "
-                         f"{_fmt(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  {err}")
+                         f"{_fps(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  {err}")
         return "\n".join(lines)
     if d["kind"] == "database":
         lines.append(f"format:     {d['format']} database, {len(d['clips'])} clips")
@@ -39,8 +57,8 @@ def _info_text(d: dict[str, Any]) -> str:
         lines.append(f"  {'clip':<{width}}  {'kind':<8}  {'frames':>7}  {'fps':>9}  {'duration':>10}  joints")
         for c in d["clips"]:
             kind = c["kind"] if c["kind"] == "motion" else f"{c['representation']}"
-            lines.append(f"  {c['name']:<{width}}  {kind:<8}  {c['frames']:>7}  {_fmt(c['fps']):>9}  "
-                         f"{_fmt(c['duration']) + ' s':>10}  {c['joints']}")
+            lines.append(f"  {c['name']:<{width}}  {kind:<8}  {c['frames']:>7}  {_fps(c['fps']):>9}  "
+                         f"{_seconds(c['duration']):>10}  {c['joints']}")
         return "\n".join(lines)
     units = d["units"] if d["units"] else "file units (unknown)"
     lines += [
@@ -77,8 +95,8 @@ def _info_text(d: dict[str, Any]) -> str:
         f"joints:     {d['joints']}",
         f"end sites:  {d['end_sites']}",
         f"frames:     {d['frames']}",
-        f"fps:        {_fmt(d['fps'])}",
-        f"duration:   {_fmt(d['duration'])} s",
+        f"fps:        {_rate(d['fps'])}",
+        f"duration:   {_seconds(d['duration'])}",
         f"height:     {_fmt(d['height'])} {units}",
         f"channels:   {d['channels']}",
         "channel layout (joint: channels in file order [rotation order]):",

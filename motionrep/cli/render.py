@@ -8,6 +8,7 @@ one line on stderr and no output file left behind; 2 for a usage error (unknown 
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any, Callable
 
@@ -43,6 +44,32 @@ def _parsed_by(parser: str) -> Callable[[click.Context, click.Parameter, str | N
             raise click.BadParameter(str(exc)) from None
 
     return callback
+
+
+class _Bar:
+    """``render``'s progress as a click progress bar with an ETA on stderr, only when stderr is a terminal (a
+    script or a log gets nothing but the ``wrote ...`` line)."""
+
+    def __init__(self, label: str):
+        self.label, self.bar, self.done = label, None, 0
+        self.shown = bool(getattr(sys.stderr, "isatty", lambda: False)())
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.shown:
+            return
+        if self.bar is None:
+            self.bar = click.progressbar(length=total, label=self.label, file=sys.stderr, show_eta=True,
+                                         show_pos=True)
+            self.bar.__enter__()
+        self.bar.update(done - self.done)
+        self.done = done
+
+    def __enter__(self) -> "_Bar":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(*exc)
 
 
 def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
@@ -87,11 +114,13 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
            count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
            max_error: str | None, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (),
            ignore_extra: bool = False, resample: bool = False) -> None:
-    """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, the worst joint circled.
+    """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, each frame's worst joint circled.
 
     REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH, NPZ,
     HDF5, .glb or .mrc from standard input).  A CAND at another frame rate is resampled at REF's frame times when
-    both span the same time.  A panel under the pictures shows the error over time and the bound.
+    both span the same time.  A panel under the pictures shows the error over time and the bound; the clip's
+    worst joint is shown zoomed at its worst frame (an inset of an animation, the last cell of a filmstrip).
+    On a terminal, a progress bar with an ETA shows on stderr while drawing.
     A CAND after another tool: --match names (--strip-prefix, --ignore-extra)
     and --resample as in evaluate; only the compared points and frames are
     drawn, and notes list what was left out.
@@ -122,8 +151,9 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
         click.echo(f"bound: {how}", err=True)
     names = _labels(reference, candidate)
     names = tuple(STDIN_NAME if is_stdio(p) else n for p, n in zip((reference, candidate), names))
-    result = draw(output, ref, cand, names=names, frames=frames, fps=fps, count=count,
-                  max_frames=max_frames, size=size, up=up, bound=bound, options=options)
+    with _Bar(f"drawing {output.name}") as bar:
+        result = draw(output, ref, cand, names=names, frames=frames, fps=fps, count=count,
+                      max_frames=max_frames, size=size, up=up, bound=bound, options=options, progress=bar)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)
     n = len(result.frames)

@@ -29,8 +29,9 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
     size = src.size(name)
     facts = [("codec", f"{c.codec} (payload format {c.codec_version}): {describe_outcome(c, detail=True)}"),
              ("representation", f"{c.representation} (version {c.representation_version})")]
-    if c.params:
-        facts.append(("parameters", ", ".join(f"{k}={v}" for k, v in sorted(c.params.items()))))
+    if c.params:  # a parameter left to the codec is stored as null: the outcome above says what it chose
+        facts.append(("parameters", ", ".join(f"{k}={'auto' if v is None else v}"
+                                              for k, v in sorted(c.params.items()))))
     facts.append(("size", f"{size:,} bytes" if size is not None else "unknown"))
     try:
         width = get_representation(c.representation).width(c.skeleton)
@@ -49,6 +50,20 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
         facts.append(("stored error", f"{ev['max_error']:.4g} ({ev.get('max_error_percent', float('nan')):.3g}% of "
                                       "height), measured when the file was written"))
     return facts
+
+
+def _settings(src: Any, name: str) -> str:
+    """A compressed clip's codec and settings in a few words, for its label: ``"svd rank=4, within 2%"``."""
+    from ..compress import describe_outcome
+
+    c = src.container(name)
+    words = [c.codec]
+    outcome = describe_outcome(c)
+    if outcome:
+        words.append(outcome)
+    asked = c.extra.get("max_error")
+    text = " ".join(words)
+    return f"{text}, within {asked}" if asked is not None else text
 
 
 @click.command("view")
@@ -71,8 +86,11 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
 
     The skeletons are overlaid (REF red, the candidates blue, green, orange...),
     with play/pause, a timeline to scrub, orbit/zoom/pan, the error of every
-    candidate frame by frame with the bound and the worst frame one click away,
-    and each clip's facts (codec, parameters, sizes, ratios, errors).  REF and
+    candidate frame by frame with the bound and each one's worst frame one
+    click away, an error magnification slider (x1 to x100), joints coloured
+    by their error, and each clip's facts (codec, parameters, sizes, ratios,
+    errors).  Each clip is labelled by enough of its path to tell the files
+    apart and, for a .mrc, its codec and settings.  REF and
     CAND may be any motion file motionrep reads, .mrc and .glb included, of the
     same skeleton; '-' reads BVH, NPZ, HDF5, .glb or .mrc from standard input;
     quoted glob patterns give several candidates.  A CAND at another frame
@@ -87,7 +105,7 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
       motionrep view dance.glb -o dance.html --clip Dance
     """
     from ..sources import open_source
-    from ..view import MAX_CANDIDATES, ViewClip, write_view
+    from ..view import MAX_CANDIDATES, ViewClip, distinct_names, write_view
 
     options = match_options(match, strip_prefix, ignore_extra, resample)
     options = None if options.strict else options
@@ -99,6 +117,8 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
     if len(cands) > MAX_CANDIDATES:
         raise click.UsageError(f"the viewer shows at most {MAX_CANDIDATES} candidates at once, got {len(cands)}")
     given = [reference, *cands]
+    # enough of each path to tell the files apart (svd/walk.mrc, fourier/walk.mrc)
+    shown = distinct_names([STDIN_NAME if is_stdio(g) else str(g) for g in given])
     with stdin_inputs(given) as paths:
         clips: list[ViewClip] = []
         for k, path in enumerate(paths):
@@ -109,9 +129,11 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
                                            f"not {given[k]}")
                 name = src.resolve(clip if many else None)
                 motion = src.read(name)
-                facts = _clip_facts(src, name) if src.kind in ("compressed", "archive") else []
-            label = STDIN_NAME if is_stdio(given[k]) else Path(str(given[k])).name
-            clips.append(ViewClip(motion, f"{label}[{name}]" if many else label, tuple(facts)))
+                coded = src.kind in ("compressed", "archive")
+                facts = _clip_facts(src, name) if coded else []
+                settings = _settings(src, name) if coded else ""
+            label = f"{shown[k]}[{name}]" if many else shown[k]
+            clips.append(ViewClip(motion, label, tuple(facts), settings))
         bound, how = bound_for(max_error, clips[0].motion, paths[1:], clip)
     result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up, match=options)
     for note in result.notes:

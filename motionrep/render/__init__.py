@@ -2,10 +2,13 @@
 
 The reference is drawn in red and the candidate (the decoded motion) in blue, over each other, as in Fig. 1 of
 Tojo et al. 2022: the reference wider and opaque, the candidate on top with a thin white rim, so where they agree
-a blue line has a red edge and the two never blend into a third colour.  The *worst joint* -- the joint or end site with the largest
-position error at any frame, the shared L-infinity measure (world positions after forward kinematics) -- is
-circled on every frame and named in the title with its error in file units and in percent of the character
-height (:func:`motionrep.kinematics.character_height`); the title says the units.  Under the pictures, a panel
+a blue line has a red edge and the two never blend into a third colour.  In every picture the joint or end site
+with the largest position error *of that frame* is circled; the clip's *worst joint* -- the largest error at any
+frame, the shared L-infinity measure (world positions after forward kinematics) -- is named in the title with its
+error in file units and in percent of the character height (:func:`motionrep.kinematics.character_height`), and
+shown zoomed at its worst frame: in an inset in the corner of an animation, in the last cell of a filmstrip
+(which, like the last picture without a candidate, spans the cells the last row leaves over, so no cell is
+empty); the title says the units.  Under the pictures, a panel
 shows the error over time: each frame's largest joint error, in file units and % of the height, with the bound
 when one is given, the worst frame and (in an animation) the current frame.
 
@@ -33,8 +36,9 @@ picked nearest to it, and a filmstrip shows ``count`` evenly spaced frames, the 
 replaced by it.  With a step (``"0:300:10"``) exactly those frames are shown.
 
 The package: :mod:`~motionrep.render.frames` (which frames, at what rate), :mod:`~motionrep.render.scene`
-(the up axis, the alignment, the bones, the camera) and :mod:`~motionrep.render.draw` (matplotlib: the panels,
-the error panel and the two writers); :func:`render` puts them together.
+(the up axis, the alignment, the bones, the camera), :mod:`~motionrep.render.draw` (matplotlib: the panels,
+the zoomed worst joint, the error panel and the animation writer) and :mod:`~motionrep.render.strip` (the
+filmstrip); :func:`render` puts them together.
 """
 
 from __future__ import annotations
@@ -52,11 +56,12 @@ from ..errors import FormatError, ValidationError
 from ..evaluate import ErrorReport, Evaluator
 from ..io import atomic_path
 from ..kinematics import character_height, global_positions, point_names
-from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, Curve, describe_error, require_matplotlib, write_animation,
-                   write_filmstrip)
+from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, Curve, Progress, describe_error, require_matplotlib,
+                   write_animation)
 from .frames import (GIF_MAX_FPS, animation_frames, check_size, filmstrip_frames, parse_frames, parse_size,
                      select_frames)
 from .scene import Worst, align_candidate, bone_segments, build_scene, detect_up_axis
+from .strip import write_filmstrip
 
 __all__ = [
     "render",
@@ -128,7 +133,7 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
            names: tuple[str, str] = ("reference", "candidate"), frames: slice | str | None = None,
            fps: float | None = None, count: int = 8, max_frames: int = 150,
            size: tuple[int, int] | None = None, up: str = "auto", bound: float | None = None,
-           options: Any = None) -> RenderResult:
+           options: Any = None, progress: Progress | None = None) -> RenderResult:
     """Draw ``reference`` (red) and ``candidate`` (blue) overlaid, to a GIF/MP4 animation or a PNG filmstrip.
 
     With a candidate, a panel under the pictures shows the error over time (each frame's largest joint error,
@@ -159,6 +164,8 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
         options: a :class:`motionrep.pairing.MatchOptions` for a candidate after another tool (joints by name,
             end sites missing, another rate): only the compared points and frames are drawn and measured, and
             the notes say what was left out.  Default: strict.
+        progress: called as ``progress(done, total)`` while drawing: after each animation frame or filmstrip
+            picture, and once more (``done == total``) when the file is written.
 
     Returns:
         :class:`RenderResult`.
@@ -247,9 +254,9 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
     with atomic_path(out) as tmp:
         if suffix == ".png":
             size = write_filmstrip(tmp, scene, shown, size, names, worst, curve, reference.num_frames,
-                                    reference.fps, units, (int(selected[0]), int(selected[-1])))
+                                    reference.fps, units, (int(selected[0]), int(selected[-1])), progress)
         else:
             size = write_animation(tmp, suffix, scene, shown, rate, size, names, worst, curve,
-                                    reference.num_frames, reference.fps, units)
+                                    reference.num_frames, reference.fps, units, progress)
     return RenderResult(out, OUTPUT_SUFFIXES[suffix], tuple(int(f) for f in shown), rate, size, up, error,
                         tuple(notes))

@@ -1,5 +1,6 @@
-"""Drawing with matplotlib (imported only here, on the non-interactive Agg canvas): the panels of both stick
-figures, titles and legends, and the two writers, an animation (GIF, MP4) and a filmstrip (PNG)."""
+"""Drawing with matplotlib (imported only here and in :mod:`~motionrep.render.strip`, on the non-interactive Agg
+canvas): the panels of both stick figures, the zoomed worst joint, titles and legends, the error panel and the
+animation writer (GIF, MP4); the filmstrip (PNG) is :mod:`~motionrep.render.strip`."""
 
 from __future__ import annotations
 
@@ -7,17 +8,22 @@ import contextlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import MotionrepError, ValidationError
+from ..errors import MotionrepError
 from ..evaluate import ErrorReport
 from .scene import Scene, Worst
 
 __all__ = ["REFERENCE_COLOR", "CANDIDATE_COLOR", "MARK_COLOR", "DPI", "require_matplotlib", "describe_error",
-           "Panel", "Curve", "error_panel", "write_animation", "write_filmstrip"]
+           "Panel", "Curve", "error_panel", "inset_corner", "zoom_inset", "write_animation", "Progress",
+           "header_height", "legend_handles", "headline_text"]
+
+#: ``progress(done, total)``: called as pictures are drawn (``done`` of ``total``; the last call, ``done ==
+#: total``, comes once the file is written).
+Progress = Callable[[int, int], None]
 
 REFERENCE_COLOR = "#d62728"  # red
 CANDIDATE_COLOR = "#1f5fd6"  # blue
@@ -49,12 +55,17 @@ def describe_error(report: ErrorReport) -> str:
 
 
 class Panel:
-    """The artists of one picture: floor, shadow, both skeletons, the worst-joint marker."""
+    """The artists of one picture: floor, shadow, both skeletons, the worst-joint marker.
 
-    def __init__(self, ax, scene: Scene, worst: Worst | None, linewidth: float, marker: float):
+    The marker circles the worst joint *of the frame shown* (``points[frame]``, each frame's largest error) when
+    ``points`` is given, else the clip's worst joint.
+    """
+
+    def __init__(self, ax, scene: Scene, worst: Worst | None, linewidth: float, marker: float,
+                 points: NDArray[np.int64] | None = None):
         from matplotlib.collections import LineCollection
 
-        self.scene, self.worst = scene, worst
+        self.scene, self.worst, self.points = scene, worst, points
         ax.set_axis_off()
         # one file unit is as long across as up: widen the limits along the axes' longer side
         box = ax.get_position()
@@ -114,7 +125,7 @@ class Panel:
             self.halo.set_segments(s.cand[frame][b] - offset)
             self.cand.set_segments(s.cand[frame][b] - offset)
         if self.ring is not None:
-            p = self.worst.point
+            p = self.worst.point if self.points is None else int(self.points[frame])
             pts = np.stack([s.ref[frame, p], s.cand[frame, p]]) - offset
             self.link.set_data(pts[:, 0], pts[:, 1])
             mid = pts.mean(axis=0)
@@ -153,8 +164,60 @@ def legend_handles(names: tuple[str, str], has_cand: bool, worst: Worst | None):
         handles.append(Line2D([], [], color=CANDIDATE_COLOR, lw=2, label=f"{names[1]} (decoded)"))
     if worst is not None:
         handles.append(Line2D([], [], ls="none", marker="o", ms=9, mfc="none", mec=MARK_COLOR, mew=1.5,
-                              label=f"worst joint: {worst.name}"))
+                              label="each frame's worst joint"))
     return handles
+
+
+def inset_corner(ax, scene: Scene, frames: NDArray[np.int64], width: float, height: float) -> tuple[int, int]:
+    """The corner of ``ax`` (``(1, 1)`` upper right, ``(0, 1)`` upper left, then the lower ones) where an inset of
+    ``width`` x ``height`` (axes fractions) covers the fewest drawn points over ``frames``: the inset is drawn
+    once, under the moving figures, so it goes where they pass least."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    idx = np.asarray(frames, dtype=np.int64)
+    pts = [scene.ref[idx] - scene.shift[idx][:, None]]
+    if scene.cand is not None:
+        pts.append(scene.cand[idx] - scene.shift[idx][:, None])
+    p = np.concatenate(pts, axis=1)  # (N, P, 2)
+    u, v = (p[..., 0] - x0) / (x1 - x0), (p[..., 1] - y0) / (y1 - y0)
+    best, corner = None, (1, 1)
+    for cx, cy in ((1, 1), (0, 1), (1, 0), (0, 0)):
+        inside_u = (u >= 1 - width) if cx else (u <= width)
+        inside_v = (v >= 1 - height) if cy else (v <= height)
+        covered = int(np.sum(inside_u & inside_v))
+        if best is None or covered < best:
+            best, corner = covered, (cx, cy)
+    return corner
+
+
+def zoom_inset(fig, rect: tuple[float, float, float, float], scene: Scene, worst: Worst, linewidth: float,
+               font: float, frame_fps: float) -> Any:
+    """A picture of the worst frame zoomed on the worst joint (both skeletons around it), in ``rect`` (figure
+    fractions), framed and titled with the joint, the frame and the zoom.  Returns its axes."""
+    from matplotlib.patches import Rectangle
+
+    ax = fig.add_axes(rect)
+    panel = Panel(ax, scene, worst, linewidth=linewidth, marker=linewidth * 9.0)
+    f, p = worst.frame, worst.point
+    panel.show(f)
+    offset = scene.shift[f]
+    a, b = scene.ref[f, p] - offset, scene.cand[f, p] - offset
+    mid = (a + b) / 2
+    full = scene.ylim[1] - scene.ylim[0]
+    # the error fills about a third of the inset, but never less than a tenth of the character's picture
+    half = max(1.5 * float(np.linalg.norm(a - b)), 0.06 * full)
+    box = ax.get_position()
+    fig_w, fig_h = fig.get_size_inches()
+    px = box.width * fig_w / (box.height * fig_h)
+    ax.set_xlim(mid[0] - half * px, mid[0] + half * px)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    zoom = full / (2 * half)
+    ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, facecolor="white", edgecolor="none", zorder=-5))
+    ax.add_patch(Rectangle((0, 0), 1, 1, transform=ax.transAxes, fill=False, edgecolor="#777777", lw=1.0,
+                           zorder=10, clip_on=False))
+    ax.text(0.5, 0.98, f"worst: {worst.name}\nframe {f} ({f / frame_fps:.2f} s), zoom x{zoom:.2g}",
+            transform=ax.transAxes, ha="center", va="top", fontsize=font, zorder=11,
+            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.0})
+    return ax
 
 
 def headline_text(names: tuple[str, str], has_cand: bool, worst: Worst | None, units: str | None) -> str:
@@ -202,10 +265,25 @@ def header_height(font: float, lines: int) -> float:
     return lines * font * 1.4 * DPI / 72.0 + 8.0
 
 
+def _gif_writer(animation: Any) -> Any:
+    """matplotlib's ``PillowWriter``, each frame turned into GIF's palette mode as it is grabbed (as Pillow would
+    when saving), so the time goes into the frames, where progress is reported, not into one long final save."""
+    from PIL import Image
+
+    class GifWriter(animation.PillowWriter):
+        def grab_frame(self, **savefig_kwargs: Any) -> None:
+            super().grab_frame(**savefig_kwargs)
+            im = self._frames[-1]
+            if im.mode == "RGB":
+                self._frames[-1] = im.convert("P", palette=Image.Palette.ADAPTIVE)
+
+    return GifWriter
+
+
 def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int64], fps: float,
                      size: tuple[int, int] | None, names: tuple[str, str], worst: Worst | None,
-                     curve: Curve | None, num_frames: int, clip_fps: float, units: str | None
-                     ) -> tuple[int, int]:
+                     curve: Curve | None, num_frames: int, clip_fps: float, units: str | None,
+                     progress: Progress | None = None) -> tuple[int, int]:
     Figure, FigureCanvasAgg = require_matplotlib()
     from matplotlib import animation
 
@@ -227,7 +305,17 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     bottom = (footer + graph) / h
     ax = fig.add_axes((0.01, bottom, 0.98, max(0.1, top - bottom)))
     scale = float(np.clip(min(w / scene.aspect, h - header - footer - graph) / 380.0, 0.4, 3.0))
-    panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale)
+    panel = Panel(ax, scene, worst, linewidth=2.0 * scale, marker=14.0 * scale,
+                  points=None if curve is None else curve.points)
+    inset = None
+    if worst is not None and scene.cand is not None:
+        # the worst joint at the worst frame, zoomed, in the picture's upper right corner (drawn once)
+        box = ax.get_position()
+        iw, ih = 0.27 * box.width, 0.36 * box.height
+        cx, cy = inset_corner(ax, scene, frames, 0.27, 0.36)
+        inset = zoom_inset(fig, (box.x0 + 0.005 + cx * (box.width - iw - 0.01),
+                                 box.y0 + 0.005 + cy * (box.height - ih - 0.01), iw, ih), scene, worst,
+                           linewidth=2.0 * scale, font=font * 0.75, frame_fps=clip_fps)
     cursor = None
     if curve is not None:
         label = font * 2.6 * DPI / 72.0  # x tick labels and the axis label
@@ -252,6 +340,8 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     background = np.asarray(fig.canvas.buffer_rgba()).copy()
     for artist in [headline, legend] + ([] if scene.follows else [panel.floor]):
         artist.set_visible(False)
+    if inset is not None:  # in the bitmap: nothing of it is drawn again
+        inset.set_visible(False)
     fig.figimage(background, xo=0, yo=0, origin="upper", zorder=-1)
     if cursor is not None:  # the error panel is in the bitmap: its axes stay only to place the cursor
         graph_ax = cursor.axes
@@ -264,13 +354,14 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
     for artist in moving:
         artist.set_visible(True)
     if kind == ".gif":
-        writer = animation.PillowWriter(fps=fps)
+        writer = _gif_writer(animation)(fps=fps)
     else:
         writer = animation.FFMpegWriter(fps=fps, codec="h264")  # matplotlib adds yuv420p for players
     digits = len(str(num_frames - 1))
     writer.setup(fig, str(path), dpi=DPI)
+    total = len(frames) + 1  # the last step: writing the file (Pillow encodes a GIF at the end)
     try:
-        for f in frames:
+        for k, f in enumerate(frames):
             f = int(f)
             panel.show(f)
             counter.set_text(f"frame {f:>{digits}}/{num_frames - 1} {f / clip_fps:6.2f} s")
@@ -278,83 +369,13 @@ def write_animation(path: Path, kind: str, scene: Scene, frames: NDArray[np.int6
                 local.set_text(curve.text(f))
                 cursor.set_xdata([f, f])
             writer.grab_frame()
+            if progress is not None:
+                progress(k + 1, total)
     except BaseException:
         with contextlib.suppress(Exception):  # stop an ffmpeg process; the partial file is removed by the caller
             writer.finish()
         raise
     writer.finish()
-    return w, h
-
-
-def grid(n: int, aspect: float, size: tuple[int, int] | None, header: float,
-          title: float) -> tuple[int, int, tuple[int, int]]:
-    """Rows, columns and image size of a filmstrip of ``n`` panels each showing a picture of ``aspect``.
-
-    Without a size, pictures are about 300 pixels high (less if the strip would exceed 1800 pixels across)
-    and the grid is the one closest to a 16:10 image, empty cells counting against it.  With a size, the grid
-    that draws the pictures largest wins.
-    """
-    panel_aspect = float(np.clip(aspect, 0.8, 3.0))
-    if size is None:
-        def cost(cols: int) -> float:
-            rows = math.ceil(n / cols)
-            return abs(math.log(cols * panel_aspect / rows / 1.6)) + 0.5 * (rows * cols - n) / n
-
-        cols = min(range(1, n + 1), key=cost)
-        rows = math.ceil(n / cols)
-        panel_h = min(300.0, 1800.0 / (cols * panel_aspect))
-        return rows, cols, (round(cols * panel_h * panel_aspect), round(rows * (panel_h + title) + header))
-    w, h = size
-    best = None
-    for cols in range(1, n + 1):
-        rows = math.ceil(n / cols)
-        drawn = min(w / cols / panel_aspect, (h - header) / rows - title)  # height of each picture
-        if best is None or drawn > best[0] + 1e-9:
-            best = (drawn, rows, cols)
-    return best[1], best[2], (w, h)
-
-
-def write_filmstrip(path: Path, scene: Scene, frames: NDArray[np.int64], size: tuple[int, int] | None,
-                     names: tuple[str, str], worst: Worst | None, curve: Curve | None, num_frames: int,
-                     clip_fps: float, units: str | None, span: tuple[int, int]) -> tuple[int, int]:
-    Figure, FigureCanvasAgg = require_matplotlib()
-    head_lines = 2 if worst is not None else 1
-    font = 10.0 if size is None else float(np.clip(10.0 * min(size[0] / 1200.0, size[1] / 700.0), 6.0, 12.0))
-    title_font = font * 0.85
-    title = header_height(title_font, 2 if curve is not None else 1)
-    header = header_height(font, head_lines + 1)  # the headline, then the legend in a row
-    graph = 0.0 if curve is None else 130.0
-    rows, cols, (w, h) = grid(len(frames), scene.aspect, size, header + graph, title)
-    if curve is not None and size is not None:
-        graph = min(graph, 0.25 * h)
-    if (h - header - graph) / rows - title < 20 or w / cols < 20:
-        raise ValidationError(f"size {w}x{h} is too small for {len(frames)} pictures; make it larger")
-    fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI)
-    FigureCanvasAgg(fig)
-    top = 1.0 - header / h
-    bottom = graph / h
-    cell_w, cell_h = 1.0 / cols, (top - bottom) / rows
-    picture_h = (h - header - graph) / rows - title
-    scale = float(np.clip(min(w / cols / scene.aspect, picture_h) / 300.0, 0.3, 3.0))
-    for k, f in enumerate(frames):
-        f = int(f)
-        r, c = divmod(k, cols)
-        ax = fig.add_axes((c * cell_w + 0.005 * cell_w, top - (r + 1) * cell_h, 0.99 * cell_w,
-                           cell_h - title / h))
-        Panel(ax, scene, worst, linewidth=1.8 * scale, marker=12.0 * scale).show(f)
-        is_worst = worst is not None and f == worst.frame
-        label = f"frame {f} ({f / clip_fps:.2f} s)" + ("  (worst)" if is_worst else "")
-        err = "" if curve is None else curve.text(f, short=True)
-        fig.text((c + 0.5) * cell_w, top - r * cell_h, label + (f"\n{err}" if err else ""), ha="center",
-                 va="top", fontsize=title_font, fontweight="bold" if is_worst else "normal")
-    if curve is not None:
-        label = font * 2.6 * DPI / 72.0
-        rect = (70.0 / w, label / h, 1.0 - 140.0 / w, max(0.03, (graph - label - 8.0) / h))
-        error_panel(fig, rect, curve, span[0], span[1], font, None if worst is None else worst.frame, frames)
-    fig.text(0.5, 1.0 - 4.0 / h, headline_text(names, scene.cand is not None, worst, units), ha="center", va="top",
-             fontsize=font)
-    fig.legend(handles=legend_handles(names, scene.cand is not None, worst), loc="upper center",
-               bbox_to_anchor=(0.5, 1.0 - header_height(font, head_lines) / h), fontsize=font * 0.9,
-               frameon=False, ncol=3, borderaxespad=0.0, borderpad=0.0, handletextpad=0.5, columnspacing=2.0)
-    fig.savefig(str(path), format="png", dpi=DPI, facecolor="white")
+    if progress is not None:
+        progress(total, total)
     return w, h

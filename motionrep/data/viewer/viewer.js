@@ -17,7 +17,7 @@
   }
 
   function fmt(value, digits) {
-    if (value === null || value === undefined || !isFinite(value)) return String(value);
+    if (value === null || value === undefined || !isFinite(value)) return "-"; // never null, NaN or undefined
     return Number(value).toPrecision(digits || 4).replace(/(\.\d*?)0+(e|$)/, "$1$2").replace(/\.(e|$)/, "$1");
   }
 
@@ -39,8 +39,33 @@
     const swatch = document.createElement("span");
     swatch.className = "swatch";
     swatch.style.background = clip.color;
-    item.append(swatch, clip.label + (clip.role === "reference" ? " (reference)" : " (decoded)"));
+    item.append(swatch, clip.name + (clip.role === "reference" ? " (reference)" : ""));
     $("legend").append(item);
+  }
+  const hasCandidates = data.clips.length > 1;
+  // the joints of a candidate are coloured by their error: its own colour when exact, yellow at the scale (the
+  // bound, or the largest error of all candidates without one), magenta beyond the bound
+  const HOT = "#ffd400";
+  const OVER = "#ff00cc";
+  let errorScale = data.bound !== null && data.bound > 0 ? data.bound : 0;
+  for (const clip of data.clips) if (clip.error && data.bound === null) errorScale = Math.max(errorScale, clip.error.max);
+  if (!(errorScale > 0)) errorScale = 1;
+  if (hasCandidates) {
+    const key = document.createElement("span");
+    key.id = "heat-key";
+    key.style.color = "#666";
+    key.append("joint error: ");
+    const ramp = document.createElement("span");
+    ramp.className = "ramp";
+    ramp.style.background = "linear-gradient(to right, " + data.clips[1].color + ", " + HOT + ")";
+    key.append(ramp, " 0 to " + fmt(errorScale, 3) + unit + (data.bound !== null ? " (the bound)" : " (largest)"));
+    if (data.bound !== null) {
+      const over = document.createElement("span");
+      over.className = "swatch";
+      over.style.background = OVER;
+      key.append(", ", over, "over it");
+    }
+    $("legend").append(key);
   }
   {
     const note = document.createElement("span");
@@ -62,9 +87,9 @@
   for (const clip of data.clips) {
     const h = document.createElement("h2");
     h.style.color = clip.color;
-    h.textContent = clip.label + (clip.role === "reference" ? " (reference)" : "");
+    h.textContent = clip.name + (clip.role === "reference" ? " (reference)" : "");
     const rows = [
-      ["frames", clip.frames + " at " + fmt(clip.fps) + " fps (" + fmt(clip.frames / clip.fps) + " s)"],
+      ["frames", clip.frames + " at " + clip.rateText + ", " + clip.durationText],
       ["joints", clip.joints + " + " + clip.endSites + " end sites"],
     ];
     if (clip.error) {
@@ -154,8 +179,45 @@
     bonesMesh.renderOrder = jointsMesh.renderOrder = reference ? 0 : 10 + index;
     bonesMesh.frustumCulled = jointsMesh.frustumCulled = false;
     scene.add(bonesMesh, jointsMesh);
+    if (!reference) {
+      jointsMesh.material = new T.MeshBasicMaterial({ color: "#ffffff", depthTest: false, transparent: true });
+      jointsMesh.setColorAt(0, new T.Color(clip.color)); // makes the per-instance colours
+    }
     return { clip, gltf, bones, segments, tracks: tracksOf(gltf, bones), bonesMesh, jointsMesh,
-      width: reference ? 1.0 : 0.5, positions: bones.map(() => new T.Vector3()) };
+      width: reference ? 1.0 : 0.5, positions: bones.map(() => new T.Vector3()),
+      raw: bones.map(() => new T.Vector3()), errors: bones.map(() => 0), colors: bones.map(() => clip.color) };
+  }
+
+  let magnification = 1;
+  const base = new T.Color();
+  const hot = new T.Color(HOT);
+  const over = new T.Color(OVER);
+  const shade = new T.Color();
+
+  function heat(figure) {
+    // per-joint error of a candidate at this frame (true positions, not magnified) and its colour
+    const ref = figures[0];
+    base.set(figure.clip.color);
+    figure.raw.forEach((p, i) => {
+      const e = i < ref.raw.length ? p.distanceTo(ref.raw[i]) : 0;
+      figure.errors[i] = e;
+      const t = e / errorScale;
+      if (!$("heat").checked) shade.copy(base);
+      else if (data.bound !== null && t > 1 + 1e-9) shade.copy(over);
+      else shade.copy(base).lerp(hot, Math.min(1, t));
+      figure.colors[i] = "#" + shade.getHexString();
+      figure.jointsMesh.setColorAt(i, shade);
+    });
+    figure.jointsMesh.instanceColor.needsUpdate = true;
+  }
+
+  function magnify(figure) {
+    // a candidate is drawn at reference + k x its offset from the reference, so a 2 % error can be seen
+    const ref = figures[0];
+    figure.raw.forEach((p, i) => {
+      const r = i < ref.raw.length ? ref.raw[i] : p;
+      figure.positions[i].copy(p).sub(r).multiplyScalar(magnification).add(r);
+    });
   }
 
   function pose(figure, frame) {
@@ -167,7 +229,8 @@
       else track.bone.position.set(v[k], v[k + 1], v[k + 2]);
     }
     figure.gltf.scene.updateMatrixWorld(true);
-    figure.bones.forEach((bone, i) => bone.getWorldPosition(figure.positions[i]));
+    figure.bones.forEach((bone, i) => bone.getWorldPosition(figure.raw[i]));
+    figure.positions.forEach((p, i) => p.copy(figure.raw[i]));
   }
 
   const matrix = new T.Matrix4();
@@ -187,8 +250,10 @@
       tmp.addVectors(pa, pb).multiplyScalar(0.5);
       figure.bonesMesh.setMatrixAt(i, matrix.compose(tmp, quaternion, scale));
     });
+    const reference = figure.clip.role === "reference";
     figure.positions.forEach((p, i) => {
-      scale.setScalar(r * 1.6);
+      // a candidate's joint grows with its error (up to 2.5 times), so the bad ones stand out
+      scale.setScalar(r * 1.6 * (reference || !$("heat").checked ? 1 : 1 + 1.5 * Math.min(1, figure.errors[i] / errorScale)));
       figure.jointsMesh.setMatrixAt(i, matrix.compose(p, quaternion.identity(), scale));
     });
     figure.bonesMesh.instanceMatrix.needsUpdate = true;
@@ -202,8 +267,11 @@
   let clock = 0;
   const candidates = () => figures.filter((f) => f.clip.role === "candidate");
   const worstFrame = data.clips.length > 1 ? data.clips[1].error.frame : 0;
+  const worstFrames = data.clips.slice(1).map((clip) => clip.error.frame);
 
-  // a wire ball around the joint with the largest error of the frame (first candidate)
+  // a wire ball around the joint with the largest error of the frame, of the candidate in focus (the first, or
+  // the one whose "Worst" button was pressed last)
+  let focus = 0;
   const marker = new T.Mesh(new T.SphereGeometry(1, 12, 6),
     new T.MeshBasicMaterial({ color: "#111111", wireframe: true, transparent: true, opacity: 0.7 }));
   marker.renderOrder = 100;
@@ -217,12 +285,15 @@
   }
 
   function render() {
-    for (const figure of figures) {
-      pose(figure, frame);
-      draw(figure);
+    for (const figure of figures) pose(figure, frame);
+    for (const figure of candidates()) {
+      heat(figure);
+      magnify(figure);
     }
+    for (const figure of figures) draw(figure);
     const lines = ["frame " + frame + " / " + (F - 1) + "   " + (frame / data.fps).toFixed(3) + " s"];
-    const first = candidates()[0];
+    if (magnification !== 1 && candidates().length) lines.push("error drawn x" + magnification);
+    const first = candidates()[focus] || candidates()[0];
     if (first) {
       const j = first.clip.perFrameJoint[frame];
       marker.position.copy(first.positions[Math.min(j, first.positions.length - 1)]);
@@ -230,13 +301,14 @@
       marker.visible = first.clip.perFrame[frame] > 0;
       for (const figure of candidates()) {
         const e = figure.clip.perFrame[frame];
-        lines.push(figure.clip.label + ": " + fmt(e, 3) + unit + " (" + percent(e) + ") at " +
+        lines.push(figure.clip.name + ": " + fmt(e, 3) + unit + " (" + percent(e) + ") at " +
           data.pointNames[figure.clip.perFrameJoint[frame]]);
       }
     }
     $("hud").textContent = lines.join("\n");
-    $("clock").textContent = "frame " + frame + " / " + (F - 1) + ", " + (frame / data.fps).toFixed(2) + " s of " +
-      ((F - 1) / data.fps).toFixed(2) + " s";
+    // the time of a frame is frame / fps; the clip lasts frames / fps (every frame one frame time)
+    $("clock").textContent = "frame " + frame + " / " + (F - 1) + ", " + (frame / data.fps).toFixed(3) + " s of " +
+      data.durationText;
     if ($("follow").checked) follow();
     renderer.render(scene, camera);
     drawCurve();
@@ -329,13 +401,15 @@
       g.arc(curveX(wf, w), y(e[wf]), 4, 0, 2 * Math.PI);
       g.fill();
     }
-    const first = candidates()[0];
+    const first = candidates()[focus] || candidates()[0];
     if (first) {
       const wf = first.clip.error.frame;
       g.fillStyle = "#111";
       g.textAlign = curveX(wf, w) > w / 2 ? "right" : "left";
+      let labelY = margin.top + 10;
+      if (data.bound !== null && Math.abs(y(data.bound) - 4 - labelY) < 12) labelY = y(data.bound) + 14; // not over the bound's
       g.fillText("worst: frame " + wf + ", " + first.clip.error.joint + " " + fmt(first.clip.error.max, 3) + unit,
-        curveX(wf, w) + (g.textAlign === "right" ? -8 : 8), margin.top + 10);
+        curveX(wf, w) + (g.textAlign === "right" ? -8 : 8), labelY);
     }
     g.strokeStyle = "#111";
     g.lineWidth = 1;
@@ -409,14 +483,22 @@
     const median = (values) => values.sort((a, b) => a - b)[values.length >> 1];
     const figure = new T.Vector3(median(sizes.map((s) => s.x)), median(sizes.map((s) => s.y)), median(sizes.map((s) => s.z)));
     const tall = Math.max(figure.x, figure.y, figure.z, 1e-6);
-    const travels = Math.max(size.x, size.z) > 2.5 * tall;
-    const shown = travels ? figure : size;
-    const extent = Math.max(shown.x, shown.y, shown.z, 1e-6);
     radius = tall * 0.011;
-    const distance = (Math.max(shown.y, Math.max(shown.x, shown.z) * 0.6) * 1.05) / Math.tan((camera.fov * Math.PI) / 360);
+    // the character as it stands at the start fills about 72 % of the view's height (or of its width)
+    pose(figures[0], 0);
+    const first = new T.Box3();
+    figures[0].positions.forEach((p) => first.expandByPoint(p));
+    const startSize = first.getSize(new T.Vector3());
+    const startCenter = first.getCenter(new T.Vector3());
+    const aspect = Math.max(0.2, camera.aspect || 1);
+    const fill = 0.72;
+    const viewH = Math.max(startSize.y, (0.75 * Math.max(startSize.x, startSize.z)) / aspect, 0.2 * tall) / fill;
+    const distance = viewH / 2 / Math.tan((camera.fov * Math.PI) / 360);
     camera.near = distance / 100;
     camera.far = distance * 20 + Math.max(size.x, size.y, size.z) * 4;
-    centerY = center.y;
+    // a character that moves about more than its own height is followed, so that it stays in that view
+    const travels = Math.max(size.x, size.z) > 1.0 * tall;
+    centerY = startCenter.y;
     // look across the main direction of travel (a walk is seen from the side), a little from the front and above
     pose(figures[0], 0);
     const start = figures[0].positions[0].clone();
@@ -427,9 +509,9 @@
       along.normalize();
       side.set(-along.z, 0, along.x).multiplyScalar(0.9).addScaledVector(along, 0.4);
     }
-    side.normalize().multiplyScalar(distance);
-    controls.target.copy(center);
-    camera.position.set(center.x + side.x, center.y + distance * 0.25, center.z + side.z);
+    side.normalize().multiplyScalar(distance * 0.97);
+    controls.target.copy(startCenter);
+    camera.position.set(startCenter.x + side.x, startCenter.y + distance * 0.25, startCenter.z + side.z);
     controls.update();
     const span = Math.max(size.x, size.z) + 2 * tall;
     const grid = new T.GridHelper(span, Math.max(4, Math.min(200, Math.round(span / (tall / 2)))), 0xbbbbbb, 0xe2e2e2);
@@ -452,12 +534,41 @@
         $("worst").disabled = true;
         curve.style.display = "none";
       }
-      $("worst").textContent = candidates().length ? "Worst frame (" + worstFrame + ")" : "Worst frame";
-      $("play").addEventListener("click", () => (playing ? pause() : play()));
-      $("worst").addEventListener("click", () => {
-        pause();
-        seek(worstFrame);
+      // one "Worst frame" button per candidate, in its colour (the first is #worst, the others #worst-2...)
+      $("worst").textContent = "Worst frame";
+      let previous = $("worst");
+      candidates().forEach((figure, i) => {
+        const button = i === 0 ? $("worst") : $("worst").cloneNode(false);
+        if (i > 0) {
+          button.id = "worst-" + (i + 1);
+          previous.after(button);
+          previous = button;
+        }
+        button.textContent = "Worst: frame " + worstFrames[i] + (candidates().length > 1 ? " of " + figure.clip.label : "");
+        button.title = "Go to the frame where " + figure.clip.name + " has its largest error";
+        button.style.borderColor = figure.clip.color;
+        button.style.color = figure.clip.color;
+        button.addEventListener("click", () => {
+          focus = i;
+          pause();
+          seek(worstFrames[i]);
+        });
       });
+      $("play").addEventListener("click", () => (playing ? pause() : play()));
+      const slider = $("magnify");
+      slider.max = String(data.maxMagnification);
+      const setMagnification = (k) => {
+        magnification = Math.min(data.maxMagnification, Math.max(1, Math.round(Number(k)) || 1));
+        slider.value = String(magnification);
+        $("magnify-value").textContent = "x" + magnification;
+        render();
+      };
+      slider.addEventListener("input", (e) => setMagnification(e.target.value));
+      if (!candidates().length) {
+        slider.disabled = true;
+        $("heat").disabled = true;
+      }
+      $("heat").addEventListener("change", render);
       $("timeline").addEventListener("input", (e) => {
         pause();
         seek(Number(e.target.value));
@@ -473,6 +584,7 @@
       controls.addEventListener("change", () => renderer.render(scene, camera));
       window.addEventListener("keydown", (e) => {
         if (e.target.tagName === "SELECT" || e.target.tagName === "INPUT" && e.target.type !== "range") return;
+        if (e.target.id === "magnify") return; // its own keys change the magnification
         if (e.key === " ") playing ? pause() : play();
         else if (e.key === "ArrowRight") seek(frame + 1);
         else if (e.key === "ArrowLeft") seek(frame - 1);
@@ -489,6 +601,11 @@
         three: T.REVISION,
         frames: F,
         worstFrame,
+        worstFrames,
+        focus: () => focus,
+        labels: () => data.clips.map((clip) => clip.name),
+        magnification: () => magnification,
+        setMagnification,
         frame: () => frame,
         seek: (f) => {
           pause();
@@ -496,8 +613,25 @@
         },
         play,
         pause,
-        // world positions (the page's Y-up world) of every bone of clip i at the current frame
+        // world positions (the page's Y-up world) of every bone of clip i at the current frame, as drawn
+        // (a candidate magnified) and as the clip has them
         positions: (i) => figures[i].positions.map((p) => [p.x, p.y, p.z]),
+        truePositions: (i) => figures[i].raw.map((p) => [p.x, p.y, p.z]),
+        jointErrors: (i) => figures[i].errors.slice(),
+        jointColors: (i) => figures[i].colors.slice(),
+        errorScale,
+        // the box of clip i's drawn bones on the screen, in normalised device coordinates (-1..1 fills the view)
+        screenBox: (i) => {
+          const box = [Infinity, Infinity, -Infinity, -Infinity];
+          for (const p of figures[i].positions) {
+            const q = p.clone().project(camera);
+            box[0] = Math.min(box[0], q.x);
+            box[1] = Math.min(box[1], q.y);
+            box[2] = Math.max(box[2], q.x);
+            box[3] = Math.max(box[3], q.y);
+          }
+          return box;
+        },
         boneNames: (i) => figures[i].bones.map((b) => b.name),
       });
     });
