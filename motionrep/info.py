@@ -87,11 +87,13 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
 
 def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
     """``info`` of one compressed clip (a ``.mrc`` file or a clip of an archive)."""
+    from . import figures as fg
     from .compress import describe_outcome
     from .evaluate import compression_figures
     from .plugins import get_representation
 
     sk = c.skeleton
+    bone_frames = c.num_frames * fg.bones(sk.num_joints, sk.num_end_sites)
     try:
         width: int | None = get_representation(c.representation).width(sk)
     except MotionrepError:  # the representation's plugin is not installed: no figures that need its width
@@ -110,7 +112,10 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
             "representation": {"name": c.representation, "version": c.representation_version,
                                "plugin": c.representation_plugin, "width": width},
             "bytes": size, "parameters": c.num_parameters, "payload_bytes": c.payload_bytes,
-            "bits_per_bone_frame": 8.0 * c.payload_bytes / (c.num_frames * (sk.num_joints + sk.num_end_sites)),
+            fg.PAYLOAD_BPBF: fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
+            fg.FILE_BPBF: fg.file_bits_per_bone_frame(size, bone_frames),
+            # the name older readers know (info_version 1): the payload's figure, as above
+            "bits_per_bone_frame": fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
             "arrays": [{"name": k, "dtype": a.dtype.str[1:], "shape": list(a.shape)} for k, a in c.arrays.items()],
             "evaluation": None if c.evaluation is None else dict(c.evaluation),
             "figures": figures,
@@ -119,10 +124,14 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
 
 
 def _archive_row(name: str, c: Any, size: int) -> dict[str, Any]:
+    from . import figures as fg
     from .compress import describe_outcome
 
     ev = c.evaluation or {}
+    bone_frames = c.num_frames * fg.bones(c.skeleton.num_joints, c.skeleton.num_end_sites)
     return {"name": name, "codec": c.codec, "representation": c.representation, "outcome": describe_outcome(c),
             "frames": c.num_frames, "fps": c.fps, "duration": c.num_frames / c.fps,
-            "joints": c.skeleton.num_joints, "bytes": size, "max_error": ev.get("max_error"),
+            "joints": c.skeleton.num_joints, "bytes": size,
+            fg.PAYLOAD_BPBF: fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
+            fg.FILE_BPBF: fg.file_bits_per_bone_frame(size, bone_frames), "max_error": ev.get("max_error"),
             "max_error_percent": ev.get("max_error_percent")}
