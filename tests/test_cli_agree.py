@@ -38,3 +38,55 @@ def test_info_of_a_directory_is_a_table_one_row_per_file(clips):
     assert rows["a.mrc"][1:3] == ["mrc", "compressed"] and rows["b.bvh"][4] == "20"
     d = json.loads(run("info", clips, "--json").output)
     assert sorted(Path(x["file"]).name for x in d) == ["a.bvh", "a.mrc", "b.bvh"]
+
+
+def test_convert_decodes_one_mrc_as_it_decodes_an_archive(clips, tmp_path):
+    from motionrep.io import read
+
+    mrc, archive = tmp_path / "a.mrc", tmp_path / "all.h5"
+    assert run("compress", clips / "a.bvh", "-o", mrc, "--codec", "svd").exit_code == 0
+    assert run("compress", clips, "-o", archive, "--codec", "svd").exit_code == 0
+    r = run("convert", mrc, tmp_path / "one.bvh")
+    assert r.exit_code == 0, r.output
+    assert run("convert", archive, tmp_path / "arch.bvh", "--clip", "a").exit_code == 0
+    one, arch = read(tmp_path / "one.bvh"), read(tmp_path / "arch.bvh")
+    assert one.num_frames == arch.num_frames == 30
+    # both were decoded from the same bytes by the one decode path: the same channel values (text round trip)
+    assert (tmp_path / "one.bvh").read_text().split("MOTION")[1] == (tmp_path / "arch.bvh").read_text().split(
+        "MOTION")[1]
+    r = run("convert", clips / "a.bvh", tmp_path / "x.mrc")  # writing a .mrc stays compress's job
+    assert r.exit_code == 2 and "motionrep compress" in r.output
+
+
+@pytest.mark.parametrize("command", ["convert", "decompress", "merge", "example", "compress"])
+def test_every_command_that_writes_says_wrote_or_nothing_with_quiet(clips, tmp_path, command):
+    mrc = tmp_path / "a.mrc"
+    assert run("compress", clips / "a.bvh", "-o", mrc, "--codec", "svd").exit_code == 0
+    args = {"convert": ["convert", clips / "a.bvh", tmp_path / "{}.npz"],
+            "decompress": ["decompress", mrc, "-o", tmp_path / "{}.bvh"],
+            "merge": ["merge", mrc, "-o", tmp_path / "{}.h5"],
+            "example": ["example", tmp_path / "{}.bvh"],
+            "compress": ["compress", clips / "a.bvh", "-o", tmp_path / "{}.mrc", "--codec", "svd"]}[command]
+    loud = run(*[str(a).format("loud") for a in args])
+    assert loud.exit_code == 0 and "wrote " in loud.output and "loud" in loud.output, loud.output
+    quiet = run(*[str(a).format("quiet") for a in args], "--quiet")
+    assert quiet.exit_code == 0 and quiet.output == "", quiet.output
+    assert list(tmp_path.glob("quiet.*"))  # written all the same
+
+
+@pytest.mark.parametrize("args", [["convert", "{walk}", "-"], ["decompress", "{mrc}", "-o", "-"]])
+def test_a_reader_that_stops_ends_the_command_quietly_with_exit_0(tmp_path, args):
+    """``motionrep convert walk.bvh - | head -1``: exit 0 and nothing on stderr (the walk's BVH, about 200 kB,
+    is more than a pipe holds, so the writer meets the closed pipe)."""
+    import subprocess
+    import sys
+
+    walk, mrc = tmp_path / "walk.bvh", tmp_path / "walk.mrc"
+    assert run("example", walk).exit_code == 0
+    assert run("compress", walk, "-o", mrc, "--codec", "svd", "--max-error", "5%").exit_code == 0
+    cmd = [sys.executable, "-m", "motionrep", *[a.format(walk=walk, mrc=mrc) for a in args]]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout.readline().strip() == b"HIERARCHY"
+    proc.stdout.close()  # as head does after its line
+    err = proc.stderr.read()
+    assert proc.wait(timeout=60) == 0 and err == b"", err

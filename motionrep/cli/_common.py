@@ -179,6 +179,13 @@ def force_option(command: Callable) -> Callable:
                         help="Overwrite an existing output (without it, an existing output is an error).")(command)
 
 
+def quiet_option(command: Callable) -> Callable:
+    """The ``-q`` / ``--quiet`` flag of every command that writes: nothing printed on success (no progress, no
+    report, no ``wrote ...`` line); errors are still one line on stderr."""
+    return click.option("-q", "--quiet", is_flag=True,
+                        help="Print nothing on success (no progress, no 'wrote ...' line).")(command)
+
+
 def check_overwrite(path: str | os.PathLike[str], force: bool, *, resume: bool = False) -> None:
     """The one overwrite policy: ``path`` may exist only with ``force``.
 

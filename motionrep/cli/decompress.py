@@ -12,6 +12,7 @@ from typing import Any, Iterator
 import click
 
 from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_overwrite, collect, force_option,
+                      quiet_option,
                       is_stdio, stdin_inputs, stdout_output, usage_suffix)
 
 __all__ = ["decompress"]
@@ -48,8 +49,9 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
 @click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
               help="File format written to standard output (-o -) or into a directory OUT/ (default: bvh).")
 @force_option
+@quiet_option
 def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, out_format: str | None,
-               force: bool) -> None:
+               force: bool, quiet: bool) -> None:
     """Decode compressed clips IN (.mrc files, archives, or directories of them) into motion files.
 
     Clips are named as compress named them (a directory's .mrc files by their
@@ -82,10 +84,11 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
         if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
     with stdin_inputs(inputs, allowed=(".mrc", ".h5")) as given:
-        _decompress(given, output, fps, clip, OUT_FORMATS[out_format or "bvh"], force)
+        _decompress(given, output, fps, clip, OUT_FORMATS[out_format or "bvh"], force, quiet)
 
 
-def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool) -> None:
+def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool,
+                quiet: bool = False) -> None:
     from ..compress import write_decoded
 
     to_stdout = is_stdio(output)
@@ -105,7 +108,8 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             write_decoded(motion, target)
         which = f" (clip {ref.clip})" if ref.clip is not None else ""
         shown = STDOUT_NAME if to_stdout else output
-        click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {motion.fps:g} fps", err=to_stdout)
+        if not quiet:
+            click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {motion.fps:g} fps", err=to_stdout)
         return
     if output.suffix.lower() in (".h5", ".hdf5"):
         from ..io import write_database
@@ -123,4 +127,5 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
     else:
         raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "
                                "one with --clip)")
-    click.echo(f"wrote {len(refs)} clips to {output}")
+    if not quiet:
+        click.echo(f"wrote {len(refs)} clips to {output}")
