@@ -17,11 +17,15 @@ from ._model import Skeleton
 from .errors import FormatError, MotionrepError
 from .kinematics import character_height
 
-__all__ = ["INFO_JSON_VERSION", "info_dict", "skeleton_info"]
+__all__ = ["INFO_JSON_VERSION", "FORMAT_NAMES", "info_dict", "skeleton_info"]
 
 #: Version of the ``motionrep info --json`` object (``specs/formats/info-json.md``); bumped when a key changes
 #: meaning or disappears (adding keys does not bump it).
 INFO_JSON_VERSION = 1
+
+#: The ``format`` of each suffix in ``info --json`` (a compressed clip, whatever its suffix, is ``"mrc"``).
+FORMAT_NAMES = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf", ".glb": "gltf",
+                ".mrc": "mrc"}
 
 
 def skeleton_info(sk: Skeleton) -> dict[str, Any]:
@@ -59,8 +63,7 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
 
     path = Path(path)
     with open_source(path) as src:
-        fmt = "mrc" if src.kind == "compressed" else {".bvh": "bvh", ".npz": "npz", ".gltf": "gltf",
-                                                        ".glb": "gltf"}.get(path.suffix.lower(), "hdf5")
+        fmt = "mrc" if src.kind == "compressed" else FORMAT_NAMES.get(path.suffix.lower(), "hdf5")
         base: dict[str, Any] = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": fmt}
         if clip is not None and src.kind in ("motion", "compressed"):
             raise FormatError("--clip applies to HDF5 databases, archives and glTF files; this file holds one clip",

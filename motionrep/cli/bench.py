@@ -41,7 +41,7 @@ __all__ = ["bench"]
               help="Directory for bench.csv, bench.json and bench.md (created if needed; existing ones need "
                    "--force).")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path),
-              help="Draw error vs compression ratio to this .png, .svg or .pdf (needs matplotlib).")
+              help="Draw the error against payload bits/bone/frame to this .png, .svg or .pdf.")
 @click.option("--decode-poses", default=None, type=click.IntRange(0, 10**8), metavar="N",
               help="Poses decoded at random times to measure decode speed (0: skip). Default: 20000.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
