@@ -90,3 +90,38 @@ def test_a_reader_that_stops_ends_the_command_quietly_with_exit_0(tmp_path, args
     proc.stdout.close()  # as head does after its line
     err = proc.stderr.read()
     assert proc.wait(timeout=60) == 0 and err == b"", err
+
+
+@pytest.mark.parametrize("codec", ["adaptive-fourier", "naive-fourier"])
+def test_a_clip_a_codec_cannot_code_gets_one_line_saying_what_and_which_codec_can(tmp_path, codec):
+    one = tmp_path / "one.bvh"
+    write(synthetic_motion(chain_skeleton(4), frames=1, fps=30, seed=1), one)
+    r = run("compress", one, "-o", tmp_path / "one.mrc", "--codec", codec)
+    assert r.exit_code == 1 and not (tmp_path / "one.mrc").exists()
+    line = r.output.strip()
+    assert line.count("\n") == 0 and "one.bvh" in line, line
+    assert f"{codec} cannot code a clip of 1 frame: it needs at least 2 frames" in line, line
+    assert "transform" in line and "svd" in line and "nan" not in line, line
+    # the codecs it names do code it
+    assert run("compress", one, "-o", tmp_path / "t.mrc", "--codec", "transform").exit_code == 0
+
+
+def test_min_frames_is_checked_before_any_work():
+    from motionrep.compress import Pipeline
+    from motionrep.errors import UncodableClipError
+
+    pipeline = Pipeline.build("adaptive-fourier", "root-quat-axis-angle", {}, "2%", 0)
+    assert pipeline.codec.min_frames == 2
+    with pytest.raises(UncodableClipError, match="cannot code a clip of 1 frame"):
+        pipeline.compress(synthetic_motion(chain_skeleton(3), frames=1, fps=30, seed=0),
+                          progress=lambda *a, **k: pytest.fail("the codec started"))
+
+
+def test_min_frames_is_part_of_the_codec_contract():
+    from motionrep.codec import codec_problems
+    from motionrep.plugins import get_codec
+
+    codec = get_codec("svd")
+    assert codec.min_frames == 1 and not codec_problems(codec)
+    bad = type("Bad", (type(codec),), {"min_frames": 0})()
+    assert any("min_frames" in p for p in codec_problems(bad))

@@ -201,7 +201,12 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
         with open_source(ref.path) as src:
             motion = src.read(ref.clip)
         progress = None if as_json or say.quiet else CodecProgress(pipeline.codec)
-        result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
+        from ..errors import UncodableClipError
+
+        try:
+            result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
+        except UncodableClipError as exc:  # the clip, not the setting: name the file
+            raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
     with stdout_output(output, ".mrc") as target:
         write_container(result.data, target)
     source = display_name(ref.source)
