@@ -246,6 +246,8 @@ class ClipJob:
             worker reads ``ref.path``).
         read: for a clip of a database or archive sent that way, ``(motion, source checksum)`` as the client read
             them, or the error reading it gave (raised in the worker: the clip fails, the others go on).
+        progress: called as ``progress(name, stage, fields)`` with the codec's progress inside the clip; only for
+            work in this process (a callable does not travel to worker processes), None otherwise.
     """
 
     ref: ClipRef
@@ -254,6 +256,7 @@ class ClipJob:
     timeout: float | None = None
     data: bytes | None = field(default=None, repr=False)
     read: tuple[Motion, str] | MotionrepError | None = field(default=None, repr=False)
+    progress: Callable[[str, str, Any], None] | None = field(default=None, repr=False, compare=False)
 
 
 def _read_job(job: ClipJob) -> tuple[Motion, str]:
@@ -287,7 +290,9 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
             motion, checksum = _read_job(job)
             if job.expect is not None and checksum == job.expect:
                 return ClipOutcome(ref.name, None, {"skipped": True, "source": ref.source}, "skipped")
-            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes,
+            relay = job.progress
+            progress = None if relay is None else (lambda stage, fields: relay(ref.name, stage, fields))
+            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes, progress=progress,
                                            extra={SOURCE_CHECKSUM_KEY: checksum})
     except MotionrepError as exc:
         message = str(exc)
@@ -302,7 +307,8 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
                    on_done: Callable[[ClipOutcome], None] | None = None, expect: dict[str, str] | None = None,
-                   timeout: float | None = None, send_data: bool | Collection[str] = False) -> list[ClipOutcome]:
+                   timeout: float | None = None, send_data: bool | Collection[str] = False,
+                   progress: Callable[[str, str, Any], None] | None = None) -> list[ClipOutcome]:
     """Compress every clip with ``pipeline`` (a :class:`motionrep.compress.Pipeline`); a clip that fails (bound
     not met, unreadable, over its time limit) gives a failed :class:`ClipOutcome` and the others go on.
 
@@ -318,6 +324,8 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
             True for every clip, or the paths (``ref.path``) of the files whose clips are sent; a file of one clip
             is sent as its bytes, a clip of a database or archive as the clip read here and its source checksum.
             By default workers read the clips by path.
+        progress: ``progress(clip name, stage, fields)``, the codec's progress inside each clip, when the clips
+            are compressed in this process (``jobs=1`` without an executor); worker processes do not report it.
 
     Returns:
         One outcome per clip, in ``refs`` order.
@@ -338,7 +346,8 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
                         read = ref.read_with_checksum()
                     except MotionrepError as exc:
                         read = exc
-            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read)
+            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read,
+                          progress if executor is None and jobs <= 1 else None)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
     return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],

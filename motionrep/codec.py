@@ -289,9 +289,13 @@ def describe_info(info: Mapping[str, Any], detail: bool = False) -> str:
 
 def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
     """The generic progress line: the stage, then ``key=value`` per field (lists left out); ``loss`` in
-    scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``."""
+    scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``; ``done`` (the share, 0-1,
+    of the most work the encode can take, see ``specs/plugins.md``) as ``23%``."""
     parts = [stage]
     for key, value in fields.items():
+        if key == "done" and isinstance(value, (int, float)):
+            parts.append(f"{100 * value:.0f}%")
+            continue
         if key == "error_percent" or isinstance(value, (list, tuple, Mapping)):
             continue
         if key == "error" and isinstance(value, (int, float)):

@@ -23,6 +23,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
@@ -243,13 +244,31 @@ class CodecProgress:
         self.codec, self.every = codec, every
         self.last = -float("inf")
         self.stage: str | None = None
+        self.start: float | None = None
+        self.done = 0.0
+
+    def text(self, stage: str, fields: Mapping[str, Any]) -> str:
+        """The codec's line, with an ETA when the codec says how much of its most work is ``done`` (an upper
+        bound: a codec that meets the bound early stops sooner)."""
+        now = time.monotonic()
+        line = self.codec.describe_progress(stage, fields)
+        done = fields.get("done")
+        if not isinstance(done, (int, float)):
+            return line
+        if self.start is None or done < self.done:  # the first report, or a new fit (a window) began
+            self.start = now
+        self.done = float(done)
+        if 0.05 <= done < 1 and now > self.start:  # below 5 %, too little measured to say
+            line += f", ETA at most {_duration((now - self.start) * (1 - done) / done)}"
+        return line
 
     def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
         now = time.monotonic()
+        line = self.text(stage, fields)
         if stage == self.stage and now - self.last < self.every:
             return
         self.last, self.stage = now, stage
-        click.echo("  " + self.codec.describe_progress(stage, fields), err=True)
+        click.echo("  " + line, err=True)
 
 
 class BatchProgress:
@@ -260,6 +279,11 @@ class BatchProgress:
     On a terminal: one line redrawn in place, ``label [####    ] 120/2534, 2 failed, 3.1/s, ETA 13m02s``.
     Otherwise: ``[120/2534] <describe(result)>; 2 failed, ETA 13m02s`` at most once every ``every`` seconds
     (and for the first and last item); a failed item is always named on its own line.
+
+    Heartbeat: while no item finishes, a line every ``every`` seconds all the same (on a terminal the line is
+    redrawn every second), ``[0/9] working, 1m02s elapsed, ETA ?; c0: train K=3 loss=2.1e-03``, with the
+    latest :meth:`note` (a codec's progress inside the clip, when the work runs in this process), from a daemon
+    thread started by ``__enter__`` and stopped by ``__exit__``.
     """
 
     def __init__(self, total: int, label: str, describe: Callable[[Any], str] | None = None, quiet: bool = False,
@@ -273,14 +297,54 @@ class BatchProgress:
         self.every = every
         self.start = time.monotonic()
         self.last = -float("inf")
+        self.activity: str | None = None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._beat: threading.Thread | None = None
+        self._drawn = False
 
     def __enter__(self) -> "BatchProgress":
+        if not self.quiet:
+            self._beat = threading.Thread(target=self._heartbeat, name="motionrep-progress", daemon=True)
+            self._beat.start()
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        if self.tty and not self.quiet and self.count:
+        self._stop.set()
+        if self._beat is not None:
+            self._beat.join(timeout=5)
+        if self.tty and not self.quiet and (self.count or self.activity is not None or self._drawn):
             self.stream.write("\n")
             self.stream.flush()
+
+    def note(self, name: str, text: str) -> None:
+        """The latest activity inside an item (``name: text``), shown by the heartbeat."""
+        self.activity = f"{name}: {text}"
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(0.25):
+            now = time.monotonic()
+            with self._lock:
+                if self.count >= self.total:
+                    return
+                if self.tty:
+                    if now - self.last >= 1.0:
+                        self._draw(now)
+                elif now - self.last >= self.every and now - self.start >= self.every:
+                    parts = [f"working, {_duration(now - self.start)} elapsed"] + self._details()
+                    line = ", ".join(parts) + (f"; {self.activity}" if self.activity else "")
+                    self.stream.write(f"[{self.count}/{self.total}] {line}\n")
+                    self.stream.flush()
+                    self.last = now
+
+    def _draw(self, now: float) -> None:
+        width = 24
+        filled = int(width * self.count / max(self.total, 1))
+        tail = f" {self.activity}" if self.activity and self.count < self.total else ""
+        self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}{tail}")
+        self.stream.flush()
+        self.last = now
+        self._drawn = True
 
     def eta(self) -> str:
         """Time left at the rate so far (skipped items excluded), as ``1h02m``, ``3m05s`` or ``12s``."""
@@ -310,6 +374,11 @@ class BatchProgress:
         return parts
 
     def done(self, result: Any, failed: bool = False, skipped: bool = False) -> None:
+        with self._lock:
+            self._done(result, failed, skipped)
+
+    def _done(self, result: Any, failed: bool, skipped: bool) -> None:
+        self.activity = None
         self.count += 1
         self.failed += bool(failed)
         self.skipped += bool(skipped)
@@ -321,11 +390,7 @@ class BatchProgress:
             if failed and self.describe is not None:
                 self.stream.write("\r\033[K" + self.describe(result) + "\n")
             if now - self.last >= self.every or last_item or failed:
-                width = 24
-                filled = int(width * self.count / max(self.total, 1))
-                self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}")
-                self.stream.flush()
-                self.last = now
+                self._draw(now)
             return
         if failed or last_item or self.count == 1 or now - self.last >= self.every:
             what = [self.describe(result)] if self.describe is not None else []

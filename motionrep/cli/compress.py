@@ -291,8 +291,13 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             bar.done(outcome, failed=outcome.failed, skipped=outcome.skipped)
 
         try:
+            clocks: dict[str, CodecProgress] = {}
+
+            def progress(name: str, stage: str, fields: Any) -> None:  # inside a clip (jobs=1: this process)
+                bar.note(name, clocks.setdefault(name, CodecProgress(pipeline.codec)).text(stage, fields))
+
             compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
-                           timeout=timeout, send_data=send_clips if scheduler else False)
+                           timeout=timeout, send_data=send_clips if scheduler else False, progress=progress)
         except KeyboardInterrupt as exc:
             store.close()
             finished = sum(1 for o in outcomes if not o.failed)
