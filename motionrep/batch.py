@@ -11,9 +11,8 @@ two databases), with one worker pool and one thread policy.
   not shut down.
 
 Results come back to the calling process, in completion order, through ``on_done``: the one writer of a batch's
-output (:mod:`motionrep.store`) lives there.
-
-``work`` and the items must pickle when they run in other processes (``work`` a module-level function).
+output (:mod:`motionrep.store`) lives there.  ``work`` and the items must pickle when they run in other
+processes (``work`` a module-level function).
 
 Thread policy, the same for every command: the parent process keeps its threads; every *worker process* (of
 the pool, or of any executor whose workers are other processes) runs with one BLAS thread (``threadpoolctl``
@@ -22,9 +21,8 @@ in ``warm_up`` (``Codec.warm_up``: imports that would otherwise be counted in th
 before its first item.  ``jobs`` workers of one thread each use ``jobs`` cores, and a result never depends on
 how many threads computed it.
 
-:func:`compress_clips` (with ``--resume`` checksums and ``--timeout``) and :func:`evaluate_clips` /
-:func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep
-bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
+:func:`compress_clips` (``--resume`` checksums, ``--timeout``) and :func:`evaluate_clips` / :func:`evaluate_refs`
+are the batch jobs of ``compress`` and ``evaluate``; ``bench`` runs :func:`motionrep.bench.run_bench` here too.
 """
 
 from __future__ import annotations
@@ -246,8 +244,7 @@ class ClipJob:
             worker reads ``ref.path``).
         read: for a clip of a database or archive sent that way, ``(motion, source checksum)`` as the client read
             them, or the error reading it gave (raised in the worker: the clip fails, the others go on).
-        progress: called as ``progress(name, stage, fields)`` with the codec's progress inside the clip; only for
-            work in this process (a callable does not travel to worker processes), None otherwise.
+        progress: ``progress(name, stage, fields)``, the codec's progress in the clip (work in this process only).
     """
 
     ref: ClipRef
@@ -290,10 +287,9 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
             motion, checksum = _read_job(job)
             if job.expect is not None and checksum == job.expect:
                 return ClipOutcome(ref.name, None, {"skipped": True, "source": ref.source}, "skipped")
-            relay = job.progress
-            progress = None if relay is None else (lambda stage, fields: relay(ref.name, stage, fields))
-            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes, progress=progress,
-                                           extra={SOURCE_CHECKSUM_KEY: checksum})
+            on = job.progress
+            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes, extra={SOURCE_CHECKSUM_KEY: checksum},
+                                           progress=on and (lambda stage, fields: on(ref.name, stage, fields)))
     except MotionrepError as exc:
         message = str(exc)
         if isinstance(exc, FormatError) and job.data is not None:  # name the user's file, not the worker's copy
@@ -315,7 +311,7 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
     Args:
         refs: the clips.
         pipeline: the setting.
-        jobs, executor: where the work runs (:func:`run_batch`).
+        jobs, executor: where the work runs (:func:`run_batch`); ``progress`` only with ``jobs=1`` and no executor.
         on_done: called as ``on_done(outcome)`` in this process as each clip finishes (to commit it).
         expect: ``{name: source checksum}`` of clips the output already holds with this setting: such a clip is
             skipped when its source is unchanged (``--resume``).
@@ -324,15 +320,14 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
             True for every clip, or the paths (``ref.path``) of the files whose clips are sent; a file of one clip
             is sent as its bytes, a clip of a database or archive as the clip read here and its source checksum.
             By default workers read the clips by path.
-        progress: ``progress(clip name, stage, fields)``, the codec's progress inside each clip, when the clips
-            are compressed in this process (``jobs=1`` without an executor); worker processes do not report it.
+        progress: called as ``progress(clip name, stage, fields)`` with the codec's progress inside each clip.
 
     Returns:
         One outcome per clip, in ``refs`` order.
     """
     expect = expect or {}
-
     sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
+    here = None if executor or jobs > 1 else progress  # a callable does not travel to worker processes
 
     def jobs_of() -> Iterator[ClipJob]:
         for ref in refs:
@@ -346,8 +341,7 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
                         read = ref.read_with_checksum()
                     except MotionrepError as exc:
                         read = exc
-            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read,
-                          progress if executor is None and jobs <= 1 else None)
+            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read, here)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
     return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],

@@ -209,8 +209,9 @@ def codec_problems(codec: Any, *, complete: bool = False) -> list[str]:
 
     Checked when a codec is registered (:mod:`motionrep.plugins`, which raises ``PluginError``): an instance of
     :class:`Codec`; a non-empty ``name`` without surrounding spaces; an integer ``format_version`` >= 1 that
-    ``readable_versions`` includes; an integer ``min_frames`` >= 1; a ``Params`` dataclass.  With ``complete`` (the conformance suite,
-    :func:`motionrep.testing.check_codec`), also: every parameter has a default and a help text.
+    ``readable_versions`` includes; an integer ``min_frames`` >= 1; a ``Params`` dataclass.  With ``complete``
+    (the conformance suite, :func:`motionrep.testing.check_codec`), also: every parameter has a default and a
+    help text.
     """
     if not isinstance(codec, Codec):
         return ["is not a motionrep.codec.Codec"]
