@@ -60,3 +60,14 @@ def test_bench_quiet_keeps_the_table_and_drops_wrote(tmp_path, flag):
     r = CliRunner().invoke(cli, ["bench", str(path), "-c", "svd", "--decode-poses", "0", "--out",
                                  str(tmp_path / "res"), flag])
     assert r.exit_code == 0 and "wrote" not in r.output and "svd" in r.stdout and r.stderr == ""
+
+
+def test_bench_is_not_silent_while_a_run_takes_long(tmp_path, monkeypatch):
+    """The heartbeat with its ETA on stderr while no run has finished (every 10 s; 0.3 s here)."""
+    path = tmp_path / "c.bvh"
+    write(synthetic_motion(chain_skeleton(4), frames=120, seed=3), path)
+    monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
+    r = CliRunner().invoke(cli, ["bench", str(path), "-c", "adaptive-fourier", "-p", "k=6", "-p", "iters=4000",
+                                 "--max-error", "none", "--decode-poses", "0"])
+    assert r.exit_code == 0, r.output
+    assert any(line.startswith("[0/1] working, ") and "ETA" in line for line in r.stderr.splitlines()), r.stderr
