@@ -36,7 +36,8 @@ from typing import Any, Callable, Collection, Iterable, Iterator, Sequence, Type
 
 from ._model import Motion
 from .errors import FormatError, MotionrepError, ParameterError
-from .executors import _ignore_interrupts, _process_pool, _stop_pool, dask_executor, time_limit
+from .executors import (THREAD_VARIABLES, WorkerProgress, _ignore_interrupts, _process_pool, _stop_pool, dask_executor,
+                        progress_relay, time_limit, worker_threads)
 from .sources import ClipRef, Source, listing
 
 __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
@@ -46,9 +47,6 @@ __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob",
 
 _Item = TypeVar("_Item")
 _Result = TypeVar("_Result")
-
-#: Environment variables that set the thread count of the BLAS libraries numpy and scipy may use.
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 _WORKER: dict[str, Any] = {"pid": None, "warmed": set(), "limits": None}
 
@@ -82,26 +80,10 @@ def _call(work: Callable[[Any], Any], item: Any, parent: int, warm_up: tuple[str
     return work(item)
 
 
-@contextlib.contextmanager
-def worker_threads(count: int = 1) -> Iterator[None]:
-    """Set :data:`THREAD_VARIABLES` to ``count`` while the block runs (worker processes spawned inside it start
-    with that many BLAS threads), then restore them."""
-    saved = {k: os.environ.get(k) for k in THREAD_VARIABLES}
-    os.environ.update({k: str(count) for k in THREAD_VARIABLES})
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs: int = 1,
               executor: cf.Executor | None = None, warm_up: Iterable[str] = (),
               on_done: Callable[[int, _Item, _Result], None] | None = None,
-              window: int | None = None) -> list[_Result]:
+              window: int | None = None, relay: Any = None) -> list[_Result]:
     """``[work(item) for item in items]``, in this process, in ``jobs`` worker processes, or on ``executor``.
 
     Args:
@@ -114,6 +96,7 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
             process.
         window: at most this many items submitted and not finished at once (None: all at once); items are taken
             from ``items`` only as they are submitted, so large items (clip bytes) are not all in memory.
+        relay: the queue of :func:`motionrep.executors.progress_relay` the pool's workers report progress on.
 
     Returns:
         The results, in item order.
@@ -147,7 +130,7 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
         pool = None
         if executor is None:
             stack.enter_context(worker_threads(1))
-            pool = executor = stack.enter_context(_process_pool(workers))
+            pool = executor = stack.enter_context(_process_pool(workers, relay))
         parent = os.getpid()
         pending: dict[cf.Future, tuple[int, Any]] = {}
         next_index = 0
@@ -327,7 +310,8 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
     """
     expect = expect or {}
     sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
-    here = None if executor or jobs > 1 else progress  # a callable does not travel to worker processes
+    pooled = progress is not None and executor is None and jobs > 1  # the pool's workers relay it (a queue)
+    here = WorkerProgress() if pooled else None if executor else progress
 
     def jobs_of() -> Iterator[ClipJob]:
         for ref in refs:
@@ -344,9 +328,10 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
             yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read, here)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
-    return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
-                     on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
-                     window=window)
+    with progress_relay(progress) if pooled else contextlib.nullcontext() as relay:
+        return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
+                         on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
+                         window=window, relay=relay)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -78,3 +78,31 @@ def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_p
     assert r.exit_code == 0, r.output
     beats = [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
     assert beats and any("c0: train" in b for b in beats), r.stderr
+
+
+def test_worker_processes_relay_the_codec_progress_to_the_heartbeat(tmp_path, monkeypatch):
+    """`--jobs 2`: the workers' codec progress reaches the client through the pool's relay queue."""
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+    from motionrep.io import write
+
+    (tmp_path / "in").mkdir()
+    for i in range(2):
+        write(synthetic_motion(chain_skeleton(4), frames=120, fps=30, seed=i), tmp_path / "in" / f"c{i}.bvh")
+    monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
+    r = CliRunner().invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
+                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", "-p", "iters=6000",
+                                 "--jobs", "2"])
+    assert r.exit_code == 0, r.output
+    beats = [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
+    assert any(": train " in b for b in beats), r.stderr
+
+
+def test_worker_progress_pickles_and_is_silent_without_a_relay():
+    import pickle
+
+    from motionrep.executors import WorkerProgress
+
+    relay = pickle.loads(pickle.dumps(WorkerProgress()))
+    relay("c0", "train", {"K": 1})  # no queue in this process: nothing happens, nothing raises
