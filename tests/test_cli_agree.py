@@ -125,3 +125,10 @@ def test_min_frames_is_part_of_the_codec_contract():
     assert codec.min_frames == 1 and not codec_problems(codec)
     bad = type("Bad", (type(codec),), {"min_frames": 0})()
     assert any("min_frames" in p for p in codec_problems(bad))
+
+
+def test_plugins_describe_says_how_short_a_clip_a_codec_codes():
+    d = json.loads(run("plugins", "--describe", "adaptive-fourier", "--json").output)
+    assert d["min_frames"] == 2
+    assert "codes clips of at least 2 frames" in run("plugins", "--describe", "naive-fourier").output
+    assert json.loads(run("plugins", "--describe", "transform", "--json").output)["min_frames"] == 1
