@@ -132,3 +132,14 @@ def test_plugins_describe_says_how_short_a_clip_a_codec_codes():
     assert d["min_frames"] == 2
     assert "codes clips of at least 2 frames" in run("plugins", "--describe", "naive-fourier").output
     assert json.loads(run("plugins", "--describe", "transform", "--json").output)["min_frames"] == 1
+
+
+def test_info_of_an_archive_lists_each_clip_with_the_payload_figure(clips, tmp_path):
+    archive = tmp_path / "all.h5"
+    assert run("compress", clips, "-o", archive, "--codec", "svd").exit_code == 0
+    r = run("info", archive)
+    assert r.exit_code == 0 and "payload bits/bone/frame" in r.output, r.output
+    d = json.loads(run("info", archive, "--json").output)
+    for c in d["clips"]:
+        assert f"{c['payload_bits_per_bone_frame']:.3f}" in r.output
+        assert c["file_bits_per_bone_frame"] > c["payload_bits_per_bone_frame"]  # the container adds bytes

@@ -27,11 +27,12 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
         lines.append(f"format:     archive of compressed clips (.mrc), {len(d['clips'])} clips")
         width = max([4] + [len(c["name"]) for c in d["clips"]])
         lines.append(f"  {'clip':<{width}}  {'codec':<16}  {'outcome':<10}  {'frames':>7}  {'fps':>7}  "
-                     f"{'joints':>6}  {'bytes':>9}  L-inf")
+                     f"{'joints':>6}  {'bytes':>9}  {'payload bits/bone/frame':>23}  L-inf")
         for c in d["clips"]:
             err = "-" if c["max_error"] is None else f"{_fmt(c['max_error'])} ({c['max_error_percent']:.3g}%)"
             lines.append(f"  {c['name']:<{width}}  {c['codec']:<16}  {c['outcome']:<10}  {c['frames']:>7}  "
-                         f"{_fmt(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  {err}")
+                         f"{_fmt(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  "
+                         f"{c['payload_bits_per_bone_frame']:>23.3f}  {err}")
         return "\n".join(lines)
     if d["kind"] == "database":
         lines.append(f"format:     {d['format']} database, {len(d['clips'])} clips")
