@@ -63,7 +63,8 @@ def test_fourier_training_reports_its_progress_through_the_hook():
     assert done == sorted(done)  # one network: the share only grows
 
 
-def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_path, monkeypatch):
+def _heartbeats(tmp_path, monkeypatch, *extra: str) -> list[str]:
+    """The heartbeat lines of a two-clip adaptive-fourier batch (one heartbeat every 0.3 s)."""
     from click.testing import CliRunner
 
     from motionrep.cli import cli
@@ -74,29 +75,20 @@ def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_p
         write(synthetic_motion(chain_skeleton(4), frames=120, fps=30, seed=i), tmp_path / "in" / f"c{i}.bvh")
     monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
     r = CliRunner().invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
-                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", "-p", "iters=4000"])
+                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", *extra])
     assert r.exit_code == 0, r.output
-    beats = [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
-    assert beats and any("c0: train" in b for b in beats), r.stderr
+    return [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
+
+
+def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_path, monkeypatch):
+    beats = _heartbeats(tmp_path, monkeypatch, "-p", "iters=4000")
+    assert beats and any("c0: train" in b for b in beats), beats
 
 
 def test_worker_processes_relay_the_codec_progress_to_the_heartbeat(tmp_path, monkeypatch):
     """`--jobs 2`: the workers' codec progress reaches the client through the pool's relay queue."""
-    from click.testing import CliRunner
-
-    from motionrep.cli import cli
-    from motionrep.io import write
-
-    (tmp_path / "in").mkdir()
-    for i in range(2):
-        write(synthetic_motion(chain_skeleton(4), frames=120, fps=30, seed=i), tmp_path / "in" / f"c{i}.bvh")
-    monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
-    r = CliRunner().invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
-                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", "-p", "iters=6000",
-                                 "--jobs", "2"])
-    assert r.exit_code == 0, r.output
-    beats = [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
-    assert any(": train " in b for b in beats), r.stderr
+    beats = _heartbeats(tmp_path, monkeypatch, "-p", "iters=6000", "--jobs", "2")
+    assert any(": train " in b for b in beats), beats
 
 
 def test_worker_progress_pickles_and_is_silent_without_a_relay():
