@@ -16,7 +16,7 @@ Each task runs in its own forked process, killed after ``--budget`` seconds (the
 and may need much longer; a killed task is reported as ``timeout``). Rows are appended to a JSONL file, and a run
 skips the tasks it already has, so it can be stopped and resumed. ``report`` writes the tables
 (``results/acl.md``), a CSV of every row and the rate-distortion plot with ACL's points
-(``benchmarks/anchors/acl_strict.csv``, figures measured outside this project, with their source).
+(``motionrep/data/acl_strict.csv``, figures measured outside this project, with their source).
 
 Usage::
 
@@ -81,8 +81,9 @@ def read_anchor(name: str) -> list[dict]:
 
 def acl_figures() -> dict[tuple[str, float], float]:
     """``{(clip, bound %): ACL bits/bone/frame}``; the salsa median under the clip ``salsa-median``."""
-    return {(r["clip"], float(r["bound_percent"])): float(r["acl_bits_per_bone_frame"])
-            for r in read_anchor("acl_strict.csv")}
+    from motionrep.bench.anchors import acl_strict
+
+    return {(a.clip, a.bound_percent): a.payload_bits_per_bone_frame for a in acl_strict()}
 
 
 def probe_figures() -> dict[str, float]:
@@ -249,7 +250,7 @@ def report(args: argparse.Namespace) -> None:
     lines = ["# Every codec beside ACL 2.1 at a guaranteed bound", "",
              "Written by `python benchmarks/acl.py report` from `acl_runs.jsonl` (see `benchmarks/README.md`). "
              "Sizes are **payload bits per bone per frame** (the codec's bytes x 8 / (frames x (joints + end "
-             "sites)), ACL's count); ACL 2.1's strict-bound figures are from `benchmarks/anchors/acl_strict.csv`. "
+             "sites)), ACL's count); ACL 2.1's strict-bound figures are from `motionrep/data/acl_strict.csv`. "
              "Every size shown was verified: the `.mrc` decompressed to BVH by `motionrep decompress` and measured "
              "by `motionrep evaluate` within the bound.", ""]
     ok = [r for r in latest.values() if r["status"] == "ok"]

@@ -22,7 +22,7 @@ Usage::
 
 Prints a Markdown table of file sizes (bytes) per clip and codec, with K / rank and the verified error;
 ``--compare`` a table of payload bytes and bits/bone/frame of each codec against the first, with ACL 2.1's
-strict-bound figures (``benchmarks/anchors/acl_strict.csv``) and the encode and decode times.
+strict-bound figures (``motionrep/data/acl_strict.csv``) and the encode and decode times.
 """
 
 from __future__ import annotations
@@ -185,12 +185,10 @@ def table(rows: list[dict], paths: list[Path], codecs: list[str]) -> None:
 
 
 def _acl_figures() -> dict[str, float]:
-    """ACL 2.1's strict-bound bits/bone/frame at 2 % per CMU clip (``anchors/acl_strict.csv``, see ``acl.py``)."""
-    import csv
+    """ACL 2.1's strict-bound bits/bone/frame at 2 % per CMU clip (``motionrep/data/acl_strict.csv``, see ``acl.py``)."""
+    from motionrep.bench.anchors import acl_strict
 
-    with open(REPO / "benchmarks" / "anchors" / "acl_strict.csv", newline="") as f:
-        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
-    return {r["clip"] + ".bvh": float(r["acl_bits_per_bone_frame"]) for r in rows if float(r["bound_percent"]) == 2}
+    return {a.clip + ".bvh": a.payload_bits_per_bone_frame for a in acl_strict() if a.bound_percent == 2}
 
 
 def compare(rows: list[dict]) -> None:

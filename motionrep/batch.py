@@ -11,9 +11,8 @@ two databases), with one worker pool and one thread policy.
   not shut down.
 
 Results come back to the calling process, in completion order, through ``on_done``: the one writer of a batch's
-output (:mod:`motionrep.store`) lives there.
-
-``work`` and the items must pickle when they run in other processes (``work`` a module-level function).
+output (:mod:`motionrep.store`) lives there.  ``work`` and the items must pickle when they run in other
+processes (``work`` a module-level function).
 
 Thread policy, the same for every command: the parent process keeps its threads; every *worker process* (of
 the pool, or of any executor whose workers are other processes) runs with one BLAS thread (``threadpoolctl``
@@ -41,7 +40,8 @@ from typing import Any, Callable, Collection, Iterable, Iterator, Sequence, Type
 
 from ._model import Motion
 from .errors import FormatError, MotionrepError, ParameterError
-from .executors import _ignore_interrupts, _process_pool, _stop_pool, dask_executor, time_limit
+from .executors import (THREAD_VARIABLES, WorkerProgress, _ignore_interrupts, _process_pool, _stop_pool, dask_executor,
+                        progress_relay, time_limit, worker_threads)
 from .sources import ClipRef, Source, listing
 
 __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
@@ -51,9 +51,6 @@ __all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob",
 
 _Item = TypeVar("_Item")
 _Result = TypeVar("_Result")
-
-#: Environment variables that set the thread count of the BLAS libraries numpy and scipy may use.
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 _WORKER: dict[str, Any] = {"pid": None, "warmed": set(), "limits": None}
 
@@ -87,26 +84,10 @@ def _call(work: Callable[[Any], Any], item: Any, parent: int, warm_up: tuple[str
     return work(item)
 
 
-@contextlib.contextmanager
-def worker_threads(count: int = 1) -> Iterator[None]:
-    """Set :data:`THREAD_VARIABLES` to ``count`` while the block runs (worker processes spawned inside it start
-    with that many BLAS threads), then restore them."""
-    saved = {k: os.environ.get(k) for k in THREAD_VARIABLES}
-    os.environ.update({k: str(count) for k in THREAD_VARIABLES})
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs: int = 1,
               executor: cf.Executor | None = None, warm_up: Iterable[str] = (),
               on_done: Callable[[int, _Item, _Result], None] | None = None,
-              window: int | None = None) -> list[_Result]:
+              window: int | None = None, relay: Any = None) -> list[_Result]:
     """``[work(item) for item in items]``, in this process, in ``jobs`` worker processes, or on ``executor``.
 
     Args:
@@ -119,6 +100,7 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
             process.
         window: at most this many items submitted and not finished at once (None: all at once); items are taken
             from ``items`` only as they are submitted, so large items (clip bytes) are not all in memory.
+        relay: the queue of :func:`motionrep.executors.progress_relay` the pool's workers report progress on.
 
     Returns:
         The results, in item order.
@@ -152,7 +134,7 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
         pool = None
         if executor is None:
             stack.enter_context(worker_threads(1))
-            pool = executor = stack.enter_context(_process_pool(workers))
+            pool = executor = stack.enter_context(_process_pool(workers, relay))
         parent = os.getpid()
         pending: dict[cf.Future, tuple[int, Any]] = {}
         next_index = 0
@@ -249,6 +231,7 @@ class ClipJob:
             worker reads ``ref.path``).
         read: for a clip of a database or archive sent that way, ``(motion, source checksum)`` as the client read
             them, or the error reading it gave (raised in the worker: the clip fails, the others go on).
+        progress: ``progress(name, stage, fields)``, the codec's progress in the clip (work in this process only).
     """
 
     ref: ClipRef
@@ -257,6 +240,7 @@ class ClipJob:
     timeout: float | None = None
     data: bytes | None = field(default=None, repr=False)
     read: tuple[Motion, str] | MotionrepError | None = field(default=None, repr=False)
+    progress: Callable[[str, str, Any], None] | None = field(default=None, repr=False, compare=False)
 
 
 def _read_job(job: ClipJob) -> tuple[Motion, str]:
@@ -290,8 +274,9 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
             motion, checksum = _read_job(job)
             if job.expect is not None and checksum == job.expect:
                 return ClipOutcome(ref.name, None, {"skipped": True, "source": ref.source}, "skipped")
-            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes,
-                                           extra={SOURCE_CHECKSUM_KEY: checksum})
+            on = job.progress
+            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes, extra={SOURCE_CHECKSUM_KEY: checksum},
+                                           progress=on and (lambda stage, fields: on(ref.name, stage, fields)))
     except MotionrepError as exc:
         message = str(exc)
         if isinstance(exc, FormatError) and job.data is not None:  # name the user's file, not the worker's copy
@@ -305,14 +290,15 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
                    on_done: Callable[[ClipOutcome], None] | None = None, expect: dict[str, str] | None = None,
-                   timeout: float | None = None, send_data: bool | Collection[str] = False) -> list[ClipOutcome]:
+                   timeout: float | None = None, send_data: bool | Collection[str] = False,
+                   progress: Callable[[str, str, Any], None] | None = None) -> list[ClipOutcome]:
     """Compress every clip with ``pipeline`` (a :class:`motionrep.compress.Pipeline`); a clip that fails (bound
     not met, unreadable, over its time limit) gives a failed :class:`ClipOutcome` and the others go on.
 
     Args:
         refs: the clips.
         pipeline: the setting.
-        jobs, executor: where the work runs (:func:`run_batch`).
+        jobs, executor: where the work runs (:func:`run_batch`); ``progress`` only with ``jobs=1`` and no executor.
         on_done: called as ``on_done(outcome)`` in this process as each clip finishes (to commit it).
         expect: ``{name: source checksum}`` of clips the output already holds with this setting: such a clip is
             skipped when its source is unchanged (``--resume``).
@@ -321,13 +307,15 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
             True for every clip, or the paths (``ref.path``) of the files whose clips are sent; a file of one clip
             is sent as its bytes, a clip of a database or archive as the clip read here and its source checksum.
             By default workers read the clips by path.
+        progress: called as ``progress(clip name, stage, fields)`` with the codec's progress inside each clip.
 
     Returns:
         One outcome per clip, in ``refs`` order.
     """
     expect = expect or {}
-
     sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
+    pooled = progress is not None and executor is None and jobs > 1  # the pool's workers relay it (a queue)
+    here = WorkerProgress() if pooled else None if executor else progress
 
     def jobs_of() -> Iterator[ClipJob]:
         for ref in refs:
@@ -341,12 +329,13 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
                         read = ref.read_with_checksum()
                     except MotionrepError as exc:
                         read = exc
-            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read)
+            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read, here)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
-    return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
-                     on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
-                     window=window)
+    with progress_relay(progress) if pooled else contextlib.nullcontext() as relay:
+        return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
+                         on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
+                         window=window, relay=relay)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -109,6 +109,8 @@ class Codec(ABC):
             ``readable_versions``.
         readable_versions: payload versions ``decode`` accepts (default: only ``format_version``).
         description: one line for ``motionrep plugins``.
+        min_frames: the fewest frames of a clip the codec can code (default 1); the core refuses a shorter clip
+            before any work, with one line naming the codecs that can code it.
         Params: a frozen dataclass of the codec's parameters with documented defaults (each field's
             ``metadata["help"]``); its ``__post_init__`` raises :class:`~motionrep.errors.ParameterError`
             for invalid values, before any work is done.
@@ -118,6 +120,7 @@ class Codec(ABC):
     format_version: ClassVar[int]
     readable_versions: ClassVar[tuple[int, ...]] = ()
     description: ClassVar[str] = ""
+    min_frames: ClassVar[int] = 1
     Params: ClassVar[type]
 
     @abstractmethod
@@ -206,8 +209,9 @@ def codec_problems(codec: Any, *, complete: bool = False) -> list[str]:
 
     Checked when a codec is registered (:mod:`motionrep.plugins`, which raises ``PluginError``): an instance of
     :class:`Codec`; a non-empty ``name`` without surrounding spaces; an integer ``format_version`` >= 1 that
-    ``readable_versions`` includes; a ``Params`` dataclass.  With ``complete`` (the conformance suite,
-    :func:`motionrep.testing.check_codec`), also: every parameter has a default and a help text.
+    ``readable_versions`` includes; an integer ``min_frames`` >= 1; a ``Params`` dataclass.  With ``complete``
+    (the conformance suite, :func:`motionrep.testing.check_codec`), also: every parameter has a default and a
+    help text.
     """
     if not isinstance(codec, Codec):
         return ["is not a motionrep.codec.Codec"]
@@ -220,6 +224,9 @@ def codec_problems(codec: Any, *, complete: bool = False) -> list[str]:
         out.append(f"format_version must be an integer >= 1, got {fv!r}")
     elif codec.readable_versions and fv not in codec.readable_versions:
         out.append(f"readable_versions {tuple(codec.readable_versions)} must include format_version {fv}")
+    mf = getattr(codec, "min_frames", 1)
+    if isinstance(mf, bool) or not isinstance(mf, int) or mf < 1:
+        out.append(f"min_frames must be an integer >= 1, got {mf!r}")
     params = getattr(codec, "Params", None)
     if not (isinstance(params, type) and dataclasses.is_dataclass(params)):
         out.append("Params must be a dataclass")
@@ -283,9 +290,13 @@ def describe_info(info: Mapping[str, Any], detail: bool = False) -> str:
 
 def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
     """The generic progress line: the stage, then ``key=value`` per field (lists left out); ``loss`` in
-    scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``."""
+    scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``; ``done`` (the share, 0-1,
+    of the most work the encode can take, see ``specs/plugins.md``) as ``23%``."""
     parts = [stage]
     for key, value in fields.items():
+        if key == "done" and isinstance(value, (int, float)):
+            parts.append(f"{100 * value:.0f}%")
+            continue
         if key == "error_percent" or isinstance(value, (list, tuple, Mapping)):
             continue
         if key == "error" and isinstance(value, (int, float)):

@@ -41,7 +41,7 @@ from ._model import Motion
 from ._threads import one_blas_thread
 from .codec import Codec, Payload, frame_times
 from .container import Container, pack, read_container, unpack
-from .errors import BoundNotMetError, CodecError
+from .errors import BoundNotMetError, CodecError, UncodableClipError
 from .bound import MaxError, parse_max_error  # public here too, as before motionrep.bound existed
 from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
 from .kinematics import character_height
@@ -127,6 +127,20 @@ class CompressResult:
             "evaluation": self.report.as_dict(), "figures": self.figures.as_dict(), "bytes": len(self.data),
             "seconds": self.seconds, "evaluations": self.evaluations,
         }
+
+
+def _check_codable(codec: Codec, motion: Motion) -> None:
+    """Refuse, before any work, a clip shorter than ``codec.min_frames``, naming the codecs that can code it."""
+    from .plugins import codecs
+
+    need = int(getattr(codec, "min_frames", 1))
+    if motion.num_frames >= need:
+        return
+    frames = f"{motion.num_frames} frame{'s' if motion.num_frames != 1 else ''}"
+    able = [name for name, c in codecs().items() if int(getattr(c, "min_frames", 1)) <= motion.num_frames]
+    can = (f"; {', '.join(able)} can (--codec {able[0] if 'transform' not in able else 'transform'})" if able
+           else "; no installed codec can")
+    raise UncodableClipError(f"{codec.name} cannot code a clip of {frames}: it needs at least {need} frames{can}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,6 +233,7 @@ class Pipeline:
         from .plugins import provider_of
 
         codec, rep = self.codec, self.representation
+        _check_codable(codec, motion)
         bound = self.bound_for(motion)
         start = time.perf_counter()
         features = rep.to_features(motion)

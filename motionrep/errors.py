@@ -37,6 +37,7 @@ from os import PathLike
 
 __all__ = [
     "MotionrepError",
+    "UncodableClipError",
     "ValidationError",
     "FormatError",
     "BVHFormatError",
@@ -144,6 +145,11 @@ class CodecError(MotionrepError):
 
 class ParameterError(CodecError, ValueError):
     """A codec or representation parameter is invalid; raised before any work is done."""
+
+
+class UncodableClipError(CodecError):
+    """A clip the codec cannot code at all (fewer frames than its ``min_frames``); raised before any work, naming
+    the codecs that can."""
 
 
 class PayloadError(CodecError, ValueError):

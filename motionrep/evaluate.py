@@ -26,7 +26,9 @@ Compression figures (:func:`compression_figures`), always reported together:
 (e) ``bits_per_bone_frame``: the codec's payload bits (``payload_bytes``: its arrays, without the skeleton and
     metadata every ``.mrc`` file has) divided by ``frames x (joints + end sites)``, ACL's count, so that sizes
     compare with ACL's and between codecs whatever the container adds (None when the payload size is not
-    given).
+    given).  The same figure as (f); kept under this name for older readers.
+(f) ``payload_bits_per_bone_frame``, ``file_bits_per_bone_frame`` and ``ratio_vs_source``: the size vocabulary of
+    :mod:`motionrep.figures`, the figures every report shows first (the others behind ``--verbose`` and in JSON).
 
 Size: one concern, the shared measure; the error, the encode context built on it and the compression figures
 reported beside it are what every codec is judged by, kept in one place.
@@ -412,19 +414,29 @@ class CompressionFigures:
     bits_per_bone_frame: float | None = None
     num_end_sites: int = 0
     payload_bytes: int | None = None
+    payload_bits_per_bone_frame: float | None = None
+    file_bits_per_bone_frame: float | None = None
+    ratio_vs_source: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-serialisable dict of every field."""
         return asdict(self)
 
     def summary(self) -> str:
-        """One line with the figures."""
-        d = "n/a" if self.file_ratio is None else f"{self.file_ratio:.1f}x"
-        payload = ("" if self.bits_per_bone_frame is None else
-                   f", payload {self.payload_bytes} bytes = {self.bits_per_bone_frame:.3f} bits/bone/frame")
-        return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} parameters), "
-                f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} bits/joint/frame, "
-                f"vs source file {d}{payload}")
+        """The short line: file bytes, the payload's and the file's bits per bone per frame, the ratio against
+        the source (:func:`motionrep.figures.size_line`)."""
+        from .figures import size_line
+
+        return size_line(self.compressed_bytes, self.payload_bits_per_bone_frame, self.file_bits_per_bone_frame,
+                         self.ratio_vs_source)
+
+    def details(self) -> str:
+        """The other figures, for ``--verbose``: the paper's parameter ratio, the float32-channel ratio, bits per
+        joint per frame of the file, the payload's bytes."""
+        payload = "" if self.payload_bytes is None else f", payload {self.payload_bytes} bytes"
+        return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} stored numbers), "
+                f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} file "
+                f"bits/joint/frame{payload}")
 
 
 def compression_figures(*, num_frames: int, feature_width: int, num_parameters: int, num_channels: int,
@@ -448,7 +460,11 @@ def compression_figures(*, num_frames: int, feature_width: int, num_parameters: 
     """
     if num_frames < 1 or num_joints < 1 or compressed_bytes < 1:
         raise ValidationError("compression figures need at least one frame, one joint and one compressed byte")
+    from . import figures as fg
+
     params = max(int(num_parameters), 1)
+    bone_frames = num_frames * fg.bones(num_joints, num_end_sites)
+    payload_bpbf = None if payload_bytes is None else fg.payload_bits_per_bone_frame(payload_bytes, bone_frames)
     return CompressionFigures(
         paper_ratio=num_frames * feature_width / params,
         float32_ratio=num_frames * num_channels * 4 / compressed_bytes,
@@ -461,8 +477,10 @@ def compression_figures(*, num_frames: int, feature_width: int, num_parameters: 
         num_joints=int(num_joints),
         compressed_bytes=int(compressed_bytes),
         source_bytes=None if source_bytes is None else int(source_bytes),
-        bits_per_bone_frame=(None if payload_bytes is None else
-                             8.0 * payload_bytes / (num_frames * (num_joints + num_end_sites))),
+        bits_per_bone_frame=payload_bpbf,
         num_end_sites=int(num_end_sites),
         payload_bytes=None if payload_bytes is None else int(payload_bytes),
+        payload_bits_per_bone_frame=payload_bpbf,
+        file_bits_per_bone_frame=fg.file_bits_per_bone_frame(compressed_bytes, bone_frames),
+        ratio_vs_source=fg.ratio_vs_source(source_bytes, compressed_bytes),
     )

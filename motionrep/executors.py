@@ -5,7 +5,10 @@ time limit for one item (:mod:`motionrep.batch` runs its work through these).
   :func:`_stop_pool`, so no worker prints a traceback);
 * :func:`dask_executor`: a ``concurrent.futures`` executor on a Dask cluster (``Client.get_executor``), for
   ``--scheduler ADDRESS`` or ``MOTIONREP_SCHEDULER``; ``dask[distributed]`` is the optional extra ``dask``;
-* :func:`time_limit`: ``--timeout``, raised in the thread doing the work, in any process.
+* :func:`time_limit`: ``--timeout``, raised in the thread doing the work, in any process;
+* :func:`progress_relay` and :class:`WorkerProgress`: a codec's progress inside a clip, from the pool's
+  workers to a callback in the parent (a queue the workers get when they start, drained by a thread);
+* :func:`worker_threads`: the BLAS thread count spawned workers start with.
 """
 
 from __future__ import annotations
@@ -16,11 +19,18 @@ import os
 import signal
 import sys
 import threading
-from typing import Any, Iterator
+import time
+from typing import Any, Callable, Iterator
 
 from .errors import ParameterError, TimeLimitError
 
-__all__ = ["dask_executor", "time_limit", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT"]
+__all__ = ["dask_executor", "time_limit", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT", "THREAD_VARIABLES", "worker_threads",
+           "progress_relay", "WorkerProgress"]
+
+#: Environment variables that set the thread count of the BLAS libraries numpy and scipy may use.
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: The progress queue of this worker process (set by :func:`_start_worker`; None in the parent).
+_RELAY: dict[str, Any] = {"queue": None}
 
 #: Environment variable naming a Dask scheduler (``tcp://host:8786``) when ``--scheduler`` is not given.
 SCHEDULER_VARIABLE = "MOTIONREP_SCHEDULER"
@@ -35,13 +45,77 @@ def _ignore_interrupts() -> None:
 
 
 @contextlib.contextmanager
-def _process_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+def worker_threads(count: int = 1) -> Iterator[None]:
+    """Set :data:`THREAD_VARIABLES` to ``count`` while the block runs (worker processes spawned inside it start
+    with that many BLAS threads), then restore them."""
+    saved = {k: os.environ.get(k) for k in THREAD_VARIABLES}
+    os.environ.update({k: str(count) for k in THREAD_VARIABLES})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _start_worker(queue: Any) -> None:
+    _ignore_interrupts()
+    _RELAY["queue"] = queue
+
+
+class WorkerProgress:
+    """A progress callback that travels to pool workers (it pickles): ``(name, stage, fields)`` goes on the
+    worker's relay queue, at most once every ``every`` seconds per clip and stage (plain fields only)."""
+
+    def __init__(self, every: float = 0.5):
+        self.every = every
+        self._last: dict[tuple[str, str], float] = {}
+
+    def __call__(self, name: str, stage: str, fields: Any) -> None:
+        queue = _RELAY["queue"]
+        now = time.monotonic()
+        if queue is None or now - self._last.get((name, stage), -float("inf")) < self.every:
+            return
+        self._last[(name, stage)] = now
+        queue.put((name, stage, {k: v for k, v in dict(fields).items()
+                                 if v is None or isinstance(v, (bool, int, float, str))}))
+
+
+@contextlib.contextmanager
+def progress_relay(callback: Callable[[str, str, Any], None]) -> Iterator[Any]:
+    """A queue for :func:`_process_pool`'s workers (:class:`WorkerProgress`), whose messages a daemon thread
+    passes to ``callback(name, stage, fields)`` here until the block ends."""
+    import multiprocessing
+
+    queue = multiprocessing.get_context("spawn").SimpleQueue()
+
+    def drain() -> None:
+        while (message := queue.get()) is not None:
+            try:
+                callback(*message)
+            except Exception:  # noqa: BLE001 - progress must never stop the work
+                pass
+
+    thread = threading.Thread(target=drain, name="motionrep-progress-relay", daemon=True)
+    thread.start()
+    try:
+        yield queue
+    finally:
+        queue.put(None)
+        thread.join(timeout=5)
+
+
+@contextlib.contextmanager
+def _process_pool(workers: int, relay: Any = None) -> Iterator[cf.ProcessPoolExecutor]:
     """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
-    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback)."""
+    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback);
+    ``relay``: the :func:`progress_relay` queue its workers report progress on."""
     import multiprocessing
 
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_ignore_interrupts)
+                                  initializer=_start_worker, initargs=(relay,))
     try:
         main = threading.current_thread() is threading.main_thread()
         saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None

@@ -18,11 +18,15 @@ from .errors import FormatError, MotionrepError
 from .kinematics import character_height
 from .timefmt import duration
 
-__all__ = ["INFO_JSON_VERSION", "info_dict", "skeleton_info"]
+__all__ = ["INFO_JSON_VERSION", "FORMAT_NAMES", "info_dict", "skeleton_info"]
 
 #: Version of the ``motionrep info --json`` object (``specs/formats/info-json.md``); bumped when a key changes
 #: meaning or disappears (adding keys does not bump it).
 INFO_JSON_VERSION = 1
+
+#: The ``format`` of each suffix in ``info --json`` (a compressed clip, whatever its suffix, is ``"mrc"``).
+FORMAT_NAMES = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf", ".glb": "gltf",
+                ".mrc": "mrc"}
 
 
 def skeleton_info(sk: Skeleton) -> dict[str, Any]:
@@ -60,8 +64,7 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
 
     path = Path(path)
     with open_source(path) as src:
-        fmt = "mrc" if src.kind == "compressed" else {".bvh": "bvh", ".npz": "npz", ".gltf": "gltf",
-                                                        ".glb": "gltf"}.get(path.suffix.lower(), "hdf5")
+        fmt = "mrc" if src.kind == "compressed" else FORMAT_NAMES.get(path.suffix.lower(), "hdf5")
         base: dict[str, Any] = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": fmt}
         if clip is not None and src.kind in ("motion", "compressed"):
             raise FormatError("--clip applies to HDF5 databases, archives and glTF files; this file holds one clip",
@@ -88,11 +91,13 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
 
 def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
     """``info`` of one compressed clip (a ``.mrc`` file or a clip of an archive)."""
+    from . import figures as fg
     from .compress import describe_outcome
     from .evaluate import compression_figures
     from .plugins import get_representation
 
     sk = c.skeleton
+    bone_frames = c.num_frames * fg.bones(sk.num_joints, sk.num_end_sites)
     try:
         width: int | None = get_representation(c.representation).width(sk)
     except MotionrepError:  # the representation's plugin is not installed: no figures that need its width
@@ -111,7 +116,10 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
             "representation": {"name": c.representation, "version": c.representation_version,
                                "plugin": c.representation_plugin, "width": width},
             "bytes": size, "parameters": c.num_parameters, "payload_bytes": c.payload_bytes,
-            "bits_per_bone_frame": 8.0 * c.payload_bytes / (c.num_frames * (sk.num_joints + sk.num_end_sites)),
+            fg.PAYLOAD_BPBF: fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
+            fg.FILE_BPBF: fg.file_bits_per_bone_frame(size, bone_frames),
+            # the name older readers know (info_version 1): the payload's figure, as above
+            "bits_per_bone_frame": fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
             "arrays": [{"name": k, "dtype": a.dtype.str[1:], "shape": list(a.shape)} for k, a in c.arrays.items()],
             "evaluation": None if c.evaluation is None else dict(c.evaluation),
             "figures": figures,
@@ -120,10 +128,14 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
 
 
 def _archive_row(name: str, c: Any, size: int) -> dict[str, Any]:
+    from . import figures as fg
     from .compress import describe_outcome
 
     ev = c.evaluation or {}
+    bone_frames = c.num_frames * fg.bones(c.skeleton.num_joints, c.skeleton.num_end_sites)
     return {"name": name, "codec": c.codec, "representation": c.representation, "outcome": describe_outcome(c),
             "frames": c.num_frames, "fps": c.fps, "duration": duration(c.num_frames, c.fps),
-            "joints": c.skeleton.num_joints, "bytes": size, "max_error": ev.get("max_error"),
+            "joints": c.skeleton.num_joints, "bytes": size,
+            fg.PAYLOAD_BPBF: fg.payload_bits_per_bone_frame(c.payload_bytes, bone_frames),
+            fg.FILE_BPBF: fg.file_bits_per_bone_frame(size, bone_frames), "max_error": ev.get("max_error"),
             "max_error_percent": ev.get("max_error_percent")}

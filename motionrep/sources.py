@@ -46,6 +46,7 @@ from .errors import FormatError, ValidationError
 
 __all__ = [
     "SOURCE_SUFFIXES",
+    "scan_files",
     "SCAN_SUFFIXES",
     "CLIP_SUFFIXES",
     "NAME_SEPARATOR",
@@ -397,6 +398,16 @@ def _scan(directory: Path, excluded: list[Path], suffixes: tuple[str, ...]) -> l
     if not found:
         raise FormatError("no " + ", ".join(suffixes) + " files in this directory", directory)
     return found
+
+
+def scan_files(directory: str | os.PathLike[str], suffixes: tuple[str, ...] = SOURCE_SUFFIXES) -> list[Path]:
+    """The files of ``directory`` (recursively, sorted, hidden ones skipped) with one of ``suffixes``: what
+    ``motionrep info DIR`` describes, one row each.
+
+    Raises:
+        FormatError: naming the directory when it holds none.
+    """
+    return [p for p, _ in _scan(Path(directory), [], suffixes)]
 
 
 def collect_clips(inputs: Iterable[str | os.PathLike[str]], *, clip: str | None = None,

@@ -35,7 +35,7 @@ from .container import SUFFIX, Container
 from .errors import ContainerError, FormatError, OutputExistsError
 
 __all__ = ["ClipStore", "DirectoryStore", "ArchiveStore", "open_store", "journal_path", "resume_key",
-           "SOURCE_CHECKSUM_KEY"]
+           "setting_changes", "stored_spec", "pipeline_spec", "SOURCE_CHECKSUM_KEY"]
 
 #: Key of ``Container.extra`` holding the SHA-256 (hex) of the clip's source, written by batch compression.
 SOURCE_CHECKSUM_KEY = "source_sha256"
@@ -46,20 +46,46 @@ def _plain(value: Any) -> Any:
     return json.loads(json.dumps(value, default=lambda v: v.item() if hasattr(v, "item") else str(v)))
 
 
+def stored_spec(container: Container) -> dict[str, Any]:
+    """The setting ``container`` was written with, as :meth:`motionrep.compress.Pipeline.spec` states one, with
+    the payload and representation versions."""
+    extra = container.extra
+    return {"codec": container.codec, "codec_version": container.codec_version,
+            "representation": container.representation, "representation_version": container.representation_version,
+            "params": _plain(dict(container.params)), "max_error": extra.get("max_error"), "seed": extra.get("seed")}
+
+
+def pipeline_spec(pipeline: Any) -> dict[str, Any]:
+    """``pipeline.spec()`` with the versions :func:`stored_spec` records, in the same plain form."""
+    spec = dict(pipeline.spec())
+    spec["params"] = _plain(spec["params"])
+    spec["codec_version"] = pipeline.codec.format_version
+    spec["representation_version"] = pipeline.representation.version
+    return spec
+
+
+def setting_changes(container: Container, pipeline: Any) -> list[str]:
+    """What differs between the setting ``container`` was written with and ``pipeline``'s, one phrase each
+    (``"max_error '1%' stored, '2%' now"``); empty when they are the same."""
+    stored, now = stored_spec(container), pipeline_spec(pipeline)
+    if stored["codec"] != now["codec"]:  # another codec: its versions and parameters differ too, say only that
+        return [f"codec {stored['codec']!r} stored, {now['codec']!r} now"]
+    out = []
+    for key in ("codec_version", "representation", "representation_version", "max_error", "seed"):
+        if stored[key] != now[key]:
+            out.append(f"{key} {stored[key]!r} stored, {now[key]!r} now")
+    if stored["params"] != now["params"]:
+        a, b = stored["params"], now["params"]
+        diff = [f"{k}={a.get(k)!r} stored, {b.get(k)!r} now" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+        out.append("parameters " + "; ".join(diff))
+    return out
+
+
 def resume_key(container: Container, pipeline: Any) -> str | None:
     """The source checksum ``container`` records when it was written with ``pipeline``'s setting (codec and
     payload version, parameters, representation and version, bound, seed), else None (it must be redone)."""
-    import dataclasses
-
-    codec, rep = pipeline.codec, pipeline.representation
-    extra = container.extra
-    same = (container.codec == codec.name and container.codec_version == codec.format_version
-            and container.representation == rep.name and container.representation_version == rep.version
-            and _plain(dict(container.params)) == _plain(dataclasses.asdict(pipeline.params))
-            and extra.get("max_error") == (None if pipeline.max_error is None else str(pipeline.max_error))
-            and extra.get("seed") == pipeline.seed)
-    key = extra.get(SOURCE_CHECKSUM_KEY)
-    return key if same and isinstance(key, str) else None
+    key = container.extra.get(SOURCE_CHECKSUM_KEY)
+    return key if not setting_changes(container, pipeline) and isinstance(key, str) else None
 
 
 def journal_path(archive: str | os.PathLike[str]) -> Path:

@@ -258,9 +258,9 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
 
     * ``name``, ``format_version`` and ``Params`` are valid; every parameter has a default and a help text;
       ``parse_params({})`` works and an unknown parameter raises :class:`~motionrep.errors.ParameterError`.
-    * For every clip (default: one small :func:`synthetic_motion`), encoded from ``representation`` with
-      ``params`` and no bound: ``encode`` returns a :class:`~motionrep.codec.Payload` of named numeric arrays
-      with JSON-serialisable ``info`` that the codec's own ``check_info`` accepts once read back from JSON; the
+    * For every clip (default: one small :func:`synthetic_motion`) of at least ``codec.min_frames`` frames,
+      encoded from ``representation`` with ``params`` and no bound: ``encode`` returns a
+      :class:`~motionrep.codec.Payload` of named numeric arrays with JSON-serialisable ``info`` that the codec's own ``check_info`` accepts once read back from JSON; the
       same seed gives the same arrays, byte for byte; ``decode`` gives finite ``(T, D)`` float64 at any times in
       [0, 1] (also one time, and a subset gives the same rows); the arrays survive a save to ``.npz`` and back;
       ``decode`` does not import torch.
@@ -308,6 +308,8 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
     results = []
     for i, m in enumerate(clips):
         where = f"{who}, {_label(i, m)}"
+        if m.num_frames < codec.min_frames:  # the core refuses such a clip before the codec sees it
+            continue
         feats = representation.to_features(m)
         w = representation.weights(m)
         F, D = feats.shape

@@ -4,8 +4,11 @@ its clip, wall and CPU time.
 
 Sizes: *raw* is every BVH channel of every frame as float32 (``frames * channels * 4`` bytes, ACL's "raw size"
 counts its float32 tracks the same way); *source* is the size of the files read, when known; *compressed* the
-``.mrc`` containers.  Bones are joints plus end sites (every point the error is measured on), so
-``bits/bone/frame = 8 * compressed bytes / sum(frames * (joints + end sites))``.
+``.mrc`` containers; *payload* the codecs' arrays inside them.  The size figures are those of
+:mod:`motionrep.figures`, with the same names and definitions as in every other report, summed over the clips:
+``payload_bits_per_bone_frame = 8 * payload bytes / sum(frames * (joints + end sites))``,
+``file_bits_per_bone_frame`` the same with the containers' bytes, ``ratio_vs_source`` source over compressed
+bytes.
 """
 
 from __future__ import annotations
@@ -24,8 +27,8 @@ def container_summary(container: Any, nbytes: int, source: str | None = None,
     """The figures the totals need, from a stored container (a clip kept by ``--resume``)."""
     sk = container.skeleton
     return {"frames": container.num_frames, "joints": sk.num_joints, "end_sites": sk.num_end_sites,
-            "channels": sk.num_channels, "bytes": int(nbytes), "evaluation": container.evaluation,
-            "source": source, "source_bytes": source_bytes}
+            "channels": sk.num_channels, "bytes": int(nbytes), "payload_bytes": int(container.payload_bytes),
+            "evaluation": container.evaluation, "source": source, "source_bytes": source_bytes}
 
 
 @dataclass
@@ -37,7 +40,8 @@ class BatchTotals:
         compressed: clips compressed by this run.
         kept: clips kept from an earlier run (``--resume``).
         failures: ``[{"clip", "source", "reason", "type"}]``, every failed clip.
-        raw_bytes, source_bytes, compressed_bytes: sums (``source_bytes`` over the clips whose size is known).
+        raw_bytes, source_bytes, compressed_bytes, payload_bytes: sums (``source_bytes`` over the clips whose
+            size is known).
         bone_frames: ``sum(frames * (joints + end sites))``.
         worst: ``{"clip", "max_error", "max_error_percent", "frame", "joint", "units"}`` or None.
         wall_seconds, cpu_seconds: the run's elapsed time, and the processor time of its workers and client.
@@ -50,6 +54,7 @@ class BatchTotals:
     raw_bytes: int = 0
     source_bytes: int = 0
     compressed_bytes: int = 0
+    payload_bytes: int = 0
     bone_frames: int = 0
     worst: dict[str, Any] | None = None
     wall_seconds: float = 0.0
@@ -87,6 +92,10 @@ class BatchTotals:
             channels = (s.get("figures") or {}).get("num_channels", 0)
         self.raw_bytes += frames * int(channels) * 4
         self.compressed_bytes += int(s["bytes"])
+        payload = s.get("payload_bytes")
+        if payload is None:
+            payload = (s.get("figures") or {}).get("payload_bytes")
+        self.payload_bytes += int(payload or 0)
         self.bone_frames += frames * (int(s["joints"]) + int(s["end_sites"]))
         src = s.get("source_bytes")
         if src is None:
@@ -103,33 +112,53 @@ class BatchTotals:
         return self.raw_bytes / self.compressed_bytes if self.compressed_bytes else None
 
     @property
-    def bits_per_bone_frame(self) -> float | None:
-        return 8.0 * self.compressed_bytes / self.bone_frames if self.bone_frames else None
+    def payload_bits_per_bone_frame(self) -> float | None:
+        """:func:`motionrep.figures.payload_bits_per_bone_frame` over every clip."""
+        from .figures import payload_bits_per_bone_frame
+
+        return payload_bits_per_bone_frame(self.payload_bytes, self.bone_frames) if self.bone_frames else None
+
+    @property
+    def file_bits_per_bone_frame(self) -> float | None:
+        """:func:`motionrep.figures.file_bits_per_bone_frame` over every clip."""
+        from .figures import file_bits_per_bone_frame
+
+        return file_bits_per_bone_frame(self.compressed_bytes, self.bone_frames) if self.bone_frames else None
+
+    @property
+    def ratio_vs_source(self) -> float | None:
+        from .figures import ratio_vs_source
+
+        return ratio_vs_source(self.source_bytes, self.compressed_bytes)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data (the ``totals`` of ``motionrep compress --json``)."""
         return {"clips": self.clips, "compressed": self.compressed, "kept": self.kept,
                 "failed": len(self.failures), "failures": self.failures,
                 "raw_mb": self.raw_bytes / MB, "source_mb": self.source_bytes / MB if self.source_bytes else None,
-                "compressed_mb": self.compressed_bytes / MB, "ratio": self.ratio,
-                "source_ratio": self.source_bytes / self.compressed_bytes if self.source_bytes and
-                self.compressed_bytes else None,
-                "bits_per_bone_frame": self.bits_per_bone_frame, "worst": self.worst,
+                "compressed_mb": self.compressed_bytes / MB, "payload_mb": self.payload_bytes / MB,
+                "ratio": self.ratio, "source_ratio": self.ratio_vs_source, "ratio_vs_source": self.ratio_vs_source,
+                "payload_bits_per_bone_frame": self.payload_bits_per_bone_frame,
+                "file_bits_per_bone_frame": self.file_bits_per_bone_frame, "worst": self.worst,
                 "wall_seconds": self.wall_seconds, "cpu_seconds": self.cpu_seconds}
 
-    def lines(self) -> list[str]:
-        """The report, one fact a line."""
+    def lines(self, verbose: bool = False) -> list[str]:
+        """The report, one fact a line (``verbose``: also the raw float32 size and ratio)."""
         kept = f", {self.kept} kept from an earlier run" if self.kept else ""
         out = [f"clips:        {self.clips} ({self.compressed} compressed{kept}, {len(self.failures)} failed)"]
         for f in self.failures:
             out.append(f"  FAILED {f['clip']}: {f['reason']}")
         if self.compressed_bytes:
-            src = f", source files {self.source_bytes / MB:.3f} MB" if self.source_bytes else ""
-            out.append(f"raw size:     {self.raw_bytes / MB:.3f} MB (float32 channels){src}")
-            out.append(f"compressed:   {self.compressed_bytes / MB:.3f} MB, ratio {self.ratio:.2f}x"
-                       + (f" ({self.source_bytes / self.compressed_bytes:.1f}x the source files)"
-                          if self.source_bytes else ""))
-            out.append(f"bits:         {self.bits_per_bone_frame:.2f} bits/bone/frame (bones = joints + end sites)")
+            from .figures import size_line
+
+            src = f"source files {self.source_bytes / MB:.3f} MB, " if self.source_bytes else ""
+            out.append(f"compressed:   {src}.mrc {self.compressed_bytes / MB:.3f} MB, payload "
+                       f"{self.payload_bytes / MB:.3f} MB")
+            out.append("size:         " + size_line(self.compressed_bytes, self.payload_bits_per_bone_frame,
+                                                     self.file_bits_per_bone_frame, self.ratio_vs_source)
+                       + " (bones = joints + end sites)")
+            if verbose:
+                out.append(f"raw size:     {self.raw_bytes / MB:.3f} MB (float32 channels), ratio {self.ratio:.2f}x")
         if self.worst is not None:
             w = self.worst
             units = f" {w['units']}" if w.get("units") else ""

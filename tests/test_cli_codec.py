@@ -51,8 +51,12 @@ def test_compress_decompress_evaluate_round_trip(clip, tmp_path):
     mrc, back = tmp_path / "clip.mrc", tmp_path / "back.bvh"
     r = run("compress", clip, "-o", mrc, "--codec", "svd")
     assert r.exit_code == 0, r.output
-    for needle in ("40 frames", "4 joints", "root-quat-axis-angle", "rank=", "L-inf error", "paper ratio",
-                   "vs float32 channels", "bits/joint/frame", "vs source file", "bytes in"):
+    for needle in ("40 frames", "4 joints", "root-quat-axis-angle", "rank=", "L-inf error", "payload bits/bone/frame",
+                   "file bits/bone/frame", "x smaller than source", "bytes in"):
+        assert needle in r.output
+    assert "paper ratio" not in r.output  # the other figures are behind --verbose
+    r = run("compress", clip, "-o", mrc, "--codec", "svd", "--verbose", "--force")
+    for needle in ("paper ratio", "vs float32 channels", "bits/joint/frame"):
         assert needle in r.output
     assert run("decompress", mrc, "-o", back).exit_code == 0
     r = run("evaluate", clip, back, "--json")
@@ -67,7 +71,8 @@ def test_compress_json_and_bound_in_file_units(clip, tmp_path):
     r = run("compress", clip, "-o", mrc, "--codec", "svd", "--max-error", "0.5", "--json")
     data = json.loads(r.output)
     assert data["bound"] == 0.5 and data["evaluation"]["max_error"] <= 0.5
-    assert set(data["figures"]) >= {"paper_ratio", "float32_ratio", "bits_per_joint_frame", "file_ratio"}
+    assert set(data["figures"]) >= {"paper_ratio", "float32_ratio", "bits_per_joint_frame", "file_ratio",
+                                    "payload_bits_per_bone_frame", "file_bits_per_bone_frame", "ratio_vs_source"}
     assert data["bytes"] == mrc.stat().st_size
 
 
@@ -191,9 +196,10 @@ def test_info_on_a_compressed_file(clip, tmp_path):
     assert r.exit_code == 0, r.output
     for needle in ("format:     mrc (compressed)", "codec:      naive-fourier (payload version 4), parameters",
                    "outcome:    K=2, omega=[1, 2] cycles/clip, hidden 10", "features:   root-quat-axis-angle version 1",
-                   f"size:       {mrc.stat().st_size} bytes", "ratios:     paper", "L-inf:", "bound none",
+                   f"size:       {mrc.stat().st_size} bytes", "payload bits/bone/frame", "L-inf:", "bound none",
                    "frames:     40", "channel layout"):
         assert needle in r.output, r.output
+    assert "ratios:" not in r.output and "ratios:     paper" in run("info", mrc, "--verbose").output
     d = json.loads(run("info", mrc, "--json").output)
     assert (d["kind"], d["format"], d["frames"], d["joints"], d["bytes"]) == (
         "compressed", "mrc", 40, 4, mrc.stat().st_size)
@@ -272,11 +278,11 @@ def test_evaluate_databases_and_archives_clip_by_clip(tmp_path):
     _one_line_error(run("evaluate", db, partial), "only in", "c1")
 
 
-def test_convert_points_to_compress_and_decompress_for_mrc(clip, tmp_path):
+def test_convert_decodes_an_mrc_and_points_to_compress_for_one(clip, tmp_path):
     mrc = tmp_path / "clip.mrc"
     assert run("compress", clip, "-o", mrc, "--codec", "svd").exit_code == 0
-    r = run("convert", mrc, tmp_path / "x.bvh")
-    assert r.exit_code == 2 and "motionrep decompress" in r.output and not (tmp_path / "x.bvh").exists()
+    r = run("convert", mrc, tmp_path / "x.bvh")  # decoded, as an archive of .mrc clips is (one rule)
+    assert r.exit_code == 0 and (tmp_path / "x.bvh").exists(), r.output
     r = run("convert", clip, tmp_path / "y.mrc")
     assert r.exit_code == 2 and "motionrep compress" in r.output and not (tmp_path / "y.mrc").exists()
 
@@ -301,10 +307,35 @@ def test_a_codec_outcome_reads_the_same_in_every_command(tmp_path):
     archive = tmp_path / "all.h5"
     r = run("compress", src, "-o", archive, *fourier)
     assert r.exit_code == 0, r.output
-    assert r.stdout.count("paper ratio") == 2 and all(line.endswith(short) for line in r.stdout.splitlines()[:2])
+    assert r.stdout.count("payload bits/bone/frame), L-inf") == 2
+    assert all(line.endswith(short) for line in r.stdout.splitlines()[:2])
     assert [c["outcome"] for c in json.loads(run("info", archive, "--json").output)["clips"]] == [short, short]
     out = tmp_path / "bench"
     r = run("bench", src, "-c", "naive-fourier", "-p", "k=1", "-p", "window=10", "-p", "iters=25", "--max-error",
             "none", "--decode-poses", "0", "-q", "--out", out)
     assert r.exit_code == 0, r.output
     assert [row["outcome"] for row in json.loads((out / "bench.json").read_text())["rows"]] == [short, short]
+
+
+def test_readme_quick_start_runs_in_a_scratch_directory(tmp_path):
+    """The README's quick start as written: a virtual environment first, then the example in a scratch directory
+    (``cd "$(mktemp -d)"``), never in the repository.  The install is not repeated here (this process runs the
+    installed package); the rest of the line runs in a shell, with ``mktemp`` pointed at ``tmp_path``."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    text = (repo / "README.md").read_text(encoding="utf-8")
+    block = text.split("## Quick start", 1)[1].split("```", 2)[1].strip().splitlines()
+    assert block[0] == "python3 -m venv .venv && . .venv/bin/activate"
+    install, rest = block[1].split(" && ", 1)
+    assert install == "pip install -e ." and rest.startswith('cd "$(mktemp -d)" && ')
+    before = set(os.listdir(repo))
+    line = rest.replace("motionrep ", f"{sys.executable} -m motionrep ")
+    env = dict(os.environ, TMPDIR=str(tmp_path))
+    subprocess.run(["sh", "-c", line], env=env, check=True, capture_output=True, cwd=repo)
+    scratch = [p for p in tmp_path.iterdir() if p.is_dir()]
+    assert len(scratch) == 1 and {"walk.bvh", "walk.mrc"} <= set(os.listdir(scratch[0]))
+    assert set(os.listdir(repo)) == before  # nothing written into the repository

@@ -292,7 +292,7 @@ def test_compress_says_how_max_error_was_read(tmp_path, walk):
     r = run("compress", tmp_path / "clips", "-o", tmp_path / "arch.h5", "--codec", "svd", "-f")
     assert r.exit_code == 0, r.output
     line = next(x for x in r.stdout.splitlines() if x.startswith("a: "))  # clip a's line
-    assert "%), bound --max-error 2% of height 152 = 3.04 file units, paper ratio" in line
+    assert "%), bound --max-error 2% of height 152 = 3.04 file units, rank=" in line
 
 
 # ---- set-up: one install ---------------------------------------------------------------------------------------

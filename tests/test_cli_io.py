@@ -63,7 +63,7 @@ def bvh_text(path: Path) -> str:
 @pytest.mark.parametrize("middle", ["walk.npz", "walk.h5", "walk.hdf5"])
 def test_convert_bvh_through_npz_or_hdf5_and_back_is_exact(tmp_path, walk, middle):
     r1 = run("convert", walk, tmp_path / middle)
-    assert r1.exit_code == 0 and r1.output == ""
+    assert r1.exit_code == 0 and r1.output.startswith(f"wrote {tmp_path / middle}: ")
     r2 = run("convert", tmp_path / middle, tmp_path / "back.bvh")
     assert r2.exit_code == 0, r2.output
     assert (tmp_path / "back.bvh").read_text() == bvh_text(walk)
@@ -114,8 +114,8 @@ def test_directory_to_database_to_directory(tmp_path, clip_dir):
     db = tmp_path / "db.h5"
     r = run("convert", clip_dir, db)
     assert r.exit_code == 0, r.output
-    assert "Converting 3 clips" in r.stderr  # progress on stderr, nothing on stdout
-    assert r.stdout == ""
+    assert "Converting 3 clips" in r.stderr  # progress on stderr, on stdout only what was written
+    assert r.stdout == f"wrote {db}: 3 clips\n"
     assert list_clips(db) == ["a", "sub__b", "sub__c"]
     originals = {"a": read(clip_dir / "a.bvh"), "sub__b": read(clip_dir / "sub" / "b.bvh"),
                  "sub__c": read(clip_dir / "sub" / "c.npz")}
@@ -488,7 +488,7 @@ def _subprocess(*args: str) -> subprocess.CompletedProcess:
 
 def test_subprocess_convert_info_and_error(tmp_path, walk):
     p = _subprocess("convert", walk, tmp_path / "walk.h5")
-    assert p.returncode == 0 and p.stdout == "" and p.stderr == "", p.stderr
+    assert p.returncode == 0 and p.stdout == f"wrote {tmp_path / 'walk.h5'}: 1 clip\n" and p.stderr == "", p.stderr
     p = _subprocess("info", tmp_path / "walk.h5", "--json")
     assert p.returncode == 0
     d = json.loads(p.stdout)

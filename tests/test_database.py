@@ -107,8 +107,16 @@ def test_resume_keeps_unchanged_clips_and_redoes_the_others(tmp_path, suffix):
     assert (totals["clips"], totals["compressed"], totals["kept"], totals["failed"]) == (5, 2, 3, 0)
     sources = sorted(src.rglob("*.bvh"))
     assert totals["source_mb"] == pytest.approx(sum(p.stat().st_size for p in sources) / 1e6)  # kept ones too
-    # another setting: every clip is redone
-    r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume", "--max-error", "1%")
+    # another setting: refused, naming what changed, and nothing touched; redone when told
+    before = {p: p.read_bytes() for p in ([out] if out.is_file() else sorted(out.iterdir()))}
+    r = run("compress", src, "-o", out, "--codec", "svd", "--resume", "--max-error", "1%")
+    assert r.exit_code == 2 and "--recompress-changed" in r.output, r.output
+    assert "max_error '2%' stored, '1%' now" in r.output, r.output
+    assert before == {p: p.read_bytes() for p in before}
+    r = run("compress", src, "-o", out, "--codec", "svd", "-p", "rank=2", "--resume")
+    assert r.exit_code == 2 and "parameters rank=" in r.output, r.output
+    r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume", "--max-error", "1%",
+            "--recompress-changed")
     assert set(_statuses(r.output).values()) == {"done"}
     r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume", "--max-error", "1%")
     assert set(_statuses(r.output).values()) == {"skipped"}
@@ -176,7 +184,11 @@ def test_totals_name_every_failure_and_the_others_are_kept(tmp_path):
     compressed = sum(c["bytes"] for c in clips.values())
     bone_frames = sum(c["frames"] * (c["joints"] + c["end_sites"]) for c in clips.values())
     assert t["compressed_mb"] == pytest.approx(compressed / 1e6)
-    assert t["bits_per_bone_frame"] == pytest.approx(8 * compressed / bone_frames)
+    # one definition each (motionrep.figures): the file's bits divide the containers, the payload's the arrays
+    assert t["file_bits_per_bone_frame"] == pytest.approx(8 * compressed / bone_frames)
+    payload = sum(c["figures"]["payload_bytes"] for c in clips.values())
+    assert t["payload_bits_per_bone_frame"] == pytest.approx(8 * payload / bone_frames)
+    assert "bits_per_bone_frame" not in t  # the ambiguous name is gone
     raw = sum(c["frames"] * c["figures"]["num_channels"] * 4 for c in clips.values())
     assert t["raw_mb"] == pytest.approx(raw / 1e6) and t["ratio"] == pytest.approx(raw / compressed)
     worst = max(clips, key=lambda n: clips[n]["evaluation"]["max_error_percent"])
@@ -184,7 +196,8 @@ def test_totals_name_every_failure_and_the_others_are_kept(tmp_path):
     assert t["wall_seconds"] > 0 and t["cpu_seconds"] > 0
     r = run("compress", src, "-o", tmp_path / "text", "--codec", "svd")
     assert r.exit_code == 1
-    for needle in ("clips:        5 (3 compressed, 2 failed)", "FAILED bad:", "FAILED worse:", "bits/bone/frame",
+    for needle in ("clips:        5 (3 compressed, 2 failed)", "FAILED bad:", "FAILED worse:",
+                   "payload bits/bone/frame", "file bits/bone/frame",
                    "worst error:", "s wall", "2 of 5 clips failed"):
         assert needle in r.output, r.output
 

@@ -1,4 +1,5 @@
-"""The shape of the code base: the README's layout table names every module and folder, no module-level import
+"""The shape of the code base: the layout table (CONTRIBUTING.md, linked from the README) names every module
+and folder, no module-level import
 circle inside ``motionrep``, modules short enough to read (a longer one says why in its docstring), no
 ``assert`` for validation in library code, and the command-line package light to import."""
 
@@ -21,8 +22,8 @@ def _modules() -> list[Path]:
 
 
 def _layout_rows() -> list[tuple[str, str]]:
-    text = (REPO / "README.md").read_text(encoding="utf-8")
-    section = text.split("### Layout", 1)[1].split("\n## ", 1)[0]
+    text = (REPO / "CONTRIBUTING.md").read_text(encoding="utf-8")
+    section = text.split("\n## Layout", 1)[1].split("\n## ", 1)[0]
     rows = []
     for line in section.splitlines():
         m = re.match(r"^\| `([^`]+)` \| (.*) \|$", line)
@@ -36,20 +37,21 @@ def test_readme_layout_names_every_module_and_folder():
     paths = {p for p, _ in rows}
     for p in paths:  # every row names something that exists
         target = REPO / p.replace("<name>", "*")
-        assert list(REPO.glob(p.replace("<name>", "*").rstrip("/"))) or target.exists(), f"README names {p}"
+        assert list(REPO.glob(p.replace("<name>", "*").rstrip("/"))) or target.exists(), f"CONTRIBUTING.md names {p}"
     folders = {f"{d.relative_to(REPO).as_posix()}/" for d in PACKAGE.rglob("*")
                if d.is_dir() and "__pycache__" not in d.parts}
     folders |= {f"{d}/" for d in ("tests", "specs", "benchmarks", ".ci", "plugins/examples")}
     missing = sorted(folders - paths)
-    assert not missing, f"folders the README's layout table does not name: {missing}"
+    assert not missing, f"folders the layout table (CONTRIBUTING.md) does not name: {missing}"
     for module in _modules():
         rel = module.relative_to(REPO).as_posix()
         if rel in paths:
             continue
         folder = f"{module.parent.relative_to(REPO).as_posix()}/"
         described = dict(rows).get(folder, "")
-        assert f"`{module.name}`" in described, f"the README's layout table does not name {rel}"
+        assert f"`{module.name}`" in described, f"the layout table (CONTRIBUTING.md) does not name {rel}"
     shipped = {f"plugins/{d.name}" for d in (REPO / "plugins").glob("motionrep_*")}
+    assert "(CONTRIBUTING.md)" in (REPO / "README.md").read_text(encoding="utf-8")  # linked from the README
     assert shipped and "plugins/motionrep_<name>/" in paths
 
 
@@ -121,7 +123,8 @@ def test_the_command_modules_are_light():
     for module in sorted((PACKAGE / "cli").glob("*.py")):
         if module.name == "__init__.py":
             continue
-        imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli"}
+        imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli._crosstool",
+                                       "motionrep.cli"}
         assert imported <= {"motionrep.errors"}, f"{module.name} imports {sorted(imported)} at module level"
 
 

@@ -248,5 +248,9 @@ def test_payload_bytes_and_bits_per_bone_frame_in_info_and_figures(walk, tmp_pat
     d = json.loads(out.output)
     assert d["payload_bytes"] == payload and d["bits_per_bone_frame"] == pytest.approx(r.figures.bits_per_bone_frame)
     assert d["figures"]["bits_per_bone_frame"] == pytest.approx(d["bits_per_bone_frame"])
-    text = CliRunner().invoke(cli, ["info", str(path)]).output
-    assert f"payload {payload} bytes" in text and "bits/bone/frame" in text
+    # one vocabulary: the payload's and the file's figures under their own names, in info and in the figures
+    assert d["payload_bits_per_bone_frame"] == pytest.approx(d["figures"]["payload_bits_per_bone_frame"])
+    assert d["file_bits_per_bone_frame"] == pytest.approx(8 * len(r.data) / (walk.num_frames * bones))
+    assert d["figures"]["file_bits_per_bone_frame"] == pytest.approx(d["file_bits_per_bone_frame"])
+    text = CliRunner().invoke(cli, ["info", str(path), "--verbose"]).output
+    assert f"payload:    {payload} bytes" in text and "payload bits/bone/frame" in text

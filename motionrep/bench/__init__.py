@@ -4,8 +4,10 @@ The package is split by concern:
 
 * :mod:`~motionrep.bench.grid`: the runs to make (:func:`bench_tasks`, sweeps :func:`parse_sweep`);
 * :mod:`~motionrep.bench.run`: making them (:func:`run_task`, :func:`run_bench` on the batch engine);
-* :mod:`~motionrep.bench.report`: the rows, their medians, the table, CSV and JSON;
-* :mod:`~motionrep.bench.plot`: the rate-distortion plot.
+* :mod:`~motionrep.bench.report`: the rows, their medians, the full table, CSV and JSON;
+* :mod:`~motionrep.bench.compact`: the default table, within 120 columns;
+* :mod:`~motionrep.bench.plot`: the rate-distortion plot;
+* :mod:`~motionrep.bench.anchors`: ACL 2.1's strict-bound sizes, overlaid on the plot where a clip has them.
 
 Every run goes through :meth:`motionrep.compress.Pipeline.compress`, so what is measured is what ``motionrep
 compress`` would write: the codec encodes, the payload is packed into ``.mrc`` bytes, decoded again from those
@@ -19,8 +21,9 @@ Each run gives one :class:`BenchRow` (column reference: ``specs/bench.md``):
 - the run (codec, representation, requested bound, fixed parameters of a sweep, seed);
 - the outcome (status, the codec's own short description ``K=5`` / ``rank=9`` (``Codec.describe``) or
   ``failed: best L-inf ...``), the error in file units and in percent of the character height, the four
-  compression figures of :func:`motionrep.evaluate.compression_figures` (the paper's ratio, the bytes ratio
-  against float32 channels, bits per joint per frame, the ratio against the source file);
+  compression figures of :func:`motionrep.evaluate.compression_figures`: first the size vocabulary of
+  :mod:`motionrep.figures` (payload and file bits per bone per frame, the ratio against the source file), then
+  the paper's ratio, the bytes ratio against float32 channels and bits per joint per frame;
 - the cost: encode seconds (``CompressResult.seconds``: features, encoding, packing and the two checks, after
   the codec's ``warm_up``), and decode speed: poses per second when decoding :data:`DEFAULT_DECODE_POSES` poses
   at random times in batches (through :func:`motionrep.compress.decode_at`: codec decode, then the
@@ -35,6 +38,7 @@ Clips are gathered by :func:`motionrep.sources.collect_clips`, as for every many
 
 from .grid import DEFAULT_DECODE_POSES, BenchTask, bench_tasks, codec_parameter_names, is_sweep, parse_sweep
 from .plot import plain_log_ticks, plot_rate_distortion, plot_series, require_matplotlib
+from .compact import TABLE_WIDTH, format_compact
 from .report import (BENCH_FORMAT, BENCH_VERSION, COLUMNS, SUMMARY_COLUMNS, BenchRow, BenchSummary, bench_json,
                      csv_text, format_table, machine_info, read_csv, summarize, write_csv, write_json)
 from .run import DECODE_BATCH, SINGLE_POSE_REPEATS, decode_speed, run_bench, run_task
@@ -59,6 +63,8 @@ __all__ = [
     "run_bench",
     "summarize",
     "format_table",
+    "format_compact",
+    "TABLE_WIDTH",
     "plain_log_ticks",
     "csv_text",
     "write_csv",

@@ -21,7 +21,8 @@ from typing import Any, Iterable, Mapping, Sequence
 from ..errors import FormatError
 
 __all__ = ["BENCH_FORMAT", "BENCH_VERSION", "BenchRow", "COLUMNS", "BenchSummary", "SUMMARY_COLUMNS", "summarize",
-           "totals_line", "format_table", "csv_text", "write_csv", "read_csv", "machine_info", "bench_json", "write_json"]
+           "totals_line", "format_table", "csv_text", "write_csv", "read_csv",
+           "machine_info", "bench_json", "write_json"]
 
 #: ``format`` written into the JSON file.
 BENCH_FORMAT = "motionrep-bench"
@@ -83,6 +84,9 @@ class BenchRow:
     xz_ratio: float | None = None
     payload_bytes: int | None = None
     bits_per_bone_frame: float | None = None
+    payload_bits_per_bone_frame: float | None = None
+    file_bits_per_bone_frame: float | None = None
+    ratio_vs_source: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """Every column, JSON-serialisable."""
@@ -124,6 +128,9 @@ class BenchSummary:
     total_bytes: int | None = None
     total_xz_bytes: int | None = None
     median_bits_per_bone_frame: float | None = None
+    median_payload_bits_per_bone_frame: float | None = None
+    median_file_bits_per_bone_frame: float | None = None
+    median_ratio_vs_source: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -154,6 +161,9 @@ def summarize(rows: Sequence[BenchRow]) -> list[BenchSummary]:
             median_bytes_ratio=_median(r.bytes_ratio for r in ok),
             median_bits_per_joint_frame=_median(r.bits_per_joint_frame for r in ok),
             median_bits_per_bone_frame=_median(r.bits_per_bone_frame for r in ok),
+            median_payload_bits_per_bone_frame=_median(r.payload_bits_per_bone_frame for r in ok),
+            median_file_bits_per_bone_frame=_median(r.file_bits_per_bone_frame for r in ok),
+            median_ratio_vs_source=_median(r.ratio_vs_source for r in ok),
             median_encode_seconds=_median(r.encode_seconds for r in ok),
             median_decode_poses_per_second=_median(r.decode_poses_per_second for r in ok),
             total_bytes=sum(r.bytes for r in ok) if ok and all(r.bytes is not None for r in ok) else None,
@@ -234,7 +244,8 @@ def _layout(header: list[str], body: list[list[str]], markdown: bool, right: set
 
 def format_table(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] | None = None, *,
                  markdown: bool = False) -> str:
-    """The runs and, below them, the medians per group, as aligned text (or Markdown tables).
+    """The runs and, below them, the medians per group, as aligned text (or Markdown tables): every column
+    (``bench --wide``, and ``bench.md``).
 
     Columns: clip, frames, joints, codec, (representation when several), bound, (parameters for a sweep),
     outcome, L-inf (file units), L-inf % of height, the paper's ratio, bytes ratio (float32 channels / file

@@ -154,6 +154,8 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
         paper_ratio=f.paper_ratio, bytes_ratio=f.float32_ratio, file_ratio=f.file_ratio,
         bits_per_joint_frame=f.bits_per_joint_frame, bytes=f.compressed_bytes, parameters=f.num_parameters,
         payload_bytes=f.payload_bytes, bits_per_bone_frame=f.bits_per_bone_frame,
+        payload_bits_per_bone_frame=f.payload_bits_per_bone_frame,
+        file_bits_per_bone_frame=f.file_bits_per_bone_frame, ratio_vs_source=f.ratio_vs_source,
         feature_width=f.feature_width, encode_seconds=result.seconds, evaluations=result.evaluations,
         decode_poses=task.decode_poses or None, decode_poses_per_second=speed,
         decode_features_per_second=features_speed, decode_pose_seconds=single,

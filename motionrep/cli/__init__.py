@@ -57,9 +57,9 @@ class _Group(click.Group):
             if ctx.obj and ctx.obj.get("debug"):
                 raise
             raise click.ClickException(display_name(str(exc))) from None
-        except BrokenPipeError:  # `motionrep convert walk.bvh - | head`: the reader stopped; stop quietly
-            _quiet_stdout()
-            ctx.exit(1)
+        except BrokenPipeError:  # `motionrep convert walk.bvh - | head`: the reader stopped; stop quietly, exit 0
+            _quiet_stdout()  # exit 0: the output was not wanted any more, not an error (scripts with pipefail pass)
+            ctx.exit(0)
         except OSError as exc:  # disk full, permission denied... on a path the library did not name
             if ctx.obj and ctx.obj.get("debug"):
                 raise

@@ -23,6 +23,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
@@ -31,6 +32,7 @@ import click
 
 from ..errors import Interrupted
 from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
+from ._crosstool import check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options, match_options
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
            "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
@@ -175,78 +177,17 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
     return suffix
 
 
-def comparison_options(command: Callable) -> Callable:
-    """``--match``, ``--strip-prefix``, ``--ignore-extra`` and ``--resample`` (see :mod:`motionrep.pairing`), the
-    same for evaluate, view and render; :func:`match_options` turns them into options."""
-    for option in reversed([
-        click.option("--match", "match", type=click.Choice(["order", "names"]), default="order", show_default=True,
-                     help="How joints are paired: 'order' (same joints in the same order, the strict default) or "
-                          "'names' (by name, any order; end sites missing on one side or turned into bone tails "
-                          "are left out or paired by position, and listed)."),
-        click.option("--strip-prefix", "strip_prefix", metavar="PREFIX", multiple=True,
-                     help="With --match names: remove this prefix from joint names first (a namespace such as "
-                          "'mixamorig:'); repeatable."),
-        click.option("--ignore-extra", "ignore_extra", is_flag=True,
-                     help="With --match names: leave out (and list) joints only one side has instead of refusing."),
-        click.option("--resample", is_flag=True,
-                     help="A candidate at another frame rate or length is sampled at the reference's frame times "
-                          "(rotations slerped, translations linear); frames outside the overlap are listed."),
-    ]):
-        command = option(command)
-    return command
-
-
-def match_options(match: str, strip_prefix: Sequence[str], ignore_extra: bool, resample: bool) -> Any:
-    """The :class:`motionrep.pairing.MatchOptions` of the comparison options (the strict default when none is
-    given, so the report still says what it compared; a usage error for --strip-prefix or --ignore-extra without
-    --match names)."""
-    if match != "names" and (strip_prefix or ignore_extra):
-        raise click.UsageError(f"{'--strip-prefix' if strip_prefix else '--ignore-extra'} needs --match names")
-    from ..pairing import MatchOptions
-
-    return MatchOptions(match=match, strip_prefix=tuple(strip_prefix), ignore_extra=ignore_extra,
-                        resample=resample)
-
-
-def gltf_unit_options(command: Callable) -> Callable:
-    """``--scale`` and ``--units`` of the commands that write glTF (:func:`gltf_write_options` reads them)."""
-    command = click.option("--units", type=click.Choice(["cm", "m", "in", "mm"]), default=None,
-                           help="glTF output: the clip's length unit (written scaled to metres). Default: the "
-                                "units the input states, else a guess that makes the character 1-2.5 m tall "
-                                "(one line says what was assumed).")(command)
-    return click.option("--scale", "gltf_scale", type=float, default=None, metavar="M",
-                        help="glTF output: metres per file unit (instead of --units).")(command)
-
-
-def gltf_write_options(motion: Any, path: Any, scale: float | None, units: str | None,
-                       shown: Any = None) -> dict[str, Any]:
-    """The ``scale`` write option of a glTF output ``path`` (an empty dict for other formats), printing on stderr
-    the one line saying what was assumed when neither ``--scale`` nor ``--units`` was given."""
-    from ..io import format_of, gltf_scale
-
-    if format_of(path) != "gltf":
-        return {}
-    value, note = gltf_scale(motion, scale, units)
-    if note:
-        click.echo(f"note: {shown if shown is not None else path}: {note}", err=True)
-    return {"scale": value}
-
-
-def check_gltf_units(scale: float | None, units: str | None, gltf_out: bool) -> None:
-    """Usage errors: ``--scale`` with ``--units``, either without glTF output, a scale that is not > 0."""
-    if scale is not None and units is not None:
-        raise click.UsageError("give --scale or --units, not both")
-    if (scale is not None or units is not None) and not gltf_out:
-        raise click.UsageError(f"{'--scale' if scale is not None else '--units'} applies only to glTF output "
-                               "(.glb, .gltf)")
-    if scale is not None and not (scale > 0 and scale < float("inf")):
-        raise click.BadParameter("must be a positive number of metres per file unit", param_hint="--scale")
-
-
 def force_option(command: Callable) -> Callable:
     """The ``-f`` / ``--force`` flag of every command that writes an output (:func:`check_overwrite`)."""
     return click.option("-f", "--force", is_flag=True,
                         help="Overwrite an existing output (without it, an existing output is an error).")(command)
+
+
+def quiet_option(command: Callable) -> Callable:
+    """The ``-q`` / ``--quiet`` flag of every command that writes: nothing printed on success (no progress, no
+    report, no ``wrote ...`` line); errors are still one line on stderr."""
+    return click.option("-q", "--quiet", is_flag=True,
+                        help="Print nothing on success (no progress, no 'wrote ...' line).")(command)
 
 
 def check_overwrite(path: str | os.PathLike[str], force: bool, *, resume: bool = False) -> None:
@@ -306,13 +247,31 @@ class CodecProgress:
         self.codec, self.every = codec, every
         self.last = -float("inf")
         self.stage: str | None = None
+        self.start: float | None = None
+        self.done = 0.0
+
+    def text(self, stage: str, fields: Mapping[str, Any]) -> str:
+        """The codec's line, with an ETA when the codec says how much of its most work is ``done`` (an upper
+        bound: a codec that meets the bound early stops sooner)."""
+        now = time.monotonic()
+        line = self.codec.describe_progress(stage, fields)
+        done = fields.get("done")
+        if not isinstance(done, (int, float)):
+            return line
+        if self.start is None or done < self.done:  # the first report, or a new fit (a window) began
+            self.start = now
+        self.done = float(done)
+        if 0.05 <= done < 1 and now > self.start:  # below 5 %, too little measured to say
+            line += f", ETA at most {_duration((now - self.start) * (1 - done) / done)}"
+        return line
 
     def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
         now = time.monotonic()
+        line = self.text(stage, fields)
         if stage == self.stage and now - self.last < self.every:
             return
         self.last, self.stage = now, stage
-        click.echo("  " + self.codec.describe_progress(stage, fields), err=True)
+        click.echo("  " + line, err=True)
 
 
 class BatchProgress:
@@ -323,6 +282,11 @@ class BatchProgress:
     On a terminal: one line redrawn in place, ``label [####    ] 120/2534, 2 failed, 3.1/s, ETA 13m02s``.
     Otherwise: ``[120/2534] <describe(result)>; 2 failed, ETA 13m02s`` at most once every ``every`` seconds
     (and for the first and last item); a failed item is always named on its own line.
+
+    Heartbeat: while no item finishes, a line every ``every`` seconds all the same (on a terminal the line is
+    redrawn every second), ``[0/9] working, 1m02s elapsed, ETA ?; c0: train K=3 loss=2.1e-03``, with the
+    latest :meth:`note` (a codec's progress inside the clip, when the work runs in this process), from a daemon
+    thread started by ``__enter__`` and stopped by ``__exit__``.
     """
 
     def __init__(self, total: int, label: str, describe: Callable[[Any], str] | None = None, quiet: bool = False,
@@ -336,14 +300,54 @@ class BatchProgress:
         self.every = every
         self.start = time.monotonic()
         self.last = -float("inf")
+        self.activity: str | None = None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._beat: threading.Thread | None = None
+        self._drawn = False
 
     def __enter__(self) -> "BatchProgress":
+        if not self.quiet:
+            self._beat = threading.Thread(target=self._heartbeat, name="motionrep-progress", daemon=True)
+            self._beat.start()
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        if self.tty and not self.quiet and self.count:
+        self._stop.set()
+        if self._beat is not None:
+            self._beat.join(timeout=5)
+        if self.tty and not self.quiet and (self.count or self.activity is not None or self._drawn):
             self.stream.write("\n")
             self.stream.flush()
+
+    def note(self, name: str, text: str) -> None:
+        """The latest activity inside an item (``name: text``), shown by the heartbeat."""
+        self.activity = f"{name}: {text}"
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(0.25):
+            now = time.monotonic()
+            with self._lock:
+                if self.count >= self.total:
+                    return
+                if self.tty:
+                    if now - self.last >= 1.0:
+                        self._draw(now)
+                elif now - self.last >= self.every and now - self.start >= self.every:
+                    parts = [f"working, {_duration(now - self.start)} elapsed"] + self._details()
+                    line = ", ".join(parts) + (f"; {self.activity}" if self.activity else "")
+                    self.stream.write(f"[{self.count}/{self.total}] {line}\n")
+                    self.stream.flush()
+                    self.last = now
+
+    def _draw(self, now: float) -> None:
+        width = 24
+        filled = int(width * self.count / max(self.total, 1))
+        tail = f" {self.activity}" if self.activity and self.count < self.total else ""
+        self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}{tail}")
+        self.stream.flush()
+        self.last = now
+        self._drawn = True
 
     def eta(self) -> str:
         """Time left at the rate so far (skipped items excluded), as ``1h02m``, ``3m05s`` or ``12s``."""
@@ -373,6 +377,11 @@ class BatchProgress:
         return parts
 
     def done(self, result: Any, failed: bool = False, skipped: bool = False) -> None:
+        with self._lock:
+            self._done(result, failed, skipped)
+
+    def _done(self, result: Any, failed: bool, skipped: bool) -> None:
+        self.activity = None
         self.count += 1
         self.failed += bool(failed)
         self.skipped += bool(skipped)
@@ -384,11 +393,7 @@ class BatchProgress:
             if failed and self.describe is not None:
                 self.stream.write("\r\033[K" + self.describe(result) + "\n")
             if now - self.last >= self.every or last_item or failed:
-                width = 24
-                filled = int(width * self.count / max(self.total, 1))
-                self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}")
-                self.stream.flush()
-                self.last = now
+                self._draw(now)
             return
         if failed or last_item or self.count == 1 or now - self.last >= self.every:
             what = [self.describe(result)] if self.describe is not None else []

@@ -41,21 +41,27 @@ __all__ = ["bench"]
               help="Directory for bench.csv, bench.json and bench.md (created if needed; existing ones need "
                    "--force).")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path),
-              help="Draw error vs compression ratio to this .png, .svg or .pdf (needs matplotlib).")
+              help="Draw the error against payload bits/bone/frame to this .png, .svg or .pdf.")
 @click.option("--decode-poses", default=None, type=click.IntRange(0, 10**8), metavar="N",
               help="Poses decoded at random times to measure decode speed (0: skip). Default: 20000.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+@click.option("--wide", is_flag=True,
+              help="Every column (the paper's ratio, bytes ratio, bits/joint/frame, xz -9, decode speed...); by "
+                   "default the table fits 120 columns.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr and no 'wrote ...' lines (the table stays).")
 @force_option
 def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tuple[str, ...],
           max_errors: tuple[str, ...], params: tuple[str, ...], seed: int, jobs: int, out: Path | None,
-          plot: Path | None, decode_poses: int | None, quiet: bool, force: bool) -> None:
+          plot: Path | None, decode_poses: int | None, wide: bool, quiet: bool, force: bool) -> None:
     """Compare codecs on FILES_OR_DIRS (.bvh, .npz, .h5 databases; directories recursively).
 
     Runs every codec x representation x bound (or parameter value) x clip through the compression pipeline (the
     shared FK-based L-inf evaluator, measured on the payload decoded from the bytes), and prints one row per run:
-    clip, frames, joints, codec, outcome (K / rank, or 'failed: best L-inf' when the bound was not met), L-inf
-    (file units and % of height), the paper's ratio, bytes ratio (float32 channels / file), bits per joint per
-    frame, encode seconds and decode poses per second; then the medians per codec and bound.
+    clip, codec, bound, outcome (K / rank, or 'failed: best L-inf' when the bound was not met), L-inf (% of
+    height), payload bits/bone/frame, file bits/bone/frame, how many times smaller than the source, encode
+    seconds; then the medians per codec and bound. The table fits 120 columns; --wide adds the L-inf in file
+    units, the paper's ratio, bytes ratio (float32 channels / file), bits per joint per frame, bytes, xz -9 and
+    decode poses per second (bench.md, CSV and JSON always have every column). Progress on stderr: each run as
+    it finishes, and a line every 10 s with the ETA while none does.
 
     \b
     Examples:
@@ -64,7 +70,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
       motionrep bench walk.bvh -c svd -p rank=1..30 --out results/
       motionrep bench database.h5 --jobs 2 --out results/ --plot results/rd.png
     """
-    from ..bench import (DEFAULT_DECODE_POSES, bench_tasks, format_table, is_sweep, parse_sweep,
+    from ..bench import (DEFAULT_DECODE_POSES, bench_tasks, format_compact, format_table, is_sweep, parse_sweep,
                          plot_rate_distortion, run_bench, summarize, write_csv, write_json)
     from ..compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
     from ..errors import ParameterError
@@ -102,7 +108,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     with BatchProgress(len(tasks), f"benchmarking {len(tasks)} runs", _describe_row, quiet) as bar:
         rows = run_bench(tasks, jobs=jobs, motions=motions, on_done=bar.done)
     summaries = summarize(rows)
-    click.echo(format_table(rows, summaries), nl=False)
+    click.echo((format_table if wide else format_compact)(rows, summaries), nl=False)
     settings: dict[str, Any] = {
         "inputs": [str(p) for p in inputs], "codecs": chosen, "representations": reps, "max_errors": bounds,
         "params": {k: v for k, v in sweep.items()}, "seed": seed, "jobs": jobs, "decode_poses": poses}
@@ -111,10 +117,12 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
         write_csv(rows, out / "bench.csv")
         write_json(rows, out / "bench.json", summaries=summaries, settings=settings)
         _write_text(out / "bench.md", format_table(rows, summaries, markdown=True))
-        click.echo(f"wrote {out / 'bench.csv'}, {out / 'bench.json'} and {out / 'bench.md'}")
+        if not quiet:
+            click.echo(f"wrote {out / 'bench.csv'}, {out / 'bench.json'} and {out / 'bench.md'}")
     if plot is not None:
         plot_rate_distortion(rows, plot)
-        click.echo(f"wrote {plot}")
+        if not quiet:
+            click.echo(f"wrote {plot}")
     errors = [r for r in rows if r.status == "error"]
     if errors:
         raise click.ClickException(f"{len(errors)} of {len(rows)} runs ended with an error (first: {errors[0].clip}, "
@@ -135,7 +143,8 @@ def _write_text(path: Path, text: str) -> None:
 def _describe_row(row: Any) -> str:
     """One finished run, for the progress lines on stderr."""
     err = "" if row.error_percent is None else f", L-inf {row.error_percent:.2f}%"
-    ratio = "" if row.paper_ratio is None else f", ratio {row.paper_ratio:.2f}"
+    ratio = "" if row.payload_bits_per_bone_frame is None else \
+        f", {row.payload_bits_per_bone_frame:.3f} payload bits/bone/frame"
     secs = "" if row.encode_seconds is None else f", {row.encode_seconds:.1f} s"
     bound = "none" if row.max_error is None else row.max_error
     params = f" {row.params}" if row.params else ""

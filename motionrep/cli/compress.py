@@ -30,7 +30,7 @@ DEFAULT_REPRESENTATION = "root-quat-axis-angle"
 DEFAULT_MAX_ERROR = "2%"
 
 
-def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
+def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False) -> list[str]:
     c, r, f = result.container, result.report, result.figures
     how = result.bound_read_as()
     bound = "none (--max-error none)" if how is None else f"--max-error {how}"
@@ -43,7 +43,8 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
         f"representation {c.representation} ({f.feature_width} features); codec {c.codec}: "
         f"{describe_outcome(c, detail=True)}",
         f"{r.summary()}; bound {bound}",
-        f"compression: {f.summary()}",
+        f"size: {f.summary()}",
+        *([f"more figures: {f.details()}"] if verbose else []),
         f"{'wrote ' + out if out else 'result'}: {len(result.data)} bytes in {result.seconds:.1f} s",
     ]
 
@@ -73,14 +74,21 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
                    "sent.")
 @click.option("--resume", is_flag=True,
               help="Keep the clips the output already holds from the same source (SHA-256) with the same codec, "
-                   "parameters, representation, bound and seed; compress the others.")
+                   "parameters, representation, bound and seed; compress the others. A clip stored with another "
+                   "setting is refused (naming what changed) unless --recompress-changed.")
+@click.option("--recompress-changed", is_flag=True,
+              help="With --resume: recompress (and replace) the clips stored with another setting.")
 @force_option
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
               help="Most seconds one clip may take; a clip over it fails and the others go on.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object; no progress.")
+@click.option("--verbose", "-v", is_flag=True,
+              help="Also the other size figures (the paper's parameter ratio, vs float32 channels).")
+@click.option("--quiet", "-q", is_flag=True, help="Print nothing on success (no progress, report or 'wrote').")
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
-             send_clips: bool, resume: bool, force: bool, timeout: float | None, as_json: bool) -> None:
+             send_clips: bool, resume: bool, recompress_changed: bool, force: bool, timeout: float | None,
+             as_json: bool, verbose: bool, quiet: bool) -> None:
     """Compress motion files IN into OUT.mrc, within --max-error of the original.
 
     IN may be files (.bvh, .npz, .h5 databases, archives), directories (searched
@@ -133,12 +141,19 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
     with stdin_inputs(inputs, allowed=MOTION_FORMATS) as given:
         piped = [str(g) for p, g in zip(inputs, given) if is_stdio(p)]
         _compress(given, output, pipeline, clip, jobs, scheduler, send_clips or piped, resume, force, timeout,
-                  as_json)
+                  as_json, _Say(verbose, quiet, recompress_changed))
+
+
+class _Say:
+    """How much to print (--verbose, --quiet) and --recompress-changed, passed down together."""
+
+    def __init__(self, verbose: bool = False, quiet: bool = False, recompress_changed: bool = False):
+        self.verbose, self.quiet, self.recompress_changed = verbose, quiet, recompress_changed
 
 
 def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs: int, scheduler: str | None,
-              send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None, as_json: bool
-              ) -> None:
+              send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None, as_json: bool,
+              say: _Say) -> None:
     to_stdout = is_stdio(output)
     to_mrc = to_stdout or output.suffix.lower() == ".mrc"
     to_archive = output.suffix.lower() in (".h5", ".hdf5")
@@ -151,6 +166,8 @@ def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs:
         raise click.UsageError("--send-clips applies with --scheduler")
     if resume and force:
         raise click.UsageError("--resume keeps what the output holds and --force overwrites it: give one")
+    if say.recompress_changed and not resume:
+        raise click.UsageError("--recompress-changed applies with --resume")
     refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output, journal_of(output)])
     if to_mrc:
         if len(refs) != 1:
@@ -164,10 +181,10 @@ def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs:
             raise click.UsageError("--resume applies to many clips (OUT.h5 or a directory)")
         if not to_stdout:
             check_overwrite(output, force)
-        _compress_one(refs[0], output, pipeline, as_json, timeout)
+        _compress_one(refs[0], output, pipeline, as_json, timeout, say)
     else:
         _compress_many(refs, output, pipeline, as_json, jobs=jobs, scheduler=scheduler, send_clips=send_clips,
-                       resume=resume, force=force, timeout=timeout)
+                       resume=resume, force=force, timeout=timeout, say=say)
 
 
 def journal_of(output: Path) -> Path:
@@ -176,7 +193,7 @@ def journal_of(output: Path) -> Path:
     return journal_path(output)
 
 
-def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None) -> None:
+def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None, say: _Say) -> None:
     from ..batch import time_limit
     from ..container import write_container
     from ..sources import open_source
@@ -184,16 +201,21 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
     with time_limit(timeout, display_name(ref.source)):
         with open_source(ref.path) as src:
             motion = src.read(ref.clip)
-        progress = None if as_json else CodecProgress(pipeline.codec)
-        result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
+        progress = None if as_json or say.quiet else CodecProgress(pipeline.codec)
+        from ..errors import UncodableClipError
+
+        try:
+            result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
+        except UncodableClipError as exc:  # the clip, not the setting: name the file
+            raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
     with stdout_output(output, ".mrc") as target:
         write_container(result.data, target)
     source = display_name(ref.source)
     if as_json:
         echo_json(dict(result.as_dict(), input=source, output=str(output)))
-    else:  # the report goes to stderr when the .mrc went to standard output
+    elif not say.quiet:  # the report goes to stderr when the .mrc went to standard output
         to_stdout = is_stdio(output)
-        for line in _report_lines(source, result, STDOUT_NAME if to_stdout else str(output)):
+        for line in _report_lines(source, result, STDOUT_NAME if to_stdout else str(output), say.verbose):
             click.echo(line, err=to_stdout)
 
 
@@ -206,19 +228,24 @@ def _clip_line(o: Any) -> str:
     ev, fig = s["evaluation"], s["figures"]
     how = s.get("max_error_read_as")
     bound = "none" if how is None else f"--max-error {how}"
-    return (f"{o.name}: {s['bytes']} bytes, L-inf {ev['max_error']:.4g} ({ev['max_error_percent']:.3g}%), "
-            f"bound {bound}, paper ratio {fig['paper_ratio']:.1f}x, {s['outcome']}")
+    from ..figures import LABELS, PAYLOAD_BPBF
+
+    bpbf = fig.get(PAYLOAD_BPBF)
+    size = "" if bpbf is None else f" ({bpbf:.3f} {LABELS[PAYLOAD_BPBF]})"
+    return (f"{o.name}: {s['bytes']} bytes{size}, L-inf {ev['max_error']:.4g} ({ev['max_error_percent']:.3g}%), "
+            f"bound {bound}, {s['outcome']}")
 
 
 def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jobs: int, scheduler: str | None,
-                   send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None) -> None:
+                   send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None,
+                   say: _Say) -> None:
     import contextlib
     import time
 
     from ..batch import compress_clips, dask_executor
     from ..errors import OutputExistsError
     from ..sources import listing
-    from ..store import open_store, resume_key
+    from ..store import open_store, resume_key, setting_changes
     from ..totals import BatchTotals, container_summary
 
     start, cpu = time.monotonic(), time.process_time()
@@ -233,6 +260,16 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
     kept: dict[str, dict[str, Any]] = {}
     if resume:
         existing = store.existing()
+        changed = {ref.name: setting_changes(existing[ref.name], pipeline) for ref in refs
+                   if existing.get(ref.name) is not None}
+        changed = {k: v for k, v in changed.items() if v}
+        if changed and not say.recompress_changed:
+            store.close()
+            first = next(iter(changed))
+            raise click.UsageError(
+                f"--resume: {len(changed)} clip(s) in {output} were compressed with another setting ({first}: "
+                f"{'; '.join(changed[first])}); give the same setting to keep them, or add --recompress-changed "
+                "to recompress and replace them")
         for ref in refs:
             container = existing.get(ref.name)
             key = None if container is None else resume_key(container, pipeline)
@@ -246,7 +283,7 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
     with contextlib.ExitStack() as stack:
         executor = stack.enter_context(dask_executor(scheduler)) if scheduler else None
         bar = stack.enter_context(BatchProgress(len(refs), f"compressing {len(refs)} clips", _clip_line,
-                                                quiet=as_json))
+                                                quiet=as_json or say.quiet))
 
         def done(outcome: Any) -> None:
             if outcome.status == "done":
@@ -255,8 +292,13 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             bar.done(outcome, failed=outcome.failed, skipped=outcome.skipped)
 
         try:
+            clocks: dict[str, CodecProgress] = {}
+
+            def progress(name: str, stage: str, fields: Any) -> None:  # inside a clip (jobs=1: this process)
+                bar.note(name, clocks.setdefault(name, CodecProgress(pipeline.codec)).text(stage, fields))
+
             compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
-                           timeout=timeout, send_data=send_clips if scheduler else False)
+                           timeout=timeout, send_data=send_clips if scheduler else False, progress=progress)
         except KeyboardInterrupt as exc:
             store.close()
             finished = sum(1 for o in outcomes if not o.failed)
@@ -276,12 +318,12 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
         echo_json({"input": [display_name(r.source) for r in refs], "output": str(output),
                    "clips": {o.name: dict(o.summary, status=o.status) for o in outcomes},
                    "totals": totals.as_dict()})
-    else:
+    elif not say.quiet:
         for o in outcomes:
             click.echo(_clip_line(o))
         stored = len(outcomes) - len(failed)
         click.echo(f"wrote {stored} of {len(outcomes)} clips to {output}")
-        for line in totals.lines():
+        for line in totals.lines(verbose=say.verbose):
             click.echo(line)
     if failed:
         raise click.ClickException(f"{len(failed)} of {len(outcomes)} clips failed (listed above); the other "

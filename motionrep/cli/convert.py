@@ -16,8 +16,9 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_gltf_units, check_outputs, collect, expand_globs,
-                      force_option, gltf_unit_options, gltf_write_options, is_stdio, stdin_inputs, stdout_output)
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, check_gltf_units, check_outputs, collect,
+                      expand_globs, force_option, gltf_unit_options, gltf_write_options, is_stdio, quiet_option,
+                      stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
@@ -25,11 +26,11 @@ _MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
 
 
 def _format_or_usage(path: Path, what: str) -> str:
-    """The format selected by ``path``'s suffix; ``.mrc`` and unknown suffixes are usage errors (exit 2)."""
+    """The format selected by ``path``'s suffix; an ``.mrc`` output and unknown suffixes are usage errors (exit
+    2).  An ``.mrc`` input is decoded, as an archive of them is (one rule)."""
     suffix = path.suffix.lower()
     if suffix == ".mrc" and what == "input":
-        raise click.UsageError(f"input {path} is a compressed clip: decode it with "
-                               f"'motionrep decompress {path} -o OUT.bvh'")
+        return "mrc"
     if suffix == ".mrc":
         raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
     if suffix not in _MOTION_SUFFIXES:
@@ -118,12 +119,14 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
               help="OUT.h5 exists: add the clips to it (a clip of the same name needs --force to be replaced).")
 @gltf_unit_options
 @force_option
+@quiet_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
-            decimals: int | None, append: bool, gltf_scale: float | None, units: str | None, force: bool) -> None:
+            decimals: int | None, append: bool, gltf_scale: float | None, units: str | None, force: bool,
+            quiet: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
-    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb) or directories (searched
+    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb, .mrc) or directories (searched
     recursively for those suffixes, in sorted order; hidden files are skipped).
     OUT is:
       - a .bvh, .npz, .glb or .gltf file: exactly one clip goes in (use --clip for
@@ -142,7 +145,8 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     \b
     Features: --representation NAME stores that representation's features
     (.npz/.h5); converting a features file to a motion format decodes it.
-    An archive of compressed clips (written by compress) is decoded.
+    A compressed clip (.mrc) or an archive of them (written by compress) is
+    decoded, as decompress does.
 
     \b
     Standard input and output: IN '-' reads a motion file from standard input
@@ -185,13 +189,16 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
         raise click.UsageError("convert needs at least one input and an output: IN... OUT")
     raw_out = paths[-1]
     with stdin_inputs(expand_globs(paths[:-1]), allowed=MOTION_FORMATS) as inputs:
-        _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force, append,
-                 (gltf_scale, units))
+        wrote = _convert([Path(p) for p in inputs], raw_out, clip, out_format, representation, decimals, force,
+                         append, (gltf_scale, units))
+    if not quiet:
+        click.echo(f"wrote {wrote}", err=is_stdio(raw_out))
 
 
 def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str | None,
              representation: str | None, decimals: int | None, force: bool, append: bool = False,
-             units: tuple[float | None, str | None] = (None, None)) -> None:
+             units: tuple[float | None, str | None] = (None, None)) -> str:
+    """Convert; what was written, for the ``wrote ...`` line."""
     out = Path(raw_out)
     to_stdout = is_stdio(raw_out)
     to_directory = not to_stdout and (out.is_dir() or raw_out.endswith(("/", "\\")) or out.suffix == "")
@@ -237,19 +244,21 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         suffix = OUT_FORMATS[out_format or "bvh"]
         check_outputs([out / (r.name + suffix) for r in refs], force)
         _to_directory(refs, out, suffix, rep, decimals, units)
-        return
+        return f"{len(refs)} file{'s' if len(refs) > 1 else ''} to {out}"
     if len(refs) != 1 and out_fmt != "hdf5":
         from ..sources import listing
 
         raise click.UsageError(f"{STDIO if to_stdout else out} holds one clip but the inputs hold {len(refs)} "
                                f"({listing([r.name for r in refs])}); use --clip NAME, an .h5 output or a "
                                "directory")
+    shown = STDOUT_NAME if to_stdout else str(out)
     with stdout_output(raw_out, out.suffix) as target:
         if out_fmt == "hdf5":
             _to_database(refs, target, rep, append, force)
-        else:
-            _write_one(next(_converted(refs, rep))[1], target, decimals, units=units,
-                       shown=STDIO if to_stdout else out)
+            return f"{shown}: {len(refs)} clip{'s' if len(refs) > 1 else ''}"
+        item = next(_converted(refs, rep))[1]
+        _write_one(item, target, decimals, units=units, shown=STDIO if to_stdout else out)
+    return f"{shown}: {item.num_frames} frames"
 
 
 def _to_database(refs: list, out: Path, representation: Any, append: bool = False, force: bool = False) -> None:

@@ -12,8 +12,8 @@ from typing import Any, Iterator
 import click
 
 from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_gltf_units, check_overwrite, collect,
-                      force_option, gltf_unit_options, gltf_write_options, is_stdio, stdin_inputs, stdout_output,
-                      usage_suffix)
+                      force_option, gltf_unit_options, gltf_write_options, is_stdio, quiet_option, stdin_inputs,
+                      stdout_output, usage_suffix)
 
 __all__ = ["decompress"]
 
@@ -50,8 +50,9 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
               help="File format written to standard output (-o -) or into a directory OUT/ (default: bvh).")
 @gltf_unit_options
 @force_option
+@quiet_option
 def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: str | None, out_format: str | None,
-               gltf_scale: float | None, units: str | None, force: bool) -> None:
+               gltf_scale: float | None, units: str | None, force: bool, quiet: bool) -> None:
     """Decode compressed clips IN (.mrc files, archives, or directories of them) into motion files.
 
     Clips are named as compress named them (a directory's .mrc files by their
@@ -93,11 +94,11 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
     gltf_out = (suffix if to_stdout or not output.suffix else output.suffix.lower()) in (".glb", ".gltf")
     check_gltf_units(gltf_scale, units, gltf_out)
     with stdin_inputs(inputs, allowed=(".mrc", ".h5")) as given:
-        _decompress(given, output, fps, clip, suffix, force, (gltf_scale, units))
+        _decompress(given, output, fps, clip, suffix, force, (gltf_scale, units), quiet)
 
 
 def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool,
-                units: tuple[float | None, str | None] = (None, None)) -> None:
+                units: tuple[float | None, str | None] = (None, None), quiet: bool = False) -> None:
     from ..compress import write_decoded
 
     def written(motion: Any, target: Path, shown: Any) -> None:
@@ -122,7 +123,9 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
         shown = STDOUT_NAME if to_stdout else output
         from ..timefmt import fps_text
 
-        click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {fps_text(motion.fps)} fps", err=to_stdout)
+        if not quiet:
+            click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {fps_text(motion.fps)} fps",
+                       err=to_stdout)
         return
     if output.suffix.lower() in (".h5", ".hdf5"):
         from ..io import write_database
@@ -140,4 +143,5 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
     else:
         raise click.UsageError(f"output {output}: {len(refs)} clips decompress to OUT.h5 or a directory (or pick "
                                "one with --clip)")
-    click.echo(f"wrote {len(refs)} clips to {output}")
+    if not quiet:
+        click.echo(f"wrote {len(refs)} clips to {output}")

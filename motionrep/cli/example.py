@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from ._common import check_outputs, force_option
+from ._common import check_outputs, force_option, quiet_option
 
 __all__ = ["example"]
 
@@ -15,13 +15,15 @@ __all__ = ["example"]
 @click.command("example")
 @click.argument("output", metavar="OUT.bvh", type=click.Path(dir_okay=False, path_type=Path))
 @force_option
-def example(output: Path, force: bool) -> None:
+@quiet_option
+def example(output: Path, force: bool, quiet: bool) -> None:
     """Write the demo clip shipped with motionrep (a synthetic 450-frame walk) to OUT.bvh.
 
     \b
-    Quick start:
+    Quick start (as in the README, in a scratch directory):
+      cd "$(mktemp -d)"
       motionrep example walk.bvh
-      motionrep compress walk.bvh -o walk.mrc --codec adaptive-fourier
+      motionrep compress walk.bvh -o walk.mrc
     """
     from .._demo import demo_path
     from ..io import atomic_path
@@ -31,4 +33,5 @@ def example(output: Path, force: bool) -> None:
     check_outputs([output], force)
     with atomic_path(output) as tmp:
         shutil.copyfile(demo_path(), tmp)
-    click.echo(f"wrote {output} (synthetic walk, 450 frames at 30 fps, 15 joints)")
+    if not quiet:
+        click.echo(f"wrote {output} (synthetic walk, 450 frames at 30 fps, 15 joints)")

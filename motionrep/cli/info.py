@@ -39,17 +39,18 @@ def _seconds(x: float) -> str:
     return seconds_text(x)
 
 
-def _info_text(d: dict[str, Any]) -> str:
+def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
     lines = [f"file:       {d['file']}"]
     if d["kind"] == "archive":
         lines.append(f"format:     archive of compressed clips (.mrc), {len(d['clips'])} clips")
         width = max([4] + [len(c["name"]) for c in d["clips"]])
         lines.append(f"  {'clip':<{width}}  {'codec':<16}  {'outcome':<10}  {'frames':>7}  {'fps':>7}  "
-                     f"{'joints':>6}  {'bytes':>9}  L-inf")
+                     f"{'joints':>6}  {'bytes':>9}  {'payload bits/bone/frame':>23}  L-inf")
         for c in d["clips"]:
             err = "-" if c["max_error"] is None else f"{_fmt(c['max_error'])} ({c['max_error_percent']:.3g}%)"
             lines.append(f"  {c['name']:<{width}}  {c['codec']:<16}  {c['outcome']:<10}  {c['frames']:>7}  "
-                         f"{_fps(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  {err}")
+                         f"{_fps(c['fps']):>7}  {c['joints']:>6}  {c['bytes']:>9}  "
+                         f"{c['payload_bits_per_bone_frame']:>23.3f}  {err}")
         return "\n".join(lines)
     if d["kind"] == "database":
         lines.append(f"format:     {d['format']} database, {len(d['clips'])} clips")
@@ -75,12 +76,15 @@ def _info_text(d: dict[str, Any]) -> str:
         lines.append(f"outcome:    {c['description']}")
         lines.append(f"features:   {r['name']} version {r['version']}"
                      + (f", width {r['width']}" if r["width"] is not None else ""))
-        lines.append(f"size:       {d['bytes']} bytes, {d['parameters']} stored numbers; payload {d['payload_bytes']} "
-                     f"bytes, {d['bits_per_bone_frame']:.3f} bits/bone/frame (joints + end sites)")
+        from ..figures import FILE_BPBF, PAYLOAD_BPBF, size_line
+
+        lines.append(f"size:       {size_line(d['bytes'], d[PAYLOAD_BPBF], d[FILE_BPBF], None)}")
         f = d["figures"]
-        if f is not None:
-            lines.append(f"ratios:     paper {f['paper_ratio']:.2f}x, vs float32 channels {f['float32_ratio']:.2f}x, "
-                         f"{f['bits_per_joint_frame']:.2f} bits/joint/frame")
+        if verbose:
+            lines.append(f"payload:    {d['payload_bytes']} bytes, {d['parameters']} stored numbers")
+            if f is not None:
+                lines.append(f"ratios:     paper {f['paper_ratio']:.2f}x, vs float32 channels "
+                             f"{f['float32_ratio']:.2f}x, {f['bits_per_joint_frame']:.2f} file bits/joint/frame")
         e = d["evaluation"]
         if e is not None:
             bound = "none" if e.get("bound") is None else _fmt(e["bound"])
@@ -113,19 +117,50 @@ def _info_text(d: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _row(d: dict[str, Any]) -> list[str]:
+    """One row of the ``info DIR`` table."""
+    from ..figures import PAYLOAD_BPBF
+
+    kind = d["kind"]
+    if kind in ("archive", "database"):
+        clips = d["clips"]
+        return [d["file"], d["format"], kind, str(len(clips)), str(sum(c["frames"] for c in clips)), "-", "-",
+                "-", "-"]
+    bpbf = d.get(PAYLOAD_BPBF)
+    ev = d.get("evaluation") or {}
+    err = "-" if ev.get("max_error_percent") is None else f"{ev['max_error_percent']:.3g}%"
+    return [d["file"], d["format"], kind, "1", str(d["frames"]), _fmt(d["fps"]), str(d["joints"]),
+            "-" if bpbf is None else f"{bpbf:.3f}", err]
+
+
+def _table(described: list[dict[str, Any]]) -> str:
+    """``info DIR``: one row per file."""
+    from ..figures import LABELS, PAYLOAD_BPBF
+
+    head = ["file", "format", "kind", "clips", "frames", "fps", "joints", LABELS[PAYLOAD_BPBF], "L-inf"]
+    rows = [head] + [_row(d) for d in described]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+    return "\n".join("  ".join(c.ljust(w) if i < 3 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))).rstrip()
+                     for r in rows)
+
+
 @click.command("info")
 @click.argument("files", metavar="FILE...", nargs=-1, required=True)
 @click.option("--clip", metavar="NAME",
               help="The clip to describe in an HDF5 database or archive, or a glTF file's animation.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object (a list of them for several files; keys: specs/formats/info-json.md).")
-def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
+@click.option("--verbose", "-v", is_flag=True,
+              help="Also the other size figures of a .mrc (stored numbers, the paper's ratio, vs float32).")
+def info(files: tuple[str, ...], clip: str | None, as_json: bool, verbose: bool) -> None:
     """Describe motion files: skeleton, frames, fps, duration, height, channel layout.
 
     \b
-    FILE may be several files, quoted glob patterns ('clips/*.bvh'), or '-'
-    (BVH, NPZ, HDF5, .glb or .mrc from standard input, told by its first
+    FILE may be several files, quoted glob patterns ('clips/*.bvh'), a
+    directory (searched recursively; a table, one row per file), or '-'
+    (BVH, NPZ, HDF5, glTF or .mrc from standard input, told by its first
     bytes: cat db.h5 | motionrep info -); each is described in turn.
+    Suffixes: .bvh, .npz, .h5, .hdf5, .gltf, .glb, .mrc.
 
     \b
     For an HDF5 database of several clips (without --clip): each clip's name,
@@ -139,7 +174,7 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
     \b
     --json prints one object; the keys are documented in
     specs/formats/info-json.md. Always present: info_version (1), file,
-    format ("bvh" | "npz" | "hdf5" | "mrc"), kind ("motion" | "features" |
+    format ("bvh" | "npz" | "hdf5" | "gltf" | "mrc"), kind ("motion" | "features" |
     "database" | "compressed" | "archive").
     Database: clips (list of {name, kind, frames, fps, duration, joints, and for
     features representation, representation_version, width}). Motion/features:
@@ -147,12 +182,20 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
     units (null when unknown), layout (per joint: name, parent, channels,
     rotation_order, position_axes, end_sites); features also representation
     {name, version, width}; compressed also codec, representation, bytes,
-    parameters, arrays, evaluation, figures.
+    parameters, payload_bytes, payload_bits_per_bone_frame,
+    file_bits_per_bone_frame, arrays, evaluation, figures.
     """
     from ..info import info_dict
-    from ..sources import CLIP_SUFFIXES, SOURCE_SUFFIXES
+    from ..sources import CLIP_SUFFIXES, SOURCE_SUFFIXES, scan_files
 
-    given = expand_globs(files)
+    given: list[str] = []
+    table = False
+    for f in expand_globs(files):
+        if not is_stdio(f) and Path(f).is_dir():
+            table = True
+            given += [str(p) for p in scan_files(f)]
+        else:
+            given.append(f)
     for f in given:
         if is_stdio(f):
             continue
@@ -166,9 +209,11 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
             if is_stdio(f):
                 d["file"] = STDIN_NAME
             described.append(d)
-            if not as_json:
+            if not (as_json or table):
                 if len(described) > 1:
                     click.echo()
-                click.echo(_info_text(d))
-    if as_json:
+                click.echo(_info_text(d, verbose))
+    if table and not as_json:
+        click.echo(_table(described))
+    elif as_json:
         echo_json(described[0] if len(described) == 1 else described)

@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from ._common import check_overwrite, collect, force_option, usage_suffix
+from ._common import check_overwrite, collect, force_option, quiet_option, usage_suffix
 
 __all__ = ["merge", "CLASH_POLICIES"]
 
@@ -53,7 +53,8 @@ def _read_bytes(ref: Any) -> bytes:
               help="Two inputs hold different clips of one name: stop (error), keep the first input's or the last "
                    "input's, or name both '<input name>__<clip>' (prefix).")
 @force_option
-def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool) -> None:
+@quiet_option
+def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, quiet: bool) -> None:
     """Join compressed clips IN (archives, .mrc files, directories of .mrc files) into OUT.
 
     Every clip keeps its name and its bytes (each verified on the way). Two
@@ -131,4 +132,5 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool) ->
         store = DirectoryStore(output)
         for name, data in clips():
             store.commit(name, data)
-    click.echo(f"wrote {len(names)} clips from {len(inputs)} inputs to {output}")
+    if not quiet:
+        click.echo(f"wrote {len(names)} clips from {len(inputs)} inputs to {output}")

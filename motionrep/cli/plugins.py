@@ -46,7 +46,8 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe
     \b
     JSON: a list of {name, version, shipped, distribution, hooks, representations, codecs};
     with --describe, one object {name, kind, plugin, description, version,
-    readable_versions, params: [{name, type, default, help}]}.
+    readable_versions, min_frames (codecs), params: [{name, type, default,
+    help}]}.
 
     \b
     Examples:
@@ -85,7 +86,7 @@ def _describe(name: str, as_json: bool) -> None:
         d = {"name": name, "kind": "codec", "plugin": provider_of(name, "codec"), "description": codec.description,
              "version": codec.format_version,
              "readable_versions": list(codec.readable_versions or (codec.format_version,)),
-             "params": params_help(codec.Params)}
+             "min_frames": codec.min_frames, "params": params_help(codec.Params)}
     elif name in representations():
         rep = get_representation(name)
         d = {"name": name, "kind": "representation", "plugin": provider_of(name, "representation"),
@@ -101,6 +102,8 @@ def _describe(name: str, as_json: bool) -> None:
                + (f", reads {', '.join(map(str, d['readable_versions']))}" if len(d["readable_versions"]) > 1 else ""))
     if d["description"]:
         click.echo(f"  {d['description']}")
+    if d.get("min_frames", 1) > 1:
+        click.echo(f"  codes clips of at least {d['min_frames']} frames")
     if d["params"]:
         click.echo("parameters (-p KEY=VALUE):")
         width = max(len(p["name"]) for p in d["params"])

@@ -88,6 +88,7 @@ class _FourierCodec(Codec):
 
     format_version = 4
     readable_versions = (1, 2, 3, 4)
+    min_frames = 2  # a function of time fitted to one frame has no time axis (the times normalise by frames - 1)
     Params = FourierParams
     schedule: str
 

@@ -589,7 +589,9 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 raise CodecError(f"{name}: training diverged (loss {loss}) at K={K}")
             plateau = len(losses) > WINDOW and loss > losses[-1 - WINDOW] * (1.0 - params.tol)
             last = stage >= params.iters or optimizer.converged or plateau
-            fields = {"K": K, "omega": list(omega), "iteration": stage, "loss": loss}
+            fields = {"K": K, "omega": list(omega), "iteration": stage, "loss": loss,
+                      # the share of the most training this fit can take (every K up to target_k, every iteration)
+                      "done": min((K + min(stage / params.iters, 1.0)) / (target_k + 1), 1.0)}
             # measure the stored payload at the end of the stage, and during it when the loss predicts an error
             # near the bound or after EVAL_EVERY unmeasured chunks; the decision is always the measured error
             predicted = ratio * math.sqrt(max(loss, 0.0))
