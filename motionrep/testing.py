@@ -209,8 +209,8 @@ def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = Non
     against its numpy path, in float64 (:func:`check_representation` runs it when torch is installed):
 
     * its encoding equals ``to_features`` within ``tolerance`` times ``1 + |column|``, and its decoding
-      equals ``decode_poses`` (rotations within ``tolerance``, translations within ``tolerance`` times the
-      character height), on features and on features perturbed as a codec would;
+      equals ``decode_poses`` (rotations, normalised, within ``tolerance``; translations within ``tolerance``
+      times the character height), on features and on features perturbed as a codec would;
     * decoding keeps leading batch dimensions (two copies stacked decode to the same poses);
     * gradients of the FK positions of the decoded poses with respect to the features are finite, and
       ``torch.autograd.gradcheck`` passes on two frames of the first clip.
@@ -240,7 +240,11 @@ def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = Non
             poses = empty_poses(sk, f.shape[0])
             rep.decode_poses(f, sk, poses)
             root, rot, jt = decode_features(rep, torch.tensor(f), sk)
-            errors = (np.abs(rot.numpy() - poses.rotations).max(initial=0.0),
+            # The numpy decoders return rotations unit to rounding only (a world-rotation recursion, as the
+            # dual-quaternion one, can grow the norm error by 2x per level, to 1e-9 on a deep chain; FK
+            # normalises); torch paths may normalise: the directions are compared.
+            unit = poses.rotations / np.linalg.norm(poses.rotations, axis=-1, keepdims=True)
+            errors = (np.abs(rot.numpy() - unit).max(initial=0.0),
                       np.abs(root.numpy() - poses.root_translation).max(initial=0.0) / scale,
                       np.abs(jt.numpy() - poses.joint_translations).max(initial=0.0) / scale)
             if max(errors) > tolerance:
@@ -258,7 +262,7 @@ def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = Non
         if i == 0:
             small = torch.tensor(feats[:2], requires_grad=True)
             ok = torch.autograd.gradcheck(lambda t: global_positions(sk, *decode_features(rep, t, sk)), (small,),
-                                          eps=1e-6, atol=1e-5, raise_exception=False)
+                                          eps=1e-6, atol=1e-5, raise_exception=False, fast_mode=True)
             if not ok:
                 _fail(f"{where}: torch.autograd.gradcheck of FK positions of decoded features failed")
 

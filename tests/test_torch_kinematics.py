@@ -1,6 +1,6 @@
 """motionrep.torch forward kinematics against the compiled numpy FK (motionrep.kinematics): synthetic skeletons
 (position channels on non-root joints, end sites, joints without rotation channels), batch dimensions, dtypes,
-gradients, and every real clip of ../shared/data."""
+gradients, and every real clip of ../shared/data (with the shared L-infinity error against motionrep evaluate's)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ pytest.importorskip("roma", reason="motionrep.torch needs roma (pip install 'mot
 
 import motionrep.torch as mt  # noqa: E402
 from helpers import real_params  # noqa: E402
+from test_torch_losses import check_max_joint_error_equals_evaluate  # noqa: E402
 from motionrep.io import read  # noqa: E402
 from motionrep.kinematics import character_height, forward_kinematics, global_positions  # noqa: E402
 from motionrep.errors import ValidationError  # noqa: E402
@@ -104,6 +105,7 @@ def test_bad_shapes_raise_validation_error():
 
 
 @pytest.mark.parametrize("path", real_params())
-def test_fk_agrees_with_numpy_on_every_real_clip(path):
+def test_fk_and_error_agree_with_numpy_on_every_real_clip(path):
     motion = read(path)
     _check_agrees(motion)
+    check_max_joint_error_equals_evaluate(motion)
