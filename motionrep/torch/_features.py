@@ -84,15 +84,21 @@ def features_to_motion(representation: str | Representation, features: Any, skel
                        fps: float) -> Motion:
     """A network's ``(F, D)`` output features (a tensor, detached and copied here, or an array) as a
     :class:`~motionrep.Motion`, through the representation's numpy decoder (its ``from_features``: the very
-    Motion ``motionrep`` would decode, Euler branch hints included).
+    Motion ``motionrep`` would decode, Euler branch hints included), with the translation axes that have no
+    position channel set back to their OFFSET as ``motionrep decompress`` does (:func:`motionrep.ops.fixed_axes_restored`),
+    so that it can be written to BVH.  Rotations about axes a joint has no channel for are not projected away: a
+    skeleton with 1- or 2-axis joints is written to BVH from ``euler`` features (or from float64 features of the
+    other representations, whose round trip is exact there).
 
     Raises:
         ValidationError: for features that are not ``(F, D)`` for ``skeleton`` or not finite.
     """
+    from ..ops import fixed_axes_restored
+
     rep = _representation(representation)
     if isinstance(features, torch.Tensor):
         features = features.detach().to("cpu", torch.float64).numpy()
-    return rep.from_features(np.asarray(features, dtype=np.float64), skeleton, fps)
+    return fixed_axes_restored(rep.from_features(np.asarray(features, dtype=np.float64), skeleton, fps))
 
 
 def write_features(path: str | os.PathLike[str], representation: str | Representation, features: Any,
