@@ -9,8 +9,9 @@ joint at their OFFSET.  Local rotations are normalised first, as the compiled nu
 the pose the rotations stand for; rotating a vector is ``v + w t + u x t`` with ``t = 2 u x v``, the numpy
 kernel's arithmetic.
 
-The joints are processed one depth level at a time (every joint of a level in one batched product), so the
-number of torch operations grows with the depth of the skeleton, not with its joint count.
+The joints are processed one depth level at a time (every joint of a level in one batched product, its parents
+gathered from the level above), so the number of torch operations grows with the depth of the skeleton, not with
+its joint count.
 """
 
 from __future__ import annotations
@@ -22,19 +23,19 @@ import torch
 
 from .._model import Skeleton
 from ..errors import ValidationError
-from .rotations import quat_apply, quat_multiply
 
 __all__ = ["forward_kinematics", "global_positions", "skeleton_tensors"]
 
 
 @dataclass(frozen=True)
 class _Levels:
-    """Per depth level >= 1: the joints of the level and their parents, as index tensors."""
+    """The joints by depth (level 0 is the root), each joint's parent as a position in the level above, and
+    where each joint sits in the levels concatenated."""
 
     joints: tuple[np.ndarray, ...]
-    parents: tuple[np.ndarray, ...]
-    order: np.ndarray  # joints in level order (root first)
-    inverse: np.ndarray  # position of each joint in ``order``
+    parent_slots: tuple[np.ndarray, ...]  # per level >= 1, positions of the parents within the level above
+    inverse: np.ndarray  # position of each joint in the levels concatenated
+    tensors: dict  # (dtype, device) -> the index and offset tensors of _fk, made once
 
 
 _LEVELS: dict[int, tuple[Skeleton, _Levels]] = {}
@@ -45,11 +46,15 @@ def _levels(skeleton: Skeleton) -> _Levels:
     if entry is not None and entry[0] is skeleton:
         return entry[1]
     depths = skeleton.depths
-    joints = tuple(np.nonzero(depths == d)[0] for d in range(1, int(depths.max(initial=0)) + 1))
-    order = np.concatenate([np.zeros(1, np.int64)] + list(joints)).astype(np.int64)
+    joints = tuple(np.nonzero(depths == d)[0] for d in range(int(depths.max(initial=0)) + 1))
+    slot = np.empty(skeleton.num_joints, np.int64)
+    for level in joints:
+        slot[level] = np.arange(level.size)
+    parents = tuple(slot[skeleton.parents[level]] for level in joints[1:])
+    order = np.concatenate(joints).astype(np.int64)
     inverse = np.empty_like(order)
     inverse[order] = np.arange(order.size)
-    value = _Levels(joints, tuple(np.array(skeleton.parents[j]) for j in joints), order, inverse)
+    value = _Levels(joints, parents, inverse, {})
     if len(_LEVELS) > 64:
         _LEVELS.clear()
     _LEVELS[id(skeleton)] = (skeleton, value)
@@ -111,30 +116,52 @@ def _fk(skeleton: Skeleton, root: torch.Tensor, rot: torch.Tensor, jt: torch.Ten
         ) -> tuple[torch.Tensor, torch.Tensor]:
     _check(skeleton, root, rot, jt)
     dtype, device = rot.dtype, rot.device
-    root = root.to(dtype)
     lv = _levels(skeleton)
-    offsets, sites = skeleton_tensors(skeleton, dtype, device)
-    q = rot / torch.linalg.vector_norm(rot, dim=-1, keepdim=True)
+    key = (dtype, device)
+    if key not in lv.tensors:
+        offsets, sites = skeleton_tensors(skeleton, dtype, device)
+        index = lambda a: torch.tensor(np.array(a, np.int64), device=device)  # noqa: E731
+        lv.tensors[key] = (offsets.T[:, :, None], sites.T[:, :, None], index(skeleton.translated_joints),
+                           [(index(s), index(j)) for j, s in zip(lv.joints[1:], lv.parent_slots)],
+                           index(lv.inverse), index(skeleton.end_site_parents))
+    local, sites, translated, levels, back, sp = lv.tensors[key]
     batch = rot.shape[:-2]
-    J = skeleton.num_joints
-    local = offsets.expand(batch + (J, 3))
-    if jt is not None and skeleton.translated_joints.size:
-        local = local.clone()
-        local[..., torch.tensor(np.array(skeleton.translated_joints), device=device), :] = jt.to(dtype)
-    # World rotations and positions, level by level, in level order (root first).
-    g = q[..., :1, :]
-    p = root[..., None, :]
-    for joints, parents in zip(lv.joints, lv.parents):
-        at = torch.as_tensor(lv.inverse[parents], device=device)
-        gp = g.index_select(-2, at)
-        pp = p.index_select(-2, at)
-        idx = torch.as_tensor(joints, device=device)
-        g = torch.cat([g, quat_multiply(gp, q.index_select(-2, idx))], dim=-2)
-        p = torch.cat([p, pp + quat_apply(gp, local.index_select(-2, idx))], dim=-2)
-    back = torch.as_tensor(lv.inverse, device=device)
-    g = g.index_select(-2, back)
-    p = p.index_select(-2, back)
-    if skeleton.num_end_sites:
-        sp = torch.tensor(np.array(skeleton.end_site_parents), device=device)
-        p = torch.cat([p, p.index_select(-2, sp) + quat_apply(g.index_select(-2, sp), sites)], dim=-2)
-    return g, p
+    J, E = skeleton.num_joints, skeleton.num_end_sites
+    # Components first, joints next, every pose last ((4, J, N), N poses): each component of a level is one
+    # contiguous block, which makes the elementwise products several times faster than on (..., 4) rows.
+    q = rot.reshape(-1, J, 4).permute(2, 1, 0).contiguous()
+    x, y, z, w = q
+    q = q / torch.sqrt(x * x + y * y + z * z + w * w)  # (not vector_norm over dim 0: 10x slower on the CPU)
+    n = q.shape[-1]
+    if jt is not None and translated.numel():
+        local = local.expand(3, J, n).clone()
+        local[:, translated] = jt.to(dtype).reshape(n, -1, 3).permute(2, 1, 0)
+    gs = [q[:, :1]]
+    ps = [root.to(dtype).reshape(n, 3).T[:, None]]
+    for at, idx in levels:
+        gp = gs[-1].index_select(1, at)
+        gs.append(_qmul(gp, q.index_select(1, idx)))
+        ps.append(ps[-1].index_select(1, at) + _rotate(gp, local.index_select(1, idx)))
+    g = torch.cat(gs, dim=1).index_select(1, back) if len(gs) > 1 else gs[0]
+    p = torch.cat(ps, dim=1).index_select(1, back) if len(ps) > 1 else ps[0]
+    if E:
+        p = torch.cat([p, p.index_select(1, sp) + _rotate(g.index_select(1, sp), sites)], dim=1)
+    return (g.permute(2, 1, 0).reshape(batch + (J, 4)), p.permute(2, 1, 0).reshape(batch + (J + E, 3)))
+
+
+def _qmul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """Hamilton product of component-first quaternions ``(4, ...)`` xyzw."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return torch.stack([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                        aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz])
+
+
+def _rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """Component-first ``(3, ...)`` vectors rotated by unit ``(4, ...)`` quaternions: ``v + w t + u x t``,
+    ``t = 2 u x v`` (the compiled numpy FK's arithmetic)."""
+    x, y, z, w = q
+    vx, vy, vz = v
+    tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+    return torch.stack([vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz),
+                        vz + w * tz + (x * ty - y * tx)])

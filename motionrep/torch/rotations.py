@@ -104,10 +104,13 @@ def quat_apply(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     ``v + w t + u x t`` with ``t = 2 u x v`` (the arithmetic of motionrep's compiled FK)."""
     q = _last(q, 4, "q")
     v = _last(v, 3, "v")
+    if v.ndim < q.ndim:  # linalg.cross broadcasts over equal numbers of dimensions only
+        v = v.reshape((1,) * (q.ndim - v.ndim) + v.shape)
+    elif q.ndim < v.ndim:
+        q = q.reshape((1,) * (v.ndim - q.ndim) + q.shape)
     u = q[..., :3]
-    t = 2.0 * torch.linalg.cross(u.expand(torch.broadcast_shapes(u.shape, v.shape)), v.expand(
-        torch.broadcast_shapes(u.shape, v.shape)), dim=-1)
-    return v + q[..., 3:] * t + torch.linalg.cross(u.expand_as(t), t, dim=-1)
+    t = 2.0 * torch.linalg.cross(u, v, dim=-1)
+    return v + q[..., 3:] * t + torch.linalg.cross(u, t, dim=-1)
 
 
 def quat_to_matrix(q: torch.Tensor) -> torch.Tensor:
