@@ -28,6 +28,8 @@ from ._kinematics import forward_kinematics, global_positions
 from ._losses import (JointError, dq_mse_loss, dq_offset_loss, dq_pos_loss, dq_quat_loss, dq_reg_loss,
                       dualquats_of_features, fk_position_loss, max_joint_error)
 
+# The datasets over motion databases (MotionDataset, FeatureStats, split_clips) come from ._dataset, beside these.
+
 __all__ = [
     "rotations",
     "forward_kinematics",
