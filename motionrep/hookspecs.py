@@ -34,7 +34,9 @@ def register_representations(register: Callable[..., None]) -> None:
 
     :param register: call ``register(representation)`` once per representation, with an instance of a
         :class:`motionrep.representation.Representation` subclass.  The core checks it (a non-empty ``name``,
-        an integer ``version`` >= 1, the required methods) as it is registered.
+        an integer ``version`` >= 1, the required methods) as it is registered.  A representation may also
+        offer a torch path (``Representation.torch_path``, optional; ``specs/torch.md``), imported only when
+        asked for, so that registering never imports torch.
 
     Called once per process, when plugins are first loaded: the first time motionrep looks up any
     representation or codec (a command naming one, reading a features or ``.mrc`` file, ``motionrep plugins``);
