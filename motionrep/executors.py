@@ -20,7 +20,7 @@ from typing import Any, Iterator
 
 from .errors import ParameterError, TimeLimitError
 
-__all__ = ["dask_executor", "time_limit", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT"]
+__all__ = ["dask_executor", "time_limit", "die_with_parent", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT"]
 
 #: Environment variable naming a Dask scheduler (``tcp://host:8786``) when ``--scheduler`` is not given.
 SCHEDULER_VARIABLE = "MOTIONREP_SCHEDULER"
@@ -34,14 +34,39 @@ def _ignore_interrupts() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def die_with_parent(parent: int | None = None) -> None:
+    """Make this (worker) process die with its parent: on Linux ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, so a client
+    killed with SIGKILL leaves no worker running; then, if ``parent`` (the pid the worker was started by) is no
+    longer the parent, the parent died before the request took effect and the process exits now.  Elsewhere
+    nothing (the workers there end when they next read their closed task queue).  Call it first in a worker
+    process's initializer; the shipped pools do (``motionrep compress --jobs``, the Fourier codecs' ``jobs``)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except Exception:  # pragma: no cover - no libc prctl: the queue's end still stops the worker
+            pass
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
+
+
+def _start_worker(parent: int) -> None:
+    """Initializer of the embedded pool's workers: die with the client, leave Ctrl-C to it."""
+    die_with_parent(parent)
+    _ignore_interrupts()
+
+
 @contextlib.contextmanager
 def _process_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
-    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback)."""
+    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback) and
+    die with this process (:func:`die_with_parent`: a SIGKILL of the client leaves no orphan)."""
     import multiprocessing
 
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_ignore_interrupts)
+                                  initializer=_start_worker, initargs=(os.getpid(),))
     try:
         main = threading.current_thread() is threading.main_thread()
         saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
