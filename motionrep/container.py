@@ -497,8 +497,9 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
     rep = _get(meta, "representation", (dict,), "")
     num_frames = _get(meta, "num_frames", (int,), "")
     fps = _number(meta, "fps", "")
-    if num_frames < 1 or not fps > 0:
-        raise ContainerError(f"invalid .mrc file: {num_frames} frames at {fps} fps", path)
+    if num_frames < 1 or not fps > 0 or not math.isfinite(1.0 / fps):  # a frame time no file can hold
+        raise ContainerError(f"invalid .mrc file: {num_frames} frames at {fps!r} fps (fps must be > 0 with a "
+                             "finite frame time 1 / fps)", path)
     try:
         skeleton = skeleton_from_json(_get(meta, "skeleton", (dict,), ""))
     except ValidationError as exc:
