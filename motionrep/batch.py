@@ -306,6 +306,10 @@ class ClipJob:
     read: tuple[Motion, str] | MotionrepError | None = field(default=None, repr=False)
 
 
+#: Prefix of a worker's folder for a clip's bytes sent by the client, before the worker's process id.
+_CLIP_PREFIX = "motionrep-clip-"
+
+
 def _read_job(job: ClipJob) -> tuple[Motion, str]:
     """The clip and its source checksum, from its path or from what the client sent."""
     if isinstance(job.read, MotionrepError):
@@ -318,7 +322,7 @@ def _read_job(job: ClipJob) -> tuple[Motion, str]:
     from pathlib import Path
 
     suffix = Path(job.ref.path).suffix
-    with tempfile.TemporaryDirectory(prefix="motionrep-") as tmp:
+    with tempfile.TemporaryDirectory(prefix=f"{_CLIP_PREFIX}{os.getpid()}-") as tmp:
         local = Path(tmp) / f"clip{suffix}"
         local.write_bytes(job.data)
         motion, checksum = ClipRef(job.ref.name, str(local), job.ref.clip, job.ref.source_bytes).read_with_checksum()
@@ -391,6 +395,13 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
         One outcome per clip, in ``refs`` order.
     """
     expect = expect or {}
+    if send_data:  # the folders of local workers that were killed with a clip's bytes in them
+        import tempfile
+        from pathlib import Path
+
+        from .io._atomic import remove_stale_folders
+
+        remove_stale_folders(Path(tempfile.gettempdir()), _CLIP_PREFIX)
 
     sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
 
