@@ -25,6 +25,13 @@ how many threads computed it.
 :func:`compress_clips` (with ``--resume`` checksums and ``--timeout``) and :func:`evaluate_clips` /
 :func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep
 bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
+
+A batch survives its worst clip: with ``on_error`` (``compress_clips`` passes one), whatever one item raises,
+in this process or a worker, is that item's result, and a worker process that dies breaks only its item (the
+pool is started again and the items that were running are run again one at a time to find the one).
+
+Size: one concern, running many clips' work; the pool supervision (failures, a broken pool, interrupts) and the
+two batch jobs built on it stay together because each job's failure outcome is what the supervision returns.
 """
 
 from __future__ import annotations

@@ -9,6 +9,9 @@ shared evaluator (FK-based L-infinity over all joints and end sites, ``motionrep
 candidate features or payloads, and the core measures the final payload again, decoded from the bytes written.
 
 Plugins subclass :class:`Codec` and register an instance through the ``register_codecs`` hook.
+
+Size: one concern, the codec interface; the helpers its methods call (parameters, outcome and payload checks,
+descriptions) stay beside it, as they are each method's documented default or tool.
 """
 
 from __future__ import annotations
