@@ -118,3 +118,23 @@ def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
     assert info.value.code == 1
     err = capsys.readouterr().err.strip()
     assert "bad.mrc" in err and "extra.max_error" in err and len(err.splitlines()) == 1, err
+
+
+def test_transform_step_that_overflows_is_one_error_without_warnings(transform):
+    import warnings
+
+    from motionrep_transform._stream import pack as pack_data, unpack as unpack_data
+
+    q = unpack_data(np.asarray(transform.arrays["data"]).tobytes())
+    q = dataclasses.replace(q, region_exponents=np.full_like(q.region_exponents, 32_000))
+    bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(pack_data(q), np.uint8)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a numpy overflow warning printed before the error is the bug
+        _refused(bad, "not finite")
+
+
+def test_fourier_decode_work_beyond_the_limit_is_refused(windows, monkeypatch):
+    monkeypatch.setattr(limits, "DECODE_FREE_WORK", 1000)
+    with limits.override(max_decode_work=1):
+        _refused(windows, "MOTIONREP_MAX_DECODE_WORK", "3 window(s) over 60 frames")
+    decompress(pack(windows))
