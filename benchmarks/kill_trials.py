@@ -117,7 +117,7 @@ def _trial(work: Path, args: list[str], rng: random.Random) -> dict:
             pass
     again = subprocess.run(cmd, cwd=work, env=env, capture_output=True, timeout=600)
     left = _temporaries(work)
-    return {"killed_mid_run": killed, "after_seconds": round(time.monotonic() - started, 2),
+    return {"killed_mid_run": killed, "trial_seconds": round(time.monotonic() - started, 2),
             "processes_started": len(seen), "orphans": len(orphans), "temporaries_after_kill": len(left_after_kill),
             "next_run_exit": again.returncode, "temporaries_after_next_run": len(left), "left": left[:5]}
 
