@@ -114,3 +114,21 @@ def test_sigkill_of_convert_to_database_then_next_run_leaves_no_temporary(tmp_pa
     assert again.returncode != 0
     leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith((".db.h5.", "motionrep-"))]
     assert leftovers == []
+
+
+@pytest.mark.parametrize("command", ["merge", "compress"])
+def test_merge_and_compress_remove_a_dead_writers_temporaries_when_they_start(tmp_path, command):
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    _clips(tmp_path / "in", 2, 20)
+    runner = CliRunner()
+    assert runner.invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "a.h5")]).exit_code == 0
+    stale = tmp_path / f".out.h5.{_dead_pid()}.abcd_123.tmp.h5"
+    stale.write_bytes(b"left by a SIGKILL")
+    args = (["merge", str(tmp_path / "a.h5"), "-o", str(tmp_path / "out.h5")] if command == "merge" else
+            ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5")])
+    result = runner.invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert not stale.exists()
