@@ -19,6 +19,8 @@ Operations on these classes are free functions elsewhere (``motionrep.kinematics
 
 from __future__ import annotations
 
+import math
+import unicodedata
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Sequence
@@ -52,7 +54,31 @@ def _checked_motion_header(skeleton: Any, fps: Any) -> float:
         raise ValidationError(f"fps must be a number, got {fps!r}") from None
     if not np.isfinite(value) or value <= 0:
         raise ValidationError(f"fps must be finite and > 0, got {fps!r}")
+    if not math.isfinite(1.0 / value):  # 5e-324 fps: a frame time of inf, which no BVH file can hold
+        raise ValidationError(f"fps {fps!r} gives an infinite frame time (1 / fps); fps must be at least "
+                              f"{_MIN_FPS!r}")
     return value
+
+
+#: The smallest fps whose frame time ``1 / fps`` is finite.
+_MIN_FPS = float(np.nextafter(1.0 / np.finfo(np.float64).max, 1.0))
+
+
+def name_problem(name: str) -> str | None:
+    """What keeps ``name`` from being a joint name every format writes and reads back unchanged (BVH reads a
+    name as the words after ``ROOT``/``JOINT``, joined by one space), or None: it must be non-empty, its words
+    separated by single spaces (no tabs, newlines, ``\v``, U+2028 or other whitespace, none around it), with
+    no braces and no control characters (NUL, ESC, ...), surrogates or line and paragraph separators."""
+    if not name:
+        return "names must be non-empty"
+    if any(c in name for c in "{}"):
+        return "names must be without braces"
+    bad = next((c for c in name if unicodedata.category(c) in ("Cc", "Cs", "Zl", "Zp")), None)
+    if bad is not None:
+        return f"names must be without control characters (found U+{ord(bad):04X})"
+    if " ".join(name.split()) != name:
+        return "names must be words separated by single spaces, without tabs, newlines or surrounding spaces"
+    return None
 
 
 def _readonly(a: NDArray) -> NDArray:
@@ -121,9 +147,9 @@ class Skeleton:
         if J == 0:
             raise ValidationError("a Skeleton needs at least one joint")
         for n in names:
-            if not n or n != n.strip() or any(c in n for c in "{}\n\r\t"):
-                raise ValidationError(f"invalid joint name {n!r}: names must be non-empty, without braces, "
-                                      "tabs, newlines or surrounding spaces")
+            problem = name_problem(n)
+            if problem:
+                raise ValidationError(f"invalid joint name {n[:80]!r}: {problem}")
         seen: dict[str, int] = {}
         for i, n in enumerate(names):
             if n in seen:

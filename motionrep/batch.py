@@ -25,8 +25,14 @@ how many threads computed it.
 :func:`evaluate_refs` are the batch jobs of ``motionrep compress`` and ``motionrep evaluate``; ``motionrep
 bench`` runs :func:`motionrep.bench.run_bench` on the same engine.
 
-Size: one concern, running many clips; the pool, the thread policy and the pairing of two collections' clips
-(``evaluate`` of two databases, ``--common``) share the clip naming and the one way results come back.
+A batch survives its worst clip: with ``on_error`` (``compress_clips`` passes one), whatever one item raises,
+in this process or a worker, is that item's result, and a worker process that dies breaks only its item (the
+pool is started again and the items that were running are run again one at a time to find the one).
+
+Size: one concern, running many clips' work; the pool supervision (failures, a broken pool, interrupts, the
+progress relay) and the batch jobs built on it stay together because each job's failure outcome is what the
+supervision returns; the pairing of two collections' clips (``evaluate`` of two databases, ``--common``) shares
+the clip naming and the one way results come back.
 """
 
 from __future__ import annotations
@@ -87,7 +93,8 @@ def _call(work: Callable[[Any], Any], item: Any, parent: int, warm_up: tuple[str
 def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs: int = 1,
               executor: cf.Executor | None = None, warm_up: Iterable[str] = (),
               on_done: Callable[[int, _Item, _Result], None] | None = None,
-              window: int | None = None, relay: Any = None) -> list[_Result]:
+              window: int | None = None, relay: Any = None,
+              on_error: Callable[[_Item, Exception], _Result] | None = None) -> list[_Result]:
     """``[work(item) for item in items]``, in this process, in ``jobs`` worker processes, or on ``executor``.
 
     Args:
@@ -101,6 +108,11 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
         window: at most this many items submitted and not finished at once (None: all at once); items are taken
             from ``items`` only as they are submitted, so large items (clip bytes) are not all in memory.
         relay: the queue of :func:`motionrep.executors.progress_relay` the pool's workers report progress on.
+        on_error: with it, an item whose work raises (any ``Exception``, in this process or a worker) or whose
+            worker process dies gives ``on_error(item, exception)`` as its result and the others go on.  When a
+            worker of the embedded pool dies (a crash, the kernel's out-of-memory killer), the pool is started
+            again and the items that were running are run again one at a time, so that only the one that kills
+            its worker fails.
 
     Returns:
         The results, in item order.
@@ -126,21 +138,39 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
             for name in warm:
                 get_codec(name).warm_up()
         for index, item in enumerate(source):
-            results[index] = result = work(item)
+            try:
+                results[index] = result = work(item)
+            except Exception as exc:
+                if on_error is None:
+                    raise
+                results[index] = result = on_error(item, exc)
             if on_done is not None:
                 on_done(index, item, result)
         return [results[i] for i in range(len(results))]
+    from concurrent.futures.process import BrokenProcessPool
+
     with contextlib.ExitStack() as stack:
         pool = None
         if executor is None:
             stack.enter_context(worker_threads(1))
-            pool = executor = stack.enter_context(_process_pool(workers, relay))
+            pools = stack.enter_context(contextlib.ExitStack())
+            pool = executor = pools.enter_context(_process_pool(workers, relay))
         parent = os.getpid()
         pending: dict[cf.Future, tuple[int, Any]] = {}
+        suspects: list[tuple[int, Any]] = []  # items running when a worker died: run again one at a time
         next_index = 0
 
+        alone = False  # the one item pending is a suspect running alone
+
         def submit_more() -> None:
-            nonlocal next_index
+            nonlocal next_index, alone
+            if suspects:
+                if not pending:
+                    index, item = suspects.pop(0)
+                    pending[executor.submit(_call, work, item, parent, warm)] = (index, item)
+                    alone = True
+                return
+            alone = False
             while window is None or len(pending) < window:
                 try:
                     item = next(source)
@@ -149,15 +179,41 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
                 pending[executor.submit(_call, work, item, parent, warm)] = (next_index, item)
                 next_index += 1
 
+        def restart() -> None:
+            nonlocal pool, executor, pools
+            pools.close()  # the broken pool: its surviving workers are shut down
+            pools = stack.enter_context(contextlib.ExitStack())
+            pool = executor = pools.enter_context(_process_pool(workers, relay))
+
         try:
             submit_more()
             while pending:
                 finished, _ = cf.wait(list(pending), return_when=cf.FIRST_COMPLETED)
+                broken = False
                 for future in finished:
                     index, item = pending.pop(future)
-                    results[index] = result = future.result()
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool as exc:
+                        if on_error is None or pool is None:
+                            raise
+                        broken = True
+                        if not alone:  # several ran: find the one that kills its worker, running them alone
+                            suspects.append((index, item))
+                            continue
+                        result = on_error(item, exc)  # it ran alone: it is the one
+                    except Exception as exc:
+                        if on_error is None:
+                            raise
+                        result = on_error(item, exc)
+                    results[index] = result
                     if on_done is not None:
                         on_done(index, item, result)
+                if broken:
+                    suspects.extend(pending.values())
+                    suspects.sort(key=lambda pair: pair[0])
+                    pending.clear()
+                    restart()
                 submit_more()
         except BaseException:
             for future in pending:
@@ -243,6 +299,10 @@ class ClipJob:
     progress: Callable[[str, str, Any], None] | None = field(default=None, repr=False, compare=False)
 
 
+#: Prefix of a worker's folder for a clip's bytes sent by the client, before the worker's process id.
+_CLIP_PREFIX = "motionrep-clip-"
+
+
 def _read_job(job: ClipJob) -> tuple[Motion, str]:
     """The clip and its source checksum, from its path or from what the client sent."""
     if isinstance(job.read, MotionrepError):
@@ -255,7 +315,7 @@ def _read_job(job: ClipJob) -> tuple[Motion, str]:
     from pathlib import Path
 
     suffix = Path(job.ref.path).suffix
-    with tempfile.TemporaryDirectory(prefix="motionrep-") as tmp:
+    with tempfile.TemporaryDirectory(prefix=f"{_CLIP_PREFIX}{os.getpid()}-") as tmp:
         local = Path(tmp) / f"clip{suffix}"
         local.write_bytes(job.data)
         motion, checksum = ClipRef(job.ref.name, str(local), job.ref.clip, job.ref.source_bytes).read_with_checksum()
@@ -283,9 +343,27 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
             message = FormatError(exc.message, ref.source, exc.line).args[0]
         return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
                                             "cpu_seconds": time.process_time() - cpu}, "failed")
+    except Exception as exc:  # a bug or a resource (MemoryError, RecursionError): this clip's failure only
+        return _failed(ref, exc, time.process_time() - cpu)
     summary = dict(result.as_dict(), source=ref.source, source_sha256=checksum,
                    cpu_seconds=time.process_time() - cpu)
     return ClipOutcome(ref.name, result.data, summary)
+
+
+def _failed(ref: ClipRef, exc: BaseException, cpu_seconds: float = 0.0) -> ClipOutcome:
+    """The failed outcome of a clip whose compression raised something other than motionrep's own errors (or
+    whose worker process died): one line naming the clip's source and what happened."""
+    if isinstance(exc, MemoryError):
+        what = "not enough memory to compress it"
+    elif isinstance(exc, RecursionError):
+        what = "nested too deeply to compress (RecursionError)"
+    elif type(exc).__name__ == "BrokenProcessPool":
+        what = "its worker process died while compressing it (a crash, or killed for memory)"
+    else:
+        what = f"internal error {type(exc).__name__}: {exc}"
+    message = " ".join(f"{ref.source}: {what}".split())[:500]
+    return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
+                                        "cpu_seconds": cpu_seconds}, "failed")
 
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
@@ -313,6 +391,14 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
         One outcome per clip, in ``refs`` order.
     """
     expect = expect or {}
+    if send_data:  # the folders of local workers that were killed with a clip's bytes in them
+        import tempfile
+        from pathlib import Path
+
+        from .io._atomic import remove_stale_folders
+
+        remove_stale_folders(Path(tempfile.gettempdir()), _CLIP_PREFIX)
+
     sent = None if isinstance(send_data, bool) else frozenset(str(p) for p in send_data)
     pooled = progress is not None and executor is None and jobs > 1  # the pool's workers relay it (a queue)
     here = WorkerProgress() if pooled else None if executor else progress
@@ -321,21 +407,23 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
         for ref in refs:
             data = read = None
             if send_data is True or (sent is not None and ref.path in sent):
-                if ref.clip is None:
-                    with open(ref.path, "rb") as f:
-                        data = f.read()
-                else:
-                    try:
+                try:
+                    if ref.clip is None:
+                        with open(ref.path, "rb") as f:
+                            data = f.read()
+                    else:
                         read = ref.read_with_checksum()
-                    except MotionrepError as exc:
-                        read = exc
+                except MotionrepError as exc:
+                    read = exc
+                except (OSError, MemoryError) as exc:  # this clip's failure; the others go on
+                    read = FormatError(f"cannot read it: {type(exc).__name__}: {exc}", ref.path)
             yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read, here)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
     with progress_relay(progress) if pooled else contextlib.nullcontext() as relay:
         return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
                          on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
-                         window=window, relay=relay)
+                         window=window, relay=relay, on_error=lambda job, exc: _failed(job.ref, exc))
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -9,6 +9,9 @@ shared evaluator (FK-based L-infinity over all joints and end sites, ``motionrep
 candidate features or payloads, and the core measures the final payload again, decoded from the bytes written.
 
 Plugins subclass :class:`Codec` and register an instance through the ``register_codecs`` hook.
+
+Size: one concern, the codec interface; the helpers its methods call (parameters, outcome and payload checks,
+descriptions) stay beside it, as they are each method's documented default or tool.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import ParameterError, PayloadError
 
 __all__ = ["Codec", "Payload", "EncodeContext", "CompiledDecoder", "frame_times", "parse_params", "params_help",
-           "describe_info", "describe_progress", "codec_problems", "check_info_numbers"]
+           "describe_info", "describe_progress", "codec_problems", "check_info_numbers", "check_decode_work",
+           "check_frames"]
 
 
 @dataclass(frozen=True)
@@ -191,6 +195,21 @@ class Codec(ABC):
             PayloadError: naming the key and what it must be.
         """
 
+    def check_payload(self, payload: Payload, num_frames: int) -> None:
+        """Refuse a payload, read from a file, whose declared sizes disagree with the clip or the limits, before
+        anything is decoded or allocated for it.
+
+        The core calls this (``motionrep.runtime.Clip``, the one decode path) with the clip's frame count from the
+        container's metadata before :meth:`decoder`.  A codec whose payload states a frame count (or window
+        edges, segments...) checks it against ``num_frames``, naming both numbers; one whose decoding costs more
+        than the payload's size suggests (frames x network size) checks the declared work with
+        :func:`check_decode_work`.  Read only headers here: this must cost little more than the payload's size.
+        Default: accepts every payload.
+
+        Raises:
+            PayloadError: ``payload declares 450 frames, the clip has 900``.
+        """
+
     def describe_progress(self, stage: str, fields: Mapping[str, Any]) -> str:
         """One line for a progress report ``context.progress(stage, **fields)``.  Default:
         :func:`describe_progress`."""
@@ -266,6 +285,32 @@ def check_info_numbers(info: Mapping[str, Any], key: str, *, integers: bool = Fa
     one = "an integer" if integers else "a number"
     shapes = [f"an array of {'arrays of ' * (level - 1)}{what}" if level else one for level in range(least, most + 1)]
     raise PayloadError(f"{key!r} must be {' or '.join(shapes)}")
+
+
+def check_frames(declared: int, num_frames: int, what: str = "payload") -> None:
+    """For :meth:`Codec.check_payload`: the frame count a payload declares must be the clip's.
+
+    Raises:
+        PayloadError: ``payload declares 450 frames, the clip (metadata num_frames) has 900``.
+    """
+    if int(declared) != int(num_frames):
+        raise PayloadError(f"{what} declares {int(declared)} frames, the clip (metadata num_frames) has "
+                           f"{int(num_frames)}")
+
+
+def check_decode_work(work: int, payload: Payload, what: str) -> None:
+    """For :meth:`Codec.check_payload`: ``work`` units of decode work (one multiply-add of a network at one frame,
+    ``what`` saying what declared it) within ``max_decode_work`` per byte of ``payload``
+    (:func:`motionrep.limits.check_decode_work`, ``specs/limits.md``).
+
+    Raises:
+        PayloadError: naming the work, the limit and its environment variable.
+    """
+    from .limits import check_decode_work as check
+
+    reason = check(work, payload.nbytes, what)
+    if reason:
+        raise PayloadError(reason)
 
 
 def _number(v: Any) -> str:

@@ -428,6 +428,40 @@ def _check_evaluation(ev: Mapping[str, Any]) -> None:
             _get(ev, key, (str, type(None)) if optional else (str,), "evaluation", required=not optional)
 
 
+def _check_evaluation_counts(ev: Mapping[str, Any], num_frames: int, skeleton: Skeleton, path) -> None:
+    """The stored evaluation was measured on this clip: its frame and point counts are the clip's and its worst
+    frame one of them (a file whose metadata and evaluation disagree would decode to a motion nobody measured)."""
+    points = skeleton.num_joints + skeleton.num_end_sites
+    if ev["num_frames"] != num_frames:
+        raise ContainerError(f"inconsistent .mrc file: metadata num_frames is {num_frames}, the stored evaluation "
+                             f"was measured on {ev['num_frames']} frames", path)
+    if ev["num_points"] != points:
+        raise ContainerError(f"inconsistent .mrc file: the skeleton has {points} joints and end sites, the stored "
+                             f"evaluation was measured on {ev['num_points']} points", path)
+    if not 0 <= ev["frame"] < num_frames:
+        raise ContainerError(f"inconsistent .mrc file: the stored evaluation's worst frame {ev['frame']} is not one "
+                             f"of the {num_frames} frames", path)
+
+
+def _check_max_error(extra: Mapping[str, Any], path) -> None:
+    """``extra.max_error``, the bound asked for when the file was written, is what ``--max-error`` accepts (or
+    null): commands that show it parse it, and a crafted value must be refused as the file's, not as an option."""
+    from .bound import parse_max_error
+    from .errors import ParameterError
+
+    value = extra.get("max_error")
+    if value is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' must be a string, a number or null, got "
+                             f"{_json_name(value)}", path)
+    try:
+        parse_max_error(value)
+    except ParameterError:
+        raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' is {str(value)[:80]!r}, not a bound "
+                             "('2%', '1.5' or 'none')", path) from None
+
+
 def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) -> Container:
     """The container described by ``meta`` (parsed, untrusted JSON) over ``payload``; every field is type-checked
     and the sizes checked against the payload and the limits before any array is made."""
@@ -463,8 +497,9 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
     rep = _get(meta, "representation", (dict,), "")
     num_frames = _get(meta, "num_frames", (int,), "")
     fps = _number(meta, "fps", "")
-    if num_frames < 1 or not fps > 0:
-        raise ContainerError(f"invalid .mrc file: {num_frames} frames at {fps} fps", path)
+    if num_frames < 1 or not fps > 0 or not math.isfinite(1.0 / fps):  # a frame time no file can hold
+        raise ContainerError(f"invalid .mrc file: {num_frames} frames at {fps!r} fps (fps must be > 0 with a "
+                             "finite frame time 1 / fps)", path)
     try:
         skeleton = skeleton_from_json(_get(meta, "skeleton", (dict,), ""))
     except ValidationError as exc:
@@ -484,6 +519,8 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
         _plain(value, where)
     if evaluation is not None:
         _check_evaluation(evaluation)
+        _check_evaluation_counts(evaluation, num_frames, skeleton, path)
+    _check_max_error(extra, path)
     codec_name = _get(codec, "name", (str,), "codec")
     _check_outcome(codec_name, info, path)
     arrays: dict[str, NDArray[Any]] = {}

@@ -24,8 +24,8 @@ from typing import Any, Callable, Iterator
 
 from .errors import ParameterError, TimeLimitError
 
-__all__ = ["dask_executor", "time_limit", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT", "THREAD_VARIABLES", "worker_threads",
-           "progress_relay", "WorkerProgress"]
+__all__ = ["dask_executor", "time_limit", "die_with_parent", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT",
+           "THREAD_VARIABLES", "worker_threads", "progress_relay", "WorkerProgress"]
 
 #: Environment variables that set the thread count of the BLAS libraries numpy and scipy may use.
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -44,6 +44,32 @@ def _ignore_interrupts() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def die_with_parent(parent: int | None = None) -> None:
+    """Make this (worker) process die with its parent: on Linux ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, so a client
+    killed with SIGKILL leaves no worker running; then, if ``parent`` (the pid the worker was started by) is no
+    longer the parent, the parent died before the request took effect and the process exits now.  Elsewhere
+    nothing (the workers there end when they next read their closed task queue).  Call it first in a worker
+    process's initializer; the shipped pools do (``motionrep compress --jobs``, the Fourier codecs' ``jobs``)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except Exception:  # pragma: no cover - no libc prctl: the queue's end still stops the worker
+            pass
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
+
+
+def _start_worker(parent: int, queue: Any = None) -> None:
+    """Initializer of the embedded pool's workers: die with the client, leave Ctrl-C to it, report progress on
+    ``queue`` (:func:`progress_relay`; None: no progress)."""
+    die_with_parent(parent)
+    _ignore_interrupts()
+    _RELAY["queue"] = queue
+
+
 @contextlib.contextmanager
 def worker_threads(count: int = 1) -> Iterator[None]:
     """Set :data:`THREAD_VARIABLES` to ``count`` while the block runs (worker processes spawned inside it start
@@ -58,11 +84,6 @@ def worker_threads(count: int = 1) -> Iterator[None]:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
-
-
-def _start_worker(queue: Any) -> None:
-    _ignore_interrupts()
-    _RELAY["queue"] = queue
 
 
 class WorkerProgress:
@@ -110,12 +131,13 @@ def progress_relay(callback: Callable[[str, str, Any], None]) -> Iterator[Any]:
 @contextlib.contextmanager
 def _process_pool(workers: int, relay: Any = None) -> Iterator[cf.ProcessPoolExecutor]:
     """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
-    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback);
-    ``relay``: the :func:`progress_relay` queue its workers report progress on."""
+    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback) and
+    die with this process (:func:`die_with_parent`: a SIGKILL of the client leaves no orphan); ``relay``: the
+    :func:`progress_relay` queue its workers report progress on."""
     import multiprocessing
 
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_start_worker, initargs=(relay,))
+                                  initializer=_start_worker, initargs=(os.getpid(), relay))
     try:
         main = threading.current_thread() is threading.main_thread()
         saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None

@@ -20,6 +20,9 @@ setting                    environment variable                default      what
                                                                             watchdog)
 ``max_stdin_bytes``        ``MOTIONREP_MAX_STDIN_BYTES``       16 GiB       standard input (``-``), copied to a
                                                                             temporary file to be read
+``max_decode_work``        ``MOTIONREP_MAX_DECODE_WORK``       100,000      work a ``.mrc`` payload may declare per
+                                                                            byte of payload (any payload may
+                                                                            declare 2 ** 30 units)
 =========================  ==================================  ===========  ========================================
 
 Byte sizes in the environment accept ``K``, ``M``, ``G`` suffixes (powers of 1024).  In Python::
@@ -45,7 +48,7 @@ from dataclasses import dataclass
 from .errors import ValidationError
 
 __all__ = ["Limits", "DEFAULTS", "ENVIRONMENT", "current", "override", "set_limits", "clip_bytes", "check_clip",
-           "size_text"]
+           "check_decode_work", "size_text", "DECODE_FREE_WORK"]
 
 
 @dataclass(frozen=True)
@@ -62,9 +65,11 @@ class Limits:
     max_mrc_expansion: int = 10_000
     read_timeout: float = 60.0
     max_stdin_bytes: int = 16 << 30
+    max_decode_work: int = 100_000
 
     def __post_init__(self) -> None:
-        for name in ("max_frames", "max_clip_bytes", "max_metadata_bytes", "max_mrc_expansion", "max_stdin_bytes"):
+        for name in ("max_frames", "max_clip_bytes", "max_metadata_bytes", "max_mrc_expansion", "max_stdin_bytes",
+                     "max_decode_work"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValidationError(f"limit {name} must be a positive integer, got {value!r}")
@@ -80,9 +85,12 @@ DEFAULTS = Limits()
 ENVIRONMENT = {"max_frames": "MOTIONREP_MAX_FRAMES", "max_clip_bytes": "MOTIONREP_MAX_CLIP_BYTES",
                "max_metadata_bytes": "MOTIONREP_MAX_METADATA_BYTES",
                "max_mrc_expansion": "MOTIONREP_MAX_MRC_EXPANSION", "read_timeout": "MOTIONREP_READ_TIMEOUT",
-               "max_stdin_bytes": "MOTIONREP_MAX_STDIN_BYTES"}
+               "max_stdin_bytes": "MOTIONREP_MAX_STDIN_BYTES", "max_decode_work": "MOTIONREP_MAX_DECODE_WORK"}
 #: Clip memory any ``.mrc`` file may decode to, whatever its size (``max_mrc_expansion`` applies beyond it).
 MRC_FREE_BYTES = 64 << 20
+#: Decode work any payload may declare, whatever its size (``max_decode_work`` per payload byte applies beyond
+#: it): about a second of decoding.  A unit is one multiply-add of a network evaluated at one frame.
+DECODE_FREE_WORK = 1 << 30
 
 _SIZE = re.compile(r"\s*([0-9]+)\s*([kmgt]?)i?b?\s*\Z", re.IGNORECASE)
 _lock = threading.Lock()
@@ -183,6 +191,20 @@ def check_clip(frames: int, what: str, *, joints: int = 0, translated: int = 0, 
         return (f"{what}: a clip of {frames} frames needs {size_text(size)} in memory, more than "
                 f"{lim.max_mrc_expansion} times the {mrc_bytes}-byte container (raise "
                 f"{ENVIRONMENT['max_mrc_expansion']} to read it)")
+    return None
+
+
+def check_decode_work(work: int, payload_bytes: int, what: str) -> str | None:
+    """The reason a payload of ``payload_bytes`` bytes declaring ``work`` units of decode work (``what`` names
+    it: ``"450 frames x 3 windows"``) is refused under the current limits, or None if it is accepted: the work
+    may be at most ``max(DECODE_FREE_WORK, max_decode_work x payload_bytes)``.  Python integers: never
+    overflows."""
+    lim = current()
+    allowed = max(DECODE_FREE_WORK, lim.max_decode_work * int(payload_bytes))
+    if int(work) > allowed:
+        return (f"{what} declares {int(work):.3g} units of decode work, more than the limit of {allowed:.3g} for a "
+                f"{int(payload_bytes)}-byte payload ({lim.max_decode_work} per byte; raise "
+                f"{ENVIRONMENT['max_decode_work']} to decode it)")
     return None
 
 

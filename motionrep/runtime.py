@@ -96,8 +96,10 @@ class Clip:
         self._codec_name = codec.name
         self.container = container
         self.skeleton: Skeleton = container.skeleton
-        self._decoder = self._codec_call(codec.decoder, Payload(arrays=container.arrays, info=container.info,
-                                                                version=container.codec_version))
+        payload = Payload(arrays=container.arrays, info=container.info, version=container.codec_version)
+        # declared sizes against the clip and the decode-work limit, before anything is decoded or allocated
+        self._codec_call(codec.check_payload, payload, int(container.num_frames))
+        self._decoder = self._codec_call(codec.decoder, payload)
         self.fps = float(container.fps)
         self.num_frames = int(container.num_frames)
         self.codec, self.representation = container.codec, container.representation

@@ -240,11 +240,9 @@ def test_npz_uncompressed_reads_the_same(tmp_path):
 
 
 def test_nul_in_names_is_refused(tmp_path):
-    sk = chain_skeleton(2).replace(names=("a\x00", "b"))
-    m = synthetic_motion(sk, frames=3)
-    for suffix in SUFFIXES:
-        with pytest.raises(ValidationError, match="NUL"):
-            write(m, tmp_path / f"x{suffix}")
+    # a name no format can write back is refused by the Skeleton itself (issue 27), before any file is written
+    with pytest.raises(ValidationError, match="control characters"):
+        chain_skeleton(2).replace(names=("a\x00", "b"))
     assert list(tmp_path.iterdir()) == []
 
 

@@ -59,6 +59,10 @@ def check_outputs(paths: Iterable[Any], force: bool) -> None:
 
 
 # ---- standard input and output -----------------------------------------------------------------------------------
+#: Prefix of the folder holding what a command writes to standard output, before its process id.
+_STDOUT_PREFIX = "motionrep-stdout-"
+
+
 @contextlib.contextmanager
 def stdout_output(path: Any, suffix: str) -> Iterator[Path]:
     """The file to write: ``path`` itself, or for ``-`` a temporary ``stdout<suffix>`` file that is copied to
@@ -66,7 +70,10 @@ def stdout_output(path: Any, suffix: str) -> Iterator[Path]:
     if not is_stdio(path):
         yield Path(path)
         return
-    folder = tempfile.mkdtemp(prefix="motionrep-stdout-")
+    from ..io._atomic import remove_stale_folders
+
+    remove_stale_folders(Path(tempfile.gettempdir()), _STDOUT_PREFIX)  # what a killed command left
+    folder = tempfile.mkdtemp(prefix=f"{_STDOUT_PREFIX}{os.getpid()}-")
     tmp = Path(folder) / f"stdout{suffix}"
     try:
         yield tmp

@@ -89,14 +89,11 @@ def _read_head(stream: Any) -> bytes:
 
 
 def _remove_stale(parent: Path) -> None:
-    """Remove the directories of commands that were killed (their process id in the name, that process gone)."""
-    from ..io._atomic import pid_alive
+    """Remove the spool directories of commands that were killed (their process id in the name, that process
+    gone)."""
+    from ..io._atomic import remove_stale_folders
 
-    with contextlib.suppress(OSError):
-        for name in os.listdir(parent):
-            pid = name[len(_PREFIX):].split("-", 1)[0] if name.startswith(_PREFIX) else ""
-            if pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
-                shutil.rmtree(parent / name, ignore_errors=True)
+    remove_stale_folders(parent, _PREFIX)
 
 
 def _spool(stream: Any, head: bytes, target: Path) -> None:

@@ -206,6 +206,10 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         raise click.UsageError(f"output {out} exists and is not a directory")
     if to_stdout:
         out = Path(f"stdout{OUT_FORMATS[out_format or 'bvh']}")
+    else:  # temporary files a killed run left beside (or in) the output
+        from ..io._atomic import remove_stale_files
+
+        remove_stale_files(out if to_directory else (out.parent if str(out.parent) else "."))
     out_fmt = {"h5": "hdf5"}.get(out_format or "bvh", out_format or "bvh") if to_directory else \
         _format_or_usage(out, "output")
     if out_format is not None and not (to_directory or to_stdout):

@@ -79,6 +79,9 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, qu
     to_archive = output.suffix.lower() in (".h5", ".hdf5")
     if not to_archive and output.suffix:
         raise click.UsageError(f"output {output}: merge writes OUT.h5 (an archive) or a directory")
+    from ..io._atomic import remove_stale_files  # temporary files a killed run left beside (or in) the output
+
+    remove_stale_files(output.parent if to_archive else output)
     shards = [(p, _shard(p)) for p in inputs]
     chosen: dict[str, tuple[Path, Any, bytes | None]] = {}
     clashes: list[str] = []

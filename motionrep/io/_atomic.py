@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
+import shutil
 import stat
 import tempfile
 from pathlib import Path
@@ -12,7 +14,7 @@ from typing import Iterator
 from .._signals import block, unblock
 from .._signals import check as _check_interrupts
 
-__all__ = ["atomic_path", "pid_alive"]
+__all__ = ["atomic_path", "pid_alive", "remove_stale_files", "remove_stale_folders"]
 
 
 def pid_alive(pid: int) -> bool:
@@ -39,6 +41,44 @@ def _remove_stale(directory: Path, target: Path) -> None:
         if pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
             with contextlib.suppress(OSError):
                 (directory / name).unlink()
+
+
+#: A temporary name of :func:`atomic_path`: ``.<name>.<pid>.<8 random characters of mkstemp>.tmp<suffix>``.
+_TEMPORARY = re.compile(r"\A\.(?P<name>.+)\.(?P<pid>[0-9]+)\.[a-z0-9_]{8}\.tmp(?P<suffix>\.[^./]*)?\Z")
+
+
+def remove_stale_files(directory: str | os.PathLike[str]) -> int:
+    """Remove every temporary file of :func:`atomic_path` in ``directory`` whose writer was killed (its process
+    id in the name, that process gone), whatever its target; return how many were removed.  The commands that
+    write (``convert``, ``compress``, ``merge``) call it for their output's directory when they start, so what a
+    SIGKILL left is removed by the next run, as the standard-input spool is.  Only names of exactly that form,
+    ending in ``.tmp`` and the target's suffix, are touched."""
+    directory = Path(directory)
+    removed = 0
+    try:
+        names = os.listdir(directory)
+    except OSError:
+        return 0
+    for name in names:
+        m = _TEMPORARY.match(name)
+        if m is None or m.group("suffix") != Path(m.group("name")).suffix or not m.group("suffix"):
+            continue
+        pid = int(m.group("pid"))
+        if pid != os.getpid() and not pid_alive(pid):
+            with contextlib.suppress(OSError):
+                (directory / name).unlink()
+                removed += 1
+    return removed
+
+
+def remove_stale_folders(parent: str | os.PathLike[str], prefix: str) -> None:
+    """Remove the directories ``<prefix><pid>-*`` in ``parent`` of processes that were killed (that process gone):
+    the standard-input spool, standard output's staging folder, a worker's copy of a clip sent to it."""
+    with contextlib.suppress(OSError):
+        for name in os.listdir(parent):
+            pid = name[len(prefix):].split("-", 1)[0] if name.startswith(prefix) else ""
+            if pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
+                shutil.rmtree(Path(parent) / name, ignore_errors=True)
 
 
 @contextlib.contextmanager

@@ -10,11 +10,11 @@ from typing import Any, Callable, Literal, Mapping, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload, check_info_numbers
-from motionrep.errors import BoundNotMetError, ParameterError
+from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_info_numbers
+from motionrep.errors import BoundNotMetError, ParameterError, PayloadError
 
 from ._network import Network, network_dtype
-from ._packed import dequantized, unpack
+from ._packed import declared, dequantized, unpack
 from ._windows import Windows, join_windows, window_edges
 from ._workers import Runner, Task, WindowJob, worker_count
 
@@ -135,6 +135,40 @@ class _FourierCodec(Codec):
         for key, arrays in _INFO_INTEGERS.items():
             check_info_numbers(info, key, integers=True, arrays=arrays)
         check_info_numbers(info, "omega", arrays=(1, 2))
+
+    def check_payload(self, payload: Payload, num_frames: int) -> None:
+        """The window edges a payload declares (the quantised head, or the float ``edges``) must start at 0,
+        increase and end at the clip's last frame ``num_frames - 1``; the declared work, frames x network size
+        per window (``h (2K + 2) + h (h + 1) + D (h + 1)`` multiply-adds per frame, ``h = 2 (2K + 1)``), within
+        ``max_decode_work`` (``specs/limits.md``).  Reads the head only."""
+        arrays = payload.arrays
+        if "data" in arrays:
+            edges, K, D = declared(np.asarray(arrays["data"]), self.payload_version(payload))
+            hidden = 2 * (2 * K + 1)
+        elif "edges" in arrays:
+            edges = np.asarray(arrays["edges"]).astype(np.int64).reshape(-1)
+            K = np.asarray(arrays["k"]).astype(np.int64).reshape(-1)
+            b2 = np.asarray(arrays["b2"])
+            if edges.size < 2 or K.size != edges.size - 1 or b2.ndim != 2 or np.any(K < 0) or np.any(K > 1 << 16):
+                raise PayloadError(f"windowed payload: {edges.size} edges for {K.size} windows")
+            D, hidden = int(b2.shape[1]), 2 * (2 * K + 1)
+        else:  # one float network: no frame count stored; the work is the clip's frames x its size
+            K = np.array([np.asarray(arrays["omega"]).size], np.int64)
+            hidden = np.array([np.asarray(arrays["b0"]).shape[0] if np.asarray(arrays["b0"]).ndim else 0])
+            D = int(np.asarray(arrays["b2"]).size)
+            edges = np.array([0, max(num_frames - 1, 1)], np.int64)
+        if edges[0] != 0 or np.any(np.diff(edges) < 1):
+            raise PayloadError(f"window edges must start at frame 0 and increase, got {edges[:8].tolist()}"
+                               + (" ..." if edges.size > 8 else ""))
+        last = int(edges[-1])
+        if last != num_frames - 1 and not (num_frames == 1 and edges.size == 2):
+            raise PayloadError(f"window edges end at frame {last} ({last + 1} frames), the clip (metadata "
+                               f"num_frames) has {num_frames} frames")
+        frames = np.diff(edges) + 1  # Python integers below: no overflow
+        per_frame = [int(h) * (2 * int(k) + 2) + int(h) * (int(h) + 1) + int(D) * (int(h) + 1)
+                     for h, k in zip(hidden.tolist(), K.tolist())]
+        work = sum(int(f) * c for f, c in zip(frames.tolist(), per_frame))
+        check_decode_work(work, payload, f"a payload of {edges.size - 1} window(s) over {num_frames} frames")
 
     def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
         """``K=5`` (with ``detail``: the frequencies and hidden width); in windows ``3 windows, K=4-6`` (with

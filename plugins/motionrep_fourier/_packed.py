@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from motionrep.coding import IntegerDecoder, IntegerEncoder, fit_matrix_model, fit_model, step_scale
 from motionrep.errors import PayloadError
 
-__all__ = ["QuantizedNetwork", "pack", "unpack", "dequantized", "layer_bits", "MAX_K", "MAX_WIDTH", "MAX_INDEX",
+__all__ = ["QuantizedNetwork", "pack", "unpack", "declared", "dequantized", "layer_bits", "MAX_K", "MAX_WIDTH", "MAX_INDEX",
            "VERSION", "VERSIONS"]
 
 #: Largest number of frequencies of one network (as the codecs' ``max_k``).
@@ -137,14 +137,9 @@ def pack(edges: Sequence[int], scale: NDArray[np.int64], networks: Sequence[Quan
     return np.frombuffer(enc.to_bytes(), np.uint8).copy()
 
 
-def unpack(data: NDArray[np.uint8], version: int = VERSION
-           ) -> tuple[NDArray[np.int64], NDArray[np.int64], list[QuantizedNetwork]]:
-    """``edges``, the output scale indices and the networks of a payload's ``data`` array of payload ``version``.
-
-    Raises:
-        PayloadError: for data that does not decode to a consistent payload (declared sizes out of range or
-            beyond what the data can hold, data left over).
-    """
+def _header(data: NDArray[np.uint8], version: int):
+    """The checked head of a payload: the decoder positioned after it, the width, window count, window lengths,
+    frequency counts, output scale, steps, layer shapes and the value budget."""
     if version not in VERSIONS:
         raise PayloadError(f"quantised Fourier payload: version {version} is not one of {VERSIONS}")
     raw = np.asarray(data, np.uint8).reshape(-1)
@@ -168,6 +163,29 @@ def unpack(data: NDArray[np.uint8], version: int = VERSION
     total = int(K.sum()) + sum(a * b for s in shapes for a, b in s) + sum(2 * s[1][1] for s in shapes)
     if total > budget:
         raise PayloadError(f"quantised Fourier payload: {total} weights declared in {raw.size} bytes")
+    return raw, dec, D, S, lengths, K, scale, steps, shapes, budget
+
+
+def declared(data: NDArray[np.uint8], version: int = VERSION) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
+    """``edges (S + 1,)``, frequency counts ``K (S,)`` and width ``D`` a payload's ``data`` declares, read from its
+    head only (checked as :func:`unpack` checks it), for ``Codec.check_payload``.
+
+    Raises:
+        PayloadError: as :func:`unpack`, for a damaged head.
+    """
+    _, _, D, _, lengths, K, _, _, _, _ = _header(data, version)
+    return np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64), K.astype(np.int64), D
+
+
+def unpack(data: NDArray[np.uint8], version: int = VERSION
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64], list[QuantizedNetwork]]:
+    """``edges``, the output scale indices and the networks of a payload's ``data`` array of payload ``version``.
+
+    Raises:
+        PayloadError: for data that does not decode to a consistent payload (declared sizes out of range or
+            beyond what the data can hold, data left over).
+    """
+    raw, dec, D, S, lengths, K, scale, steps, shapes, budget = _header(data, version)
     if version == 3:
         models = dec.decode_models(1 + 5 * S)
         omega2 = dec.decode(int(K.sum()), models[0])

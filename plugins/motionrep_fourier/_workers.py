@@ -174,11 +174,13 @@ class Runner:
         # process which only describes or decodes a file (`motionrep info clip.mrc`) should not pay
         from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
+        from motionrep.executors import die_with_parent  # a killed encoder leaves no worker behind
+
         global _JOB
         fork = multiprocessing.get_context("fork")
         self.job.relay = relay = fork.SimpleQueue()  # the workers' progress, passed on here
         _JOB = self.job
-        pool = ProcessPoolExecutor(self.jobs, mp_context=fork)
+        pool = ProcessPoolExecutor(self.jobs, mp_context=fork, initializer=die_with_parent, initargs=(os.getpid(),))
         running: dict[Future, Task] = {}
 
         def pass_on() -> None:

@@ -20,7 +20,8 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, CompiledDecoder, EncodeContext, Payload, check_info_numbers
+from motionrep.codec import (Codec, CompiledDecoder, EncodeContext, Payload, check_decode_work, check_frames,
+                             check_info_numbers)
 from motionrep.errors import BoundNotMetError, ParameterError
 from motionrep.jit import affine_block, affine_one, jit
 
@@ -118,6 +119,16 @@ class SVDCodec(Codec):
     def describe(self, info: Mapping[str, Any], detail: bool = False) -> str:
         """``rank=9``."""
         return f"rank={info['rank']}" if "rank" in info else super().describe(info, detail)
+
+    def check_payload(self, payload: Payload, num_frames: int) -> None:
+        """The payload's coefficient rows (one per frame) must be the clip's frames; the work (frames x rank x
+        features) is the size of what it stores times the frame count, checked like every codec's."""
+        coeff = np.asarray(payload.arrays.get("coefficients", np.zeros((0, 0))))
+        mean = np.asarray(payload.arrays.get("mean", np.zeros(0)))
+        if coeff.ndim == 2:
+            check_frames(coeff.shape[0], num_frames, "svd payload (coefficient rows)")
+            check_decode_work(int(num_frames) * int(coeff.shape[1]) * int(mean.size), payload,
+                              f"svd payload of rank {coeff.shape[1]}")
 
     def decoder(self, payload: Payload) -> "SVDDecoder":
         return SVDDecoder(payload.arrays, dtype=np.float64 if self.payload_version(payload) == 1 else np.float32)

@@ -29,12 +29,12 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload
+from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
 from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError
 from motionrep.jit import jit
 
-from ._stream import MAX_EXPONENT, Quantised, pack, unpack
+from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack, unpack
 from ._wavelet import coefficient_frames, forward, inverse, num_levels
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
@@ -184,7 +184,8 @@ def reconstruct(q: Quantised) -> NDArray[np.float64]:
         raise PayloadError("transform payload: coefficient arrays do not fit the clip")
     if any(e.size and int(np.abs(e).max()) > MAX_EXPONENT for e in exps):
         raise PayloadError("transform payload: a step is out of range")
-    return _synthesised([c * step for c, step in zip(q.coefficients, steps_of(exps))], levels)
+    with np.errstate(all="ignore"):  # a crafted step overflows to inf: refused below, one line, no warning
+        return _synthesised([c * step for c, step in zip(q.coefficients, steps_of(exps))], levels)
 
 
 def _synthesised(values: list[NDArray[np.float64]], levels: int) -> NDArray[np.float64]:
@@ -420,6 +421,16 @@ class TransformCodec(Codec):
         if detail and isinstance(step, list) and len(step) == 2:
             text += f" of {info.get('region_frames')} frames, steps {step[0]:.3g}-{step[1]:.3g}"
         return text
+
+    def check_payload(self, payload: Payload, num_frames: int) -> None:
+        """The frame count in the payload's head must be the clip's, and its coefficients (``F x D``, each
+        :data:`~._stream.COEFFICIENT_WORK` units) within ``max_decode_work`` (``specs/limits.md``)."""
+        data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
+        if data.dtype != np.uint8 or data.ndim != 1:
+            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
+        F, D, _ = declared(data.tobytes())
+        check_frames(F, num_frames, "transform payload")
+        check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 
     def decoder(self, payload: Payload) -> TransformDecoder:
         return TransformDecoder(payload)

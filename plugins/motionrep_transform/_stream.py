@@ -21,7 +21,7 @@ from motionrep.errors import PayloadError
 
 from ._wavelet import level_sizes, num_levels
 
-__all__ = ["Quantised", "pack", "unpack", "MAX_EXPONENT", "MAX_ZERO"]
+__all__ = ["Quantised", "pack", "unpack", "declared", "MAX_EXPONENT", "MAX_ZERO", "COEFFICIENT_WORK"]
 
 _SIZES = 8  # context classes per (pass, level group): bit length of the context sum, capped
 _FINE = 3  # detail levels 1..3 (the finest) form one group, coarser levels the other
@@ -183,6 +183,19 @@ def pack(q: Quantised) -> bytes:
         for c, start, stop in groups:
             enc.encode(ordered[start:stop], models[c])
     return enc.to_bytes()
+
+
+#: Decode work of one coefficient, in the units of ``motionrep.limits.check_decode_work`` (a network's multiply-add):
+#: range decoding its value and context, and its share of the inverse wavelet, about 256 times a multiply-add.
+COEFFICIENT_WORK = 256
+
+
+def declared(data: bytes) -> tuple[int, int, int]:
+    """``(frames F, features D, region frames)`` the head of payload bytes declares (3 raw fields; nothing else
+    is decoded), for ``Codec.check_payload``."""
+    dec = IntegerDecoder(data)
+    return (int(dec.decode_raw(1, 32)[0]) + 1, int(dec.decode_raw(1, 20)[0]) + 1,
+            int(dec.decode_raw(1, 16)[0]) + 1)
 
 
 def unpack(data: bytes) -> Quantised:

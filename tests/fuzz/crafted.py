@@ -404,7 +404,7 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     claim = enc.to_bytes() + bytes(len(payload))
     table = edited()
     table["arrays"][0]["shape"] = [len(claim)]
-    mrc("mrc-transform-payload-4e9-frames", pack_meta(table, claim), "cannot be held",
+    mrc("mrc-transform-payload-4e9-frames", pack_meta(table, claim), "transform payload declares 4294967296 frames",
         "payload error without the file")
 
     # ---- BVH ---------------------------------------------------------------------------------------------------

@@ -1,0 +1,140 @@
+"""Crafted ``.mrc`` files whose CRC is valid but whose counts disagree (issue 27): each is refused with one line
+naming both numbers, before anything is decoded; decode work is bounded by the payload's size."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from motionrep import limits
+from motionrep.compress import Pipeline, decompress
+from motionrep.container import pack, unpack
+from motionrep.errors import ContainerError
+from motionrep.synthetic import synthetic_motion
+
+
+@pytest.fixture(scope="module")
+def motion():
+    return synthetic_motion(frames=60)
+
+
+@pytest.fixture(scope="module")
+def transform(motion):
+    return Pipeline.build("transform").compress(motion).container
+
+
+@pytest.fixture(scope="module")
+def windows(motion):
+    return Pipeline.build("adaptive-fourier", params={"k": 1, "iters": 25, "window": 20},
+                          max_error=None).compress(motion).container
+
+
+def _refused(container, *words):
+    with pytest.raises(ContainerError) as info:
+        decompress(pack(container), path="crafted.mrc")
+    text = str(info.value)
+    assert "crafted.mrc" in text and "\n" not in text
+    for w in words:
+        assert w in text, text
+    return text
+
+
+@pytest.mark.parametrize("frames", [120, 2, 59])
+def test_metadata_frames_disagree_with_transform_payload(transform, frames):
+    bad = dataclasses.replace(transform, num_frames=frames, evaluation=dict(transform.evaluation, num_frames=frames,
+                                                                          frame=0))
+    _refused(bad, "60 frames", str(frames))
+
+
+@pytest.mark.parametrize("frames", [120, 2, 59])
+def test_metadata_frames_disagree_with_fourier_window_edges(windows, frames):
+    bad = dataclasses.replace(windows, num_frames=frames, evaluation=dict(windows.evaluation, num_frames=frames,
+                                                                        frame=0))
+    _refused(bad, "frame 59", str(frames))
+
+
+@pytest.mark.parametrize("change", ["doubled", "short"])
+def test_fourier_window_edges_doubled_or_short(windows, change):
+    from motionrep_fourier._packed import pack as pack_data, unpack as unpack_data
+
+    edges, scale, networks = unpack_data(windows.arrays["data"])
+    edges = edges * 2 if change == "doubled" else np.concatenate([edges[:-1], [edges[-1] - 3]])
+    bad = dataclasses.replace(windows, arrays={"data": pack_data(edges, scale, networks)})
+    _refused(bad, "window edges end at frame", "60 frames")
+
+
+def test_stored_evaluation_disagrees_with_metadata(transform):
+    bad = dataclasses.replace(transform, evaluation=dict(transform.evaluation, num_frames=30))
+    with pytest.raises(ContainerError, match="num_frames is 60, the stored evaluation was measured on 30"):
+        unpack(pack(bad), "crafted.mrc")
+    bad = dataclasses.replace(transform, evaluation=dict(transform.evaluation, num_points=3))
+    with pytest.raises(ContainerError, match="measured on 3 points"):
+        unpack(pack(bad), "crafted.mrc")
+
+
+def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform):
+    from motionrep.coding import IntegerEncoder
+
+    enc = IntegerEncoder()
+    enc.encode_raw([999_999], 32)
+    enc.encode_raw([50], 20)
+    enc.encode_raw([63], 16)
+    data = np.frombuffer(enc.to_bytes() + bytes(9000), np.uint8)
+    bad = dataclasses.replace(transform, arrays={"data": data})
+    _refused(bad, "1000000 frames", "has 60")
+
+
+def test_decode_work_beyond_the_limit_is_refused(transform, monkeypatch):
+    monkeypatch.setattr(limits, "DECODE_FREE_WORK", 1000)
+    with limits.override(max_decode_work=1):
+        text = _refused(transform, "MOTIONREP_MAX_DECODE_WORK", "decode work")
+    assert "60 frames" in text
+    decompress(pack(transform))  # within the default limit
+
+
+def test_decode_work_limit_from_the_environment(monkeypatch):
+    monkeypatch.setenv("MOTIONREP_MAX_DECODE_WORK", "7")
+    assert limits.current().max_decode_work == 7
+
+
+@pytest.mark.parametrize("value", ["abc", [1], True, "-2%"])
+def test_stored_max_error_that_is_no_bound_names_the_file(transform, value):
+    bad = dataclasses.replace(transform, extra=dict(transform.extra, max_error=value))
+    with pytest.raises(ContainerError) as info:
+        unpack(pack(bad), "crafted.mrc")
+    assert "crafted.mrc" in str(info.value) and "extra.max_error" in str(info.value)
+    assert "--max-error" not in str(info.value)
+
+
+def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
+    from motionrep.cli import main
+
+    path = tmp_path / "bad.mrc"
+    path.write_bytes(pack(dataclasses.replace(transform, extra=dict(transform.extra, max_error="abc"))))
+    with pytest.raises(SystemExit) as info:
+        main(["info", str(path)])
+    assert info.value.code == 1
+    err = capsys.readouterr().err.strip()
+    assert "bad.mrc" in err and "extra.max_error" in err and len(err.splitlines()) == 1, err
+
+
+def test_transform_step_that_overflows_is_one_error_without_warnings(transform):
+    import warnings
+
+    from motionrep_transform._stream import pack as pack_data, unpack as unpack_data
+
+    q = unpack_data(np.asarray(transform.arrays["data"]).tobytes())
+    q = dataclasses.replace(q, region_exponents=np.full_like(q.region_exponents, 32_000))
+    bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(pack_data(q), np.uint8)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a numpy overflow warning printed before the error is the bug
+        _refused(bad, "not finite")
+
+
+def test_fourier_decode_work_beyond_the_limit_is_refused(windows, monkeypatch):
+    monkeypatch.setattr(limits, "DECODE_FREE_WORK", 1000)
+    with limits.override(max_decode_work=1):
+        _refused(windows, "MOTIONREP_MAX_DECODE_WORK", "3 window(s) over 60 frames")
+    decompress(pack(windows))
