@@ -248,14 +248,18 @@ def _read_animation(doc: Doc, indices: list[int], name: str, where: str) -> Moti
     F = times.size
     snap = 0.01 / fps
 
+    sampled: dict[int, NDArray[np.float64]] = {}  # channels sharing a sampler are sampled once
+
     def channel(node: int, path: str, rest: NDArray, what: str) -> NDArray[np.float64]:
         track = tracks.get((node, path))
         if track is None:
             return np.broadcast_to(rest, (F, rest.size))
-        try:
-            return sample(track, times, path == "rotation", snap)
-        except MotionrepError:
-            raise doc.fail(f"{where}: {what} has a zero rotation quaternion") from None
+        if id(track) not in sampled:
+            try:
+                sampled[id(track)] = sample(track, times, path == "rotation", snap)
+            except MotionrepError:
+                raise doc.fail(f"{where}: {what} has a zero rotation quaternion") from None
+        return sampled[id(track)]
 
     def scale_of(node: int, rest: _Rest, what: str) -> float:
         track = tracks.get((node, "scale"))
@@ -340,8 +344,17 @@ def _rest_to_identity(parents: NDArray, top: NDArray, rest: list[NDArray], offse
 
     J = len(rest)
     G = np.empty((J, 4))
-    for k in range(J):
-        G[k] = quat_multiply(top if k == 0 else G[parents[k]], rest[k])
+    local = np.array(rest).reshape(J, 4)
+    G[0] = quat_multiply(top, local[0])
+    # level by level (parents come before their children): one vector operation per level, not per joint
+    depth = np.zeros(J, dtype=np.int64)
+    for k in range(1, J):
+        depth[k] = depth[parents[k]] + 1
+    by_level = np.argsort(depth, kind="stable")
+    ends = np.searchsorted(depth[by_level], np.arange(1, int(depth.max(initial=0)) + 2))
+    for a, b in zip(ends[:-1], ends[1:]):
+        level = by_level[a:b]
+        G[level] = quat_multiply(G[parents[level]], local[level])
     inverse = quat_conjugate(G)
     rotations[:, 0] = quat_multiply(rotations[:, 0], inverse[0])
     if J > 1:
