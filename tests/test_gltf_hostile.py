@@ -429,3 +429,31 @@ def test_no_file_is_bigger_than_the_address_space_helper():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == "refused"
     assert resource.RLIMIT_AS  # Linux: the tests above rely on it
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# mutants (tests/fuzz/run.py runs thousands; a few hundred here)
+# ---------------------------------------------------------------------------------------------------------------
+def test_glb_and_json_chunk_mutants_are_read_or_refused(tmp_path):
+    import random
+
+    from fuzz.crafted import small_motion
+    from fuzz.mutate import glb_mutant, gltf_json_mutant, split_glb
+
+    own = gltf_bytes(small_motion(12), up="y")
+    doc, blob = split_glb(own)
+    path = tmp_path / "mutant.glb"
+    outcomes = {"read": 0, "refused": 0}
+    with limits.override(max_frames=100_000, max_clip_bytes=32 << 20):
+        for seed in range(300):
+            rng = random.Random(seed)
+            path.write_bytes(glb_mutant(own, rng) if seed % 2 else gltf_json_mutant(doc, blob, rng))
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                try:
+                    read(path)
+                    outcomes["read"] += 1
+                except GLTFFormatError as exc:
+                    assert exc.path == str(path) and "\n" not in str(exc), (seed, str(exc))
+                    outcomes["refused"] += 1
+    assert outcomes["refused"] > 100 and outcomes["read"] > 10  # both kinds of outcome are exercised
