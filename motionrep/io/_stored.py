@@ -329,6 +329,10 @@ def _decode_channels(src: ClipSource, skeleton: Skeleton, fps: float) -> Motion:
             raise src.fail(f"{src.where('channel_negative_zeros')} must hold indices of values, below {F * C}")
         if deltas.dtype.kind == "u" and deltas.dtype.itemsize == 8:
             raise src.fail(f"{src.where(key)} must hold signed integers, got dtype {deltas.dtype}")
+        with np.errstate(all="ignore"):  # float64 sums cannot wrap round as int64 ones do
+            reach = np.abs(np.cumsum(deltas, axis=0, dtype=np.float64)).max(initial=0.0)
+        if not reach < 2.0 ** 53:
+            raise src.fail(f"{src.where(key)} adds up to integers beyond 2**53 (no decimal motionrep writes)")
         values = channel_matrix(digits, deltas, zeros)
     if not np.all(np.isfinite(values)):
         raise src.fail(f"{src.where(key)} holds values that are not finite")
