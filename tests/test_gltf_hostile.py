@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import resource
-import struct
 import subprocess
 import sys
 import time
@@ -20,6 +19,9 @@ from motionrep import limits
 from motionrep.errors import GLTFFormatError
 from motionrep.io import gltf_bytes, list_clips, read
 from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+
+from fuzz.mutate import join_glb as glb_bytes
+from fuzz.mutate import split_glb
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -73,18 +75,7 @@ class Builder:
 
 
 def join_glb(doc: dict, blob: bytes) -> bytes:
-    text = json.dumps(doc).encode()
-    text += b" " * (-len(text) % 4)
-    blob += b"\0" * (-len(blob) % 4)
-    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(blob), b"BIN\0") + blob
-    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
-
-
-def split_glb(data: bytes) -> tuple[dict, bytes]:
-    json_len = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + json_len])
-    rest = data[20 + json_len:]
-    return doc, rest[8:8 + struct.unpack_from("<I", rest, 0)[0]]
+    return glb_bytes(json.dumps(doc).encode(), blob)
 
 
 def small() -> Builder:
@@ -438,7 +429,7 @@ def test_glb_and_json_chunk_mutants_are_read_or_refused(tmp_path):
     import random
 
     from fuzz.crafted import small_motion
-    from fuzz.mutate import glb_mutant, gltf_json_mutant, split_glb
+    from fuzz.mutate import glb_mutant, gltf_json_mutant
 
     own = gltf_bytes(small_motion(12), up="y")
     doc, blob = split_glb(own)
