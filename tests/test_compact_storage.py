@@ -207,3 +207,29 @@ def test_real_clips_h5_database_is_at_most_half_their_bvh(tmp_path):
     assert (tmp_path / "db.h5").stat().st_size <= 0.5 * sum(p.stat().st_size for p in files)
     for name, m in clips.items():
         assert_identical(m, read(tmp_path / "db.h5", clip=name))
+
+
+def test_mutants_of_a_compact_npz_are_read_or_refused(tmp_path):
+    """Mutants of a version-3 file in the integer layout (tests/fuzz/mutate.py): a clip or one clean error."""
+    import random
+
+    from motionrep import limits
+
+    from fuzz.crafted import npz_parts
+    from fuzz.mutate import npz_mutant
+
+    write(bvh_clip(12), tmp_path / "base.npz")
+    members, arrays = npz_parts(tmp_path / "base.npz")
+    assert "channel_deltas.npy" in members
+    path = tmp_path / "mutant.npz"
+    outcomes = {"read": 0, "refused": 0}
+    with limits.override(max_frames=100_000, max_clip_bytes=32 << 20):
+        for seed in range(300):
+            path.write_bytes(npz_mutant(members, arrays, random.Random(seed)))
+            try:
+                read(path)
+                outcomes["read"] += 1
+            except NPZFormatError as exc:
+                assert exc.path == str(path) and "\n" not in str(exc), (seed, str(exc))
+                outcomes["refused"] += 1
+    assert outcomes["refused"] > 100 and outcomes["read"] > 5  # both outcomes exercised
