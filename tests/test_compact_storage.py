@@ -59,7 +59,7 @@ def with_negative_zero(text: str) -> str:
 def with_long_decimals(text: str) -> str:
     lines, first = _frame_lines(text)
     values = lines[first].split()
-    values[7] = "0.12345678901234567"  # 17 digits: not a short decimal, the float64 values are kept
+    values[7] = "0.12345678901234567"  # 17 digits: not a short decimal, kept as a float64 patch
     lines[first] = " ".join(values)
     return "\n".join(lines) + "\n"
 
@@ -70,9 +70,11 @@ def test_a_bvh_clip_is_stored_as_its_channel_values_and_reads_back_bit_for_bit(t
     m = bvh_clip(edit=edit)
     compact = channel_arrays(m)
     assert compact is not None
-    assert ("channel_values" in compact) == (edit is with_long_decimals)
+    assert "channel_values" not in compact  # an odd value is a patch, not a reason to keep float64
     if edit is with_negative_zero:
-        assert compact["channel_negative_zeros"].size >= 2
+        assert compact["channel_patches"].size >= 2 and np.all(compact["channel_patch_values"] == 0)
+    if edit is with_long_decimals:
+        assert 0.12345678901234567 in compact["channel_patch_values"]
     path = tmp_path / f"clip{suffix}"
     write(m, path)
     back = read(path)
@@ -86,7 +88,7 @@ def test_npz_layout_version_3_is_deflated_and_has_no_redundant_arrays(tmp_path):
     write(m, path)
     with np.load(path, allow_pickle=False) as z:
         assert int(z["format_version"]) == 3
-        assert {"channel_digits", "channel_deltas", "channel_negative_zeros"} <= set(z.files)
+        assert {"channel_digits", "channel_deltas", "channel_patches", "channel_patch_values"} <= set(z.files)
         assert not {"rotations", "root_translation", "joint_translations", "euler_angles",
                     "euler_branch_bits"} & set(z.files)
         assert z["channel_deltas"].dtype == np.int32 and z["channel_deltas"].shape == (40, m.skeleton.num_channels)
@@ -161,8 +163,9 @@ C = humanoid_skeleton().num_channels
     (dict(channel_digits=np.full(C, 13, np.int8)), "digit counts"),
     (dict(channel_digits=np.full(C, -1, np.int8)), "digit counts"),
     (dict(channel_digits=np.zeros(C - 1, np.int8)), "shape"),
-    (dict(channel_negative_zeros=np.array([40 * C])), "indices"),
-    (dict(channel_negative_zeros=np.array([-1])), "indices"),
+    (dict(channel_patches=np.array([40 * C]), channel_patch_values=np.zeros(1)), "indices"),
+    (dict(channel_patches=np.array([-1]), channel_patch_values=np.zeros(1)), "indices"),
+    (dict(channel_patch_values=np.zeros(10 ** 3)), "shape"),
     (dict(channel_deltas=np.zeros((40, C + 1), np.int32)), "shape"),
     (dict(channel_deltas=np.zeros((0, C), np.int32)), "no frames"),
     (dict(channel_deltas=np.zeros((40, C), np.float64)), "integers"),

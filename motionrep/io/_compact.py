@@ -4,11 +4,12 @@ A clip read from BVH is its channel values: every array motionrep holds (quatern
 Euler angles, the Euler-branch flags) is computed from the ``(F, C)`` channel matrix.  When that computation
 gives back the clip's arrays **bit for bit**, only the channel matrix is stored, and the values as the decimals
 they were written as: each column ``c`` as integers ``n`` with ``value = n / 10**digits[c]`` exactly (float64
-division of two exact numbers is correctly rounded, as the decimal's own parsing was), frame-to-frame
-differences of those integers (``channel_deltas``, int32 when they fit), and the flat indices of the values that
-are ``-0.0`` (``channel_negative_zeros``).  A column that is not such a decimal (at most 12 digits after the
-point, magnitude under 2**53 units) keeps the matrix as float64 (``channel_values``).  Any other clip keeps
-the version-2 arrays.  Both formats deflate the arrays (``specs/formats/npz.md``, ``specs/formats/hdf5.md``).
+division of two exact numbers is correctly rounded, as the decimal's own parsing was; ``digits[c]`` is the most
+any value of the column needs, at most 12), frame-to-frame differences of those integers (``channel_deltas``,
+int32 when they fit), and *patches*: the flat indices and float64 values of the values that are not such a
+decimal (``-0.0``, or one odd value with 14 digits; ``channel_patches``, ``channel_patch_values``).  When more
+than half of the values would be patches the matrix is kept as float64 (``channel_values``).  Any other clip
+keeps the version-2 arrays.  Both formats deflate the arrays (``specs/formats/npz.md``, ``specs/formats/hdf5.md``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from .._model import Motion, Skeleton
 __all__ = ["channel_arrays", "motion_from_channel_arrays", "CHANNEL_KEYS", "MAX_DIGITS"]
 
 #: Keys of the compact layout (logical field names; NPZ keys and HDF5 datasets of the same names).
-CHANNEL_KEYS = ("channel_digits", "channel_deltas", "channel_negative_zeros", "channel_values")
+CHANNEL_KEYS = ("channel_digits", "channel_deltas", "channel_patches", "channel_patch_values", "channel_values")
 #: Most digits after the decimal point a column may have to be stored as integers.
 MAX_DIGITS = 12
 _NEGATIVE_ZERO = np.uint64(0x8000000000000000)
@@ -37,31 +38,32 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _decimals(values: NDArray[np.float64]) -> dict[str, NDArray] | None:
-    """The integer layout of ``values`` (F, C), or None if a column is not a short decimal."""
+    """The integer layout of ``values`` (F, C), or None when more than half of the values would be patches."""
     F, C = values.shape
     bits = values.view(np.uint64)
-    digits = np.full(C, -1, np.int64)
-    ints = np.zeros((F, C), np.int64)
-    for d in range(MAX_DIGITS + 1):
-        cols = np.flatnonzero(digits < 0)
-        if cols.size == 0:
-            break
-        v = values[:, cols]
+    need = np.full((F, C), MAX_DIGITS + 1, np.int64)  # each value's digits after the point (13: none is enough)
+    for d in range(MAX_DIGITS, -1, -1):
         scale = 10.0 ** d
         with np.errstate(all="ignore"):
-            n = np.rint(v * scale)
-            back = n / scale
-        exact = ((back.view(np.uint64) == bits[:, cols]) | (v == 0)) & (np.abs(n) < 2.0 ** 53)
-        good = exact.all(axis=0)
-        digits[cols[good]] = d
-        ints[:, cols[good]] = n[:, good].astype(np.int64)
-    if np.any(digits < 0):
+            n = np.rint(values * scale)
+            exact = ((n / scale).view(np.uint64) == bits) & (np.abs(n) < 2.0 ** 53)
+        need[exact] = d
+    short = need <= MAX_DIGITS
+    digits = np.where(short, need, 0).max(axis=0, initial=0)
+    scale = 10.0 ** digits
+    with np.errstate(all="ignore"):
+        n = np.rint(values * scale)
+        exact = ((n / scale).view(np.uint64) == bits) & (np.abs(n) < 2.0 ** 53) & (bits != _NEGATIVE_ZERO)
+    patches = np.flatnonzero(~exact.reshape(-1))  # -0.0 (an integer has no sign), values with more digits
+    if patches.size * 2 > values.size:
         return None
+    ints = np.where(exact, n, 0.0).astype(np.int64)
     deltas = np.diff(ints, axis=0, prepend=np.zeros((1, C), np.int64))
     small = deltas.size == 0 or int(np.abs(deltas).max()) < 2 ** 31
     return {"channel_digits": digits.astype(np.int8),
             "channel_deltas": deltas.astype(np.int32) if small else deltas,
-            "channel_negative_zeros": np.flatnonzero(bits.reshape(-1) == _NEGATIVE_ZERO).astype(np.int64)}
+            "channel_patches": patches.astype(np.int64),
+            "channel_patch_values": values.reshape(-1)[patches].copy()}
 
 
 def channel_arrays(motion: Motion) -> dict[str, NDArray] | None:
@@ -83,12 +85,13 @@ def channel_arrays(motion: Motion) -> dict[str, NDArray] | None:
     return _decimals(values) or {"channel_values": values}
 
 
-def channel_matrix(digits: NDArray, deltas: NDArray, negative_zeros: NDArray) -> NDArray[np.float64]:
+def channel_matrix(digits: NDArray, deltas: NDArray, patches: NDArray, patch_values: NDArray
+                   ) -> NDArray[np.float64]:
     """The ``(F, C)`` channel values of the integer layout (shapes and ranges checked by the caller)."""
     ints = np.cumsum(deltas.astype(np.int64), axis=0)
     with np.errstate(all="ignore"):
         values = ints / (10.0 ** digits.astype(np.int64))
-    values.reshape(-1)[negative_zeros] = -0.0
+    values.reshape(-1)[patches] = patch_values
     return values
 
 

@@ -324,16 +324,17 @@ def _decode_channels(src: ClipSource, skeleton: Skeleton, fps: float) -> Motion:
         digits = src.checked_array("channel_digits", (C,), _INT, "integers")
         if np.any(digits < 0) or np.any(digits > MAX_DIGITS):
             raise src.fail(f"{src.where('channel_digits')} must hold digit counts from 0 to {MAX_DIGITS}")
-        zeros = src.checked_array("channel_negative_zeros", (None,), _INT, "integers")
-        if zeros.size > F * C or np.any(zeros < 0) or np.any(zeros >= F * C):
-            raise src.fail(f"{src.where('channel_negative_zeros')} must hold indices of values, below {F * C}")
+        patches = src.checked_array("channel_patches", (None,), _INT, "integers")
+        if patches.size > F * C or np.any(patches < 0) or np.any(patches >= F * C):
+            raise src.fail(f"{src.where('channel_patches')} must hold indices of values, below {F * C}")
+        patch_values = src.checked_array("channel_patch_values", (patches.size,), _FLOAT, "numbers")
         if deltas.dtype.kind == "u" and deltas.dtype.itemsize == 8:
             raise src.fail(f"{src.where(key)} must hold signed integers, got dtype {deltas.dtype}")
         with np.errstate(all="ignore"):  # float64 sums cannot wrap round as int64 ones do
             reach = np.abs(np.cumsum(deltas, axis=0, dtype=np.float64)).max(initial=0.0)
         if not reach < 2.0 ** 53:
             raise src.fail(f"{src.where(key)} adds up to integers beyond 2**53 (no decimal motionrep writes)")
-        values = channel_matrix(digits, deltas, zeros)
+        values = channel_matrix(digits, deltas, patches, np.asarray(patch_values, dtype=np.float64))
     if not np.all(np.isfinite(values)):
         raise src.fail(f"{src.where(key)} holds values that are not finite")
     return motion_from_channel_arrays(skeleton, fps, values)
