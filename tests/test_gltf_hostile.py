@@ -22,6 +22,7 @@ from motionrep.synthetic import humanoid_skeleton, synthetic_motion
 
 from fuzz.mutate import join_glb as glb_bytes
 from fuzz.mutate import split_glb
+from helpers import mutant_outcomes
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -433,18 +434,7 @@ def test_glb_and_json_chunk_mutants_are_read_or_refused(tmp_path):
 
     own = gltf_bytes(small_motion(12), up="y")
     doc, blob = split_glb(own)
-    path = tmp_path / "mutant.glb"
-    outcomes = {"read": 0, "refused": 0}
-    with limits.override(max_frames=100_000, max_clip_bytes=32 << 20):
-        for seed in range(300):
-            rng = random.Random(seed)
-            path.write_bytes(glb_mutant(own, rng) if seed % 2 else gltf_json_mutant(doc, blob, rng))
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                try:
-                    read(path)
-                    outcomes["read"] += 1
-                except GLTFFormatError as exc:
-                    assert exc.path == str(path) and "\n" not in str(exc), (seed, str(exc))
-                    outcomes["refused"] += 1
+    mutants = (glb_mutant(own, random.Random(seed)) if seed % 2 else gltf_json_mutant(doc, blob, random.Random(seed))
+               for seed in range(300))
+    outcomes = mutant_outcomes(tmp_path / "mutant.glb", mutants, GLTFFormatError, warnings_are_errors=True)
     assert outcomes["refused"] > 100 and outcomes["read"] > 10  # both kinds of outcome are exercised
