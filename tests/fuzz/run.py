@@ -2,6 +2,7 @@
 
     python tests/fuzz/run.py --mutants 100000                 # every format, 100,000 mutants each
     python tests/fuzz/run.py --formats h5 --mutants 20000     # one format
+    python tests/fuzz/run.py --formats glb,gltf-json          # glTF: damaged .glb bytes; edited JSON chunks
     python tests/fuzz/run.py --formats mrc --mrc-codecs adaptive-fourier,adaptive-fourier:window=16
                                                               # .mrc mutants of other codecs' payloads
     python tests/fuzz/run.py --crafted                        # the crafted cases, through the command line
@@ -12,7 +13,8 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
 ``motionrep.io.read`` (BVH: ``parse_bvh``, its numpy path for even seeds and its compiled path for odd ones;
-``.mrc``: ``unpack`` then ``decompress``; seed ``s`` mutates the file of codec
+``.mrc``: ``unpack`` then ``decompress``; ``gltf-json``: even seeds motionrep's own ``.glb``, odd seeds the same
+file without its ``extras``; seed ``s`` mutates the file of codec
 ``s mod n`` of the ``n`` in ``--mrc-codecs``), under the small limits ``SMALL`` below; the
 child reports every outcome on a pipe.  Counted per format:
 
