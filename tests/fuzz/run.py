@@ -13,9 +13,9 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
 ``motionrep.io.read`` (BVH: ``parse_bvh``, its numpy path for even seeds and its compiled path for odd ones;
-``.mrc``: ``unpack`` then ``decompress``; ``gltf-json``: even seeds motionrep's own ``.glb``, odd seeds the same
-file without its ``extras``; seed ``s`` mutates the file of codec
-``s mod n`` of the ``n`` in ``--mrc-codecs``), under the small limits ``SMALL`` below; the
+``.mrc``: ``unpack`` then ``decompress``, seed ``s`` mutating the file of codec ``s mod n`` of the ``n`` in
+``--mrc-codecs``; ``gltf-json``: even seeds motionrep's own ``.glb``, odd seeds the same file without its
+``extras``), under the small limits ``SMALL`` below; the
 child reports every outcome on a pipe.  Counted per format:
 
 - ``refused``: motionrep's own error naming the file (the expected answer to a damaged file);
