@@ -438,3 +438,15 @@ def test_glb_and_json_chunk_mutants_are_read_or_refused(tmp_path):
                for seed in range(300))
     outcomes = mutant_outcomes(tmp_path / "mutant.glb", mutants, GLTFFormatError, warnings_are_errors=True)
     assert outcomes["refused"] > 100 and outcomes["read"] > 10  # both kinds of outcome are exercised
+
+
+def test_names_with_control_characters_become_names_bvh_can_hold(tmp_path):
+    from motionrep.io import format_bvh, parse_bvh
+
+    b = small()
+    b.doc["nodes"][1]["name"] = "a\x00b\x1bc"
+    b.doc["nodes"][2]["name"] = "d\u2028e\vf"
+    b.doc["nodes"][3]["name"] = "\x00"
+    m = read(write_file(tmp_path, b.glb(), "names.glb"))
+    assert m.skeleton.names[1:] == ("a_b_c", "d e f", "_")
+    assert parse_bvh(format_bvh(m)).skeleton.names == m.skeleton.names  # written and read back as they are

@@ -4,6 +4,7 @@ description of its files, and the :class:`~motionrep.Motion` put together (``spe
 
 from __future__ import annotations
 
+import unicodedata
 from dataclasses import dataclass
 from typing import Any
 
@@ -176,11 +177,15 @@ def _joints(doc: Doc, parents: list[int], tracks: dict[tuple[int, str], Track], 
 
 
 def _names(doc: Doc, nodes: list[int]) -> list[str]:
+    """Joint names a BVH file can hold: braces and control characters (NUL, ESC...) become ``_``, runs of white
+    space (tabs, line and paragraph separators) one space; then unique."""
     unique = Unique()
     out = []
     for i in nodes:
         raw = _raw_name(doc.nodes[i], i)
-        clean = " ".join(raw.replace("{", "_").replace("}", "_").split()) or f"node{i}"
+        raw = "".join("_" if c in "{}" or (unicodedata.category(c) in ("Cc", "Cf") and not c.isspace()) else c
+                      for c in raw)
+        clean = " ".join(raw.split()) or f"node{i}"
         out.append(unique(clean))
     return out
 
