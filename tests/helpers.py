@@ -30,3 +30,27 @@ def real_params(*subdirs: str):
     if not files:
         return [pytest.param(None, marks=[requires_shared, pytest.mark.realdata], id="no-shared-data")]
     return [pytest.param(p, marks=pytest.mark.realdata, id=str(p.relative_to(SHARED_DATA))) for p in files]
+
+
+def mutant_outcomes(path: Path, mutants, error: type[Exception], warnings_are_errors: bool = False) -> dict[str, int]:
+    """Write each of ``mutants`` (bytes, one per seed) to ``path`` and read it under small limits: a clip, or one
+    ``error`` naming ``path`` on one line (anything else fails the test).  Returns the counts of both outcomes."""
+    import warnings
+
+    from motionrep import limits
+    from motionrep.io import read
+
+    outcomes = {"read": 0, "refused": 0}
+    with limits.override(max_frames=100_000, max_clip_bytes=32 << 20):
+        for seed, data in enumerate(mutants):
+            path.write_bytes(data)
+            with warnings.catch_warnings():
+                if warnings_are_errors:
+                    warnings.simplefilter("error")
+                try:
+                    read(path)
+                    outcomes["read"] += 1
+                except error as exc:
+                    assert exc.path == str(path) and "\n" not in str(exc), (seed, str(exc))
+                    outcomes["refused"] += 1
+    return outcomes

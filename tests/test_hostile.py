@@ -153,10 +153,11 @@ def test_old_hdf5_files_still_read(tmp_path):
 
 
 def test_hdf5_version_2_layout_has_checksums(tmp_path):
+    # the checksums of version 2, kept by version 3 (which stores a BVH clip as its channel values)
     m = parse_bvh(format_bvh(small_motion()))  # with euler_angles
     write(m, tmp_path / "x.h5")
     with h5py.File(tmp_path / "x.h5", "r") as f:
-        assert int(f.attrs["format_version"]) == 2
+        assert int(f.attrs["format_version"]) == 3
         seen = []
 
         def visit(name, obj):
@@ -164,7 +165,8 @@ def test_hdf5_version_2_layout_has_checksums(tmp_path):
                 assert obj.fletcher32, name
                 seen.append(name)
         f.visititems(visit)
-        assert "clips/x/euler_angles" in seen and "clips/x/skeleton/names" in seen
+        assert "clips/x/skeleton/names" in seen
+        assert "clips/x/channel_deltas" in seen or "clips/x/channel_values" in seen
         assert h5py.check_string_dtype(f["clips/x/skeleton/names"].dtype).length is not None
     np.testing.assert_array_equal(read(tmp_path / "x.h5").euler_angles, m.euler_angles)
 
@@ -174,11 +176,15 @@ def test_a_changed_data_byte_is_detected_by_the_checksum(crafted):
         read(crafted["h5-flipped-data-byte"].path)
 
 
-def test_old_npz_files_still_read(tmp_path):
+def test_old_npz_files_still_read(tmp_path, monkeypatch):
     import zipfile
 
+    from motionrep.io import _npz
+
     m = parse_bvh(format_bvh(small_motion()))
-    write(m, tmp_path / "new.npz")
+    with monkeypatch.context() as patch:  # the full arrays of versions 1 and 2, not version 3's channel values
+        patch.setattr(_npz, "channel_arrays", lambda motion: None)
+        write(m, tmp_path / "new.npz")
     with zipfile.ZipFile(tmp_path / "new.npz") as src, zipfile.ZipFile(tmp_path / "old.npz", "w") as out:
         for info in src.infolist():
             if info.filename == "euler_angles.npy":
@@ -323,3 +329,24 @@ def test_damaged_string_data_is_refused_without_gigabytes(tmp_path, seed):
         else:  # another HDF5 library wrote other bytes: the damage missed the strings' lengths
             pytest.skip("this mutant is not the damaged file here (the base file's bytes differ)")
     assert _worker_peak() - before < 256 << 20
+
+
+def test_npz_names_beyond_unicode_are_refused(tmp_path):
+    """Found by the NPZ fuzz test: a names array whose UCS-4 code units exceed U+10FFFF made numpy hand out a str
+    that CPython cannot use (SystemError far from the reader); it is one FormatError naming the file."""
+    import numpy as np
+
+    from motionrep.errors import FormatError
+    from motionrep.io import read, write
+    from motionrep.synthetic import chain_skeleton, synthetic_motion
+
+    write(synthetic_motion(chain_skeleton(3), frames=5, seed=1), tmp_path / "good.npz")
+    with np.load(tmp_path / "good.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    units = arrays["skeleton_names"].view(np.uint32).copy()
+    units[0] = 0x110000
+    arrays["skeleton_names"] = units.view(arrays["skeleton_names"].dtype)
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(FormatError, match="U\\+10FFFF") as info:
+        read(tmp_path / "bad.npz")
+    assert "bad.npz" in str(info.value)

@@ -208,7 +208,7 @@ def test_npz_layout_loads_without_pickle(tmp_path):
     write(m, path)
     with np.load(path, allow_pickle=False) as z:
         keys = set(z.files)
-        assert str(z["format"]) == "motionrep-npz" and int(z["format_version"]) == 2
+        assert str(z["format"]) == "motionrep-npz" and int(z["format_version"]) == 3
         assert str(z["quat_order"]) == "xyzw" and str(z["kind"]) == "motion" and str(z["units"]) == "cm"
         assert z["fps"].dtype == np.float64 and float(z["fps"]) == m.fps
         assert z["skeleton_names"].dtype.kind == "U"
@@ -230,8 +230,8 @@ def test_npz_layout_loads_without_pickle(tmp_path):
 
 def test_npz_uncompressed_reads_the_same(tmp_path):
     m = odd_motion()
-    write(m, tmp_path / "c.npz", compress=True)
-    write(m, tmp_path / "u.npz")
+    write(m, tmp_path / "c.npz")  # deflated by default (format version 3)
+    write(m, tmp_path / "u.npz", compress=False)
     with zipfile.ZipFile(tmp_path / "u.npz") as z:
         assert {i.compress_type for i in z.infolist()} == {zipfile.ZIP_STORED}
     with zipfile.ZipFile(tmp_path / "c.npz") as z:
@@ -254,7 +254,7 @@ def test_hdf5_layout_is_readable_with_plain_h5py(tmp_path):
     path = tmp_path / "walk.h5"
     write(m, path)
     with h5py.File(path, "r") as f:
-        assert f.attrs["format"] == "motionrep-hdf5" and int(f.attrs["format_version"]) == 2
+        assert f.attrs["format"] == "motionrep-hdf5" and int(f.attrs["format_version"]) == 3
         assert f.attrs["quat_order"] == "xyzw"
         assert list(f["clips"]) == ["walk"]  # default clip name: the file stem
         g = f["clips/walk"]
@@ -422,6 +422,7 @@ def test_failing_npz_writer_leaves_no_file_and_keeps_the_old_one(tmp_path, monke
         raise OSError("disk full")
 
     monkeypatch.setattr(npz_module.np, "savez", partial)
+    monkeypatch.setattr(npz_module.np, "savez_compressed", partial)
     with pytest.raises(OSError, match="disk full"):
         write(synthetic_motion(chain_skeleton(3), frames=5), path)
     assert path.read_bytes() == b"previous"
@@ -472,7 +473,7 @@ def test_npz_missing_key(tmp_path, good_npz, drop):
     ("rotations", np.ones((6, 5, 4)), "unit quaternions"),
     ("skeleton_parents", np.array([-1, 0, 3, 2, 3]), "invalid skeleton"),
     ("skeleton_channels", np.array(["Xrotation Spin", "", "", "", ""]), "unknown channel 'Spin'"),
-    ("format_version", np.array(3), "version 3 is newer than the newest this motionrep reads \\(2\\)"),
+    ("format_version", np.array(4), "version 4 is newer than the newest this motionrep reads \\(3\\)"),
     ("format_version", np.array(0), "invalid NPZ format version 0"),
     ("format", np.array("other-format"), "not a motionrep NPZ file"),
 ])
@@ -528,7 +529,7 @@ def _replace(f, name, data):
     (lambda f: f["clips/a"].attrs.__setitem__("fps", "fast"), "attribute 'fps' must be a number"),
     (lambda f: f["clips/a"].attrs.__setitem__("kind", 7), "attribute 'kind' must be a string"),
     (lambda f: f["clips/a"].attrs.__setitem__("quat_order", "wxyz"), "xyzw"),
-    (lambda f: f.attrs.__setitem__("format_version", 3), "version 3 is newer than the newest this motionrep"),
+    (lambda f: f.attrs.__setitem__("format_version", 4), "version 4 is newer than the newest this motionrep"),
     (lambda f: f.attrs.__setitem__("format", "other"), "not a motionrep HDF5 file"),
     (lambda f: f.attrs.__delitem__("format"), "no 'format' attribute"),
     (lambda f: f.pop("clips"), "missing group '/clips'"),

@@ -177,7 +177,7 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
     Args:
         motion: the clip.
         path: target file; an existing file is replaced only once the new one is complete.
-        **options: format options: BVH ``decimals`` (default 6); NPZ ``compress`` (default False); HDF5 ``clip``,
+        **options: format options: BVH ``decimals`` (default 6); NPZ ``compress`` (default True: deflated); HDF5 ``clip``,
             the clip's name (default: the file's stem); glTF ``clip`` (the animation's name), ``scale`` (metres
             per file unit) and ``up`` (``"y"``, ``"z"`` or ``"auto"``), see :func:`write_gltf`.
 
@@ -225,7 +225,7 @@ def write_features(features: FeatureClip, path: str | os.PathLike[str], **option
     Args:
         features: the :class:`FeatureClip`: features with the skeleton, fps and representation name and version.
         path: a ``.npz``, ``.h5`` or ``.hdf5`` file.
-        **options: NPZ ``compress`` (default False); HDF5 ``clip`` (the clip's name, default the file's stem).
+        **options: NPZ ``compress`` (default True: deflated); HDF5 ``clip`` (the clip's name, default the file's stem).
 
     Raises:
         FormatError: for a ``.bvh`` or unknown suffix.

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from .._model import Motion
 from ..errors import ValidationError
 from ._atomic import atomic_path
-from ._gltf_anim import clips, unique
+from ._gltf_anim import Unique, clips
 from ._gltf_doc import FLOAT, GLTF_FORMAT, GLTF_FORMAT_VERSION, Z_TO_Y, Doc
 from ._gltf_read import read_animation
 
@@ -142,7 +142,7 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
 
     sk = motion.skeleton
     J, E, F = sk.num_joints, sk.num_end_sites, motion.num_frames
-    taken: set[str] = set(sk.names)
+    unique = Unique(sk.names)
     site_names: list[str] = []
     per_joint: dict[int, int] = {}
     for p in sk.end_site_parents.tolist():
@@ -151,8 +151,8 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
     for p in sk.end_site_parents.tolist():
         seen[p] = seen.get(p, 0) + 1
         base = f"{sk.names[p]}_end" + (f"{seen[p]}" if per_joint[p] > 1 else "")
-        site_names.append(unique(base, taken))
-    armature_name = unique("Armature", taken)
+        site_names.append(unique(base))
+    armature_name = unique("Armature")
 
     # node 0 is the armature; joints are nodes 1..J, end sites J+1..J+E
     children: list[list[int]] = [[] for _ in range(J)]

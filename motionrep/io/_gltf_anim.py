@@ -5,29 +5,42 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterator
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import limits
 from ..errors import MotionrepError
-from ._gltf_doc import Doc, get, is_int
+from ._gltf_doc import Doc, get, is_int, number, short
 
-__all__ = ["Track", "clips", "tracks", "sample", "frame_times", "unique"]
+__all__ = ["Track", "clips", "tracks", "sample", "frame_times", "Unique"]
 
-_MAX_FRAMES = 10_000_000
 _KEYFRAME_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0, 100.0, 120.0)
 _PATHS = {"translation": 3, "rotation": 4, "scale": 3}
 
 
-def unique(name: str, taken: set[str]) -> str:
-    """``name``, or ``name.001``, ``name.002``... the first not in ``taken`` (which it joins)."""
-    out, k = name, 1
-    while out in taken:
-        out = f"{name}.{k:03d}"
-        k += 1
-    taken.add(out)
-    return out
+class Unique:
+    """Names made unique in linear time: ``name``, or ``name.001``, ``name.002``... the first not taken.
+
+    Each base name remembers the next number to try, so 100,000 nodes all named ``a`` take 100,000 steps, not
+    5 x 10^9 (a name taken by the file itself, ``a.001`` beside ``a``, is skipped once).
+    """
+
+    def __init__(self, taken: Iterable[str] = ()):
+        self.taken: set[str] = set(taken)
+        self._next: dict[str, int] = {}
+
+    def __call__(self, name: str) -> str:
+        out, k = name, self._next.get(name, 1)
+        if out in self.taken:
+            out = f"{name}.{k:03d}"
+            while out in self.taken:
+                k += 1
+                out = f"{name}.{k:03d}"
+            self._next[name] = k + 1
+        self.taken.add(out)
+        return out
 
 
 @dataclass
@@ -61,11 +74,11 @@ def clips(doc: Doc) -> list[tuple[str, list[int]]]:
         if len(set(targets)) == len(targets):
             return [("animation", unnamed)]
     names: list[tuple[str, list[int]]] = []
-    taken: set[str] = set()
+    unique_name = Unique()
     for k, anim in enumerate(doc.animations):
         raw = get(anim, "name")
         base = raw.strip() if isinstance(raw, str) and raw.strip() else f"animation{k}"
-        names.append((unique(base, taken), [k]))
+        names.append((unique_name(base), [k]))
     return names
 
 
@@ -80,30 +93,43 @@ def _channels(doc: Doc, indices: list[int]) -> Iterator[tuple[int, int, Any, lis
 def tracks(doc: Doc, indices: list[int]) -> dict[tuple[int, str], Track]:
     """The translation, rotation and scale channels of the animations ``indices``, by (node, path)."""
     out: dict[tuple[int, str], Track] = {}
+    made: dict[tuple[int, int, str], Track] = {}  # channels sharing a sampler share its track
+    increasing: set[int] = set()  # input accessors whose key times were checked
     for index, c, channel, samplers in _channels(doc, indices):
         what = f"animation {index}, channel {c}"
         target = get(channel, "target")
         if not isinstance(target, dict):
             raise doc.fail(f"{what} has no target")
         path, node = get(target, "path"), get(target, "node")
+        if not isinstance(path, str):
+            if path is None:
+                continue
+            raise doc.fail(f"{what}: target path must be a string, got {short(path)}")
         if path not in _PATHS or node is None:
             continue  # morph weights, KHR_animation_pointer: not skeleton motion
         if not is_int(node) or not 0 <= node < len(doc.nodes):
-            raise doc.fail(f"{what} targets node {node!r}, which does not exist")
-        sampler = doc.item(samplers, get(channel, "sampler"), f"{what}: sampler")
-        interpolation = get(sampler, "interpolation", "LINEAR")
-        if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
-            raise doc.fail(f"{what}: unknown interpolation {interpolation!r}")
-        times = doc.accessor(get(sampler, "input"), f"{what} input", (1,))[:, 0]
-        if np.any(np.diff(times) < 0):
-            raise doc.fail(f"{what}: key times decrease (they must increase)")
-        width = _PATHS[path]
-        values = doc.accessor(get(sampler, "output"), f"{what} output", (width,),
-                              normalized_ok=path == "rotation")
-        need = times.size * (3 if interpolation == "CUBICSPLINE" else 1)
-        if values.shape[0] != need:
-            raise doc.fail(f"{what}: {times.size} key times but {values.shape[0]} values (expected {need})")
-        out[(int(node), path)] = Track(times, values, interpolation)
+            raise doc.fail(f"{what} targets node {short(node)}, which does not exist")
+        s = get(channel, "sampler")
+        sampler = doc.item(samplers, s, f"{what}: sampler")
+        track = made.get((index, s, path))
+        if track is None:
+            interpolation = get(sampler, "interpolation", "LINEAR")
+            if not isinstance(interpolation, str) or interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
+                raise doc.fail(f"{what}: unknown interpolation {short(interpolation)}")
+            source = get(sampler, "input")
+            times = doc.accessor(source, f"{what} input", (1,))[:, 0]
+            if source not in increasing:
+                if np.any(np.diff(times) < 0):
+                    raise doc.fail(f"{what}: key times decrease (they must increase)")
+                increasing.add(source)
+            width = _PATHS[path]
+            values = doc.accessor(get(sampler, "output"), f"{what} output", (width,),
+                                  normalized_ok=path == "rotation")
+            need = times.size * (3 if interpolation == "CUBICSPLINE" else 1)
+            if values.shape[0] != need:
+                raise doc.fail(f"{what}: {times.size} key times but {values.shape[0]} values (expected {need})")
+            track = made[(index, s, path)] = Track(times, values, interpolation)
+        out[(int(node), path)] = track
     return out
 
 
@@ -143,7 +169,8 @@ def sample(track: Track, times: NDArray[np.float64], rotation: bool, snap: float
     return out
 
 
-def frame_times(doc: Doc, tracks: list[Track], fps_hint: Any, where: str) -> tuple[float, NDArray[np.float64]]:
+def frame_times(doc: Doc, tracks: list[Track], fps_hint: Any, where: str, joints: int = 0
+                ) -> tuple[float, NDArray[np.float64]]:
     """The clip's frame rate and frame times.
 
     motionrep's own files say their rate.  Otherwise the densest channel's median key step gives it (exporters
@@ -153,11 +180,19 @@ def frame_times(doc: Doc, tracks: list[Track], fps_hint: Any, where: str) -> tup
     """
     t0 = float(min(t.times[0] for t in tracks))
     t1 = float(max(t.times[-1] for t in tracks))
-    if isinstance(fps_hint, (int, float)) and not isinstance(fps_hint, bool) and math.isfinite(fps_hint) \
-            and fps_hint > 0:
-        fps = float(fps_hint)
+    distinct = list({id(t.times): t.times for t in tracks}.values())  # channels may share one input
+    densest = max(distinct, key=lambda t: t.size)
+    if fps_hint is not None:  # motionrep's own file: one key per frame on every channel it wrote
+        fps = number(fps_hint)
+        if fps is None or not fps > 0 or not math.isfinite(1.0 / fps):
+            raise doc.fail(f"{where}: extras.motionrep.fps {short(fps_hint)} is not a frame rate (a positive "
+                           "number with a finite frame time)")
+        span = (t1 - t0) * fps
+        frames = int(round(span)) + 1 if math.isfinite(span) else None
+        if densest.size > 1 and frames != densest.size:
+            raise doc.fail(f"{where}: extras.motionrep.fps {fps:g} gives {frames or 'too many'} frames over "
+                           f"{t1 - t0:.6g} s, but its channels hold {densest.size} keys (one per frame)")
     else:
-        densest = max(tracks, key=lambda t: t.times.size).times
         steps = np.diff(densest)
         steps = steps[steps > 0]
         fps = 30.0
@@ -166,12 +201,20 @@ def frame_times(doc: Doc, tracks: list[Track], fps_hint: Any, where: str) -> tup
             near = round(fps)
             fps = float(near) if near > 0 and abs(fps - near) <= 1e-3 * fps else float(f"{fps:.6g}")
             if fps < 24.0:
-                keys = np.concatenate([t.times for t in tracks]) - t0
+                keys = np.concatenate(distinct) - t0
                 fps = next((r for r in _KEYFRAME_RATES if np.all(np.abs(keys * r - np.rint(keys * r)) <= 1e-3)),
                            30.0)
-    frames = int(round((t1 - t0) * fps)) + 1
-    keys = sum(t.times.size for t in tracks)
-    if frames > _MAX_FRAMES or frames > 256 * keys + 16:
-        raise doc.fail(f"{where}: {t1 - t0:.6g} s at {fps:g} fps would be {frames} frames from {keys} keys; the "
-                       "key times are too sparse or uneven to sample")
+    lim = limits.current()
+    span = (t1 - t0) * fps
+    keys = sum(t.size for t in distinct)
+    if not math.isfinite(span) or span > 256 * keys + 16:
+        raise doc.fail(f"{where}: {t1 - t0:.6g} s at {fps:g} fps would be {span:.6g} frames from {keys} keys; "
+                       "the key times are too sparse or uneven to sample")
+    frames = int(round(span)) + 1
+    if frames > lim.max_frames:
+        raise doc.fail(f"{where}: {t1 - t0:.6g} s at {fps:g} fps is {frames} frames, more than the limit of "
+                       f"{lim.max_frames} (raise {limits.ENVIRONMENT['max_frames']} to read it)")
+    reason = limits.check_clip(frames, where, joints=joints, translated=joints)
+    if reason:
+        raise doc.fail(reason)
     return fps, t0 + np.arange(frames) / fps

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from ..errors import GLTFFormatError
 
-__all__ = ["Doc", "is_int", "get", "GLTF_FORMAT", "GLTF_FORMAT_VERSION", "Z_TO_Y", "FLOAT"]
+__all__ = ["Doc", "is_int", "get", "number", "short", "GLTF_FORMAT", "GLTF_FORMAT_VERSION", "Z_TO_Y", "FLOAT", "MAX_ANIMATIONS"]
 
 #: Value of ``extras.motionrep.format`` on the armature node of every glTF file motionrep writes.
 GLTF_FORMAT = "motionrep-gltf"
@@ -33,6 +33,11 @@ Z_TO_Y = (-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
 # Limits on what a file may ask the reader to build: far above any real clip, far below a memory bomb.
 _MAX_FILE_BYTES = 1 << 31
 _MAX_NODES = 100_000
+#: Animations one file may hold (each is a clip, or part of one); far above any real file.
+MAX_ANIMATIONS = 100_000
+# Values of all accessors read from one file, as float64 bytes: at most this many bytes plus 16 per byte of data
+# (float32 keys take 2 per byte, normalized bytes 8); accessors sharing a buffer view do not multiply memory.
+_ACCESSOR_FREE_BYTES = 64 << 20
 
 FLOAT, _BYTE, _UBYTE, _SHORT, _USHORT = 5126, 5120, 5121, 5122, 5123
 _COMPONENTS = {FLOAT: ("<f4", None), _BYTE: ("<i1", 127.0), _UBYTE: ("<u1", 255.0), _SHORT: ("<i2", 32767.0),
@@ -88,11 +93,14 @@ class Doc:
             raise self.fail("not a glTF file: the JSON has no 'asset' object")
         version = raw["asset"].get("version")
         if not isinstance(version, str) or not version.startswith("2."):
-            raise self.fail(f"glTF version {version!r} is not supported; motionrep reads glTF 2.x")
-        required = [e for e in self.list(raw, "extensionsRequired") if e not in _HARMLESS_EXTENSIONS]
+            raise self.fail(f"glTF version {short(version)} is not supported; motionrep reads glTF 2.x")
+        required = self.list(raw, "extensionsRequired")
+        if not all(isinstance(e, str) for e in required):
+            raise self.fail("'extensionsRequired' must be a list of extension names (strings)")
+        required = [e for e in required if e not in _HARMLESS_EXTENSIONS]
         if required:
             raise self.fail("the file requires glTF extensions motionrep does not read: "
-                            + ", ".join(str(e) for e in required[:10]))
+                            + ", ".join(repr(e[:80]) for e in required[:10]))
         self.nodes = self.list(raw, "nodes")
         if len(self.nodes) > _MAX_NODES:
             raise self.fail(f"{len(self.nodes)} nodes; motionrep reads at most {_MAX_NODES}")
@@ -100,8 +108,13 @@ class Doc:
         self.buffer_views = self.list(raw, "bufferViews")
         self.buffers = self.list(raw, "buffers")
         self.animations = self.list(raw, "animations")
+        if len(self.animations) > MAX_ANIMATIONS:
+            raise self.fail(f"{len(self.animations)} animations; motionrep reads at most {MAX_ANIMATIONS}")
         self.skins = self.list(raw, "skins")
         self._buffer_cache: dict[int, bytes] = {}
+        self._accessor_cache: dict[tuple, NDArray[np.float64]] = {}
+        self._data_bytes = size  # the file, and the sibling buffers read for it
+        self._accessor_bytes = 0
 
     def _glb_chunks(self, data: bytes) -> bytes:
         """Check the GLB header and chunk table; keep the BIN chunk; return the JSON chunk."""
@@ -140,7 +153,7 @@ class Doc:
     # ---- checked access ------------------------------------------------------------------------------------
     def item(self, items: list, index: Any, what: str) -> Any:
         if not is_int(index) or not 0 <= index < len(items):
-            raise self.fail(f"{what} {index!r} does not exist ({len(items)} defined)")
+            raise self.fail(f"{what} {short(index)} does not exist ({len(items)} defined)")
         obj = items[index]
         if not isinstance(obj, dict):
             raise self.fail(f"{what} {index} is not a JSON object")
@@ -149,26 +162,29 @@ class Doc:
     def integer(self, obj: Any, key: str, what: str, default: int | None = None, low: int = 0) -> int:
         value = get(obj, key, default)
         if not is_int(value) or value < low:
-            raise self.fail(f"{what}: '{key}' must be an integer >= {low}, got {value!r}")
+            raise self.fail(f"{what}: '{key}' must be an integer >= {low}, got {short(value)}")
         return int(value)
 
     def floats(self, obj: Any, key: str, n: int, what: str) -> NDArray[np.float64] | None:
         value = get(obj, key)
         if value is None:
             return None
-        if (not isinstance(value, list) or len(value) != n
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+        if not isinstance(value, list) or len(value) != n:
             raise self.fail(f"{what}: '{key}' must be a list of {n} numbers")
-        a = np.array(value, dtype=np.float64)
-        if not np.all(np.isfinite(a)):
-            raise self.fail(f"{what}: '{key}' holds a value that is not finite")
-        return a
+        out = [number(v) for v in value]
+        if any(v is None for v in out):
+            bad = next(v for v, f in zip(value, out) if f is None)
+            raise self.fail(f"{what}: '{key}' must be a list of {n} numbers, all finite, not {short(bad)}")
+        return np.array(out, dtype=np.float64)
 
     def buffer(self, index: int) -> bytes:
         if index in self._buffer_cache:
             return self._buffer_cache[index]
         buf = self.item(self.buffers, index, "buffer")
         length = self.integer(buf, "byteLength", f"buffer {index}", low=1)
+        if length > _MAX_FILE_BYTES:
+            raise self.fail(f"buffer {index} declares {length} bytes; no buffer motionrep reads holds more than "
+                            f"{_MAX_FILE_BYTES}")
         uri = get(buf, "uri")
         if uri is None:
             if index != 0 or self.bin is None:
@@ -208,7 +224,12 @@ class Doc:
             raise self.fail(f"buffer {index}: {name!r} is not a regular file beside the glTF file")
         try:
             with open(resolved, "rb") as fh:
-                return fh.read(length)  # never more than the buffer declares
+                have = os.fstat(fh.fileno()).st_size
+                if have < length:  # checked before reading: read(length) would allocate all of it
+                    raise self.fail(f"buffer {index} declares {length} bytes but {name!r} holds {have}")
+                data = fh.read(length)  # never more than the buffer declares
+                self._data_bytes += len(data)
+                return data
         except OSError as exc:
             raise self.fail(f"buffer {index}: cannot read {name!r}: {exc.strerror or exc}") from None
 
@@ -216,15 +237,18 @@ class Doc:
                  ) -> NDArray[np.float64]:
         """``(count, width)`` float64 values of an accessor, every offset and length checked first."""
         acc = self.item(self.accessors, index, f"{what}: accessor")
+        key = (index, widths, normalized_ok)
+        if key in self._accessor_cache:  # channels sharing a sampler or an accessor share its values
+            return self._accessor_cache[key]
         where = f"accessor {index} ({what})"
         kind = get(acc, "type")
         width = _WIDTH.get(kind) if isinstance(kind, str) else None
         if width not in widths:
-            raise self.fail(f"{where} has type {kind!r}; expected "
+            raise self.fail(f"{where} has type {short(kind)}; expected "
                             + " or ".join(_TYPE_NAMES[w] for w in widths))
         ctype = get(acc, "componentType")
-        if ctype not in _COMPONENTS or (ctype != FLOAT and not (normalized_ok and get(acc, "normalized") is True)):
-            raise self.fail(f"{where} has component type {ctype!r}; expected FLOAT (5126)"
+        if not is_int(ctype) or ctype not in _COMPONENTS or (ctype != FLOAT and not (normalized_ok and get(acc, "normalized") is True)):
+            raise self.fail(f"{where} has component type {short(ctype)}; expected FLOAT (5126)"
                             + (" or normalized integers" if normalized_ok else ""))
         if get(acc, "sparse") is not None:
             raise self.fail(f"{where} is sparse; motionrep does not read sparse accessors")
@@ -253,17 +277,42 @@ class Doc:
                             f"{view_length}")
         if (view_start + start) % size or stride % size:
             raise self.fail(f"{where} is not aligned to its {size}-byte components")
+        self._accessor_bytes += 8 * count * width
+        budget = _ACCESSOR_FREE_BYTES + 16 * self._data_bytes
+        if self._accessor_bytes > budget:
+            raise self.fail(f"{where}: its accessors add up to {self._accessor_bytes} bytes of values, more than "
+                            f"{budget} for a file of {self._data_bytes} bytes (accessors overlapping one another)")
         values = np.ndarray((count, width), dtype=dtype, buffer=data, offset=view_start + start,
                             strides=(stride, size)).astype(np.float64)
         if norm is not None:
             values = np.maximum(values / norm, -1.0)
         if not np.all(np.isfinite(values)):
             raise self.fail(f"{where} holds values that are not finite")
+        values.flags.writeable = False  # shared by the channels that use it
+        self._accessor_cache[key] = values
         return values
 
 
 def is_int(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
+
+
+def number(value: Any) -> float | None:
+    """``value`` as a finite float, or None when it is not a JSON number (a bool, string, list, object...), not
+    finite (NaN, infinity) or beyond float64 (an integer of 400 digits)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        f = float(value)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
+
+
+def short(value: Any) -> str:
+    """A JSON value for a message: its repr cut to 60 characters."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def get(obj: Any, key: str, default: Any = None) -> Any:

@@ -4,6 +4,7 @@ description of its files, and the :class:`~motionrep.Motion` put together (``spe
 
 from __future__ import annotations
 
+import unicodedata
 from dataclasses import dataclass
 from typing import Any
 
@@ -12,13 +13,12 @@ from numpy.typing import NDArray
 
 from .._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, Motion, Skeleton
 from ..errors import MotionrepError, ValidationError
-from ._gltf_anim import Track, frame_times, sample, unique
+from ._gltf_anim import Track, Unique, frame_times, sample
 from ._gltf_anim import tracks as read_tracks
-from ._gltf_doc import GLTF_FORMAT, GLTF_FORMAT_VERSION, Z_TO_Y, Doc, get, is_int
+from ._gltf_doc import GLTF_FORMAT, GLTF_FORMAT_VERSION, Z_TO_Y, Doc, get, is_int, number, short
 
 __all__ = ["read_animation"]
 
-_MAX_POSE_VALUES = 1 << 28  # frames x joints x 4 float64 values, about 2 GiB
 _MAX_DEPTH = 10_000
 # Scales that differ by at most this fraction (between axes, or over the frames) are exporters' rounding noise
 # (Blender writes 1.0000156): they are read as one uniform, constant scale, their mean.
@@ -42,8 +42,11 @@ def _node_rest(doc: Doc, i: int) -> _Rest:
         mat = m.reshape(4, 4).T  # column-major
         t = mat[:3, 3].copy()
         lin = mat[:3, :3]
-        col = np.linalg.norm(lin, axis=0)
-        if np.linalg.det(lin) <= 0 or np.ptp(col) > _SCALE_TOLERANCE * col.max():
+        with np.errstate(all="ignore"):  # a 1e308 scale overflows: refused below, without a warning
+            col = np.linalg.norm(lin, axis=0)
+            det = np.linalg.det(lin)
+        if (not np.all(np.isfinite(col)) or not np.isfinite(det) or det <= 0 or not col.min() > 0
+                or np.ptp(col) > _SCALE_TOLERANCE * col.max()):
             raise doc.fail(f"{what}: its matrix is not a rotation with a uniform scale; motionrep's pose model "
                            "cannot hold it")
         from ..rotations import matrix_to_quat
@@ -64,7 +67,9 @@ def _node_rest(doc: Doc, i: int) -> _Rest:
 def _uniform(doc: Doc, s: NDArray | None, what: str) -> float:
     if s is None:
         return 1.0
-    if np.any(s <= 0) or np.ptp(s) > _SCALE_TOLERANCE * float(np.max(s)):
+    with np.errstate(all="ignore"):
+        uneven = np.ptp(s) > _SCALE_TOLERANCE * float(np.max(s))
+    if np.any(s <= 0) or uneven:
         raise doc.fail(f"{what}: scale {s.tolist()} is not a positive uniform scale; motionrep's pose model "
                        "cannot hold it")
     return float(np.mean(s))
@@ -85,18 +90,38 @@ def _parents(doc: Doc) -> list[int]:
             raise doc.fail(f"node {i}: 'children' must be a list")
         for c in kids:
             if not is_int(c) or not 0 <= c < len(doc.nodes) or c == i:
-                raise doc.fail(f"node {i} lists child {c!r}, which is not another node")
+                raise doc.fail(f"node {i} lists child {short(c)}, which is not another node")
             if parents[c] != -1:
                 raise doc.fail(f"node {c} has two parents (nodes {parents[c]} and {i})")
             parents[c] = i
-    for i in range(len(parents)):  # a cycle: walking up never reaches a root
-        seen, p = 0, i
-        while p != -1:
-            p = parents[p]
-            seen += 1
-            if seen > min(len(parents), _MAX_DEPTH):
-                raise doc.fail(f"node {i} is inside a cycle of children, or nested deeper than {_MAX_DEPTH}")
+    depth = _depths(parents)
+    if depth is None:
+        raise doc.fail("the nodes' children form a cycle")
+    deepest = max(depth, default=0)
+    if deepest > _MAX_DEPTH:
+        raise doc.fail(f"node {depth.index(deepest)} is nested {deepest} levels deep, deeper than {_MAX_DEPTH}")
     return parents
+
+
+def _depths(parents: list[int]) -> list[int] | None:
+    """Depth of every node (0 for a root), or None when walking up from some node never reaches a root (a
+    cycle).  Linear: each node is walked over once, the path to a known depth kept on a list, not a stack of
+    calls."""
+    depth = [-1] * len(parents)
+    for i in range(len(parents)):
+        path = []
+        p = i
+        while p != -1 and depth[p] == -1:
+            depth[p] = -2  # on the current path
+            path.append(p)
+            p = parents[p]
+        if p != -1 and depth[p] == -2:
+            return None
+        d = -1 if p == -1 else depth[p]
+        for q in reversed(path):
+            d += 1
+            depth[q] = d
+    return depth
 
 
 def _joints(doc: Doc, parents: list[int], tracks: dict[tuple[int, str], Track], where: str) -> tuple[int, list[int]]:
@@ -109,7 +134,7 @@ def _joints(doc: Doc, parents: list[int], tracks: dict[tuple[int, str], Track], 
         joints = doc.list(skin, "joints")
         for j in joints:
             if not is_int(j) or not 0 <= j < len(doc.nodes):
-                raise doc.fail(f"skin {s} lists joint {j!r}, which is not a node")
+                raise doc.fail(f"skin {s} lists joint {short(j)}, which is not a node")
         hit = len(animated.intersection(joints))
         if joints and (members is None or hit > best):
             members, best = set(joints), hit
@@ -125,23 +150,22 @@ def _joints(doc: Doc, parents: list[int], tracks: dict[tuple[int, str], Track], 
     if not members:
         raise doc.fail(f"{where} animates no node")
 
-    def chain(i: int) -> list[int]:
-        out = [i]
-        while parents[out[-1]] != -1:
-            out.append(parents[out[-1]])
-        return out[::-1]  # from the top
-
-    chains = [chain(i) for i in sorted(members)]
-    root = None
-    for level in zip(*chains):
-        if len(set(level)) != 1:
-            break
-        root = level[0]
-    if root is None:
+    # the root is the deepest node above (or at) every member; the skeleton is the nodes on the paths from the
+    # members up to it.  Linear in the nodes: each node's count of members at or below it, deepest nodes first.
+    depth = _depths(parents)
+    if depth is None:  # _parents refused cycles already
+        raise doc.fail("the nodes' children form a cycle")
+    below = [0] * len(parents)
+    for i in members:
+        below[i] = 1
+    for i in sorted(range(len(parents)), key=depth.__getitem__, reverse=True):
+        if below[i] and parents[i] != -1:
+            below[parents[i]] += below[i]
+    tops = [i for i in range(len(parents)) if below[i] == len(members)]
+    if not tops:
         raise doc.fail(f"{where}: the skeleton's joints are not under one root node")
-    keep = {root}
-    for c in chains:
-        keep.update(c[c.index(root):])
+    root = max(tops, key=depth.__getitem__)
+    keep = {i for i in range(len(parents)) if below[i] and depth[i] >= depth[root]}
     order: list[int] = []
     stack = [root]
     while stack:
@@ -153,12 +177,16 @@ def _joints(doc: Doc, parents: list[int], tracks: dict[tuple[int, str], Track], 
 
 
 def _names(doc: Doc, nodes: list[int]) -> list[str]:
-    taken: set[str] = set()
+    """Joint names a BVH file can hold: braces and control characters (NUL, ESC...) become ``_``, runs of white
+    space (tabs, line and paragraph separators) one space; then unique."""
+    unique = Unique()
     out = []
     for i in nodes:
         raw = _raw_name(doc.nodes[i], i)
-        clean = " ".join(raw.replace("{", "_").replace("}", "_").split()) or f"node{i}"
-        out.append(unique(clean, taken))
+        raw = "".join("_" if c in "{}" or (unicodedata.category(c) in ("Cc", "Cf") and not c.isspace()) else c
+                      for c in raw)
+        clean = " ".join(raw.split()) or f"node{i}"
+        out.append(unique(clean))
     return out
 
 
@@ -173,19 +201,33 @@ def _motionrep_extras(doc: Doc, root: int, parents: list[int]) -> dict | None:
         return None
     version = info.get("version")
     if not is_int(version) or version > GLTF_FORMAT_VERSION:
-        raise doc.fail(f"motionrep glTF layout version {version!r} is newer than this motionrep reads "
+        raise doc.fail(f"motionrep glTF layout version {short(version)} is newer than this motionrep reads "
                        f"({GLTF_FORMAT_VERSION}); upgrade motionrep")
-    scale, up = info.get("scale"), info.get("up")
+    scale, up = number(info.get("scale")), info.get("up")
     rest = _node_rest(doc, arm)
     want_r = np.array(Z_TO_Y if up == "z" else (0.0, 0.0, 0.0, 1.0))
-    if (not isinstance(scale, (int, float)) or not np.allclose(rest.s, scale, rtol=1e-12, atol=0)
+    if (scale is None or not np.allclose(rest.s, scale, rtol=1e-12, atol=0)
             or not np.allclose(rest.t, 0.0) or not np.allclose(rest.r, want_r, atol=1e-12)):
         return None  # the armature was moved since motionrep wrote it: read it as any other file
     return info
 
 
 def read_animation(doc: Doc, indices: list[int], name: str) -> Motion:
-    where = f"animation {name!r}"
+    """The clip made of the animations ``indices``.  Numbers out of float64's range (scales of 1e200 on nested
+    joints, a singular matrix) give no numpy warning: what they produce is checked, and refused, instead."""
+    where = f"animation {short(name)}"
+    with np.errstate(all="ignore"):
+        return _read_animation(doc, indices, name, where)
+
+
+def _finite(doc: Doc, where: str, **arrays: Any) -> None:
+    for what, a in arrays.items():
+        if not np.all(np.isfinite(a)):
+            raise doc.fail(f"{where}: its node transforms give {what} that are not finite numbers (scales or "
+                           "translations beyond float64's range)")
+
+
+def _read_animation(doc: Doc, indices: list[int], name: str, where: str) -> Motion:
     parents = _parents(doc)
     tracks = read_tracks(doc, indices)
     if not tracks:
@@ -207,20 +249,22 @@ def read_animation(doc: Doc, indices: list[int], name: str) -> Motion:
     hint = None
     if ours is not None and isinstance(extras, dict) and isinstance(extras.get("motionrep"), dict):
         hint = extras["motionrep"].get("fps")
-    fps, times = frame_times(doc, used, hint, where)
+    fps, times = frame_times(doc, used, hint, where, joints=len(order) + len(ancestors))
     F = times.size
-    if F * (len(order) + 1) * 4 > _MAX_POSE_VALUES:
-        raise doc.fail(f"{where}: {F} frames of {len(order)} joints is more than motionrep holds in memory")
     snap = 0.01 / fps
+
+    sampled: dict[int, NDArray[np.float64]] = {}  # channels sharing a sampler are sampled once
 
     def channel(node: int, path: str, rest: NDArray, what: str) -> NDArray[np.float64]:
         track = tracks.get((node, path))
         if track is None:
             return np.broadcast_to(rest, (F, rest.size))
-        try:
-            return sample(track, times, path == "rotation", snap)
-        except MotionrepError:
-            raise doc.fail(f"{where}: {what} has a zero rotation quaternion") from None
+        if id(track) not in sampled:
+            try:
+                sampled[id(track)] = sample(track, times, path == "rotation", snap)
+            except MotionrepError:
+                raise doc.fail(f"{where}: {what} has a zero rotation quaternion") from None
+        return sampled[id(track)]
 
     def scale_of(node: int, rest: _Rest, what: str) -> float:
         track = tracks.get((node, "scale"))
@@ -273,8 +317,10 @@ def read_animation(doc: Doc, indices: list[int], name: str) -> Motion:
     translations[:, 0] = top_t + quat_apply(top_r, translations[:, 0])
     if ancestors:  # the root's OFFSET: where the rest pose puts it
         offsets[0] = rest_t + quat_apply(rest_r, offsets[0])
+    _finite(doc, where, scales=cum, offsets=offsets, rotations=rotations, translations=translations)
     if ours is None:
         _rest_to_identity(parent_idx, rest_r, [r.r for r in rests], offsets, rotations, translations)
+        _finite(doc, where, offsets=offsets, rotations=rotations, translations=translations)
 
     sites: list[int] = []
     channels: list[tuple[str, ...]] | None = None
@@ -282,7 +328,7 @@ def read_animation(doc: Doc, indices: list[int], name: str) -> Motion:
     if ours is not None:
         units = ours.get("units") if isinstance(ours.get("units"), str) else None
         flagged = ours.get("end_sites")
-        flagged = set(flagged) if isinstance(flagged, list) else set()
+        flagged = {i for i in flagged if is_int(i)} if isinstance(flagged, list) else set()
         sites = [k for k, i in enumerate(order) if k and i in flagged and not get(doc.nodes[i], "children")]
         layout = ours.get("channels")
         if isinstance(layout, list) and len(layout) == J - len(sites) and all(isinstance(c, str) for c in layout):
@@ -303,8 +349,17 @@ def _rest_to_identity(parents: NDArray, top: NDArray, rest: list[NDArray], offse
 
     J = len(rest)
     G = np.empty((J, 4))
-    for k in range(J):
-        G[k] = quat_multiply(top if k == 0 else G[parents[k]], rest[k])
+    local = np.array(rest).reshape(J, 4)
+    G[0] = quat_multiply(top, local[0])
+    # level by level (parents come before their children): one vector operation per level, not per joint
+    depth = np.zeros(J, dtype=np.int64)
+    for k in range(1, J):
+        depth[k] = depth[parents[k]] + 1
+    by_level = np.argsort(depth, kind="stable")
+    ends = np.searchsorted(depth[by_level], np.arange(1, int(depth.max(initial=0)) + 2))
+    for a, b in zip(ends[:-1], ends[1:]):
+        level = by_level[a:b]
+        G[level] = quat_multiply(G[parents[level]], local[level])
     inverse = quat_conjugate(G)
     rotations[:, 0] = quat_multiply(rotations[:, 0], inverse[0])
     if J > 1:

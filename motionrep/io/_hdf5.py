@@ -1,7 +1,7 @@
 """HDF5 reader and writer: one clip, or a database of named clips, each a motion or a representation's features.
 
 The layout is ``specs/formats/hdf5.md``: root attributes ``format = "motionrep-hdf5"`` and ``format_version``
-(2; version 1 files are still read), one group per clip under ``/clips``, metadata as attributes, per-frame data as
+(3; versions 1 and 2 are still read), one group per clip under ``/clips``, metadata as attributes, per-frame data as
 chunked gzip-compressed datasets, strings as fixed-length UTF-8, a Fletcher-32 checksum on every dataset and the
 HDF5 1.10 object formats, whose metadata carries checksums too.  Quaternions are ``(F, J, 4)`` **xyzw**.  Reading
 a named clip opens only that clip's group.  Every array round-trips bit for bit.  Problems raise
@@ -32,6 +32,7 @@ from ..limits import current as current_limits
 from .._model import Motion
 from ..errors import FormatError, HDF5FormatError, ValidationError
 from ._atomic import atomic_path
+from ._compact import CHANNEL_KEYS, channel_arrays
 
 if TYPE_CHECKING:  # h5py is imported by the writer only: reading runs h5py in a worker process (_h5read)
     import h5py
@@ -73,8 +74,9 @@ HDF5_FORMAT = "motionrep-hdf5"
 #: Newest HDF5 format version this motionrep writes and reads (older versions stay readable).  Version 2: a
 #: Fletcher-32 checksum on every non-empty dataset, fixed-length UTF-8 strings (variable-length strings cannot
 #: carry a checksum), HDF5 1.10 object formats (checksummed metadata and chunk indexes), the optional
-#: ``euler_angles`` dataset.
-HDF5_FORMAT_VERSION = 2
+#: ``euler_angles`` dataset.  Version 3: a clip read from BVH is stored as its channel values (decimal integers,
+#: frame differences, deflated: ``motionrep.io._compact``) when they give back every array bit for bit.
+HDF5_FORMAT_VERSION = 3
 #: The group holding one subgroup per clip.
 CLIPS_GROUP = "clips"
 
@@ -139,6 +141,7 @@ def _dataset(group: h5py.Group, name: str, value: Any, compress: bool) -> None:
 def _write_clip(clips: h5py.Group, name: str, item: Motion | FeatureClip) -> None:
     if isinstance(item, Motion):
         scalars, arrays = motion_fields(item)
+        arrays = channel_arrays(item) or arrays  # the compact layout when it gives the clip back exactly
     elif isinstance(item, FeatureClip):
         scalars, arrays = feature_fields(item)
     else:
@@ -306,7 +309,7 @@ def _check_header(f: H5Reader, path: str | os.PathLike[str]) -> tuple[int, list[
 
 class _HDF5Source(ClipSource):
     _ARRAY_KEYS = ("root_translation", "rotations", "joint_translations", "features", "feature_names",
-                   "euler_branch", "euler_angles")
+                   "euler_branch", "euler_angles") + CHANNEL_KEYS
 
     def __init__(self, reader: H5Reader, path: str | os.PathLike[str], clip: str):
         super().__init__(path, clip, HDF5FormatError)
@@ -479,7 +482,8 @@ class HDF5Database:
             kind = src.text("kind")
             fps = src.number("fps", integer=False)
             joints = src.shape_dtype("skeleton.names")[0]
-            key = "features" if kind == KIND_FEATURES else "rotations"
+            key = "features" if kind == KIND_FEATURES else next(
+                (k for k in ("rotations", "channel_deltas", "channel_values") if src.has(k)), "rotations")
             shape = src.shape_dtype(key)[0]
             if kind not in (KIND_MOTION, KIND_FEATURES) or len(shape) < 2 or len(joints) != 1 or not fps > 0:
                 raise src.fail("malformed clip (kind, fps, skeleton/names or frame data)")

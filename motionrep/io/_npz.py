@@ -1,7 +1,8 @@
 """NPZ (numpy archive) reader and writer: one clip per file, a motion or a representation's features.
 
-The layout is ``specs/formats/npz.md``: format name ``"motionrep-npz"``, format version 2 (version 1 is still
-read), quaternions ``(F, J, 4)`` **xyzw**, the complete skeleton, strings as fixed-width unicode arrays, so files
+The layout is ``specs/formats/npz.md``: format name ``"motionrep-npz"``, format version 3 (versions 1 and 2 are
+still read), members deflated, a clip read from BVH stored as its channel values when they give back every array
+bit for bit (``_compact``), otherwise quaternions ``(F, J, 4)`` **xyzw**, the complete skeleton, strings as fixed-width unicode arrays, so files
 load with ``numpy.load(path, allow_pickle=False)``.  Every array round-trips bit for bit.  Problems raise
 :class:`~motionrep.errors.NPZFormatError` naming the file.
 
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 from .._model import Motion
 from ..errors import MotionrepError, NPZFormatError, ValidationError
 from ._atomic import atomic_path
+from ._compact import channel_arrays
 from ._features import FeatureClip, motion_from_features
 from ._files import open_regular
 from ._stored import (
@@ -39,8 +41,9 @@ __all__ = ["NPZ_FORMAT", "NPZ_FORMAT_VERSION", "read_npz", "read_npz_clip", "wri
 #: Value of the ``format`` key of every motionrep NPZ file.
 NPZ_FORMAT = "motionrep-npz"
 #: Newest NPZ format version this motionrep writes and reads (older versions stay readable).  Version 2 adds
-#: the optional ``euler_angles`` key.
-NPZ_FORMAT_VERSION = 2
+#: the optional ``euler_angles`` key; version 3 the compact layout (``channel_*`` keys, ``motionrep.io._compact``)
+#: and deflated members.
+NPZ_FORMAT_VERSION = 3
 
 #: Longest string, in characters, a stored string array may hold per element.
 MAX_STRING_CHARS = 1 << 16
@@ -83,14 +86,16 @@ def _save(archive: dict[str, NDArray], path: str | os.PathLike[str], compress: b
             (np.savez_compressed if compress else np.savez)(fh, **archive)
 
 
-def write_npz(motion: Motion, path: str | os.PathLike[str], compress: bool = False) -> None:
+def write_npz(motion: Motion, path: str | os.PathLike[str], compress: bool = True) -> None:
     """Write ``motion`` to an NPZ file, atomically.
 
     Args:
-        motion: the clip; rotations are stored ``(F, J, 4)`` xyzw, every array bit for bit.
+        motion: the clip; every array comes back bit for bit.  A clip read from BVH is stored as its channel
+            values (decimal integers, frame differences) when they give back every array exactly; otherwise
+            rotations are stored ``(F, J, 4)`` xyzw.
         path: the target; an existing file is replaced only once the new one is complete.
-        compress: deflate the archive members (``numpy.savez_compressed``).  Off by default: float64 motion
-            data deflates by only about a quarter, at several times the writing time.  Readers handle both.
+        compress: deflate the archive members (``numpy.savez_compressed``, the default); ``False`` stores them
+            as they are (faster to write, several times larger).  Readers handle both.
 
     Raises:
         ValidationError: if a joint name or the units contain a NUL character (not storable).
@@ -98,10 +103,11 @@ def write_npz(motion: Motion, path: str | os.PathLike[str], compress: bool = Fal
     if not isinstance(motion, Motion):
         raise ValidationError(f"write_npz needs a Motion, got {type(motion).__name__}")
     scalars, arrays = motion_fields(motion)
+    arrays = channel_arrays(motion) or arrays  # the compact layout when it gives the clip back exactly
     _save(_archive(scalars, skeleton_fields(motion.skeleton), arrays), path, compress)
 
 
-def write_npz_features(clip: FeatureClip, path: str | os.PathLike[str], compress: bool = False) -> None:
+def write_npz_features(clip: FeatureClip, path: str | os.PathLike[str], compress: bool = True) -> None:
     """Write a representation's features (``clip``) to an NPZ file, atomically (see :func:`write_npz`)."""
     if not isinstance(clip, FeatureClip):
         raise ValidationError(f"write_npz_features needs a FeatureClip, got {type(clip).__name__}")
@@ -223,6 +229,11 @@ class _NPZSource(ClipSource):
     def strings(self, key: str) -> list[str]:
         a = self.array(key)
         if a.dtype.kind == "U":
+            # numpy keeps UCS-4 code units as stored: one above U+10FFFF makes a str CPython cannot handle
+            # (SystemError on use), so the code points are checked before any str is made.
+            units = np.ascontiguousarray(a).view(np.uint32) if a.size and a.dtype.itemsize else np.zeros(0, np.uint32)
+            if units.size and int(units.max()) > 0x10FFFF:
+                raise self.fail(f"{self.where(key)} holds a code point above U+10FFFF: not text")
             return [str(s) for s in a.tolist()]
         if a.dtype.kind == "S":
             try:

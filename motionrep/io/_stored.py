@@ -281,6 +281,8 @@ def decode_clip(src: ClipSource) -> Motion | FeatureClip:
             features = src.checked_array("features", (None, None), _FLOAT, "numbers")
             names = src.checked_strings("feature_names", features.shape[1])
             return FeatureClip(skeleton, fps, rep, version, np.asarray(features, dtype=np.float64), tuple(names))
+        if not src.has("rotations") and any(src.has(k) for k in ("channel_deltas", "channel_values")):
+            return _decode_channels(src, skeleton, fps)
         rotations = src.checked_array("rotations", (None, J, 4), _FLOAT, "numbers")
         F = rotations.shape[0]
         if F == 0:
@@ -299,8 +301,50 @@ def decode_clip(src: ClipSource) -> Motion | FeatureClip:
         raise src.fail(str(exc)) from None
 
 
+def _decode_channels(src: ClipSource, skeleton: Skeleton, fps: float) -> Motion:
+    """A motion stored as its channel values (the compact layout of format version 3, ``_compact``)."""
+    from ._compact import MAX_DIGITS, channel_matrix, motion_from_channel_arrays
+
+    C = skeleton.num_channels
+    key = "channel_deltas" if src.has("channel_deltas") else "channel_values"
+    shape, _ = src.shape_dtype(key)
+    if len(shape) != 2 or int(shape[1]) != C:
+        raise src.fail(f"{src.where(key)} has shape {tuple(shape)}, expected (?, {C})")
+    F = int(shape[0])
+    if F == 0:
+        raise src.fail(f"{src.where(key)} has no frames")
+    reason = check_clip(F, src.where(key), joints=skeleton.num_joints,
+                        translated=int(skeleton.translated_joints.shape[0]), angles=skeleton.num_rotation_channels)
+    if reason:
+        raise src.fail(reason)
+    if key == "channel_values":
+        values = np.asarray(src.checked_array(key, (F, C), _FLOAT, "numbers"), dtype=np.float64)
+    else:
+        deltas = src.checked_array(key, (F, C), _INT, "integers")
+        digits = src.checked_array("channel_digits", (C,), _INT, "integers")
+        if np.any(digits < 0) or np.any(digits > MAX_DIGITS):
+            raise src.fail(f"{src.where('channel_digits')} must hold digit counts from 0 to {MAX_DIGITS}")
+        patches = src.checked_array("channel_patches", (None,), _INT, "integers")
+        if patches.size > F * C or np.any(patches < 0) or np.any(patches >= F * C):
+            raise src.fail(f"{src.where('channel_patches')} must hold indices of values, below {F * C}")
+        patch_values = src.checked_array("channel_patch_values", (patches.size,), _FLOAT, "numbers")
+        if deltas.dtype.kind == "u" and deltas.dtype.itemsize == 8:
+            raise src.fail(f"{src.where(key)} must hold signed integers, got dtype {deltas.dtype}")
+        with np.errstate(all="ignore"):  # float64 sums cannot wrap round as int64 ones do
+            reach = np.abs(np.cumsum(deltas, axis=0, dtype=np.float64)).max(initial=0.0)
+        if not reach < 2.0 ** 53:
+            raise src.fail(f"{src.where(key)} adds up to integers beyond 2**53 (no decimal motionrep writes)")
+        values = channel_matrix(digits, deltas, patches, np.asarray(patch_values, dtype=np.float64))
+    if not np.all(np.isfinite(values)):
+        raise src.fail(f"{src.where(key)} holds values that are not finite")
+    return motion_from_channel_arrays(skeleton, fps, values)
+
+
 def _check_clip_size(src: ClipSource, kind: str) -> None:
     """Refuse a clip whose declared frame data exceeds the limits, from shapes alone (nothing is read yet)."""
+    if kind == KIND_MOTION and not src.has("rotations") and any(
+            src.has(k) for k in ("channel_deltas", "channel_values")):
+        return  # the compact layout: checked by _decode_channels once the skeleton is known
     key = "features" if kind == KIND_FEATURES else "rotations"
     src.require(key)
     shape, _ = src.shape_dtype(key)

@@ -23,8 +23,8 @@ import numpy as np
 
 from .crafted import SECRET, npy_bytes, pack_meta, pack_raw
 
-__all__ = ["mutate_bytes", "mrc_mutant", "npz_mutant", "h5_mutant", "bvh_mutant", "json_value",
-           "SECRET_VALUE"]
+__all__ = ["mutate_bytes", "mrc_mutant", "npz_mutant", "h5_mutant", "bvh_mutant", "glb_mutant",
+           "gltf_json_mutant", "split_glb", "join_glb", "json_value", "SECRET_VALUE"]
 
 #: A value that only a file outside the one being read holds (a leak if it shows up in what was read).
 SECRET_VALUE = 1234567.890625
@@ -152,6 +152,69 @@ def mrc_mutant(meta: dict, payload: bytes, rng: random.Random) -> bytes:
             pay = mutate_bytes(pay, rng)
         return pack_raw(blob, pay)
     return mutate_bytes(data, rng)
+
+
+# ---- glTF (.glb) -------------------------------------------------------------------------------------------------
+def split_glb(data: bytes) -> tuple[dict, bytes]:
+    """The JSON document and the BIN chunk of a ``.glb`` file motionrep wrote."""
+    json_len = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + json_len])
+    rest = data[20 + json_len:]
+    return doc, rest[8:8 + struct.unpack_from("<I", rest, 0)[0]] if rest else b""
+
+
+def join_glb(text: bytes, blob: bytes) -> bytes:
+    """A ``.glb`` file of a JSON chunk and a BIN chunk, its framing (lengths, padding) valid."""
+    text += b" " * (-len(text) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(blob), b"BIN\0") + blob
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+# numbers an attacker puts where glTF expects counts, offsets, indices, scales or key values
+_GLTF_NUMBERS = [10 ** 400, -(10 ** 400), 10 ** 12, 2 ** 31, 2 ** 32 + 1, 2 ** 63, 1e308, -1e308, 1e200, 5e-324,
+                 float("nan"), float("inf"), 0, -1, 65536, 1_000_000, 0.5]
+
+
+def _numeric_edit(doc: dict, rng: random.Random) -> None:
+    numbers = [p for p in _paths(doc) if p and _at(doc, p) is not True and _at(doc, p) is not False
+               and isinstance(_at(doc, p), (int, float))]
+    if numbers:
+        path = rng.choice(numbers)
+        parent = _at(doc, path[:-1])
+        old = parent[path[-1]]
+        parent[path[-1]] = rng.choice(_GLTF_NUMBERS + [old * 1000, old + 1, -old, old * 10 ** 6])
+
+
+def _at(doc: Any, path: tuple) -> Any:
+    for k in path:
+        doc = doc[k]
+    return doc
+
+
+def gltf_json_mutant(doc: dict, blob: bytes, rng: random.Random) -> bytes:
+    """A mutant ``.glb`` whose framing is valid and whose JSON chunk is edited: values replaced by random JSON
+    (lists, objects, huge integers, NaN, deep nesting), numbers set to extremes, entries removed, lists repeated
+    or cut; a fifth of them with damaged BIN bytes too."""
+    doc = json.loads(json.dumps(doc))
+    for _ in range(rng.randrange(1, 4)):
+        if rng.random() < 0.5:
+            _numeric_edit(doc, rng)
+        else:
+            doc = _edit_json(doc, rng)
+    text = _dumps(doc).encode()
+    if rng.random() < 0.2:
+        blob = mutate_bytes(blob, rng)
+    return join_glb(text, blob)
+
+
+def glb_mutant(data: bytes, rng: random.Random) -> bytes:
+    """A damaged ``.glb``: bytes overwritten, inserted, removed or truncated anywhere (half of them with the
+    header's total length put right, so the damage reaches the chunks)."""
+    out = bytearray(mutate_bytes(data, rng))
+    if len(out) >= 12 and rng.random() < 0.5:
+        out[8:12] = struct.pack("<I", len(out))
+    return bytes(out)
 
 
 # ---- NPZ ---------------------------------------------------------------------------------------------------------

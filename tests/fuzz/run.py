@@ -2,6 +2,7 @@
 
     python tests/fuzz/run.py --mutants 100000                 # every format, 100,000 mutants each
     python tests/fuzz/run.py --formats h5 --mutants 20000     # one format
+    python tests/fuzz/run.py --formats glb,gltf-json          # glTF: damaged .glb bytes; edited JSON chunks
     python tests/fuzz/run.py --formats mrc --mrc-codecs adaptive-fourier,adaptive-fourier:window=16
                                                               # .mrc mutants of other codecs' payloads
     python tests/fuzz/run.py --crafted                        # the crafted cases, through the command line
@@ -12,13 +13,15 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
 ``motionrep.io.read`` (BVH: ``parse_bvh``, its numpy path for even seeds and its compiled path for odd ones;
-``.mrc``: ``unpack`` then ``decompress``; seed ``s`` mutates the file of codec
-``s mod n`` of the ``n`` in ``--mrc-codecs``), under the small limits ``SMALL`` below; the
+``.mrc``: ``unpack`` then ``decompress``, seed ``s`` mutating the file of codec ``s mod n`` of the ``n`` in
+``--mrc-codecs``; ``gltf-json``: even seeds motionrep's own ``.glb``, odd seeds the same file without its
+``extras``), under the small limits ``SMALL`` below; the
 child reports every outcome on a pipe.  Counted per format:
 
 - ``refused``: motionrep's own error naming the file (the expected answer to a damaged file);
 - ``read``: a clip came back (the damage was in bytes the reader does not use, or was harmless);
 - ``traceback``: any other exception (``MemoryError`` included), or a motionrep error that does not name the file;
+- ``warning``: (glTF) a warning (numpy's overflow, ...) was raised on the way to the clip or the error;
 - ``hang``: no answer within ``--timeout`` seconds (the child is killed and restarted after that mutant);
 - ``leak``: what was read holds bytes or values of a file the mutant points to (external storage, links);
 - ``over-limit``: the read's peak memory (Python-traced allocations; for HDF5 also the reader process's peak
@@ -43,6 +46,7 @@ import sys
 import tempfile
 import time
 import traceback
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -50,7 +54,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 SMALL = dict(max_frames=100_000, max_clip_bytes=32 << 20, max_metadata_bytes=1 << 20, read_timeout=10)
-FORMATS = ("bvh", "mrc", "npz", "h5")
+FORMATS = ("bvh", "mrc", "npz", "h5", "glb", "gltf-json")
+SUFFIX = {"gltf-json": "glb"}  # JSON-chunk mutants are .glb files too
 MRC_CODECS = "svd,transform"
 
 
@@ -82,6 +87,20 @@ def _bases(fmt: str, work: Path, mrc_codecs: str = MRC_CODECS):
     if fmt == "npz":
         write(m, work / "base.npz")
         return npz_parts(work / "base.npz")
+    if fmt in ("glb", "gltf-json"):  # a clip of motionrep's own (its extras read too) and a foreign-looking one
+        from fuzz.mutate import split_glb
+        from motionrep.io import gltf_bytes
+
+        own = gltf_bytes(m, up="y")
+        if fmt == "glb":
+            return [own]
+        doc, blob = split_glb(own)
+        foreign = json.loads(json.dumps(doc))
+        for node in foreign["nodes"]:
+            node.pop("extras", None)
+        for anim in foreign["animations"]:
+            anim.pop("extras", None)
+        return [(doc, blob), (foreign, blob)]
     write(m, work / "v2.h5", clip="clip")
     write_v1_hdf5(m, work / "v1.h5", clip="clip")
     return [(work / "v2.h5").read_bytes(), (work / "v1.h5").read_bytes()]
@@ -120,7 +139,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
     import numpy as np
 
     from fuzz.crafted import SECRET
-    from fuzz.mutate import SECRET_VALUE, bvh_mutant, h5_mutant, mrc_mutant, npz_mutant
+    from fuzz.mutate import SECRET_VALUE, bvh_mutant, glb_mutant, gltf_json_mutant, h5_mutant, mrc_mutant, npz_mutant
     from motionrep import Motion, limits
     from motionrep.compress import decompress
     from motionrep.container import unpack
@@ -130,7 +149,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     limits.set_limits(**SMALL)
     base = _bases(fmt, work, mrc_codecs)
-    path = work / f"mutant.{fmt}"
+    path = work / f"mutant.{SUFFIX.get(fmt, fmt)}"
     baseline = 0
     if fmt == "h5":  # start the reader process first: its own footprint (numpy, h5py) is not any read's
         read(work / "v2.h5")
@@ -144,6 +163,10 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
             data = mrc_mutant(*base[seed % len(base)], rng)
         elif fmt == "npz":
             data = npz_mutant(base[0], base[1], rng)
+        elif fmt == "glb":
+            data = glb_mutant(base[0], rng)
+        elif fmt == "gltf-json":
+            data = gltf_json_mutant(*base[seed % 2], rng)  # even seeds: motionrep's own file; odd: foreign
         else:
             h5_mutant(path, base, rng, work)
             data = None
@@ -153,6 +176,9 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
         outcome, detail = "read", ""
         tracemalloc.start()
         _reset_worker_peak()
+        caught = warnings.catch_warnings(record=True)
+        seen = caught.__enter__()
+        warnings.simplefilter("always")
         try:
             if fmt == "bvh":
                 item = parse_bvh(data, str(path), compiled=bool(seed % 2))  # odd seeds: the compiled path
@@ -177,6 +203,9 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
             detail = "".join(traceback.format_exception_only(type(exc), exc))[:300] + " @ " + \
                 traceback.extract_tb(exc.__traceback__)[-1].filename.rsplit("/", 1)[-1] + ":" + \
                 str(traceback.extract_tb(exc.__traceback__)[-1].lineno)
+        caught.__exit__(None, None, None)
+        if seen and outcome in ("read", "refused") and fmt in ("glb", "gltf-json"):
+            outcome, detail = "warning", f"{seen[0].category.__name__}: {seen[0].message}"[:300]
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         if fmt == "h5":
