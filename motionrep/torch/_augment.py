@@ -28,6 +28,8 @@ __all__ = ["mirror_pairs", "lateral_axis", "mirror_poses", "rotate_poses", "foot
            "UP_AXES"]
 
 UP_AXES = {"x": 0, "y": 1, "z": 2}
+#: A contact joint's floor is this percentile of its height over the clip.
+FLOOR_PERCENTILE = 5.0
 
 # (left, right) spellings tried on each joint name, first match wins: whole words, then prefixes and suffixes.
 _WORDS = (("Left", "Right"), ("left", "right"), ("LEFT", "RIGHT"))
@@ -148,13 +150,13 @@ def foot_contacts(positions: NDArray, joints: NDArray[np.int64], up: int, fps: f
                   *, height_threshold: float, speed_threshold: float) -> NDArray[np.float32]:
     """``(F, C)`` 1.0 where a contact joint touches the ground, else 0.0.
 
-    A joint is in contact in a frame when it is within ``height_threshold * height`` above its own lowest point
-    over the clip and its speed (central differences of the world positions) is below ``speed_threshold *
+    A joint is in contact in a frame when it is within ``height_threshold * height`` above its floor -- its own
+    5th-percentile height over the clip (robust to a stray frame below the floor) -- and its speed (central differences of the world positions) is below ``speed_threshold *
     height`` per second; ``height`` is the character's height (:func:`motionrep.character_height`).
     """
     p = positions[:, joints]  # (F, C, 3)
     h = p[..., up]
-    low = h.min(axis=0, keepdims=True)
+    low = np.percentile(h, FLOOR_PERCENTILE, axis=0, keepdims=True)
     if p.shape[0] > 1:
         speed = np.linalg.norm(np.gradient(p, axis=0), axis=-1) * fps
     else:

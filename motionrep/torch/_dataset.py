@@ -52,8 +52,8 @@ class MotionDataset(torch.utils.data.Dataset):
             positions over the whole clip, ``numpy.gradient``, times the rate).
         contact_joints: joint names for ``contacts`` (default: names with foot/toe, else ankle).
         contact_height: a contact joint is on the ground within this fraction of the character's height above
-            its lowest point in the clip (default 0.03) ...
-        contact_speed: ... and slower than this many character heights per second (default 0.2).
+            its floor (its 5th-percentile height over the clip; default 0.04) ...
+        contact_speed: ... and slower than this many character heights per second (default 0.25).
         up: ``"x"``, ``"y"``, ``"z"`` or ``"auto"`` (``motionrep.render.detect_up_axis`` on the first clip).
         stats: a :class:`FeatureStats` (or the path of its file) to normalise features with.
         rotate: augment by a rotation about the up axis through the origin, uniform in ``[-rotate, rotate]``
@@ -71,8 +71,8 @@ class MotionDataset(torch.utils.data.Dataset):
     def __init__(self, source: Any, representation: str = "root-quat-axis-angle", length: int = 64,
                  stride: int | None = None, fps: float | None = None, *, clips: Iterable[str] | None = None,
                  positions: bool = False, velocities: bool = False, contacts: bool = False,
-                 contact_joints: Sequence[str] | None = None, contact_height: float = 0.03,
-                 contact_speed: float = 0.2, up: str = "auto", stats: FeatureStats | str | os.PathLike | None = None,
+                 contact_joints: Sequence[str] | None = None, contact_height: float = 0.04,
+                 contact_speed: float = 0.25, up: str = "auto", stats: FeatureStats | str | os.PathLike | None = None,
                  rotate: float | bool = 0.0, mirror: float | bool = 0.0, mirror_map: Mapping[str, str] | None = None,
                  skeletons: str = "same", dtype: torch.dtype = torch.float32, cache_bytes: int = _DEFAULT_CACHE,
                  seed: int = 0):
