@@ -6,7 +6,8 @@ container headers; only a file of one clip (BVH, NPZ, glTF, ``.mrc``) is read wh
 frames.  No file stays open afterwards.  Each process that reads windows (the main one, or each ``DataLoader``
 worker) opens the files it needs itself, on first use, and notices when it is a fork of the process that opened
 them (an HDF5 handle must not cross a fork); the prepared arrays of the most recently used clips are kept up to
-``cache_bytes`` per process (least recently used first out).
+``cache_bytes`` per process (least recently used first out).  Clips prepared before the workers fork
+(``MotionDataset.preload``) are inherited by them, copy-on-write: prepared once, not once per worker.
 """
 
 from __future__ import annotations
@@ -136,9 +137,15 @@ class ClipCache:
         self.__dict__.update(state)
         self._reset()
 
+    def _forked(self) -> None:
+        """In a forked worker: the parent's file handles are not ours (forgotten, never closed here); its prepared
+        arrays are plain memory, shared copy-on-write, and kept."""
+        if self._pid != os.getpid():
+            self._pid = os.getpid()
+            self._sources = {}
+
     def _source(self, path: str) -> Source:
-        if self._pid != os.getpid():  # a forked worker: the parent's handles are not ours (never closed here)
-            self._reset()
+        self._forked()
         src = self._sources.get(path)
         if src is None:
             src = self._sources[path] = open_source(path)
@@ -156,8 +163,7 @@ class ClipCache:
 
     def get(self, i: int) -> dict[str, np.ndarray]:
         """The prepared arrays of clip ``i``."""
-        if self._pid != os.getpid():
-            self._reset()
+        self._forked()
         entry = self._entries.get(i)
         if entry is not None:
             self._entries.move_to_end(i)

@@ -96,7 +96,10 @@ class MotionDataset(torch.utils.data.Dataset):
         if not 0.0 <= self.mirror <= 1.0:
             raise ValidationError(f"mirror must be a probability in [0, 1], got {mirror!r}")
         self.mirror_map = dict(mirror_map or {})
+        if dtype not in (torch.float32, torch.float64):
+            raise ValidationError(f"dtype must be torch.float32 or torch.float64, got {dtype}")
         self.dtype, self.seed, self.skeletons = dtype, int(seed), skeletons
+        self._numpy_dtype = np.float32 if dtype == torch.float32 else np.float64
         columns = (lambda m: tuple(self.representation.feature_names(m.skeleton))) if skeletons == "group" else None
         infos = index_clips(source, self.fps, clips, columns)
         if not infos:
@@ -143,12 +146,13 @@ class MotionDataset(torch.utils.data.Dataset):
     # -- statistics --------------------------------------------------------------------------------------------
     def compute_stats(self) -> FeatureStats:
         """Mean and std per feature over every frame of every clip of this dataset (call it on the training
-        split's dataset), read one clip at a time; not normalised, not augmented."""
+        split's dataset), each clip read and encoded in float64 once, one at a time; not normalised, not
+        augmented, not cached."""
         if len(self.group_layouts) > 1:
             raise ValidationError("feature statistics need clips of one feature layout (skeletons='group' found "
                                   f"{len(self.group_layouts)}); make one dataset per skeleton")
         rep = self.representation
-        arrays = (self._cache.get(i)["features"] for i in range(len(self.clips)) if self.clips[i].frames > 0)
+        arrays = (rep.to_features(self._resampled(self._cache.read(i))) for i in range(len(self.clips)))
         return FeatureStats.from_arrays(arrays, rep.name, rep.version, self.feature_names, self.clip_names)
 
     def set_stats(self, stats: FeatureStats | str | os.PathLike | None) -> None:
@@ -168,11 +172,14 @@ class MotionDataset(torch.utils.data.Dataset):
         return features if self.stats is None else self.stats.denormalize(features)
 
     # -- per clip ----------------------------------------------------------------------------------------------
+    def _resampled(self, motion: Motion) -> Motion:
+        return resample(motion, self.fps) if self.fps is not None and motion.fps != self.fps else motion
+
     def _prepare(self, motion: Motion) -> dict[str, np.ndarray]:
-        if self.fps is not None and motion.fps != self.fps:
-            motion = resample(motion, self.fps)
+        motion = self._resampled(motion)
         rep = self.representation
-        out: dict[str, Any] = {"features": np.ascontiguousarray(rep.to_features(motion))}
+        keep = self._numpy_dtype
+        out: dict[str, Any] = {"features": np.ascontiguousarray(rep.to_features(motion), dtype=keep)}
         sk = motion.skeleton
         if self.skeletons == "same" and out["features"].shape[1] != self.width or (
                 self.skeletons == "same" and tuple(rep.feature_names(sk)) != self.feature_names):
@@ -182,10 +189,10 @@ class MotionDataset(torch.utils.data.Dataset):
         if need_pos:
             pos, _ = fk_arrays(sk, motion.rotations, motion.root_translation, motion.joint_translations)
             if self.want["positions"]:
-                out["positions"] = pos.astype(np.float32)
+                out["positions"] = pos.astype(keep)
             if self.want["velocities"]:
                 vel = np.gradient(pos, axis=0) * motion.fps if pos.shape[0] > 1 else np.zeros_like(pos)
-                out["velocities"] = vel.astype(np.float32)
+                out["velocities"] = vel.astype(keep)
             if self.want["contacts"]:
                 joints = contact_joints(sk, self.contact_names)
                 out["contacts"] = foot_contacts(pos, joints, self.up, motion.fps, character_height(sk),
@@ -227,32 +234,37 @@ class MotionDataset(torch.utils.data.Dataset):
             raise ValidationError("a batch mixes windows of clips with different feature columns; use "
                                   "WindowSampler, which batches each group apart")
         keys = ["features"] + [k for k, v in self.want.items() if v]
-        parts: dict[str, list[np.ndarray]] = {k: [] for k in keys}
         order = np.argsort(clip, kind="stable")
         steps = np.arange(self.length)
         bounds = np.flatnonzero(np.diff(clip[order])) + 1
-        for run in np.split(order, bounds):
+        out: dict[str, np.ndarray] = {}
+        tensors: dict[str, torch.Tensor] = {}
+        shared = torch.utils.data.get_worker_info() is not None  # filled in place in shared memory: no copy
+        for run in np.split(order, bounds):  # to send the batch to the main process
             if run.size == 0:
                 continue
             entry = self._cache.get(int(clip[run[0]]))
             rows = start[run][:, None] + steps  # (b, L): vectorised slicing of the clip's arrays
             if self.rotate or self.mirror:
                 got = [self._augmented(entry, r) for r in rows[:, 0].tolist()]
-                for k in keys:
-                    parts[k].append(np.stack([g[k] for g in got]))
+                values = {k: np.stack([g[k] for g in got]) for k in keys}
             else:
-                for k in keys:
-                    parts[k].append(entry[k][rows])
-        inverse = np.empty_like(order)
-        inverse[order] = np.arange(order.size)
-        out = {}
-        for k in keys:
-            a = np.concatenate(parts[k])[inverse] if parts[k] else np.zeros((0, self.length, self.width))
-            t = torch.from_numpy(np.ascontiguousarray(a)).to(self.dtype)
-            out[k] = self.normalize(t) if k == "features" else t
-        out["clip"] = torch.from_numpy(clip.copy())
-        out["start"] = torch.from_numpy(start.copy())
-        return out
+                values = {k: entry[k][rows] for k in keys}
+            for k in keys:
+                if k not in out:
+                    t = torch.empty((index.size,) + values[k].shape[1:], dtype=self.dtype)
+                    tensors[k] = t.share_memory_() if shared else t
+                    out[k] = tensors[k].numpy()
+                out[k][run] = values[k]
+        if not out:  # an empty batch
+            tensors = {k: torch.zeros((0, self.length, self.width), dtype=self.dtype) for k in keys[:1]}
+        elif self.stats is not None:
+            f = out["features"]
+            f -= self.stats.mean.astype(f.dtype)
+            f /= self.stats.std.astype(f.dtype)
+        tensors["clip"] = torch.from_numpy(clip.copy())
+        tensors["start"] = torch.from_numpy(start.copy())
+        return tensors
 
     def _generator(self) -> np.random.Generator:
         if self._rng is None or self._rng_pid != os.getpid():
@@ -287,6 +299,17 @@ class MotionDataset(torch.utils.data.Dataset):
             c = entry["contacts"][s:s + L]
             out["contacts"] = c[:, entry["contact_pairs"]] if flipped else c
         return out
+
+    def preload(self) -> "MotionDataset":
+        """Prepare every clip now, in this process, up to ``cache_bytes`` (then close the files): ``DataLoader``
+        workers forked afterwards inherit the prepared clips instead of each preparing them again."""
+        for i, c in enumerate(self.clips):
+            if c.frames >= self.length:
+                self._cache.get(i)
+        for src in self._cache._sources.values():
+            src.close()
+        self._cache._sources = {}
+        return self
 
     def close(self) -> None:
         """Close the files this process opened and drop its cached clips."""
