@@ -21,6 +21,7 @@ from ..errors import ValidationError
 from ..kinematics import character_height, fk_arrays
 from ..ops import resample
 from ..plugins import get_representation
+from ..representation import Representation
 from ._augment import (UP_AXES, contact_joints, foot_contacts, lateral_axis, mirror_pairs, mirror_poses,
                        rotate_poses)
 from ._clips import ClipCache, ClipInfo, index_clips
@@ -43,7 +44,8 @@ class MotionDataset(torch.utils.data.Dataset):
 
     Args:
         source: a directory of motion files, a motion file, an ``.h5`` database, an ``.mrc`` archive, or a list.
-        representation: a registered representation's name; features come from its numpy ``to_features``.
+        representation: a registered representation's name (or a ``Representation`` instance); features come
+            from its numpy ``to_features``.
         length: frames per window (>= 1).
         stride: frames between window starts (default ``length``: no overlap).
         fps: resample every clip to this rate first (``motionrep.ops.resample``); None keeps each clip's own.
@@ -76,7 +78,8 @@ class MotionDataset(torch.utils.data.Dataset):
                  rotate: float | bool = 0.0, mirror: float | bool = 0.0, mirror_map: Mapping[str, str] | None = None,
                  skeletons: str = "same", dtype: torch.dtype = torch.float32, cache_bytes: int = _DEFAULT_CACHE,
                  seed: int = 0):
-        self.representation = get_representation(representation)
+        self.representation = (representation if isinstance(representation, Representation)
+                               else get_representation(representation))
         self.length = int(length)
         self.stride = self.length if stride is None else int(stride)
         if self.length < 1 or self.stride < 1:
