@@ -152,7 +152,8 @@ def foot_contacts(positions: NDArray, joints: NDArray[np.int64], up: int, fps: f
 
     A joint is in contact in a frame when it is within ``height_threshold * height`` above its floor -- its own
     5th-percentile height over the clip (robust to a stray frame below the floor) -- and its speed (central
-    differences of the world positions) is below ``speed_threshold * height`` per second; ``height`` is the character's height (:func:`motionrep.character_height`).
+    differences of the world positions) is below ``speed_threshold * height`` per second; ``height`` is the
+    character's height (:func:`motionrep.character_height`).
     """
     p = positions[:, joints]  # (F, C, 3)
     h = p[..., up]
