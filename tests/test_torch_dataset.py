@@ -249,6 +249,16 @@ def test_dataloader_two_workers_each_open_their_own_files(database):
     assert sorted(got) == _windows(ds)
 
 
+@pytest.mark.slow
+def test_dataloader_spawned_workers_get_the_dataset_without_files(database):
+    ds = MotionDataset(database, length=8, stride=8)
+    ds[0]
+    loader = torch.utils.data.DataLoader(ds, sampler=WindowSampler(ds, 4, seed=0), batch_size=None, num_workers=2,
+                                         multiprocessing_context="spawn")
+    got = [w for b in loader for w in zip(b["clip"].tolist(), b["start"].tolist())]
+    assert sorted(got) == _windows(ds)
+
+
 def test_cache_is_bounded_and_mixed_skeletons(tmp_path):
     clips = {"h": synthetic_motion(frames=30), "c": synthetic_motion(chain_skeleton(5), frames=30)}
     write_database(clips, tmp_path / "mixed.h5")
