@@ -350,7 +350,7 @@ def main(argv: list[str] | None = None) -> int:
     if not SALSA.is_dir():
         print(f"salsa clips not found at {SALSA}", file=sys.stderr)
         return 1
-    args.hidden = args.hidden or (32 if args.quick else 256)
+    args.hidden = args.hidden or (32 if args.quick else 128)
     args.sequence = 30 if args.quick else 50
     args.stride = 10
     args.generate = 60 if args.quick else ACC_FRAMES
@@ -363,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
 
     import motionrep.torch as mt
 
-    torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
+    # one thread: on this shared 2-core machine two torch threads contend and a step takes 10 times longer
+    torch.set_num_threads(1)
     db = Path(tempfile.mkdtemp(prefix="motionrep_salsa_")) / "salsa30.h5"
     names = salsa_database(db, QUICK_TRIALS if args.quick else None)
     fractions = (0.5, 0.25, 0.25) if args.quick else (0.7, 0.15, 0.15)
