@@ -22,7 +22,7 @@ from .errors import ValidationError
 from .kinematics import forward_kinematics
 from .poseplan import PosePlan, decode_planned
 
-__all__ = ["Representation", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
+__all__ = ["Representation", "TorchPath", "joint_reach", "check_features", "FeatureLayout", "feature_layout", "per_skeleton",
            "representation_problems", "Poses", "empty_poses", "motion_from_poses", "decoded_motion", "PosePlan"]
 
 
@@ -154,6 +154,16 @@ class Representation(ABC):
         out.rotations[...] = motion.rotations
         out.joint_translations[...] = motion.joint_translations
 
+    def torch_path(self) -> "TorchPath | None":
+        """The representation in torch (optional): a :class:`TorchPath`, or None (the default).
+
+        A representation that offers one can be decoded and encoded inside a training loop
+        (:func:`motionrep.torch.decode_features`, :func:`motionrep.torch.encode_features`, the losses of
+        :mod:`motionrep.torch`), checked against the numpy path by the conformance suite.  Import torch only
+        inside this method (from a private ``_torch`` module), so that importing the plugin never imports it.
+        """
+        return None
+
     @abstractmethod
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` per-feature weights ``w`` of the Tojo et al. (2022) loss, eq. 3.
@@ -165,6 +175,29 @@ class Representation(ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r} v{self.version}>"
+
+
+class TorchPath(ABC):
+    """A representation's torch path (:meth:`Representation.torch_path`): decoder and encoder on torch tensors
+    (their dtype and device kept), differentiable, agreeing with the numpy path to 1e-10 (``specs/torch.md``)."""
+
+    @abstractmethod
+    def decode(self, features: Any, skeleton: Skeleton) -> tuple[Any, Any, Any]:
+        """``(..., F, D)`` features to ``(root_translation (..., F, 3), rotations (..., F, J, 4) xyzw local,
+        joint_translations (..., F, P, 3))``, as :meth:`Representation.decode_poses` (any leading batch
+        dimensions, differentiable in ``features``)."""
+
+    @abstractmethod
+    def encode(self, skeleton: Skeleton, root_translation: Any, rotations: Any, joint_translations: Any,
+               reference: NDArray[np.float64] | None = None) -> Any:
+        """``(F, 3)``, ``(F, J, 4)``, ``(F, P, 3)`` tensors to ``(F, D)`` features, as
+        :meth:`Representation.to_features` (differentiable in the poses).
+
+        The discrete choices of an encoding (quaternion signs, full turns of angles, the Euler solution) are
+        piecewise constant: they are taken as the numpy path takes them, from ``reference``, the numpy
+        features of the same poses when the caller has them (``to_features(motion)``, which sees hints such as
+        ``Motion.euler_branch``), else from the values.
+        """
 
 
 def representation_problems(rep: Any) -> list[str]:

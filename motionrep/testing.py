@@ -39,6 +39,7 @@ __all__ = [
     "conformance_motions",
     "upsample_motion",
     "check_representation",
+    "check_torch_path",
     "check_codec",
     "ConformanceContext",
 ]
@@ -192,6 +193,78 @@ def check_representation(rep: Representation, motions: Iterable[Motion] | None =
         nan = feats.copy()
         nan[0, 0] = np.nan
         _expect_validation_error(lambda: rep.from_features(nan, sk, m.fps), f"{where}: features with NaN")
+    if rep.torch_path() is not None and _have_torch():
+        check_torch_path(rep, clips)
+
+
+def _have_torch() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("torch") is not None and importlib.util.find_spec("roma") is not None
+
+
+def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = None, *,
+                     tolerance: float = 1e-10) -> None:
+    """Check a representation's torch path (:meth:`~motionrep.representation.Representation.torch_path`)
+    against its numpy path, in float64 (:func:`check_representation` runs it when torch is installed):
+
+    * its encoding equals ``to_features`` within ``tolerance`` times ``1 + |column|``, and its decoding
+      equals ``decode_poses`` (rotations, normalised, within ``tolerance``; translations within ``tolerance``
+      times the character height), on features and on features perturbed as a codec would;
+    * decoding keeps leading batch dimensions (two copies stacked decode to the same poses);
+    * gradients of the FK positions of the decoded poses with respect to the features are finite, and
+      ``torch.autograd.gradcheck`` passes on two frames of the first clip.
+
+    Raises:
+        AssertionError: naming the representation, the clip and what failed (ImportError without torch).
+    """
+    import torch
+
+    from .representation import empty_poses
+    from .torch import decode_features, encode_features, global_positions
+
+    who = f"representation {getattr(rep, 'name', rep)!r}"
+    rng = np.random.default_rng(1)
+    for i, m in enumerate(conformance_motions() if motions is None else motions):
+        where = f"{who}, {_label(i, m)}, torch path"
+        sk = m.skeleton
+        feats = rep.to_features(m)
+        enc = encode_features(rep, m).detach().numpy()
+        bad = np.abs(enc - feats) > tolerance * (1.0 + np.abs(feats))
+        if enc.shape != feats.shape or bad.any():
+            _fail(f"{where}: encoding differs from to_features (largest difference "
+                  f"{np.abs(enc - feats).max() if enc.shape == feats.shape else enc.shape})")
+        scale = max(_scale(m), 1e-300)
+        for label, f in (("features", feats),
+                         ("perturbed features", feats + rng.normal(size=feats.shape) * 1e-3 * (1 + np.abs(feats)))):
+            poses = empty_poses(sk, f.shape[0])
+            rep.decode_poses(f, sk, poses)
+            root, rot, jt = decode_features(rep, torch.tensor(f), sk)
+            # The numpy decoders return rotations unit to rounding only (a world-rotation recursion, as the
+            # dual-quaternion one, can grow the norm error by 2x per level, to 1e-9 on a deep chain; FK
+            # normalises); torch paths may normalise: the directions are compared.
+            unit = poses.rotations / np.linalg.norm(poses.rotations, axis=-1, keepdims=True)
+            errors = (np.abs(rot.numpy() - unit).max(initial=0.0),
+                      np.abs(root.numpy() - poses.root_translation).max(initial=0.0) / scale,
+                      np.abs(jt.numpy() - poses.joint_translations).max(initial=0.0) / scale)
+            if max(errors) > tolerance:
+                _fail(f"{where}: decoding {label} differs from decode_poses (rotations {errors[0]:.3g}, root "
+                      f"{errors[1]:.3g} and joint translations {errors[2]:.3g} x height)")
+        batch = decode_features(rep, torch.tensor(np.stack([feats, feats])), sk)[1]
+        if batch.shape != (2, feats.shape[0], sk.num_joints, 4) or \
+                not torch.allclose(batch[1], batch[0], rtol=0, atol=1e-12):
+            _fail(f"{where}: decoding (2, F, D) features did not give (2, F, J, 4) rotations, the same twice")
+        x = torch.tensor(feats, requires_grad=True)
+        pos = global_positions(sk, *decode_features(rep, x, sk))
+        (grad,) = torch.autograd.grad((pos * pos).sum(), x)
+        if not torch.isfinite(grad).all():
+            _fail(f"{where}: the gradient of FK positions with respect to the features is not finite")
+        if i == 0:
+            small = torch.tensor(feats[:2], requires_grad=True)
+            ok = torch.autograd.gradcheck(lambda t: global_positions(sk, *decode_features(rep, t, sk)), (small,),
+                                          eps=1e-6, atol=1e-5, raise_exception=False, fast_mode=True)
+            if not ok:
+                _fail(f"{where}: torch.autograd.gradcheck of FK positions of decoded features failed")
 
 
 def _check_continuity(rep: Representation, motion: Motion, feats: NDArray, names: Sequence[str], refine: int,

@@ -100,6 +100,12 @@ class DualQuaternion(Representation):
     def pose_plan(self, skeleton: Skeleton) -> PosePlan:
         return _pose_plan(skeleton)
 
+    def torch_path(self):
+        """Its torch path (``_torch``, imported here: importing the plugin never imports torch)."""
+        from ._torch import DualQuaternionTorch
+
+        return DualQuaternionTorch()
+
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations and dual parts; for a joint's real part, its longest bone to a
         direct child (joints and end sites) in frame 0, or 0 if it has no rotation channels.

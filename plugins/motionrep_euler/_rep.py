@@ -87,6 +87,12 @@ class Euler(Representation):
     def pose_plan(self, skeleton: Skeleton) -> PosePlan:
         return _pose_plan(skeleton)
 
+    def torch_path(self):
+        """Its torch path (``_torch``, imported here: importing the plugin never imports torch)."""
+        from ._torch import EulerTorch
+
+        return EulerTorch()
+
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         """``(D,)`` weights: 1 for translations; for a joint's angles (degrees), its reach times pi / 180."""
         return _layout(motion.skeleton).weights(joint_reach(motion) * (np.pi / 180.0))

@@ -56,5 +56,11 @@ class Ortho6D(Representation):
     def pose_plan(self, skeleton: Skeleton) -> PosePlan:
         return _pose_plan(skeleton)
 
+    def torch_path(self):
+        """Its torch path (``_torch``, imported here: importing the plugin never imports torch)."""
+        from ._torch import Ortho6DTorch
+
+        return Ortho6DTorch()
+
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))

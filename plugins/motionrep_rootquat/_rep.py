@@ -77,5 +77,11 @@ class RootQuatAxisAngle(Representation):
     def pose_plan(self, skeleton: Skeleton) -> PosePlan:
         return _pose_plan(skeleton)
 
+    def torch_path(self):
+        """Its torch path (``_torch``, imported here: importing the plugin never imports torch)."""
+        from ._torch import RootQuatAxisAngleTorch
+
+        return RootQuatAxisAngleTorch()
+
     def weights(self, motion: Motion) -> NDArray[np.float64]:
         return _layout(motion.skeleton).weights(joint_reach(motion))
