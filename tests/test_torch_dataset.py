@@ -203,6 +203,10 @@ def test_mirroring_reflects_positions_and_swaps_sides(database):
     a, b = plain[1]["positions"].numpy(), flipped[1]["positions"].numpy()
     want = a[:, points] * np.array([-1.0, 1.0, 1.0])
     np.testing.assert_allclose(b, want, atol=1e-4)  # a's positions are cached as float32
+    legs = dict(contacts=True, contact_joints=["LeftLeg", "RightLeg"])
+    c0 = MotionDataset(database, length=16, **legs)[torch.tensor(1)]["contacts"]  # a 0-d tensor index too
+    c1 = MotionDataset(database, length=16, mirror=1.0, **legs)[1]["contacts"]
+    np.testing.assert_array_equal(c1.numpy(), c0.numpy()[:, ::-1])  # the left foot's column is the right's
 
 
 def test_rotation_about_the_up_axis_turns_the_positions(database):

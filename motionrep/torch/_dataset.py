@@ -188,8 +188,7 @@ class MotionDataset(torch.utils.data.Dataset):
                 self.skeletons == "same" and tuple(rep.feature_names(sk)) != self.feature_names):
             raise ValidationError(f"clip {motion!r} has other feature columns than the dataset's first clip; "
                                   "use skeletons='group'")
-        need_pos = any(self.want.values()) or self.rotate or self.mirror
-        if need_pos:
+        if any(self.want.values()):
             pos, _ = fk_arrays(sk, motion.rotations, motion.root_translation, motion.joint_translations)
             if self.want["positions"]:
                 out["positions"] = pos.astype(keep)
@@ -216,7 +215,7 @@ class MotionDataset(torch.utils.data.Dataset):
 
     # -- windows -----------------------------------------------------------------------------------------------
     def __getitem__(self, index: Any) -> dict[str, torch.Tensor]:
-        if isinstance(index, (int, np.integer)):
+        if np.ndim(index) == 0:  # an int, a numpy or a 0-d torch integer
             batch = self._batch(np.array([int(index)]))
             return {k: v[0] for k, v in batch.items()}
         return self._batch(np.asarray(index, dtype=np.int64).reshape(-1))
