@@ -369,7 +369,8 @@ def main(argv: list[str] | None = None) -> int:
 
     # one thread: on this shared 2-core machine two torch threads contend and a step takes 10 times longer
     torch.set_num_threads(1)
-    db = Path(tempfile.mkdtemp(prefix="motionrep_salsa_")) / "salsa30.h5"
+    scratch = tempfile.TemporaryDirectory(prefix="motionrep_salsa_")  # removed when the run ends
+    db = Path(scratch.name) / "salsa30.h5"
     names = salsa_database(db, QUICK_TRIALS if args.quick else None)
     fractions = (0.5, 0.25, 0.25) if args.quick else (0.7, 0.15, 0.15)
     split = mt.split_clips(names, fractions, seed=args.seed, group=trial)
@@ -459,6 +460,10 @@ def main(argv: list[str] | None = None) -> int:
     (RESULTS / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print(statement)
     print(f"total {total:.0f} s; results in {RESULTS / stem}.md")
+    for inp in runs.values():
+        inp.train.close()
+        inp.test.close()
+    scratch.cleanup()
     return 0
 
 
