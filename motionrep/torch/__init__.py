@@ -20,6 +20,7 @@ except ImportError as exc:  # pragma: no cover - exercised where torch is absent
                       "'motionrep[torch]'") from exc
 
 from . import rotations
+from ._dataset import MotionDataset, WindowSampler
 from ._dualquat import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_multiply,
                         dualquat_normalize, dualquat_to_rotation_translation)
 from ._features import (decode_features, encode_features, features_to_motion, layout_assemble, layout_blocks,
@@ -27,8 +28,9 @@ from ._features import (decode_features, encode_features, features_to_motion, la
 from ._kinematics import forward_kinematics, global_positions
 from ._losses import (JointError, dq_mse_loss, dq_offset_loss, dq_pos_loss, dq_quat_loss, dq_reg_loss,
                       dualquats_of_features, fk_position_loss, max_joint_error)
+from ._split import split_clips
+from ._stats import FeatureStats
 
-# The datasets over motion databases (MotionDataset, FeatureStats, split_clips) come from ._dataset, beside these.
 
 __all__ = [
     "rotations",
@@ -58,4 +60,8 @@ __all__ = [
     "fk_position_loss",
     "max_joint_error",
     "JointError",
+    "MotionDataset",
+    "WindowSampler",
+    "FeatureStats",
+    "split_clips",
 ]
