@@ -60,7 +60,7 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
     path = Path(path)
     with open_source(path) as src:
         fmt = "mrc" if src.kind == "compressed" else {".bvh": "bvh", ".npz": "npz", ".gltf": "gltf",
-                                                        ".glb": "gltf"}.get(path.suffix.lower(), "hdf5")
+                                                        ".glb": "gltf", ".fbx": "fbx"}.get(path.suffix.lower(), "hdf5")
         base: dict[str, Any] = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": fmt}
         if clip is not None and src.kind in ("motion", "compressed"):
             raise FormatError("--clip applies to HDF5 databases, archives and glTF files; this file holds one clip",

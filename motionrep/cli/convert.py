@@ -21,7 +21,7 @@ from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_outputs, collect
 
 __all__ = ["convert"]
 
-_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx")
 
 
 def _format_or_usage(path: Path, what: str) -> str:
@@ -32,6 +32,8 @@ def _format_or_usage(path: Path, what: str) -> str:
                                f"'motionrep decompress {path} -o OUT.bvh'")
     if suffix == ".mrc":
         raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
+    if suffix == ".fbx" and what == "output":
+        raise click.UsageError(f"output {path}: motionrep reads FBX but does not write it; write .glb or .bvh")
     if suffix not in _MOTION_SUFFIXES:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(_MOTION_SUFFIXES))
@@ -205,8 +207,8 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         kind = "BVH" if out_fmt == "bvh" else "glTF"
         raise click.UsageError(f"--representation needs .npz or .h5 output: {kind} holds motions, not features")
     if clip is not None and (len(inputs) != 1 or inputs[0].is_dir() or _format_or_usage(inputs[0], "input")
-                             not in ("hdf5", "gltf")):
-        raise click.UsageError("--clip takes one clip out of a single HDF5 database or glTF file input")
+                             not in ("hdf5", "gltf", "fbx")):
+        raise click.UsageError("--clip takes one clip out of a single HDF5 database, glTF or FBX file input")
     rep = None
     if representation is not None:
         from ..plugins import get_representation
