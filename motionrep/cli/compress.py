@@ -19,8 +19,8 @@ from typing import Any
 import click
 
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
-                      check_overwrite, collect, display_name, echo_json, force_option, is_stdio, parse_params,
-                      stdin_inputs, stdout_output)
+                      body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
+                      parse_params, stdin_inputs, stdout_output)
 
 __all__ = ["compress"]
 
@@ -77,6 +77,7 @@ def _report_lines(name: str, result: Any, out: str | None) -> list[str]:
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
               help="Most seconds one clip may take; a clip over it fails and the others go on.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object; no progress.")
+@body_model_option
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
              send_clips: bool, resume: bool, force: bool, timeout: float | None, as_json: bool) -> None:

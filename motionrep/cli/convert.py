@@ -16,8 +16,8 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, check_outputs, collect, expand_globs, force_option,
-                      is_stdio, stdin_inputs, stdout_output)
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, body_model_option, check_outputs, collect, expand_globs,
+                      force_option, is_stdio, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
@@ -113,6 +113,7 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @click.option("--append", is_flag=True,
               help="OUT.h5 exists: add the clips to it (a clip of the same name needs --force to be replaced).")
 @force_option
+@body_model_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
             decimals: int | None, append: bool, force: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).

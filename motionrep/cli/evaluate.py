@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from ._common import STDIN_NAME, collect, echo_json, is_stdio, stdin_inputs
+from ._common import STDIN_NAME, body_model_option, collect, echo_json, is_stdio, stdin_inputs
 
 __all__ = ["evaluate"]
 
@@ -20,6 +20,7 @@ __all__ = ["evaluate"]
 @click.argument("candidate", metavar="CAND", type=click.Path(exists=True, allow_dash=True, path_type=Path))
 @click.option("--clip", metavar="NAME", help="Compare only this clip of a database or archive.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@body_model_option
 def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool) -> None:
     """Compare two motion files of one skeleton with the shared L-inf joint-position error.
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from ._common import STDIN_NAME, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
+from ._common import STDIN_NAME, body_model_option, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
 
 __all__ = ["info"]
 
@@ -101,6 +101,7 @@ def _info_text(d: dict[str, Any]) -> str:
               help="The clip to describe in an HDF5 database or archive, or a glTF file's animation.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object (a list of them for several files; keys: specs/formats/info-json.md).")
+@body_model_option
 def info(files: tuple[str, ...], clip: str | None, as_json: bool) -> None:
     """Describe motion files: skeleton, frames, fps, duration, height, channel layout.
 

@@ -120,13 +120,16 @@ def _no_clip(fmt: str, path, clip: str | None) -> None:
                            "glTF files", path)
 
 
-def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
+def read_stored(path: str | os.PathLike[str], clip: str | None = None,
+                body_model: str | os.PathLike[str] | None = None) -> tuple[str, Motion | FeatureClip]:
     """Read one clip as stored, without decoding features.
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
-        clip: for an HDF5 database, the clip to read (only that clip is read), for a glTF file the animation; may
-            be omitted when the file holds exactly one clip.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf``, ``.glb`` or ``.fbx`` file.
+        clip: for an HDF5 database, the clip to read (only that clip is read), for a glTF file the animation, for
+            an FBX file the anim stack; may be omitted when the file holds exactly one clip.
+        body_model: for an AMASS ``.npz`` clip, its SMPL-H body model file (default: the file the environment
+            variable ``MOTIONREP_SMPLH_MODEL`` names); ignored for other files.
 
     Returns:
         ``(name, clip)``: the clip's name (for BVH and NPZ, the file's stem) and a :class:`~motionrep.Motion` or,
@@ -154,19 +157,22 @@ def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[
         return Path(path).stem, read_bvh(path)
     from ._npz import read_npz_clip
 
-    return Path(path).stem, read_npz_clip(path)
+    return Path(path).stem, read_npz_clip(path, body_model)
 
 
-def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
+def read(path: str | os.PathLike[str], clip: str | None = None,
+         body_model: str | os.PathLike[str] | None = None) -> Motion:
     """Read one motion from ``path`` (format from the suffix).
 
     A features file is decoded through the registered representation it names
     (``get_representation(name).from_features(features, skeleton, fps)``).
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf``, ``.glb`` or ``.fbx`` file.
         clip: for an HDF5 database, the name of the clip to read (only that clip is read), for a glTF file the
-            animation's name; may be omitted when the file holds exactly one clip.
+            animation's name, for an FBX file the anim stack's; may be omitted when the file holds exactly one.
+        body_model: for an AMASS ``.npz`` clip (told by its keys), the SMPL-H body model ``.npz`` to pose it with
+            (default: the file the environment variable ``MOTIONREP_SMPLH_MODEL`` names).
 
     Raises:
         FormatError: (a subclass naming the file, and the line for BVH or the clip for HDF5) if the file is
@@ -176,7 +182,7 @@ def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
         UnknownPluginError: if a features file names a representation that is not installed.
     """
     fmt = format_of(path)
-    name, item = read_stored(path, clip)
+    name, item = read_stored(path, clip, body_model)
     if isinstance(item, FeatureClip):
         return motion_from_features(item, path, clip_name=name if fmt == "hdf5" else None)
     return item

@@ -27,8 +27,10 @@ __all__ = ["read_fbx", "read_fbx_clip", "list_fbx_clips", "iter_fbx_clips", "FBX
 _ORDERS = ("ZYX", "YZX", "XZY", "ZXY", "YXZ", "XYZ", "ZYX")
 _UNITS = {0.01: "cm", 1.0: "m", 0.001: "mm", 0.0254: "in"}
 # A joint's scale may differ from one constant uniform value by this fraction (between axes and over frames):
-# exporters' float32 rounding (Blender writes 0.99999994).  Larger differences are refused.
-_SCALE_TOLERANCE = 1e-5
+# exporters' float32 rounding (Blender writes 0.99999994, and 1.00002 on some frames), as for glTF.  The scale
+# taken is the median of the values, so that sporadic noise leaves an exact 1 exact.  Larger differences are
+# refused.
+_SCALE_TOLERANCE = 1e-3
 _MAX_POSE_VALUES = 1 << 28  # frames x joints x 4 float64 values, about 2 GiB
 _MAX_FILE_BYTES = 2 << 30
 
@@ -208,7 +210,7 @@ class FBXFile:
         return np.array([t.x, t.y, t.z]), np.array([r.x, r.y, r.z, r.w]), np.array([s.x, s.y, s.z])
 
     def _uniform(self, scales: NDArray, what: str) -> float:
-        s = float(np.mean(scales))
+        s = float(np.median(scales))
         if not (s > 0 and np.all(np.abs(scales - s) <= _SCALE_TOLERANCE * s)):
             raise self.fail(f"{what} has an animated or non-uniform scale (from {float(scales.min()):.9g} to "
                             f"{float(scales.max()):.9g}); motionrep's pose model holds rotations and translations only")
