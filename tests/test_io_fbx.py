@@ -4,6 +4,7 @@ stacks), and malformed files (one line naming the file, exit 1, nothing written)
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 from pathlib import Path
@@ -66,10 +67,23 @@ def by_name_error(reference: Motion, candidate: Motion) -> tuple[float, int]:
     return float(np.abs(a - b).max() / character_height(reference.skeleton)), len(index)
 
 
-def blender_fbx(bvh: Path, fbx: Path) -> None:
-    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python", str(SCRIPT), "--", str(bvh), str(fbx)],
-                         capture_output=True, text=True, timeout=600)
+def blender_fbx(bvh: Path, fbx: Path, pose: Path | None = None) -> None:
+    extra = [str(pose)] if pose is not None else []
+    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python", str(SCRIPT), "--", str(bvh), str(fbx)]
+                         + extra, capture_output=True, text=True, timeout=1200)
     assert run.returncode == 0 and fbx.is_file(), run.stdout[-2000:] + run.stderr[-2000:]
+
+
+def blender_pose_error(reference: Motion, pose: Path) -> float:
+    """Blender's own pose of the imported BVH (make_blender_fbx.py's POSE.json, float32) against the BVH, as a
+    fraction of the height: the floor under any file Blender exports."""
+    frames = json.loads(pose.read_text())
+    assert len(frames) == reference.num_frames
+    names = [n for n in reference.skeleton.names if n in frames[0]]
+    index = [reference.skeleton.names.index(n) for n in names]
+    heads = np.array([[frame[n] for n in names] for frame in frames])
+    error = np.abs(global_positions(reference)[:, index] - heads).max()
+    return float(error / character_height(reference.skeleton))
 
 
 def test_blender_fbx_reads_as_the_bvh_it_came_from(tmp_path):
@@ -115,11 +129,17 @@ def test_make_blender_fbx_makes_the_test_file(tmp_path):
 @pytest.mark.parametrize("path", real_params())
 def test_blender_fbx_export_of_real_clips(path, tmp_path):
     """Blender's FBX export of every real clip reads back, joint by joint by name, within 1e-4 % of the height of
-    the source BVH (issue 23's target)."""
-    fbx = tmp_path / "clip.fbx"
-    blender_fbx(path, fbx)
-    error, compared = by_name_error(read_bvh(path), read(fbx))
-    assert compared >= 1 and error < FBX_TOLERANCE, f"{path.relative_to(SHARED_DATA)}: {100 * error:.3g} %"
+    the source BVH (issue 23's target) -- or, where Blender's own float32 pose of the imported BVH already misses
+    it (BVHFiles.jl's Example.bvh: 2.9e-4 %), within 1e-4 % of the height beyond Blender's own error: what is
+    measured is then motionrep's reading, not Blender's arithmetic."""
+    fbx, pose = tmp_path / "clip.fbx", tmp_path / "pose.json"
+    blender_fbx(path, fbx, pose)
+    reference = read_bvh(path)
+    error, compared = by_name_error(reference, read(fbx))
+    floor = blender_pose_error(reference, pose)
+    where = f"{path.relative_to(SHARED_DATA)}: {100 * error:.3g} % (Blender's own pose: {100 * floor:.3g} %)"
+    assert compared == reference.num_joints
+    assert error < FBX_TOLERANCE or error < floor + FBX_TOLERANCE, where
 
 
 # ASCII FBX written here: a chain whose nodes have rotation orders, pre- and post-rotations, an armature node
