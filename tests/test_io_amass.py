@@ -189,11 +189,20 @@ BAD_CLIPS = {
 }
 
 
+def convert_fails_naming(clip: Path, model: Path, named: Path, out: Path) -> None:
+    """`convert CLIP OUT --body-model MODEL`: one line naming ``named``, exit 1, no traceback, no output."""
+    from motionrep.cli import cli
+
+    result = CliRunner().invoke(cli, ["convert", str(clip), str(out), "--body-model", str(model)])
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
+    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("case", list(BAD_CLIPS))
 def test_bad_clip_or_body_model(case, tmp_path):
     """One line naming the file at fault (the clip or the body model), exit 1, nothing written."""
-    from motionrep.cli import cli
-
     change, culprit, words = BAD_CLIPS[case]
     c, m = amass_clip(), smplh_model()
     change(c, m)
@@ -202,18 +211,11 @@ def test_bad_clip_or_body_model(case, tmp_path):
     with pytest.raises(AMASSFormatError) as info:
         read(clip, body_model=model)
     assert str(info.value).startswith(f"{named}: ") and words in str(info.value), str(info.value)
-    out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(clip), str(out), "--body-model", str(model)])
-    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
-    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
-    assert not out.exists()
+    convert_fails_naming(clip, model, named, tmp_path / "out.bvh")
 
 
 @pytest.mark.parametrize("damage", ["truncated clip", "truncated model", "model not npz", "missing model"])
 def test_damaged_files(damage, tmp_path):
-    from motionrep.cli import cli
-
     clip, model = write_files(tmp_path)
     named = clip if damage == "truncated clip" else model
     if damage == "truncated clip":
@@ -224,12 +226,7 @@ def test_damaged_files(damage, tmp_path):
         model.write_bytes(b"not a model\n")
     else:
         os.remove(model)
-    out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(clip), str(out), "--body-model", str(model)])
-    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
-    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
-    assert not out.exists()
+    convert_fails_naming(clip, model, named, tmp_path / "out.bvh")
 
 
 def test_no_body_model_on_the_command_line(tmp_path):

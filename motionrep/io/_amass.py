@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from .._model import Motion, Skeleton
 from ..errors import AMASSFormatError, ValidationError
+from ._files import check_regular
 
 __all__ = ["read_amass", "is_amass_keys", "body_model_joints", "SMPLH_JOINT_NAMES", "BODY_MODEL_ENV"]
 
@@ -47,8 +48,7 @@ def is_amass_keys(keys: set[str] | Any) -> bool:
 def _load(path: Path, what: str) -> Any:
     if not path.exists():
         raise AMASSFormatError(f"{what}: no such file", path)
-    if path.is_dir():
-        raise AMASSFormatError(f"{what}: is a directory, not a file", path)
+    check_regular(path, AMASSFormatError)  # regular files only: numpy opens by name and would block on a FIFO
     try:
         return np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:

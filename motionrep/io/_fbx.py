@@ -19,6 +19,8 @@ from numpy.typing import NDArray
 
 from .._model import Motion, Skeleton
 from ..errors import FBXFormatError, ValidationError
+from ._clipfile import ClipFile
+from ._files import read_regular
 
 __all__ = ["read_fbx", "read_fbx_clip", "list_fbx_clips", "iter_fbx_clips", "FBXFile"]
 
@@ -43,7 +45,7 @@ def _ufbx(path: Any) -> Any:
     return ufbx
 
 
-class FBXFile:
+class FBXFile(ClipFile):
     """An FBX file loaded once; its anim stacks are its clips (``names``), each read by :meth:`read_clip`.
 
     The ufbx scene and every object taken from it are kept referenced here while in use: the bindings' objects
@@ -58,13 +60,11 @@ class FBXFile:
         ufbx = self._ufbx = _ufbx(path)
         try:
             size = self.path.stat().st_size
-            if size > _MAX_FILE_BYTES:
-                raise FBXFormatError(f"{size} bytes is more than the {_MAX_FILE_BYTES} motionrep reads", path)
-            data = self.path.read_bytes()
-        except IsADirectoryError:
-            raise FBXFormatError("is a directory, not a file", path) from None
         except OSError as exc:
-            raise FBXFormatError(exc.strerror or str(exc), path) from None
+            raise FBXFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
+        if size > _MAX_FILE_BYTES:
+            raise FBXFormatError(f"{size} bytes is more than the {_MAX_FILE_BYTES} motionrep reads", path)
+        data = read_regular(path, FBXFormatError)  # regular files only: never blocks on a FIFO
         try:
             self.scene = ufbx.load_memory(data, file_format=ufbx.FileFormat.FBX, ignore_geometry=True,
                                           ignore_embedded=True, load_external_files=False)
@@ -239,22 +239,6 @@ class FBXFile:
         stack = self.stacks[k]
         times = self._times(stack)
         return self.names[k], self._motion(stack, times, float(self.scene.settings.frames_per_second))
-
-    def read(self, name: str | None = None) -> Motion:
-        """Clip ``name`` as a :class:`~motionrep.Motion` (see :meth:`read_clip`)."""
-        return self.read_clip(name)[1]
-
-    def close(self) -> None:
-        """Nothing to release: the file was read whole when opened (the scene goes with this object)."""
-
-    def summaries(self) -> list[dict[str, Any]]:
-        """Per clip: ``name``, ``kind`` (``"motion"``), ``frames``, ``fps``, ``duration``, ``joints``."""
-        out = []
-        for name in self.names:
-            m = self.read(name)
-            out.append({"name": name, "kind": "motion", "frames": m.num_frames, "fps": m.fps,
-                        "duration": m.duration, "joints": m.num_joints})
-        return out
 
     def _motion(self, stack: Any, times: NDArray, fps: float) -> Motion:
         from ..rotations import quat_apply, quat_multiply
