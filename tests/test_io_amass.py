@@ -251,3 +251,15 @@ def test_real_body_model(tmp_path):
     np.savez(tmp_path / "clip.npz", **c)
     motion = read(tmp_path / "clip.npz", body_model=REAL_MODEL)
     assert np.abs(global_positions(motion) - smpl_posed_joints(model, c)).max() < 1e-9
+
+
+def test_other_commands_take_the_body_model(tmp_path):
+    """`info` and `evaluate` read AMASS clips with --body-model too (the option every reading command has)."""
+    from motionrep.cli import cli
+
+    clip, model = write_files(tmp_path)
+    result = CliRunner().invoke(cli, ["info", str(clip), "--body-model", str(model), "--json"])
+    assert result.exit_code == 0, result.output
+    assert '"joints": 52' in result.output
+    result = CliRunner().invoke(cli, ["evaluate", str(clip), str(clip), "--body-model", str(model)])
+    assert result.exit_code == 0, result.output

@@ -15,7 +15,7 @@ from typing import Any
 
 import click
 
-from ._common import BatchProgress, check_outputs, collect, force_option
+from ._common import BatchProgress, body_model_option, check_outputs, collect, force_option
 
 __all__ = ["bench"]
 
@@ -46,6 +46,7 @@ __all__ = ["bench"]
               help="Poses decoded at random times to measure decode speed (0: skip). Default: 20000.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
 @force_option
+@body_model_option
 def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tuple[str, ...],
           max_errors: tuple[str, ...], params: tuple[str, ...], seed: int, jobs: int, out: Path | None,
           plot: Path | None, decode_poses: int | None, quiet: bool, force: bool) -> None:

@@ -14,7 +14,7 @@ from typing import Any, Callable
 import click
 
 from ..errors import ValidationError
-from ._common import STDIN_NAME, bound_for, check_outputs, force_option, is_stdio, stdin_inputs
+from ._common import STDIN_NAME, body_model_option, bound_for, check_outputs, force_option, is_stdio, stdin_inputs
 
 __all__ = ["render"]
 
@@ -81,6 +81,7 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
               help="Bound to draw on the error panel: '2%' of the character height or a distance in file units. "
                    "Default: the bound a .mrc candidate was compressed within, if it says.")
 @force_option
+@body_model_option
 def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
            count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
            max_error: str | None, force: bool) -> None:

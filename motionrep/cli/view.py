@@ -12,7 +12,8 @@ from typing import Any
 
 import click
 
-from ._common import STDIN_NAME, bound_for, check_outputs, expand_globs, force_option, is_stdio, stdin_inputs
+from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, expand_globs, force_option, is_stdio,
+                      stdin_inputs)
 
 __all__ = ["view"]
 
@@ -62,6 +63,7 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
 @click.option("--up", type=click.Choice(["auto", "y", "z"]), default="auto", show_default=True,
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
 @force_option
+@body_model_option
 def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | None, max_error: str | None,
          up: str, force: bool) -> None:
     """Write one HTML page showing REF and its decoded copies CAND... in 3D.
