@@ -102,7 +102,7 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @click.command("convert")
 @click.argument("paths", nargs=-1, required=True, metavar="IN... OUT")
 @click.option("--clip", metavar="NAME",
-              help="Take only this clip out of the (single) HDF5 database or glTF file given.")
+              help="Take only this clip out of the (single) HDF5 database, glTF or FBX file given.")
 @click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
               help="File format written when OUT is a directory (default: bvh).")
 @click.option("--representation", "-r", metavar="NAME",
@@ -119,8 +119,10 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
-    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb) or directories (searched
-    recursively for those suffixes, in sorted order; hidden files are skipped).
+    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb, .fbx) or directories
+    (searched recursively for those suffixes, in sorted order; hidden files are
+    skipped). FBX is read, not written. An AMASS .npz (SMPL-H parameters) is
+    posed through the body model given with --body-model.
     OUT is:
       - a .bvh, .npz, .glb or .gltf file: exactly one clip goes in (use --clip for
         a database or a glTF file of several animations);
@@ -165,6 +167,8 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
       motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
       motionrep convert walk.bvh walk.glb
       motionrep convert robot.glb dance.bvh --clip Dance
+      motionrep convert mixamo.fbx walk.bvh
+      motionrep convert amass.npz walk.bvh --body-model SMPLH_male.npz
       motionrep convert walk.npz - | head
       cat walk.bvh | motionrep convert - walk.glb
     """

@@ -257,6 +257,7 @@ class FBXFile(ClipFile):
         top_r = np.tile([0.0, 0.0, 0.0, 1.0], (F, 1))
         top_t = np.zeros((F, 3))
         top_s = 1.0
+        top_m = np.broadcast_to(np.eye(4), (F, 4, 4))  # the same with scales, as FBX composes them
         rest_r, rest_t = np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3)
         for a in self.ancestors:
             what = f"node {nodes[a].name!r}"
@@ -264,18 +265,21 @@ class FBXFile(ClipFile):
             rt, rr, rs = self._rest(nodes[a])
             top_t = top_t + top_s * quat_apply(top_r, t)
             top_r = quat_multiply(top_r, r)
+            top_m = top_m @ _affine(t, r, s)
             rest_t = rest_t + top_s * quat_apply(rest_r, rt)
             rest_r = quat_multiply(rest_r, rr)
             top_s *= self._uniform(np.concatenate([s.ravel(), rs]), what)
         rests = [self._rest(nodes[i]) for i in self.order]
         rotations = np.empty((F, J, 4))
         translations = np.empty((F, J, 3))
+        world = np.empty((F, J, 4, 4))
         cum = np.ones(J)
         for k, i in enumerate(self.order):
             t, r, s = sample(i)
             what = f"joint {self.joint_names[k]!r}"
             rotations[:, k] = r
             translations[:, k] = t
+            world[:, k] = (top_m if k == 0 else world[:, self.parents[k]]) @ _affine(t, r, s)
             own = self._uniform(np.concatenate([s.ravel(), rests[k][2]]), what)
             cum[k] = (top_s if k == 0 else cum[self.parents[k]]) * own
         above = np.array([top_s if k == 0 else cum[self.parents[k]] for k in range(J)])
@@ -285,10 +289,12 @@ class FBXFile(ClipFile):
         translations[:, 0] = top_t + quat_apply(top_r, translations[:, 0])
         offsets[0] = rest_t + quat_apply(rest_r, offsets[0])
         norms = np.linalg.norm(rotations, axis=-1, keepdims=True)
-        if not np.all(np.isfinite(rotations)) or not np.all(np.isfinite(translations)) or np.any(norms == 0):
+        if not (np.all(np.isfinite(rotations)) and np.all(np.isfinite(translations)) and np.all(np.isfinite(world))
+                and np.all(norms > 0)):
             raise self.fail("its animation evaluates to non-finite transforms")
         rotations /= norms
         _rest_to_identity(self.parents, rest_r, [r[1] for r in rests], offsets, rotations, translations)
+        _exact_translations(self.parents, world[:, :, :3, 3], rotations, translations)
         return self._assemble(offsets, rotations, translations, fps)
 
     def _assemble(self, offsets: NDArray, rotations: NDArray, translations: NDArray, fps: float) -> Motion:
@@ -317,6 +323,39 @@ class FBXFile(ClipFile):
         if character_height(skeleton) <= 0 and J > 1:
             raise self.fail("its skeleton's rest pose is a single point")
         return motion
+
+
+def _affine(t: NDArray, r: NDArray, s: NDArray) -> NDArray[np.float64]:
+    """``(F, 4, 4)`` local matrices ``T R S`` of a node from its ``(F, 3)`` translations, ``(F, 4)`` xyzw rotations
+    and ``(F, 3)`` scales."""
+    from ..kinematics import quat_to_matrix_fast
+
+    m = np.zeros((t.shape[0], 4, 4))
+    m[:, :3, :3] = quat_to_matrix_fast(r / np.linalg.norm(r, axis=-1, keepdims=True)) * s[:, None, :]
+    m[:, :3, 3] = t
+    m[:, 3, 3] = 1.0
+    return m
+
+
+def _exact_translations(parents: NDArray, positions: NDArray, rotations: NDArray, translations: NDArray) -> None:
+    """Local translations (in place) that put every joint at ``positions`` ``(F, J, 3)``, the FBX world positions
+    with the scales composed, under the rigid rotations ``rotations``.
+
+    With scales of exactly 1 they are the translations already there (to rounding).  Exporters leave float32
+    noise in scales (Blender: 1.00002 on a hip) and compensate it in the children's transforms, so dropping the
+    scale alone would move the children by that noise; this keeps every joint where the file puts it.
+    """
+    from ..rotations import quat_apply, quat_conjugate, quat_multiply
+
+    J = parents.size
+    G = np.empty_like(rotations)
+    G[:, 0] = rotations[:, 0]
+    for k in range(1, J):
+        G[:, k] = quat_multiply(G[:, parents[k]], rotations[:, k])
+    translations[:, 0] = positions[:, 0]
+    if J > 1:
+        above = parents[1:]
+        translations[:, 1:] = quat_apply(quat_conjugate(G[:, above]), positions[:, 1:] - positions[:, above])
 
 
 def list_fbx_clips(path: str | os.PathLike[str]) -> list[str]:
