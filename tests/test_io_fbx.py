@@ -364,3 +364,13 @@ def test_malformed_fbx(case, tmp_path):
 def test_missing_fbx(tmp_path):
     with pytest.raises(FBXFormatError, match="(?i)no such file"):
         read(tmp_path / "absent.fbx")
+
+
+def test_without_ufbx_one_line_says_what_to_install(tmp_path, monkeypatch):
+    """Without the fbx extra: FBXFormatError naming the file and the extra (ufbx is imported only to read FBX)."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ufbx", None)  # import ufbx then raises ImportError
+    with pytest.raises(FBXFormatError, match=r"motionrep\[fbx\]") as info:
+        read(FBX)
+    assert str(info.value).startswith(f"{FBX}: ")
