@@ -17,6 +17,8 @@ from motionrep.errors import AMASSFormatError
 from motionrep.io import read, write
 from motionrep.io._amass import BODY_MODEL_ENV, SMPLH_JOINT_NAMES
 
+from helpers import convert_fails_naming
+
 #: SMPL-H's tree: 22 body joints, then five three-joint fingers on each wrist (left: 20, right: 21).
 SMPLH_PARENTS = np.array([-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19]
                          + [p for wrist, first in ((20, 22), (21, 37))
@@ -189,17 +191,6 @@ BAD_CLIPS = {
 }
 
 
-def convert_fails_naming(clip: Path, model: Path, named: Path, out: Path) -> None:
-    """`convert CLIP OUT --body-model MODEL`: one line naming ``named``, exit 1, no traceback, no output."""
-    from motionrep.cli import cli
-
-    result = CliRunner().invoke(cli, ["convert", str(clip), str(out), "--body-model", str(model)])
-    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
-    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
-    assert not out.exists()
-
-
 @pytest.mark.parametrize("case", list(BAD_CLIPS))
 def test_bad_clip_or_body_model(case, tmp_path):
     """One line naming the file at fault (the clip or the body model), exit 1, nothing written."""
@@ -211,7 +202,7 @@ def test_bad_clip_or_body_model(case, tmp_path):
     with pytest.raises(AMASSFormatError) as info:
         read(clip, body_model=model)
     assert str(info.value).startswith(f"{named}: ") and words in str(info.value), str(info.value)
-    convert_fails_naming(clip, model, named, tmp_path / "out.bvh")
+    convert_fails_naming([clip, tmp_path / "out.bvh", "--body-model", model], named, tmp_path / "out.bvh")
 
 
 @pytest.mark.parametrize("damage", ["truncated clip", "truncated model", "model not npz", "missing model"])
@@ -226,7 +217,7 @@ def test_damaged_files(damage, tmp_path):
         model.write_bytes(b"not a model\n")
     else:
         os.remove(model)
-    convert_fails_naming(clip, model, named, tmp_path / "out.bvh")
+    convert_fails_naming([clip, tmp_path / "out.bvh", "--body-model", model], named, tmp_path / "out.bvh")
 
 
 def test_no_body_model_on_the_command_line(tmp_path):
