@@ -33,6 +33,9 @@ _UNITS = {0.01: "cm", 1.0: "m", 0.001: "mm", 0.0254: "in"}
 # taken is the median of the values, so that sporadic noise leaves an exact 1 exact.  Larger differences are
 # refused.
 _SCALE_TOLERANCE = 1e-3
+# A joint gets position channels when its translation leaves its OFFSET by more than this fraction of the
+# skeleton's size on some frame; below it, the OFFSET stands for it.
+TRANSLATION_TOLERANCE = 1e-6
 _MAX_POSE_VALUES = 1 << 28  # frames x joints x 4 float64 values, about 2 GiB
 _MAX_FILE_BYTES = 2 << 30
 
@@ -305,7 +308,11 @@ class FBXFile(ClipFile):
         # a joint is translated when its translation leaves its OFFSET by more than float32 rounding of the
         # character's size (exporters work in float32: Blender's bones move by 1e-7 of it)
         moved = [k for k in range(1, J)
-                 if np.abs(translations[:, k] - offsets[k]).max() > 1e-6 * scale]
+                 if np.abs(translations[:, k] - offsets[k]).max() > TRANSLATION_TOLERANCE * scale]
+        # the others keep one translation: their mean over the frames (the exporters' float32 noise averages out;
+        # the rest transform may sit at the edge of it)
+        fixed = np.setdiff1d(np.arange(1, J), moved)
+        offsets[fixed] = translations[:, fixed].mean(axis=0)
         channels = []
         for k, i in enumerate(self.order):
             order = _ORDERS[int(self.nodes[i].rotation_order) % 7]
