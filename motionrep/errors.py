@@ -13,6 +13,8 @@ Hierarchy::
     │   ├── NPZFormatError
     │   ├── HDF5FormatError
     │   ├── GLTFFormatError
+    │   ├── FBXFormatError
+    │   ├── AMASSFormatError     an AMASS file, or the body model given with it, is malformed or does not fit
     │   ├── ContainerError       a .mrc file is truncated, altered or of an unknown version
     │   ├── OutputExistsError    an output exists and --force (or --resume) was not given
     │   └── PluginVersionError   (also a PluginError) a file was written by a version of a representation or
@@ -44,6 +46,8 @@ __all__ = [
     "NPZFormatError",
     "HDF5FormatError",
     "GLTFFormatError",
+    "FBXFormatError",
+    "AMASSFormatError",
     "ContainerError",
     "OutputExistsError",
     "PluginError",
@@ -108,6 +112,16 @@ class HDF5FormatError(FormatError):
 
 class GLTFFormatError(FormatError):
     """A glTF (``.gltf`` / ``.glb``) file is malformed, unsafe, or animates what motionrep's pose model cannot hold."""
+
+
+class FBXFormatError(FormatError):
+    """An FBX file is missing, malformed or truncated, holds no skeleton, or animates what motionrep's pose model
+    cannot hold; also raised when the ``ufbx`` package (``pip install 'motionrep[fbx]'``) is not installed."""
+
+
+class AMASSFormatError(FormatError):
+    """An AMASS ``.npz`` file or its SMPL-H body model (``--body-model``) is malformed, or they do not fit each
+    other; names the file concerned."""
 
 
 class ContainerError(FormatError):

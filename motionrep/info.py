@@ -26,7 +26,7 @@ INFO_JSON_VERSION = 1
 
 #: The ``format`` of each suffix in ``info --json`` (a compressed clip, whatever its suffix, is ``"mrc"``).
 FORMAT_NAMES = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf", ".glb": "gltf",
-                ".mrc": "mrc"}
+                ".fbx": "fbx", ".mrc": "mrc"}
 
 
 def skeleton_info(sk: Skeleton) -> dict[str, Any]:

@@ -59,11 +59,11 @@ __all__ = [
 ]
 
 #: Suffixes :func:`open_source` opens.
-SOURCE_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".mrc")
+SOURCE_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx", ".mrc")
 #: Suffixes picked up when a directory is searched (compressed ``.mrc`` files are not: they are outputs).
-SCAN_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+SCAN_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx")
 #: Suffixes of files that may hold several named clips (``--clip NAME`` chooses one).
-CLIP_SUFFIXES: tuple[str, ...] = (".h5", ".hdf5", ".gltf", ".glb")
+CLIP_SUFFIXES: tuple[str, ...] = (".h5", ".hdf5", ".gltf", ".glb", ".fbx")
 #: Replaces ``/`` when a path relative to a directory becomes a clip name.
 NAME_SEPARATOR = "__"
 _MAX_LISTED = 10
@@ -212,6 +212,15 @@ class _GLTF(_Database):
         return self.database.read_clip(name)
 
 
+class _FBX(_GLTF):
+    """An FBX file: its anim stacks are named clips (loaded once, each read when asked for)."""
+
+    def __init__(self, path: str | os.PathLike[str]):
+        from .io._fbx import FBXFile
+
+        _Database.__init__(self, path, FBXFile(path))
+
+
 class _Compressed(Source):
     """One ``.mrc`` file, verified when first used; decoded at its own frame rate."""
 
@@ -294,6 +303,8 @@ def open_source(path: str | os.PathLike[str]) -> Source:
         return _Compressed(p)
     if suffix in (".gltf", ".glb"):
         return _GLTF(p)
+    if suffix == ".fbx":
+        return _FBX(p)
     if suffix not in (".h5", ".hdf5"):
         return _MotionFile(p)
     from .archive import ARCHIVE_FORMAT, Archive

@@ -54,3 +54,17 @@ def mutant_outcomes(path: Path, mutants, error: type[Exception], warnings_are_er
                     assert exc.path == str(path) and "\n" not in str(exc), (seed, str(exc))
                     outcomes["refused"] += 1
     return outcomes
+
+
+def convert_fails_naming(args: list, named: Path, out: Path) -> None:
+    """``motionrep convert ARGS...`` fails as bad input must: exit 1, one ``Error:`` line naming ``named``, no
+    traceback, no ``out`` written."""
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    result = CliRunner().invoke(cli, ["convert", *map(str, args)])
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
+    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
+    assert not out.exists()

@@ -290,8 +290,8 @@ def test_unknown_clip(tmp_path, clip_dir):
 
 
 @pytest.mark.parametrize("args, message", [
-    (("{walk}", "{tmp}/x.fbx"), "unknown file type '.fbx'"),
-    (("{tmp}/x.fbx", "{tmp}/x.bvh"), "unknown file type '.fbx'"),
+    (("{walk}", "{tmp}/x.fbx"), "motionrep reads FBX but does not write it"),
+    (("{tmp}/x.xyz", "{tmp}/x.bvh"), "unknown file type '.xyz'"),
     (("{walk}", "{walk}"), "input and output are the same"),
     (("{walk}",), "at least one input and an output"),
     (("{walk}", "{tmp}/x.npz", "--decimals", "3"), "--decimals applies only to BVH"),
@@ -326,7 +326,7 @@ def test_info_usage_errors(tmp_path, walk):
 def test_empty_directory(tmp_path):
     (tmp_path / "empty").mkdir()
     r = run("convert", tmp_path / "empty", tmp_path / "db.h5")
-    assert r.exit_code == 1 and "no .bvh, .npz, .h5, .hdf5, .gltf, .glb files" in error_line(r)
+    assert r.exit_code == 1 and "no .bvh, .npz, .h5, .hdf5, .gltf, .glb, .fbx files" in error_line(r)
     assert not (tmp_path / "db.h5").exists()
 
 

@@ -71,7 +71,7 @@ def test_collisions_keep_the_suffix_then_are_errors(tree, tmp_path):
     with pytest.raises(FormatError, match="no such file"):
         collect_clips([tree / "missing.bvh"])
     (tmp_path / "empty").mkdir()
-    with pytest.raises(FormatError, match="no .bvh, .npz, .h5, .hdf5, .gltf, .glb files"):
+    with pytest.raises(FormatError, match="no .bvh, .npz, .h5, .hdf5, .gltf, .glb, .fbx files"):
         collect_clips([tmp_path / "empty"])
 
 

@@ -35,7 +35,8 @@ from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, s
 from ._crosstool import check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options, match_options
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
-           "MOTION_OUT_SUFFIXES", "force_option", "check_overwrite", "check_outputs", "Interrupted",
+           "MOTION_OUT_SUFFIXES", "force_option", "body_model_option",
+           "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
            "match_options", "comparison_options", "gltf_unit_options", "gltf_write_options",
@@ -182,6 +183,22 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(allowed))
     return suffix
+
+
+def _set_body_model(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
+    if value is not None:  # the readers (and worker processes) take it from the environment
+        from ..io._amass import BODY_MODEL_ENV
+
+        os.environ[BODY_MODEL_ENV] = str(value)
+
+
+def body_model_option(command: Callable) -> Callable:
+    """``--body-model MODEL.npz``: the SMPL-H body model that AMASS ``.npz`` inputs are posed with (sets
+    ``MOTIONREP_SMPLH_MODEL`` for the readers)."""
+    return click.option("--body-model", metavar="MODEL.npz", expose_value=False, callback=_set_body_model,
+                        is_eager=True,
+                        help="SMPL-H body model (.npz: v_template, shapedirs, J_regressor, kintree_table) for AMASS "
+                             ".npz inputs (default: $MOTIONREP_SMPLH_MODEL).")(command)
 
 
 def force_option(command: Callable) -> Callable:

@@ -15,7 +15,7 @@ from typing import Any
 
 import click
 
-from ._common import BatchProgress, check_outputs, collect, force_option
+from ._common import BatchProgress, body_model_option, check_outputs, collect, force_option
 
 __all__ = ["bench"]
 
@@ -49,6 +49,7 @@ __all__ = ["bench"]
                    "default the table fits 120 columns.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr and no 'wrote ...' lines (the table stays).")
 @force_option
+@body_model_option
 def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tuple[str, ...],
           max_errors: tuple[str, ...], params: tuple[str, ...], seed: int, jobs: int, out: Path | None,
           plot: Path | None, decode_poses: int | None, wide: bool, quiet: bool, force: bool) -> None:

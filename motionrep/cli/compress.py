@@ -19,8 +19,8 @@ from typing import Any
 import click
 
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
-                      check_overwrite, collect, display_name, echo_json, force_option, is_stdio, parse_params,
-                      stdin_inputs, stdout_output)
+                      body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
+                      parse_params, stdin_inputs, stdout_output)
 
 __all__ = ["compress"]
 
@@ -85,6 +85,7 @@ def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False
 @click.option("--verbose", "-v", is_flag=True,
               help="Also the other size figures (the paper's parameter ratio, vs float32 channels).")
 @click.option("--quiet", "-q", is_flag=True, help="Print nothing on success (no progress, report or 'wrote').")
+@body_model_option
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
              send_clips: bool, resume: bool, recompress_changed: bool, force: bool, timeout: float | None,

@@ -16,13 +16,13 @@ from typing import Any, Iterator
 
 import click
 
-from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, check_gltf_units, check_outputs, collect,
-                      expand_globs, force_option, gltf_unit_options, gltf_write_options, is_stdio, quiet_option,
-                      stdin_inputs, stdout_output)
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, body_model_option, check_gltf_units,
+                      check_outputs, collect, expand_globs, force_option, gltf_unit_options, gltf_write_options,
+                      is_stdio, quiet_option, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
-_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx")
 
 
 def _format_or_usage(path: Path, what: str) -> str:
@@ -33,6 +33,8 @@ def _format_or_usage(path: Path, what: str) -> str:
         return "mrc"
     if suffix == ".mrc":
         raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
+    if suffix == ".fbx" and what == "output":
+        raise click.UsageError(f"output {path}: motionrep reads FBX but does not write it; write .glb or .bvh")
     if suffix not in _MOTION_SUFFIXES:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(_MOTION_SUFFIXES))
@@ -107,7 +109,7 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @click.command("convert")
 @click.argument("paths", nargs=-1, required=True, metavar="IN... OUT")
 @click.option("--clip", metavar="NAME",
-              help="Take only this clip out of the (single) HDF5 database or glTF file given.")
+              help="Take only this clip out of the (single) HDF5 database, glTF or FBX file given.")
 @click.option("--format", "out_format", type=click.Choice(sorted(OUT_FORMATS)), default=None,
               help="File format written when OUT is a directory (default: bvh).")
 @click.option("--representation", "-r", metavar="NAME",
@@ -120,14 +122,17 @@ def _bar(items: Iterator, total: int, label: str) -> Any:
 @gltf_unit_options
 @force_option
 @quiet_option
+@body_model_option
 def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, representation: str | None,
             decimals: int | None, append: bool, gltf_scale: float | None, units: str | None, force: bool,
             quiet: bool) -> None:
     """Convert motion files between BVH, NPZ, HDF5 and glTF (format from the suffix).
 
     \b
-    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb, .mrc) or directories (searched
-    recursively for those suffixes, in sorted order; hidden files are skipped).
+    IN... are files (.bvh, .npz, .h5/.hdf5, .gltf/.glb, .fbx, .mrc) or directories
+    (searched recursively for those suffixes, in sorted order; hidden files are
+    skipped). FBX is read, not written. An AMASS .npz (SMPL-H parameters) is
+    posed through the body model given with --body-model.
     OUT is:
       - a .bvh, .npz, .glb or .gltf file: exactly one clip goes in (use --clip for
         a database or a glTF file of several animations);
@@ -181,6 +186,8 @@ def convert(paths: tuple[str, ...], clip: str | None, out_format: str | None, re
       motionrep convert walk.bvh walk_rq.npz --representation root-quat-axis-angle
       motionrep convert walk.bvh walk.glb
       motionrep convert robot.glb dance.bvh --clip Dance
+      motionrep convert mixamo.fbx walk.bvh
+      motionrep convert amass.npz walk.bvh --body-model SMPLH_male.npz
       motionrep convert walk.npz - | head
       cat walk.bvh | motionrep convert - walk.glb
       motionrep convert walk.bvh walk.glb --units cm
@@ -235,8 +242,8 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         kind = "BVH" if out_fmt == "bvh" else "glTF"
         raise click.UsageError(f"--representation needs .npz or .h5 output: {kind} holds motions, not features")
     if clip is not None and (len(inputs) != 1 or inputs[0].is_dir() or _format_or_usage(inputs[0], "input")
-                             not in ("hdf5", "gltf")):
-        raise click.UsageError("--clip takes one clip out of a single HDF5 database or glTF file input")
+                             not in ("hdf5", "gltf", "fbx")):
+        raise click.UsageError("--clip takes one clip out of a single HDF5 database, glTF or FBX file input")
     rep = None
     if representation is not None:
         from ..plugins import get_representation

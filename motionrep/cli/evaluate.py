@@ -10,7 +10,8 @@ from pathlib import Path
 
 import click
 
-from ._common import STDIN_NAME, collect, comparison_options, echo_json, is_stdio, match_options, stdin_inputs
+from ._common import (STDIN_NAME, body_model_option, collect, comparison_options, echo_json, is_stdio, match_options,
+                      stdin_inputs)
 
 __all__ = ["evaluate"]
 
@@ -23,6 +24,7 @@ __all__ = ["evaluate"]
 @comparison_options
 @click.option("--common", is_flag=True,
               help="Two databases, archives or directories: compare the clips both hold and list the others.")
+@body_model_option
 def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool, match: str,
              strip_prefix: tuple[str, ...], ignore_extra: bool, resample: bool, common: bool) -> None:
     """Compare two motion files of one skeleton with the shared L-inf joint-position error.

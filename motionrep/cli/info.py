@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from ._common import STDIN_NAME, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
+from ._common import STDIN_NAME, body_model_option, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
 
 __all__ = ["info"]
 
@@ -152,6 +152,7 @@ def _table(described: list[dict[str, Any]]) -> str:
               help="Print one JSON object (a list of them for several files; keys: specs/formats/info-json.md).")
 @click.option("--verbose", "-v", is_flag=True,
               help="Also the other size figures of a .mrc (stored numbers, the paper's ratio, vs float32).")
+@body_model_option
 def info(files: tuple[str, ...], clip: str | None, as_json: bool, verbose: bool) -> None:
     """Describe motion files: skeleton, frames, fps, duration, height, channel layout.
 
@@ -160,7 +161,8 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool, verbose: bool)
     directory (searched recursively; a table, one row per file), or '-'
     (BVH, NPZ, HDF5, glTF or .mrc from standard input, told by its first
     bytes: cat db.h5 | motionrep info -); each is described in turn.
-    Suffixes: .bvh, .npz, .h5, .hdf5, .gltf, .glb, .mrc.
+    Suffixes: .bvh, .npz, .h5, .hdf5, .gltf, .glb, .fbx, .mrc (an AMASS .npz
+    with --body-model).
 
     \b
     For an HDF5 database of several clips (without --clip): each clip's name,
@@ -174,7 +176,7 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool, verbose: bool)
     \b
     --json prints one object; the keys are documented in
     specs/formats/info-json.md. Always present: info_version (1), file,
-    format ("bvh" | "npz" | "hdf5" | "gltf" | "mrc"), kind ("motion" | "features" |
+    format ("bvh" | "npz" | "hdf5" | "gltf" | "fbx" | "mrc"), kind ("motion" | "features" |
     "database" | "compressed" | "archive").
     Database: clips (list of {name, kind, frames, fps, duration, joints, and for
     features representation, representation_version, width}). Motion/features:

@@ -15,8 +15,8 @@ from typing import Any, Callable
 import click
 
 from ..errors import ValidationError
-from ._common import (STDIN_NAME, bound_for, check_outputs, comparison_options, force_option, is_stdio,
-                      match_options, stdin_inputs)
+from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, force_option,
+                      is_stdio, match_options, stdin_inputs)
 
 __all__ = ["render"]
 
@@ -110,6 +110,7 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
                    "Default: the bound a .mrc candidate was compressed within, if it says.")
 @comparison_options
 @force_option
+@body_model_option
 def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
            count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
            max_error: str | None, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (),

@@ -12,8 +12,8 @@ from typing import Any
 
 import click
 
-from ._common import (STDIN_NAME, bound_for, check_outputs, comparison_options, expand_globs, force_option, is_stdio,
-                      match_options, stdin_inputs)
+from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, expand_globs,
+                      force_option, is_stdio, match_options, stdin_inputs)
 
 __all__ = ["view"]
 
@@ -79,6 +79,7 @@ def _settings(src: Any, name: str) -> str:
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
 @comparison_options
 @force_option
+@body_model_option
 def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | None, max_error: str | None,
          up: str, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (), ignore_extra: bool = False,
          resample: bool = False) -> None:

@@ -7,6 +7,8 @@ suffix             format
 ``.npz``           numpy archive, one clip                       -- ``specs/formats/npz.md``
 ``.h5``/``.hdf5``  HDF5, one clip or a database of named clips   -- ``specs/formats/hdf5.md``
 ``.gltf``/``.glb`` glTF 2.0, a skeleton and its named animations   -- ``specs/formats/gltf.md``
+``.fbx``           FBX 7.x (binary or ASCII), read only; extra ``fbx`` -- ``specs/formats/fbx.md``
+``.npz`` (AMASS)   AMASS / SMPL-H parameters, read only, with a body model -- ``specs/formats/amass.md``
 =================  ==========================================================================
 
 Every write is atomic: the file is written under a temporary name in the same directory and renamed at the
@@ -19,7 +21,10 @@ representation, :func:`read_features` returns them as stored.  An HDF5 file is a
 with one clip, named after the file's stem.  BVH and NPZ files hold one clip, named after the file's stem.  A glTF
 file holds one skeleton and one or more animations; each animation is a clip, named by the animation's name
 (:func:`write` writes one, named after the file's stem).  glTF stores float32 values: a round trip through it
-agrees within float32 rounding, not bit for bit.
+agrees within float32 rounding, not bit for bit.  An FBX file (read only, through the ``ufbx`` package of the
+``fbx`` extra) holds one skeleton and one or more anim stacks, each a clip named by the stack.  An ``.npz`` file
+with AMASS's keys (``poses``, ``trans``, ``betas``...) is an AMASS clip, read with an SMPL-H body model
+(``body_model=``, or the environment variable ``MOTIONREP_SMPLH_MODEL``).
 """
 
 from __future__ import annotations
@@ -29,7 +34,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from .._model import Motion
-from ..errors import BVHFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError, ValidationError
+from ..errors import (BVHFormatError, FBXFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError,
+                      ValidationError)
 from ._atomic import atomic_path
 from ._bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from ._features import FeatureClip, features_from_motion, motion_from_features
@@ -41,6 +47,7 @@ _LAZY = {
     "write_database": "_hdf5", "write_hdf5": "_hdf5", "write_hdf5_features": "_hdf5",
     "gltf_bytes": "_gltf", "iter_gltf_clips": "_gltf", "list_gltf_clips": "_gltf", "read_gltf": "_gltf",
     "read_gltf_clip": "_gltf", "write_gltf": "_gltf", "gltf_scale": "_gltf",
+    "read_fbx": "_fbx", "read_fbx_clip": "_fbx", "list_fbx_clips": "_fbx", "iter_fbx_clips": "_fbx",
     "read_npz": "_npz", "read_npz_clip": "_npz", "write_npz": "_npz", "write_npz_features": "_npz",
 }
 
@@ -82,19 +89,20 @@ __all__ = [
     "write_gltf",
     "gltf_bytes",
     "gltf_scale",
+    "read_fbx",
     "atomic_path",
 ]
 
 #: Known suffixes and the format each selects.
 SUFFIXES: dict[str, str] = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf",
-                            ".glb": "gltf"}
+                            ".glb": "gltf", ".fbx": "fbx"}
 
 _ERRORS: dict[str, type[FormatError]] = {"bvh": BVHFormatError, "npz": NPZFormatError, "hdf5": HDF5FormatError,
-                                         "gltf": GLTFFormatError}
+                                         "gltf": GLTFFormatError, "fbx": FBXFormatError}
 
 
 def format_of(path: str | os.PathLike[str]) -> str:
-    """The format (``"bvh"``, ``"npz"``, ``"hdf5"`` or ``"gltf"``) selected by ``path``'s suffix.
+    """The format (``"bvh"``, ``"npz"``, ``"hdf5"``, ``"gltf"`` or ``"fbx"``) selected by ``path``'s suffix.
 
     Raises:
         FormatError: for an unknown suffix.
@@ -113,13 +121,16 @@ def _no_clip(fmt: str, path, clip: str | None) -> None:
                            "glTF files", path)
 
 
-def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[str, Motion | FeatureClip]:
+def read_stored(path: str | os.PathLike[str], clip: str | None = None,
+                body_model: str | os.PathLike[str] | None = None) -> tuple[str, Motion | FeatureClip]:
     """Read one clip as stored, without decoding features.
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
-        clip: for an HDF5 database, the clip to read (only that clip is read), for a glTF file the animation; may
-            be omitted when the file holds exactly one clip.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf``, ``.glb`` or ``.fbx`` file.
+        clip: for an HDF5 database, the clip to read (only that clip is read), for a glTF file the animation, for
+            an FBX file the anim stack; may be omitted when the file holds exactly one clip.
+        body_model: for an AMASS ``.npz`` clip, its SMPL-H body model file (default: the file the environment
+            variable ``MOTIONREP_SMPLH_MODEL`` names); ignored for other files.
 
     Returns:
         ``(name, clip)``: the clip's name (for BVH and NPZ, the file's stem) and a :class:`~motionrep.Motion` or,
@@ -138,24 +149,31 @@ def read_stored(path: str | os.PathLike[str], clip: str | None = None) -> tuple[
         from ._gltf import read_gltf_clip
 
         return read_gltf_clip(path, clip)
+    if fmt == "fbx":
+        from ._fbx import read_fbx_clip
+
+        return read_fbx_clip(path, clip)
     _no_clip(fmt, path, clip)
     if fmt == "bvh":
         return Path(path).stem, read_bvh(path)
     from ._npz import read_npz_clip
 
-    return Path(path).stem, read_npz_clip(path)
+    return Path(path).stem, read_npz_clip(path, body_model)
 
 
-def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
+def read(path: str | os.PathLike[str], clip: str | None = None,
+         body_model: str | os.PathLike[str] | None = None) -> Motion:
     """Read one motion from ``path`` (format from the suffix).
 
     A features file is decoded through the registered representation it names
     (``get_representation(name).from_features(features, skeleton, fps)``).
 
     Args:
-        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf`` or ``.glb`` file.
+        path: a ``.bvh``, ``.npz``, ``.h5``, ``.hdf5``, ``.gltf``, ``.glb`` or ``.fbx`` file.
         clip: for an HDF5 database, the name of the clip to read (only that clip is read), for a glTF file the
-            animation's name; may be omitted when the file holds exactly one clip.
+            animation's name, for an FBX file the anim stack's; may be omitted when the file holds exactly one.
+        body_model: for an AMASS ``.npz`` clip (told by its keys), the SMPL-H body model ``.npz`` to pose it with
+            (default: the file the environment variable ``MOTIONREP_SMPLH_MODEL`` names).
 
     Raises:
         FormatError: (a subclass naming the file, and the line for BVH or the clip for HDF5) if the file is
@@ -165,7 +183,7 @@ def read(path: str | os.PathLike[str], clip: str | None = None) -> Motion:
         UnknownPluginError: if a features file names a representation that is not installed.
     """
     fmt = format_of(path)
-    name, item = read_stored(path, clip)
+    name, item = read_stored(path, clip, body_model)
     if isinstance(item, FeatureClip):
         return motion_from_features(item, path, clip_name=name if fmt == "hdf5" else None)
     return item
@@ -189,6 +207,9 @@ def write(motion: Motion, path: str | os.PathLike[str], **options) -> None:
         hint = "; use write_features for a FeatureClip" if isinstance(motion, FeatureClip) else ""
         raise ValidationError(f"write needs a Motion, got {type(motion).__name__}{hint}")
     fmt = format_of(path)
+    if fmt == "fbx":
+        raise FBXFormatError("motionrep reads FBX but does not write it (no maintained Python library writes FBX "
+                             "animation); write .glb or .bvh", path)
     if fmt == "bvh":
         write_bvh(motion, path, **options)
     elif fmt == "npz":
@@ -231,7 +252,7 @@ def write_features(features: FeatureClip, path: str | os.PathLike[str], **option
         FormatError: for a ``.bvh`` or unknown suffix.
     """
     fmt = format_of(path)
-    if fmt in ("bvh", "gltf"):
+    if fmt in ("bvh", "gltf", "fbx"):
         raise _ERRORS[fmt](f"{fmt.upper()} files hold motions, not features; write features to .npz or .h5", path)
     if fmt == "npz":
         from ._npz import write_npz_features
@@ -260,6 +281,10 @@ def list_clips(path: str | os.PathLike[str]) -> list[str]:
         from ._gltf import list_gltf_clips
 
         return list_gltf_clips(path)
+    if fmt == "fbx":
+        from ._fbx import list_fbx_clips
+
+        return list_fbx_clips(path)
     return [Path(path).stem]
 
 
@@ -281,5 +306,9 @@ def read_clips(path: str | os.PathLike[str]) -> Iterator[tuple[str, Motion]]:
         from ._gltf import iter_gltf_clips
 
         yield from iter_gltf_clips(path)
+    elif fmt == "fbx":
+        from ._fbx import iter_fbx_clips
+
+        yield from iter_fbx_clips(path)
     else:
         yield Path(path).stem, read(path)

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from .._model import Motion
 from ..errors import ValidationError
 from ._atomic import atomic_path
+from ._clipfile import ClipFile
 from ._gltf_anim import Unique, clips
 from ._gltf_doc import FLOAT, GLTF_FORMAT, GLTF_FORMAT_VERSION, Z_TO_Y, Doc
 from ._gltf_read import read_animation
@@ -297,7 +298,7 @@ def write_gltf(motion: Motion, path: str | os.PathLike[str], clip: str | None = 
         Path(tmp).write_bytes(data)
 
 
-class GLTFFile:
+class GLTFFile(ClipFile):
     """A glTF file, parsed once: the names of its clips, each clip read when asked for.
 
     Each named animation is a clip; unnamed ones are ``animation0``, ``animation1``..., except that unnamed
@@ -340,21 +341,6 @@ class GLTFFile:
         name, indices = self._clips[index]
         return name, read_animation(self._doc, indices, name)
 
-    def read(self, clip: str | None = None) -> Motion:
-        """Clip ``clip`` as a :class:`~motionrep.Motion` (see :meth:`read_clip`)."""
-        return self.read_clip(clip)[1]
-
-    def close(self) -> None:
-        """Nothing to release: the file was read whole when opened."""
-
-    def summaries(self) -> list[dict[str, Any]]:
-        """Per clip: ``name``, ``kind`` (``"motion"``), ``frames``, ``fps``, ``duration``, ``joints``."""
-        out = []
-        for name in self.names:
-            m = self.read(name)
-            out.append({"name": name, "kind": "motion", "frames": m.num_frames, "fps": m.fps,
-                        "duration": m.duration, "joints": m.num_joints})
-        return out
 
 
 def list_gltf_clips(path: str | os.PathLike[str]) -> list[str]:

@@ -267,12 +267,18 @@ def _check_header(src: _NPZSource) -> None:
         raise src.fail(f"invalid NPZ format version {version}")
 
 
-def read_npz_clip(path: str | os.PathLike[str]) -> Motion | FeatureClip:
+def read_npz_clip(path: str | os.PathLike[str], body_model: str | os.PathLike[str] | None = None
+                  ) -> Motion | FeatureClip:
     """Read an NPZ file as stored: a :class:`~motionrep.Motion`, or a :class:`FeatureClip` for a features file.
+
+    An archive with AMASS's keys (``poses`` and ``trans``, no ``format``) is an AMASS clip, read through the
+    SMPL-H body model ``body_model`` (default: the file ``MOTIONREP_SMPLH_MODEL`` names), see
+    :func:`motionrep.io._amass.read_amass`.
 
     Raises:
         NPZFormatError: naming the file, if it is missing, not a motionrep NPZ file, of a newer format version,
             or lacks a key or has one of the wrong shape or dtype.
+        AMASSFormatError: for an AMASS clip without a body model, or one that does not fit it.
     """
     with open_regular(path, NPZFormatError) as fh:
         try:
@@ -292,11 +298,18 @@ def read_npz_clip(path: str | os.PathLike[str]) -> Motion | FeatureClip:
             raise NPZFormatError(f"not an NPZ archive ({type(exc).__name__}: {exc})", path) from None
         with archive.zip:
             src = _NPZSource(archive, path)
-            _check_header(src)
-            return decode_clip(src)
+            from ._amass import is_amass_keys
+
+            amass = is_amass_keys(src.keys)
+            if not amass:
+                _check_header(src)
+                return decode_clip(src)
+    from ._amass import read_amass
+
+    return read_amass(path, body_model)
 
 
-def read_npz(path: str | os.PathLike[str]) -> Motion:
+def read_npz(path: str | os.PathLike[str], body_model: str | os.PathLike[str] | None = None) -> Motion:
     """Read the motion in an NPZ file; a features file is decoded through its registered representation.
 
     Raises:
@@ -304,7 +317,7 @@ def read_npz(path: str | os.PathLike[str]) -> Motion:
             the one that wrote the features.
         UnknownPluginError: if the features' representation is not installed.
     """
-    item = read_npz_clip(path)
+    item = read_npz_clip(path, body_model)
     if isinstance(item, FeatureClip):
         return motion_from_features(item, path)
     return item
