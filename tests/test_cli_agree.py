@@ -58,7 +58,7 @@ def test_convert_decodes_one_mrc_as_it_decodes_an_archive(clips, tmp_path):
     assert r.exit_code == 2 and "motionrep compress" in r.output
 
 
-@pytest.mark.parametrize("command", ["convert", "decompress", "merge", "example", "compress"])
+@pytest.mark.parametrize("command", ["convert", "decompress", "merge", "example", "compress", "render", "view"])
 def test_every_command_that_writes_says_wrote_or_nothing_with_quiet(clips, tmp_path, command):
     mrc = tmp_path / "a.mrc"
     assert run("compress", clips / "a.bvh", "-o", mrc, "--codec", "svd").exit_code == 0
@@ -66,7 +66,9 @@ def test_every_command_that_writes_says_wrote_or_nothing_with_quiet(clips, tmp_p
             "decompress": ["decompress", mrc, "-o", tmp_path / "{}.bvh"],
             "merge": ["merge", mrc, "-o", tmp_path / "{}.h5"],
             "example": ["example", tmp_path / "{}.bvh"],
-            "compress": ["compress", clips / "a.bvh", "-o", tmp_path / "{}.mrc", "--codec", "svd"]}[command]
+            "compress": ["compress", clips / "a.bvh", "-o", tmp_path / "{}.mrc", "--codec", "svd"],
+            "render": ["render", clips / "a.bvh", mrc, "-o", tmp_path / "{}.png", "--count", "2"],
+            "view": ["view", clips / "a.bvh", mrc, "-o", tmp_path / "{}.html"]}[command]
     loud = run(*[str(a).format("loud") for a in args])
     assert loud.exit_code == 0 and "wrote " in loud.output and "loud" in loud.output, loud.output
     quiet = run(*[str(a).format("quiet") for a in args], "--quiet")

@@ -62,7 +62,7 @@ def test_example_help_agrees_with_the_readme_quick_start():
     assert "adaptive-fourier" not in text  # the quick start uses the default codec
 
 
-@pytest.mark.parametrize("command", ["convert", "compress", "decompress", "merge", "example"])
+@pytest.mark.parametrize("command", ["convert", "compress", "decompress", "merge", "example", "render", "view"])
 def test_every_writing_command_offers_quiet(command):
     assert "-q, --quiet" in _help(command)
 

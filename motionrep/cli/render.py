@@ -16,7 +16,7 @@ import click
 
 from ..errors import ValidationError
 from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, force_option,
-                      is_stdio, match_options, stdin_inputs)
+                      is_stdio, match_options, quiet_option, stdin_inputs)
 
 __all__ = ["render"]
 
@@ -110,11 +110,12 @@ def _labels(reference: Path, candidate: Path | None) -> tuple[str, str]:
                    "Default: the bound a .mrc candidate was compressed within, if it says.")
 @comparison_options
 @force_option
+@quiet_option
 @body_model_option
 def render(reference: Path, candidate: Path | None, output: Path, frames: slice | None, fps: float | None,
            count: int, max_frames: int, size: tuple[int, int] | None, up: str, clip: str | None,
            max_error: str | None, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (),
-           ignore_extra: bool = False, resample: bool = False) -> None:
+           ignore_extra: bool = False, resample: bool = False, quiet: bool = False) -> None:
     """Draw REF (red) and the decoded CAND (blue) overlaid as stick figures, each frame's worst joint circled.
 
     REF and CAND may be any motion file motionrep reads, .mrc included, of the same skeleton ('-': BVH, NPZ,
@@ -148,13 +149,14 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
         ref = _read(paths[0], clip)
         cand = None if candidate is None else _read(paths[1], clip)
         bound, how = bound_for(max_error, ref, paths[1:], clip)
-    if how:
+    if how and not quiet:
         click.echo(f"bound: {how}", err=True)
     names = _labels(reference, candidate)
     names = tuple(STDIN_NAME if is_stdio(p) else n for p, n in zip((reference, candidate), names))
     with _Bar(f"drawing {output.name}") as bar:
         result = draw(output, ref, cand, names=names, frames=frames, fps=fps, count=count,
-                      max_frames=max_frames, size=size, up=up, bound=bound, options=options, progress=bar)
+                      max_frames=max_frames, size=size, up=up, bound=bound, options=options,
+                      progress=None if quiet else bar)
     for note in result.notes:
         click.echo(f"note: {note}", err=True)
     n = len(result.frames)
@@ -165,4 +167,5 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
         from ..render import describe_error
 
         line += f"; worst joint {describe_error(result.error)}"
-    click.echo(line)
+    if not quiet:
+        click.echo(line)

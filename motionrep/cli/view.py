@@ -13,7 +13,7 @@ from typing import Any
 import click
 
 from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, expand_globs,
-                      force_option, is_stdio, match_options, stdin_inputs)
+                      force_option, is_stdio, match_options, quiet_option, stdin_inputs)
 
 __all__ = ["view"]
 
@@ -79,10 +79,11 @@ def _settings(src: Any, name: str) -> str:
               help="The data's up axis (BVH is usually Y-up); auto guesses it from the motion.")
 @comparison_options
 @force_option
+@quiet_option
 @body_model_option
 def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | None, max_error: str | None,
          up: str, force: bool, match: str = "order", strip_prefix: tuple[str, ...] = (), ignore_extra: bool = False,
-         resample: bool = False) -> None:
+         resample: bool = False, quiet: bool = False) -> None:
     """Write one HTML page showing REF and its decoded copies CAND... in 3D.
 
     The skeletons are overlaid (REF red, the candidates blue, green, orange...),
@@ -145,4 +146,5 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
         from ..render import describe_error
 
         line += f"; worst joint of {clips[1].label}: {describe_error(result.errors[0])}"
-    click.echo(line)
+    if not quiet:
+        click.echo(line)
