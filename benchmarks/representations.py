@@ -304,6 +304,13 @@ def evaluate(inp: Input, model, seeds: int, generate: int) -> dict:
 # ---------------------------------------------------------------------------------------------------------------
 # run
 # ---------------------------------------------------------------------------------------------------------------
+def _short_runs(rows: dict, steps: int) -> str:
+    """The inputs that stopped at their time cap before ``steps`` (the machine slowed down), said in the table's
+    header so that a row trained for fewer steps is never read as an equal budget."""
+    short = [f"{k}: {r['steps']}" for k, r in rows.items() if r["steps"] < steps]
+    return f" (stopped at the time cap of 1.5x its calibrated time, so fewer steps: {'; '.join(short)})" if short else ""
+
+
 def train(inp: Input, args, steps: int, seed: int, seconds: float | None = None):
     """Train for ``steps`` steps, or until ``seconds`` have passed (a guard against the machine slowing down:
     the row then reports the steps it made)."""
@@ -436,7 +443,7 @@ def main(argv: list[str] | None = None) -> int:
              "", ("**Smoke run (`--quick`): a tiny model trained for a few steps; the numbers say only that the run "
                   "works end to end.**" if args.quick else ""), "",
              f"2-layer GRU ({args.hidden} units), {steps} steps of {args.batch} sequences of {args.sequence} frames at "
-             f"30 fps for every input, seed {args.seed}; salsa clips split by trial: train {len(split['train'])}, "
+             f"30 fps for every input{_short_runs(rows, steps)}, seed {args.seed}; salsa clips split by trial: train {len(split['train'])}, "
              f"val {len(split['val'])} (not used: no early stopping), test {len(split['test'])} clips; "
              f"{rows[labels[0]]['seeds']} test seeds of 10 "
              f"frames. Joint error in {units} (rig height "
