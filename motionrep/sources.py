@@ -243,7 +243,7 @@ class _Compressed(Source):
         return self._container
 
     def read_stored(self, name: str | None = None) -> tuple[str, Any]:
-        from .compress import decompress
+        from .decode import decompress
 
         container = self.container(name)
         return self.path.stem, decompress(container, path=self.path)
@@ -270,7 +270,7 @@ class _Archive(Source):
         return self.archive.container(name)
 
     def read_stored(self, name: str | None = None) -> tuple[str, Any]:
-        from .compress import decompress
+        from .decode import decompress
 
         name = self.resolve(name)
         return name, decompress(self.archive.container(name), path=f"{self.path}[{name}]")
