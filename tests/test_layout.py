@@ -1,6 +1,6 @@
 """The shape of the code base: the layout table (CONTRIBUTING.md, linked from the README) names every module
-and folder, no import circle inside
-``motionrep`` (imports inside functions counted), modules short enough to read (a longer one says why in its docstring), no
+and folder, one home for the file suffixes (``motionrep/formats.py``), no import circle inside ``motionrep``
+(imports inside functions counted), modules short enough to read (a longer one says why in its docstring), no
 ``assert`` for validation in library code, and the command-line package light to import."""
 
 from __future__ import annotations
@@ -181,7 +181,38 @@ def test_the_command_modules_are_light():
             continue
         imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli._crosstool",
                                        "motionrep.cli"}
-        assert imported <= {"motionrep.errors"}, f"{module.name} imports {sorted(imported)} at module level"
+        assert imported <= {"motionrep.errors", "motionrep.formats"}, \
+            f"{module.name} imports {sorted(imported)} at module level"
+
+
+def test_the_format_table_is_light():
+    """``motionrep.formats`` (which the command modules build their options from) is standard library only."""
+    code = "import sys, motionrep.formats; print(sorted(m for m in ('numpy', 'click', 'h5py') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+#: Modules that may spell a clip file's suffix, and why.  Only the table itself: every other module derives its
+#: suffixes from ``motionrep.formats``.  (Pictures and pages -- ``.gif``, ``.png``, ``.html`` -- are not clip
+#: formats and are not checked.)
+SUFFIX_HOMES = {"motionrep/formats.py": "the one table of file formats"}
+
+
+def test_one_home_for_the_suffixes():
+    """No module other than :data:`SUFFIX_HOMES` spells a suffix of the format table (``".bvh"``, ``".h5"``...):
+    as a string of its own, in a tuple, a dict or an f-string (text that merely mentions one in a sentence is
+    left alone)."""
+    from motionrep.formats import BY_SUFFIX
+
+    found = []
+    for path in _modules() + sorted((REPO / "plugins").rglob("*.py")):
+        rel = path.relative_to(REPO).as_posix()
+        if rel in SUFFIX_HOMES or "tests" in path.relative_to(REPO).parts or "__pycache__" in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.lower() in BY_SUFFIX:
+                found.append(f"{rel}:{node.lineno} {node.value!r}")
+    assert not found, "suffixes spelled outside motionrep/formats.py (derive them from it): " + ", ".join(found)
 
 
 def test_cli_defaults_agree_with_the_library():

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from .._model import Motion
 from ..errors import ValidationError
+from ..formats import BY_NAME
 from ._atomic import atomic_path
 from ._clipfile import ClipFile
 from ._gltf_anim import Unique, clips
@@ -292,7 +293,7 @@ def write_gltf(motion: Motion, path: str | os.PathLike[str], clip: str | None = 
     Raises:
         ValidationError: ``motion`` is not a Motion, or a bad ``scale`` or ``up``.
     """
-    data = gltf_bytes(motion, binary=Path(path).suffix.lower() == ".glb",
+    data = gltf_bytes(motion, binary=Path(path).suffix.lower() == BY_NAME["gltf"].binary,
                       clip=Path(path).stem if clip is None else clip, scale=scale, up=up)
     with atomic_path(path) as tmp:
         Path(tmp).write_bytes(data)
