@@ -25,9 +25,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Format", "FORMATS", "BY_NAME", "BY_SUFFIX", "format_named", "suffix_format", "is_archive_path", "MOTION_SUFFIXES",
-           "WRITE_SUFFIXES", "MANY_CLIP_SUFFIXES", "SOURCE_SUFFIXES", "COMPRESSED_SUFFIXES", "CONTAINER_SUFFIX",
-           "STDIN", "STDIN_MOTION", "STDIN_COMPRESSED", "OUT_FORMATS"]
+__all__ = ["Format", "FORMATS", "BY_NAME", "BY_SUFFIX", "format_named", "suffix_format", "is_archive_path",
+           "MOTION_SUFFIXES", "WRITE_SUFFIXES", "MANY_CLIP_SUFFIXES", "SOURCE_SUFFIXES", "COMPRESSED_SUFFIXES",
+           "CONTAINER_SUFFIX", "STDIN", "STDIN_MOTION", "STDIN_COMPRESSED", "OUT_FORMATS"]
 
 
 @dataclass(frozen=True)

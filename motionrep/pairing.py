@@ -7,9 +7,9 @@ a namespace prefix (``mixamorig:``), end sites turned into bone tails or dropped
 another frame rate.  :class:`MatchOptions` says what may differ, :func:`pair_points` pairs the FK points
 (joints and end sites) of the two skeletons, :func:`pair_frames` the frames, :func:`compared_points` gives the
 positions paired, and :func:`motionrep.evaluate.compare` measures the shared L-infinity error on them (this
-module is below :mod:`motionrep.evaluate` and never imports it).  The :class:`Comparison` it attaches to the report lists exactly
-which joints, end sites and frames were compared and which were left out, so the number never hides a
-mismatch.  See ``specs/comparison.md``.
+module is below :mod:`motionrep.evaluate` and never imports it).  The :class:`Comparison` attached to the report
+lists exactly which joints, end sites and frames were compared and which were left out, so the number never
+hides a mismatch.  See ``specs/comparison.md``.
 
 Matching by name (``match="names"``):
 

@@ -92,7 +92,8 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
         if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
     suffix = OUT_FORMATS[out_format or "bvh"]
-    gltf_out = (suffix if to_stdout or not output.suffix else output.suffix.lower()) in formats.BY_NAME["gltf"].all_suffixes
+    written_as = suffix if to_stdout or not output.suffix else output.suffix.lower()
+    gltf_out = written_as in formats.BY_NAME["gltf"].all_suffixes
     check_gltf_units(gltf_scale, units, gltf_out)
     with stdin_inputs(inputs, allowed=formats.STDIN_COMPRESSED) as given:
         _decompress(given, output, fps, clip, suffix, force, (gltf_scale, units), quiet)
