@@ -6,7 +6,7 @@ pose representations and motion codecs as plugins, and one shared FK-based error
 Quaternions are ``(..., 4)`` arrays in **xyzw** order everywhere; arrays are ``(frames, joints, ...)``.
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = [
     "open",

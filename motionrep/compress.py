@@ -20,32 +20,30 @@ is written only if the bound is met.  ``max_error=None`` (``--max-error none``) 
 needs one to choose its size (``svd`` without ``rank``, the Fourier codecs without ``k``) then raises
 :class:`~motionrep.errors.ParameterError`.
 
-Decoding.  :func:`decode_at` is the one decode path (codec, then representation, then
-:func:`~motionrep.ops.fixed_axes_restored`), at any normalised times; :func:`decompress` decodes at the clip's
-own frame times or resampled to another frame rate.
+Decoding (:mod:`motionrep.decode`, its names public here too).  :func:`decode_at` is the one decode path (codec,
+then representation, then :func:`~motionrep.ops.fixed_axes_restored`), at any normalised times;
+:func:`decompress` decodes at the clip's own frame times or resampled to another frame rate.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import time
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from ._model import Motion
 from ._threads import one_blas_thread
-from .codec import Codec, Payload, frame_times
-from .container import Container, pack, read_container, unpack
+from .codec import Codec, Payload
+from .container import Container, pack
 from .errors import BoundNotMetError, CodecError, UncodableClipError
 from .bound import MaxError, parse_max_error  # public here too, as before motionrep.bound existed
+from .decode import BVH_DECIMALS, decode_at, decompress, decompress_file, write_decoded  # public here too
 from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
 from .kinematics import character_height
-from .ops import resample_times
 from .representation import Representation
 
 __all__ = [
@@ -75,10 +73,6 @@ DEFAULT_MAX_ERROR = "2%"
 
 #: Codecs are given ``bound * (1 - BOUND_MARGIN)`` as ``context.bound``; the core enforces ``bound`` itself.
 BOUND_MARGIN = 1e-6
-
-#: Decimals of BVH channel values written by :func:`write_decoded`: enough that text rounding (at most
-#: 5e-10 units or degrees) cannot move a decoded motion measurably closer to or past its bound.
-BVH_DECIMALS = 9
 
 # ---------------------------------------------------------------------------------------------------------------
 # compress
@@ -229,7 +223,7 @@ class Pipeline:
 
     def _compress(self, motion: Motion, progress: ProgressCallback | None, source_bytes: int | None,
                   extra: Mapping[str, Any] | None) -> CompressResult:
-        from . import __version__
+        from ._version import __version__
         from .plugins import provider_of
 
         codec, rep = self.codec, self.representation
@@ -350,74 +344,3 @@ def compress_file(source: str | os.PathLike[str], target: str | os.PathLike[str]
     if target is not None:
         write_container(result.data, target)
     return result
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# decompress
-# ---------------------------------------------------------------------------------------------------------------
-def decode_at(container: Container, times: ArrayLike, *, fps: float | None = None, path: Any = None,
-              codec: Codec | None = None, representation: Representation | None = None) -> Motion:
-    """The motion a container holds at normalised ``times`` ``(T,)`` in [0, 1] (the clip's first to last frame):
-    the codec decodes features at those times, the representation turns them into poses, and translation axes
-    without a position channel are restored (:func:`motionrep.ops.fixed_axes_restored`).  This is the one decode
-    path: decompression, evaluation, rendering and benchmarks all decode through it, and it is the runtime
-    decoder's (:meth:`motionrep.runtime.Clip.motion_at`; ``motionrep.open`` samples poses with the same steps).
-
-    Args:
-        container: the compressed clip.
-        times: ``(T,)`` normalised times.
-        fps: frame rate of the result (default: the container's).
-        path: the file it came from, named in errors.
-        codec, representation: the plugins to decode with (default: looked up by the names and versions the
-            container stores).
-
-    Raises:
-        UnknownPluginError: naming the codec or representation (and its plugin) when it is not installed.
-        PluginVersionError: for a payload or representation version the installed plugin cannot read.
-        ContainerError: for a payload the codec cannot decode.
-    """
-    from .runtime import Clip
-
-    with one_blas_thread():  # the decoded values never depend on the thread count
-        return Clip(container, path, codec=codec, representation=representation).motion_at(times, fps)
-
-
-def decompress(data: bytes | Container, fps: float | None = None, *, path: Any = None, codec: Codec | None = None,
-               representation: Representation | None = None) -> Motion:
-    """Decode ``.mrc`` bytes (or a parsed container) to a motion at its own frame rate, or resampled to ``fps``
-    (decoded at the new frame times, :func:`motionrep.ops.resample_times`).
-
-    Raises:
-        ContainerError: for bytes that are not a valid ``.mrc`` file; see also :func:`decode_at`.
-    """
-    container = data if isinstance(data, Container) else unpack(data, path)
-    if fps is None or math.isclose(fps, container.fps, rel_tol=1e-12):
-        times, fps = frame_times(container.num_frames), None
-    else:
-        times = resample_times(container.num_frames, container.fps, float(fps))
-    return decode_at(container, times, fps=fps, path=path, codec=codec, representation=representation)
-
-
-def decompress_file(source: str | os.PathLike[str], target: str | os.PathLike[str] | None = None,
-                    fps: float | None = None) -> Motion:
-    """Read a ``.mrc`` file, decode it (resampled to ``fps`` if given) and write ``target`` (any motion format).
-
-    Raises:
-        ContainerError: the file is not a valid ``.mrc`` file (truncated, altered, unknown version).
-        UnknownPluginError: its codec or representation is not installed (naming the plugin that provides it).
-    """
-    motion = decompress(read_container(source), fps, path=source)
-    if target is not None:
-        write_decoded(motion, target)
-    return motion
-
-
-def write_decoded(motion: Motion, target: str | os.PathLike[str], **options: Any) -> None:
-    """Write a decoded motion; BVH with :data:`BVH_DECIMALS` decimals, so the file keeps the decoded values;
-    ``options`` are the format's write options (glTF ``scale``)."""
-    from .io import format_of, write
-
-    if format_of(target) == "bvh":
-        write(motion, target, decimals=BVH_DECIMALS, **options)
-    else:
-        write(motion, target, **options)

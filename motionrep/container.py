@@ -49,6 +49,7 @@ from .limits import ENVIRONMENT, check_clip
 from .limits import current as current_limits
 from ._model import Skeleton
 from .errors import ContainerError, ValidationError
+from .formats import CONTAINER_SUFFIX
 
 __all__ = [
     "MAGIC",
@@ -70,8 +71,8 @@ MAGIC = b"\x89MRC\r\n\x1a\n"
 CONTAINER_VERSION = 1
 #: Versions this motionrep reads.
 READABLE_VERSIONS = (1,)
-#: The file suffix.
-SUFFIX = ".mrc"
+#: The file suffix (:data:`motionrep.formats.CONTAINER_SUFFIX`).
+SUFFIX = CONTAINER_SUFFIX
 
 _PREAMBLE = struct.Struct("<8sHHII")  # magic, version, flags, total length, metadata length
 _CRC = struct.Struct("<I")

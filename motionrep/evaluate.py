@@ -48,12 +48,14 @@ from .codec import Payload, frame_times
 from .errors import ValidationError
 from .kinematics import character_height, global_positions, point_names
 from .ops import fixed_axes_restored
+from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
 
 if TYPE_CHECKING:
     from .codec import Codec
     from .representation import Representation
 
-__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "skeleton_difference", "MotionContext", "ProgressCallback", "CompressionFigures",
+__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "compare", "skeleton_difference", "MotionContext",
+           "ProgressCallback", "CompressionFigures",
            "compression_figures"]
 
 
@@ -103,36 +105,6 @@ class ErrorReport:
                 f"worst at frame {self.frame}, {self.joint}")
 
 
-def skeleton_difference(a: Skeleton, b: Skeleton, a_name: str = "the reference",
-                        b_name: str = "the candidate") -> str | None:
-    """The first way two skeletons' structures differ, in words naming the first differing joint, or None when
-    they share joint names, parents and end sites (offsets may differ).
-
-    ``"joint 3 is 'LowerBack' in walk.bvh but 'lowerback' in walk.mrc (the names differ only in case)"``.
-    """
-    if a.same_structure(b):
-        return None
-    count = "" if a.num_joints == b.num_joints else f"{a.num_joints} joints in {a_name} but {b.num_joints} in " \
-                                                      f"{b_name}; "
-    for j, (x, y) in enumerate(zip(a.names, b.names)):
-        if x != y:
-            case = " (the names differ only in case)" if x.lower() == y.lower() else ""
-            return f"{count}joint {j} is {x!r} in {a_name} but {y!r} in {b_name}{case}"
-    if count:
-        longer, name = (a, a_name) if a.num_joints > b.num_joints else (b, b_name)
-        j = min(a.num_joints, b.num_joints)
-        return f"{count}the first joint only {name} has is joint {j}, {longer.names[j]!r}"
-    if not np.array_equal(a.parents, b.parents):
-        j = int(np.nonzero(a.parents != b.parents)[0][0])
-        return (f"joint {a.names[j]!r} has parent {a.names[a.parents[j]]!r} in {a_name} but "
-                f"{b.names[b.parents[j]]!r} in {b_name}")
-    if a.num_end_sites != b.num_end_sites:
-        return f"{a.num_end_sites} end sites in {a_name} but {b.num_end_sites} in {b_name}"
-    k = int(np.nonzero(a.end_site_parents != b.end_site_parents)[0][0])
-    return (f"end site {k} hangs from {a.names[a.end_site_parents[k]]!r} in {a_name} but from "
-            f"{b.names[b.end_site_parents[k]]!r} in {b_name}")
-
-
 def _percent(value: float, height: float) -> float:
     if height > 0:
         return 100.0 * value / height
@@ -178,9 +150,7 @@ class Evaluator:
                 option that would compare them.
         """
         if options is not None:
-            from .pairing import compare
-
-            return compare(self.reference, candidate, options, evaluator=self)
+            return self.points_error(*compared_points(self.reference, candidate, options))
         ref = self.reference
         what = skeleton_difference(self.skeleton, candidate.skeleton)
         if what is not None:
@@ -225,7 +195,7 @@ class Evaluator:
     def points_error(self, positions: NDArray[np.float64], points: Any, comparison: Any) -> ErrorReport:
         """Compare ``(n, P, 3)`` candidate positions with the reference's points ``points`` (``P`` indices into the
         ``J + E`` FK points) of the frames ``0 .. n - 1``; the report carries ``comparison``
-        (:func:`motionrep.pairing.compare` builds both)."""
+        (:func:`motionrep.pairing.compared_points` gives all three)."""
         positions = np.asarray(positions, dtype=np.float64)
         idx = np.asarray(points, dtype=np.int64)
         reference = self._positions[:positions.shape[0]][:, idx] if positions.ndim == 3 else None
@@ -383,6 +353,29 @@ def max_joint_error(reference: Motion, candidate: Motion, options: Any = None) -
         ValidationError: if the motions cannot be compared.
     """
     return Evaluator(reference)(candidate, options)
+
+
+def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT,
+            evaluator: Evaluator | None = None) -> ErrorReport:
+    """The shared L-infinity error of ``candidate`` against ``reference`` on the points and frames ``options``
+    pair (:func:`motionrep.pairing.compared_points`), with a :class:`~motionrep.pairing.Comparison` saying what
+    was compared and left out.
+
+    Args:
+        reference: the original motion.
+        candidate: the motion after another tool.
+        options: what may differ (default: nothing, as :func:`max_joint_error`).
+        evaluator: an :class:`Evaluator` of ``reference``, to reuse its FK.
+
+    Returns:
+        An :class:`ErrorReport` (``frame`` a reference frame, ``joint`` a reference point name, ``num_points`` and
+        ``num_frames`` what was compared, ``comparison`` the details).
+
+    Raises:
+        ValidationError: when the motions cannot be compared under ``options`` (naming the option that would).
+    """
+    ev = evaluator if evaluator is not None else Evaluator(reference)
+    return ev(candidate, options)
 
 
 @dataclass(frozen=True)

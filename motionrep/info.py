@@ -15,6 +15,7 @@ from typing import Any
 
 from ._model import Skeleton
 from .errors import FormatError, MotionrepError
+from .formats import BY_SUFFIX
 from .kinematics import character_height
 from .timefmt import duration
 
@@ -25,8 +26,7 @@ __all__ = ["INFO_JSON_VERSION", "FORMAT_NAMES", "info_dict", "skeleton_info"]
 INFO_JSON_VERSION = 1
 
 #: The ``format`` of each suffix in ``info --json`` (a compressed clip, whatever its suffix, is ``"mrc"``).
-FORMAT_NAMES = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf", ".glb": "gltf",
-                ".fbx": "fbx", ".mrc": "mrc"}
+FORMAT_NAMES = {s: f.name for s, f in BY_SUFFIX.items()}
 
 
 def skeleton_info(sk: Skeleton) -> dict[str, Any]:

@@ -5,7 +5,9 @@
 * :func:`resample`: a motion evaluated at another frame rate (rotations slerped, translations interpolated
   linearly); :func:`interpolate_frames` is the same at any fractional frame positions;
 * :func:`resample_times`: the normalised times of a clip resampled to another frame rate, for decoders that
-  evaluate a compressed clip at any time (``motionrep decompress --fps``).
+  evaluate a compressed clip at any time (``motionrep decompress --fps``);
+* :func:`detect_up_axis`: whether a clip is Y-up or Z-up, guessed from its world positions (the glTF writer,
+  the renderer, the viewer and the torch dataset all guess it this one way).
 
 Shapes follow the pose model: ``(F, J, 4)`` xyzw rotations, ``(F, 3)`` root translation, ``(F, P, 3)``
 translations of the joints with position channels.
@@ -22,7 +24,8 @@ from ._model import Motion
 from .errors import ParameterError
 from .rotations import euler_to_quat, quat_slerp, quat_to_euler_continuous
 
-__all__ = ["fixed_axes_restored", "resample", "resample_times", "interpolate_frames", "resampled_count"]
+__all__ = ["fixed_axes_restored", "resample", "resample_times", "interpolate_frames", "resampled_count",
+           "detect_up_axis"]
 
 
 def fixed_axes_restored(motion: Motion) -> Motion:
@@ -132,3 +135,24 @@ def resample(motion: Motion, fps: float, num_frames: int | None = None) -> Motio
     fps = _check_fps(fps)
     count = resampled_count(motion.num_frames, motion.fps, fps) if num_frames is None else int(num_frames)
     return interpolate_frames(motion, np.arange(count) * (motion.fps / fps), fps)
+
+
+def detect_up_axis(positions: NDArray[np.float64]) -> str:
+    """Guess whether a clip is Y-up or Z-up from its ``(F, P, 3)`` world positions.
+
+    Only Y and Z compete (X-up files are rare).  First the floor: feet rest on the ground, so along the up axis
+    the lowest point of each frame stays nearly level, while along a horizontal axis it follows the steps and
+    the travel.  The axis whose lowest point varies clearly less over the frames wins.  When that does not
+    decide (a single frame, a motion without ground contact), the body: a person is taller than deep most of
+    the time, so Z wins only if the median per-frame extent along Z is 1.3 times that along Y; otherwise Y
+    (BVH's usual convention).
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    extent = np.median(pos.max(axis=1) - pos.min(axis=1), axis=0)
+    size = float(extent.max())
+    if pos.shape[0] > 1 and size > 0:
+        floor_spread = pos.min(axis=1).std(axis=0) / size
+        y, z = float(floor_spread[1]), float(floor_spread[2])
+        if abs(y - z) > 0.02 and min(y, z) < 0.5 * max(y, z):
+            return "y" if y < z else "z"
+    return "z" if extent[2] > 1.3 * extent[1] else "y"

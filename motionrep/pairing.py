@@ -5,10 +5,11 @@ in the reference's order, the same end sites, the same frame rate and frame coun
 another tool (Blender, a game engine, a retargeter) is the same character in other clothes: joints reordered,
 a namespace prefix (``mixamorig:``), end sites turned into bone tails or dropped, a few helper joints added,
 another frame rate.  :class:`MatchOptions` says what may differ, :func:`pair_points` pairs the FK points
-(joints and end sites) of the two skeletons, :func:`pair_frames` the frames, and :func:`compare` measures the
-shared L-infinity error on what was paired.  The :class:`Comparison` it attaches to the report lists exactly
-which joints, end sites and frames were compared and which were left out, so the number never hides a
-mismatch.  See ``specs/comparison.md``.
+(joints and end sites) of the two skeletons, :func:`pair_frames` the frames, :func:`compared_points` gives the
+positions paired, and :func:`motionrep.evaluate.compare` measures the shared L-infinity error on them (this
+module is below :mod:`motionrep.evaluate` and never imports it).  The :class:`Comparison` attached to the report
+lists exactly which joints, end sites and frames were compared and which were left out, so the number never
+hides a mismatch.  See ``specs/comparison.md``.
 
 Matching by name (``match="names"``):
 
@@ -45,8 +46,8 @@ from .errors import ValidationError
 from .kinematics import character_height, global_positions, point_names, rest_positions
 
 __all__ = ["MatchOptions", "PointPairing", "FramePairing", "Comparison", "STRICT", "TAIL_TOLERANCE",
-           "RESAMPLE_METHOD", "pair_points", "pair_frames", "compare", "paired_positions",
-           "compared_bones"]
+           "RESAMPLE_METHOD", "pair_points", "pair_frames", "compared_points", "paired_positions",
+           "compared_bones", "skeleton_difference"]
 
 #: A bone tail is paired with an end site when their rest positions are this close, in parts of the height.
 TAIL_TOLERANCE = 0.01
@@ -225,6 +226,36 @@ def _key(name: str, prefixes: tuple[str, ...]) -> str:
     return name
 
 
+def skeleton_difference(a: Skeleton, b: Skeleton, a_name: str = "the reference",
+                        b_name: str = "the candidate") -> str | None:
+    """The first way two skeletons' structures differ, in words naming the first differing joint, or None when
+    they share joint names, parents and end sites (offsets may differ).
+
+    ``"joint 3 is 'LowerBack' in walk.bvh but 'lowerback' in walk.mrc (the names differ only in case)"``.
+    """
+    if a.same_structure(b):
+        return None
+    count = "" if a.num_joints == b.num_joints else f"{a.num_joints} joints in {a_name} but {b.num_joints} in " \
+                                                      f"{b_name}; "
+    for j, (x, y) in enumerate(zip(a.names, b.names)):
+        if x != y:
+            case = " (the names differ only in case)" if x.lower() == y.lower() else ""
+            return f"{count}joint {j} is {x!r} in {a_name} but {y!r} in {b_name}{case}"
+    if count:
+        longer, name = (a, a_name) if a.num_joints > b.num_joints else (b, b_name)
+        j = min(a.num_joints, b.num_joints)
+        return f"{count}the first joint only {name} has is joint {j}, {longer.names[j]!r}"
+    if not np.array_equal(a.parents, b.parents):
+        j = int(np.nonzero(a.parents != b.parents)[0][0])
+        return (f"joint {a.names[j]!r} has parent {a.names[a.parents[j]]!r} in {a_name} but "
+                f"{b.names[b.parents[j]]!r} in {b_name}")
+    if a.num_end_sites != b.num_end_sites:
+        return f"{a.num_end_sites} end sites in {a_name} but {b.num_end_sites} in {b_name}"
+    k = int(np.nonzero(a.end_site_parents != b.end_site_parents)[0][0])
+    return (f"end site {k} hangs from {a.names[a.end_site_parents[k]]!r} in {a_name} but from "
+            f"{b.names[b.end_site_parents[k]]!r} in {b_name}")
+
+
 def _keys(skeleton: Skeleton, prefixes: tuple[str, ...], side: str) -> dict[str, int]:
     keys: dict[str, int] = {}
     for j, n in enumerate(skeleton.names):
@@ -237,8 +268,6 @@ def _keys(skeleton: Skeleton, prefixes: tuple[str, ...], side: str) -> dict[str,
 
 
 def _order_pairing(ref: Skeleton, cand: Skeleton) -> PointPairing:
-    from .evaluate import skeleton_difference
-
     what = skeleton_difference(ref, cand)
     if what is not None:
         raise ValidationError(f"cannot compare motions of different skeletons: {what} (--match names compares "
@@ -414,27 +443,17 @@ def _comparison(points: PointPairing, frames: FramePairing, options: MatchOption
                       (first, last), last - first + 1, frames.method, left_out)
 
 
-def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT, evaluator: Any = None) -> Any:
-    """The shared L-infinity error of ``candidate`` against ``reference`` on the points and frames ``options``
-    pair, with a :class:`Comparison` saying what was compared and left out.
-
-    Args:
-        reference: the original motion.
-        candidate: the motion after another tool.
-        options: what may differ (default: nothing, as :func:`motionrep.evaluate.max_joint_error`).
-        evaluator: an :class:`~motionrep.evaluate.Evaluator` of ``reference``, to reuse its FK.
-
-    Returns:
-        An :class:`~motionrep.evaluate.ErrorReport` (``frame`` a reference frame, ``joint`` a reference point name,
-        ``num_points`` and ``num_frames`` what was compared, ``comparison`` the details).
+def compared_points(reference: Motion, candidate: Motion, options: MatchOptions = STRICT
+                    ) -> tuple[NDArray[np.float64], tuple[int, ...], Comparison]:
+    """What the shared error compares under ``options``: ``(n, P, 3)`` candidate FK positions at the compared
+    reference frames, the ``P`` reference points they pair with (indices into the ``J + E`` FK points), and the
+    :class:`Comparison` (:func:`motionrep.evaluate.compare` measures them).
 
     Raises:
         ValidationError: when the motions cannot be compared under ``options`` (naming the option that would).
     """
-    from .evaluate import Evaluator
     from .ops import interpolate_frames
 
-    ev = evaluator if evaluator is not None else Evaluator(reference)
     points = pair_points(reference.skeleton, candidate.skeleton, options)
     frames = pair_frames(reference, candidate, options)
     if frames.method is not None:
@@ -443,7 +462,7 @@ def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT
         candidate = candidate.frames(frames.positions.astype(np.int64))
     comparison = _comparison(points, frames, options)
     cand_pos = global_positions(candidate)[:, list(points.candidate)]
-    return ev.points_error(cand_pos, points.reference, comparison)
+    return cand_pos, points.reference, comparison
 
 
 def paired_positions(reference: Motion, candidate: Motion, options: MatchOptions = STRICT

@@ -114,7 +114,7 @@ def _load_entry_points() -> None:
 
 
 def _load_shipped() -> None:
-    from . import __version__
+    from ._version import __version__
 
     for name in DEFAULT_PLUGINS:
         if pm.has_plugin(name):

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
+from . import formats
 from ._model import Motion
 from .errors import FormatError, ValidationError
 
@@ -58,12 +59,12 @@ __all__ = [
     "listing",
 ]
 
-#: Suffixes :func:`open_source` opens.
-SOURCE_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx", ".mrc")
+#: Suffixes :func:`open_source` opens (from :data:`motionrep.formats.FORMATS`, as the two below).
+SOURCE_SUFFIXES: tuple[str, ...] = formats.SOURCE_SUFFIXES
 #: Suffixes picked up when a directory is searched (compressed ``.mrc`` files are not: they are outputs).
-SCAN_SUFFIXES: tuple[str, ...] = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx")
+SCAN_SUFFIXES: tuple[str, ...] = formats.MOTION_SUFFIXES
 #: Suffixes of files that may hold several named clips (``--clip NAME`` chooses one).
-CLIP_SUFFIXES: tuple[str, ...] = (".h5", ".hdf5", ".gltf", ".glb", ".fbx")
+CLIP_SUFFIXES: tuple[str, ...] = formats.MANY_CLIP_SUFFIXES
 #: Replaces ``/`` when a path relative to a directory becomes a clip name.
 NAME_SEPARATOR = "__"
 _MAX_LISTED = 10
@@ -243,7 +244,7 @@ class _Compressed(Source):
         return self._container
 
     def read_stored(self, name: str | None = None) -> tuple[str, Any]:
-        from .compress import decompress
+        from .decode import decompress
 
         container = self.container(name)
         return self.path.stem, decompress(container, path=self.path)
@@ -270,7 +271,7 @@ class _Archive(Source):
         return self.archive.container(name)
 
     def read_stored(self, name: str | None = None) -> tuple[str, Any]:
-        from .compress import decompress
+        from .decode import decompress
 
         name = self.resolve(name)
         return name, decompress(self.archive.container(name), path=f"{self.path}[{name}]")
@@ -299,13 +300,14 @@ def open_source(path: str | os.PathLike[str]) -> Source:
         raise FormatError("no such file or directory", p)
     if p.is_dir():
         raise FormatError("is a directory, not a file", p)
-    if suffix == ".mrc":
+    fmt = formats.BY_SUFFIX[suffix].name
+    if fmt == "mrc":
         return _Compressed(p)
-    if suffix in (".gltf", ".glb"):
+    if fmt == "gltf":
         return _GLTF(p)
-    if suffix == ".fbx":
+    if fmt == "fbx":
         return _FBX(p)
-    if suffix not in (".h5", ".hdf5"):
+    if fmt != "hdf5":
         return _MotionFile(p)
     from .archive import ARCHIVE_FORMAT, Archive
     from .io._hdf5 import HDF5Database, open_hdf5_file, root_format

@@ -287,13 +287,14 @@ def open_store(path: str | os.PathLike[str], *, force: bool = False, resume: boo
         OutputExistsError: naming the output, as above.
         FormatError: when ``path`` exists and is not what its suffix says (a file for a directory, ...).
     """
+    from .formats import is_archive_path
     from .io._atomic import remove_stale_files
 
     p = Path(path)
     # what a killed run left (temporary files of an archive, a journal's clips or a directory's clips)
     remove_stale_files(p.parent if str(p.parent) else ".")
-    remove_stale_files(journal_path(p) if p.suffix.lower() in (".h5", ".hdf5") else p)
-    if p.suffix.lower() in (".h5", ".hdf5"):
+    remove_stale_files(journal_path(p) if is_archive_path(p) else p)
+    if is_archive_path(p):
         if p.exists() and p.is_dir():
             raise FormatError("is a directory, not an archive", p)
         journal = journal_path(p)

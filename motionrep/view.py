@@ -37,10 +37,10 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from . import __version__
+from ._version import __version__
 from ._model import Motion
 from .errors import ValidationError
-from .evaluate import ErrorReport, Evaluator
+from .evaluate import ErrorReport, Evaluator, compare
 from .io import atomic_path
 
 __all__ = ["ViewClip", "ViewResult", "view_html", "write_view", "distinct_names", "REFERENCE_COLOR",
@@ -172,7 +172,7 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
             was compressed with).
         bound_text: how the bound was given and read (``"2% of height = 3.04 cm"``); default: the bound in units.
         title: the page's title; default: the clips' labels.
-        up: ``"y"``, ``"z"`` or ``"auto"``: the reference's up axis (:func:`motionrep.render.detect_up_axis`).
+        up: ``"y"``, ``"z"`` or ``"auto"``: the reference's up axis (:func:`motionrep.ops.detect_up_axis`).
         match: a :class:`motionrep.pairing.MatchOptions` for candidates after another tool (joints by name, end
             sites missing, another rate or length): each candidate is drawn with its own skeleton at the
             reference's frame times (held on its last frame after its end), its error is measured on the points
@@ -183,7 +183,8 @@ def view_html(reference: ViewClip | Motion, candidates: Sequence[ViewClip | Moti
     """
     from .io import gltf_bytes
     from .kinematics import global_positions, point_names
-    from .render import align_candidate, bone_segments, detect_up_axis
+    from .ops import detect_up_axis
+    from .render import align_candidate, bone_segments
     from .timefmt import duration, duration_text, rate_text
 
     ref = _as_clip(reference, "reference")
@@ -281,7 +282,7 @@ def _paired(evaluator: Evaluator, cand: ViewClip, match: Any) -> tuple[Motion, E
     and ``(F, J + E)`` distances of the reference's points (0 where a point is not paired)."""
     from .kinematics import global_positions
     from .ops import interpolate_frames
-    from .pairing import compare, pair_points
+    from .pairing import pair_points
 
     ref = evaluator.reference
     report = compare(ref, cand.motion, match, evaluator=evaluator)

@@ -1,6 +1,6 @@
 """The shape of the code base: the layout table (CONTRIBUTING.md, linked from the README) names every module
-and folder, no module-level import
-circle inside ``motionrep``, modules short enough to read (a longer one says why in its docstring), no
+and folder, one home for the file suffixes (``motionrep/formats.py``), no import circle inside ``motionrep``
+(imports inside functions counted), modules short enough to read (a longer one says why in its docstring), no
 ``assert`` for validation in library code, and the command-line package light to import."""
 
 from __future__ import annotations
@@ -55,39 +55,74 @@ def test_readme_layout_names_every_module_and_folder():
     assert shipped and "plugins/motionrep_<name>/" in paths
 
 
-def _imports(module: Path) -> set[str]:
-    """Modules of motionrep imported at module level (not inside functions) by ``module``."""
+def _is_type_checking(node: ast.AST) -> bool:
+    test = node.test if isinstance(node, ast.If) else None
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _import_nodes(tree: ast.Module, inside_functions: bool) -> list[ast.Import | ast.ImportFrom]:
+    """The import statements of a module: at module level only, or everywhere (inside functions, methods and
+    branches too); imports under ``if TYPE_CHECKING:`` never run and are left out either way (at module level
+    every ``if`` is left out, as it always was for the command modules' lightness)."""
+    if not inside_functions:
+        return [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
+    found: list[ast.Import | ast.ImportFrom] = []
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            found.append(node)
+        for child in ast.iter_child_nodes(node):
+            if _is_type_checking(child):
+                for other in child.orelse:
+                    visit(other)
+            else:
+                visit(child)
+
+    visit(tree)
+    return found
+
+
+def _imports(module: Path, inside_functions: bool = False) -> set[str]:
+    """Modules of motionrep imported by ``module``: at module level, or anywhere in it (``inside_functions``).
+
+    ``from P import x`` imports the submodule ``P.x`` when there is one (an edge to ``P.x`` only: ``P`` is the
+    package ``P.x`` belongs to, initialised first whatever imports it), and otherwise a name of ``P`` itself."""
     rel = module.relative_to(REPO).with_suffix("")
     name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
     package = name if module.name == "__init__.py" else name.rpartition(".")[0]
     out: set[str] = set()
-    for node in ast.parse(module.read_text(encoding="utf-8")).body:
-        if isinstance(node, ast.If):  # `if TYPE_CHECKING:` imports do not run
-            continue
+    for node in _import_nodes(ast.parse(module.read_text(encoding="utf-8")), inside_functions):
         if isinstance(node, ast.Import):
             out |= {a.name for a in node.names if a.name.startswith("motionrep")}
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[:len(base) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
+            continue
+        if node.level:
+            base = package.split(".")
+            base = base[:len(base) - node.level + 1]
+            target = ".".join(base + ([node.module] if node.module else []))
+        else:
+            target = node.module or ""
+        if not target.startswith("motionrep"):
+            continue
+        for a in node.names:
+            sub = f"{target}.{a.name}"
+            if (REPO / (sub.replace(".", "/") + ".py")).exists() or (REPO / sub.replace(".", "/")).is_dir():
+                out.add(sub)
             else:
-                target = node.module or ""
-            if target.startswith("motionrep"):
                 out.add(target)
-                for a in node.names:  # `from . import x` imports the submodule x
-                    sub = f"{target}.{a.name}"
-                    if (REPO / (sub.replace(".", "/") + ".py")).exists() or (REPO / sub.replace(".", "/")).is_dir():
-                        out.add(sub)
     return out - {name}
 
 
 def test_no_import_circle():
+    """No circle of imports inside ``motionrep``, counting the imports inside functions too (a circle hidden in a
+    function still ties the two modules together).  There is no list of allowed circles: a new one is broken
+    by moving what both sides need below them (as ``motionrep.decode``, ``motionrep.ops.detect_up_axis``,
+    ``motionrep.pairing.skeleton_difference`` and ``motionrep._version`` were)."""
     graph = {}
     for module in _modules():
         rel = module.relative_to(REPO).with_suffix("")
         name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
-        graph[name] = {m for m in _imports(module)}
+        graph[name] = _imports(module, inside_functions=True)
     state: dict[str, int] = {}
     stack: list[str] = []
 
@@ -108,6 +143,27 @@ def test_no_import_circle():
             visit(node)
 
 
+def test_the_import_circle_check_reads_imports_inside_functions(tmp_path, monkeypatch):
+    """The circle check sees an import made inside a function (and ignores one under ``if TYPE_CHECKING:``)."""
+    pkg = tmp_path / "motionrep"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from . import b\n")
+    (pkg / "b.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .c import C\n\n"
+                              "def f():\n    from .a import g\n    return g\n")
+    (pkg / "c.py").write_text("")
+    monkeypatch.setattr(sys.modules[__name__], "REPO", tmp_path)
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", pkg)
+    assert _imports(pkg / "b.py") == set()
+    assert _imports(pkg / "b.py", inside_functions=True) == {"motionrep.a"}
+    try:
+        test_no_import_circle()
+    except AssertionError as e:
+        assert "motionrep.a -> motionrep.b -> motionrep.a" in str(e)
+    else:
+        raise AssertionError("the circle a -> b -> a (b's import inside a function) was not found")
+
+
 def test_long_modules_say_why():
     for module in _modules():
         lines = module.read_text(encoding="utf-8").count("\n")
@@ -125,7 +181,38 @@ def test_the_command_modules_are_light():
             continue
         imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli._crosstool",
                                        "motionrep.cli"}
-        assert imported <= {"motionrep.errors"}, f"{module.name} imports {sorted(imported)} at module level"
+        assert imported <= {"motionrep.errors", "motionrep.formats"}, \
+            f"{module.name} imports {sorted(imported)} at module level"
+
+
+def test_the_format_table_is_light():
+    """``motionrep.formats`` (which the command modules build their options from) is standard library only."""
+    code = "import sys, motionrep.formats; print(sorted(m for m in ('numpy', 'click', 'h5py') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+#: Modules that may spell a clip file's suffix, and why.  Only the table itself: every other module derives its
+#: suffixes from ``motionrep.formats``.  (Pictures and pages -- ``.gif``, ``.png``, ``.html`` -- are not clip
+#: formats and are not checked.)
+SUFFIX_HOMES = {"motionrep/formats.py": "the one table of file formats"}
+
+
+def test_one_home_for_the_suffixes():
+    """No module other than :data:`SUFFIX_HOMES` spells a suffix of the format table (``".bvh"``, ``".h5"``...):
+    as a string of its own, in a tuple, a dict or an f-string (text that merely mentions one in a sentence is
+    left alone)."""
+    from motionrep.formats import BY_SUFFIX
+
+    found = []
+    for path in _modules() + sorted((REPO / "plugins").rglob("*.py")):
+        rel = path.relative_to(REPO).as_posix()
+        if rel in SUFFIX_HOMES or "tests" in path.relative_to(REPO).parts or "__pycache__" in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.lower() in BY_SUFFIX:
+                found.append(f"{rel}:{node.lineno} {node.value!r}")
+    assert not found, "suffixes spelled outside motionrep/formats.py (derive them from it): " + ", ".join(found)
 
 
 def test_cli_defaults_agree_with_the_library():

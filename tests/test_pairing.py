@@ -13,11 +13,11 @@ from helpers import HAVE_SHARED, SHARED_DATA
 from motionrep import Motion, Skeleton
 from motionrep.cli import cli as main
 from motionrep.errors import ValidationError
-from motionrep.evaluate import max_joint_error
+from motionrep.evaluate import compare, max_joint_error
 from motionrep.io import read, write
 from motionrep.kinematics import global_positions
 from motionrep.ops import resample
-from motionrep.pairing import RESAMPLE_METHOD, MatchOptions, compare, compared_bones, pair_points
+from motionrep.pairing import RESAMPLE_METHOD, MatchOptions, compared_bones, pair_points
 from motionrep.rotations import euler_to_quat
 
 NAMES = ("Hips", "Spine", "Head", "LeftLeg", "LeftFoot", "RightLeg", "RightFoot")

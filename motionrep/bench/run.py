@@ -21,6 +21,7 @@ import numpy as np
 
 from .._model import Motion
 from ..errors import BoundNotMetError, MotionrepError
+from ..formats import suffix_format
 from .grid import BenchTask
 from .report import BenchRow
 
@@ -98,7 +99,7 @@ def xz_size(clip: Any, motion: Motion) -> int:
     except OSError:
         key = (str(path), clip.clip, None, None)
     if key not in _XZ_CACHE:
-        if clip.clip is None and path.suffix.lower() == ".bvh":
+        if clip.clip is None and suffix_format(path) == "bvh":
             data = path.read_bytes()
         else:
             from ..io import format_bvh

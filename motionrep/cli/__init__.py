@@ -20,7 +20,7 @@ import sys
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from .._signals import check as check_interrupted
 from ..errors import MotionrepError
 from . import bench, compress, convert, decompress, evaluate, example, info, merge, plugins, render, view

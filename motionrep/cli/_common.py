@@ -31,6 +31,7 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 import click
 
 from ..errors import Interrupted
+from .. import formats
 from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
 from ._crosstool import check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options, match_options
 
@@ -45,10 +46,10 @@ __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgre
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"
 
-#: Suffixes of the motion files commands write (the format from the suffix).
-MOTION_OUT_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb")
+#: Suffixes of the motion files commands write (the format from the suffix; :mod:`motionrep.formats`).
+MOTION_OUT_SUFFIXES = formats.WRITE_SUFFIXES
 #: ``--format`` of a command writing motions to standard output or a directory: the suffix each name stands for.
-OUT_FORMATS = {"bvh": ".bvh", "npz": ".npz", "h5": ".h5", "glb": ".glb", "gltf": ".gltf"}
+OUT_FORMATS = formats.OUT_FORMATS
 
 
 # ---- several outputs --------------------------------------------------------------------------------------------

@@ -23,6 +23,8 @@ from typing import Any, Iterable, Iterator, Sequence
 
 import click
 
+from ..formats import FORMATS, STDIN, STDIN_MOTION
+
 __all__ = ["STDIO", "STDIN_NAME", "STDIN_FORMATS", "MOTION_FORMATS", "is_stdio", "display_name", "stdin_inputs",
            "sniff"]
 
@@ -30,12 +32,12 @@ __all__ = ["STDIO", "STDIN_NAME", "STDIN_FORMATS", "MOTION_FORMATS", "is_stdio",
 STDIO = "-"
 #: How messages name standard input.
 STDIN_NAME = "<stdin>"
-#: What standard input may hold (the suffix it is read as) and how messages say it.
-STDIN_FORMATS = {".bvh": "BVH text", ".npz": "an NPZ file", ".h5": "an HDF5 file", ".glb": "a .glb file",
-                 ".mrc": "a .mrc file"}
+#: What standard input may hold (the suffix it is read as) and how messages say it (:data:`motionrep.formats.STDIN`).
+STDIN_FORMATS = STDIN
 #: Formats of motions (what convert and compress read).
-MOTION_FORMATS = (".bvh", ".npz", ".h5", ".glb")
+MOTION_FORMATS = STDIN_MOTION
 
+_STDIN_SUFFIX = {f.name: f.stdin[0] for f in FORMATS if f.stdin is not None}
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _HDF5_OFFSETS = (0, 512, 1024, 2048)  # the superblock follows a user block of 0, 512, 1024, 2048... bytes
 _ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
@@ -61,19 +63,23 @@ def display_name(text: str) -> str:
 
 def sniff(head: bytes) -> str | None:
     """The suffix of what a file starting with ``head`` holds (keys of :data:`STDIN_FORMATS`), or None."""
+    return None if (name := _sniff_format(head)) is None else _STDIN_SUFFIX[name]
+
+
+def _sniff_format(head: bytes) -> str | None:
     from ..container import MAGIC
 
     if head.startswith(MAGIC):
-        return ".mrc"
+        return "mrc"
     if any(head[o:o + len(_HDF5_MAGIC)] == _HDF5_MAGIC for o in _HDF5_OFFSETS):
-        return ".h5"
+        return "hdf5"
     if head.startswith(_ZIP_MAGICS):
-        return ".npz"
+        return "npz"
     if head.startswith(_GLB_MAGIC):
-        return ".glb"
+        return "gltf"
     text = head[:64].lstrip(b"\xef\xbb\xbf \t\r\n")
     if text[:9].upper() == b"HIERARCHY":
-        return ".bvh"
+        return "bvh"
     return None
 
 

@@ -155,9 +155,11 @@ class _Say:
 def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs: int, scheduler: str | None,
               send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None, as_json: bool,
               say: _Say) -> None:
+    from ..formats import CONTAINER_SUFFIX, is_archive_path
+
     to_stdout = is_stdio(output)
-    to_mrc = to_stdout or output.suffix.lower() == ".mrc"
-    to_archive = output.suffix.lower() in (".h5", ".hdf5")
+    to_mrc = to_stdout or output.suffix.lower() == CONTAINER_SUFFIX
+    to_archive = is_archive_path(output)
     if not (to_mrc or to_archive or not output.suffix):
         raise click.UsageError(f"output {output}: write one clip to OUT.mrc, many to OUT.h5 (one archive) or a "
                                "directory")
@@ -209,7 +211,9 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
             result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
         except UncodableClipError as exc:  # the clip, not the setting: name the file
             raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
-    with stdout_output(output, ".mrc") as target:
+    from ..formats import CONTAINER_SUFFIX
+
+    with stdout_output(output, CONTAINER_SUFFIX) as target:
         write_container(result.data, target)
     source = display_name(ref.source)
     if as_json:

@@ -16,29 +16,31 @@ from typing import Any, Iterator
 
 import click
 
+from ..formats import BY_SUFFIX, MOTION_SUFFIXES
 from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, body_model_option, check_gltf_units,
                       check_outputs, collect, expand_globs, force_option, gltf_unit_options, gltf_write_options,
                       is_stdio, quiet_option, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
 
-_MOTION_SUFFIXES = (".bvh", ".npz", ".h5", ".hdf5", ".gltf", ".glb", ".fbx")
+_MOTION_SUFFIXES = MOTION_SUFFIXES
 
 
 def _format_or_usage(path: Path, what: str) -> str:
     """The format selected by ``path``'s suffix; an ``.mrc`` output and unknown suffixes are usage errors (exit
     2).  An ``.mrc`` input is decoded, as an archive of them is (one rule)."""
     suffix = path.suffix.lower()
-    if suffix == ".mrc" and what == "input":
+    fmt = BY_SUFFIX.get(suffix)
+    if fmt is not None and fmt.name == "mrc" and what == "input":
         return "mrc"
-    if suffix == ".mrc":
+    if fmt is not None and fmt.name == "mrc":
         raise click.UsageError(f"output {path}: compress with 'motionrep compress IN -o {path}'")
-    if suffix == ".fbx" and what == "output":
+    if fmt is not None and not fmt.writes and what == "output":
         raise click.UsageError(f"output {path}: motionrep reads FBX but does not write it; write .glb or .bvh")
     if suffix not in _MOTION_SUFFIXES:
         raise click.UsageError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; use one of "
                                + ", ".join(_MOTION_SUFFIXES))
-    return {".h5": "hdf5", ".hdf5": "hdf5", ".glb": "gltf"}.get(suffix, suffix[1:])
+    return BY_SUFFIX[suffix].name
 
 
 def _in_file_error(exc: Exception, path: Path) -> Exception:

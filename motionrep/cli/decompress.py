@@ -11,6 +11,7 @@ from typing import Any, Iterator
 
 import click
 
+from .. import formats
 from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_gltf_units, check_overwrite, collect,
                       force_option, gltf_unit_options, gltf_write_options, is_stdio, quiet_option, stdin_inputs,
                       stdout_output, usage_suffix)
@@ -18,7 +19,7 @@ from ._common import (MOTION_OUT_SUFFIXES, OUT_FORMATS, STDOUT_NAME, check_gltf_
 __all__ = ["decompress"]
 
 #: What decompress reads from a directory: .mrc files and archives.
-COMPRESSED_SUFFIXES = (".mrc", ".h5", ".hdf5")
+COMPRESSED_SUFFIXES = formats.COMPRESSED_SUFFIXES
 
 
 def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
@@ -91,9 +92,10 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
         if not (is_stdio(p) or p.is_dir()):
             usage_suffix(p, COMPRESSED_SUFFIXES, "input")
     suffix = OUT_FORMATS[out_format or "bvh"]
-    gltf_out = (suffix if to_stdout or not output.suffix else output.suffix.lower()) in (".glb", ".gltf")
+    written_as = suffix if to_stdout or not output.suffix else output.suffix.lower()
+    gltf_out = written_as in formats.BY_NAME["gltf"].all_suffixes
     check_gltf_units(gltf_scale, units, gltf_out)
-    with stdin_inputs(inputs, allowed=(".mrc", ".h5")) as given:
+    with stdin_inputs(inputs, allowed=formats.STDIN_COMPRESSED) as given:
         _decompress(given, output, fps, clip, suffix, force, (gltf_scale, units), quiet)
 
 
@@ -127,7 +129,7 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {fps_text(motion.fps)} fps",
                        err=to_stdout)
         return
-    if output.suffix.lower() in (".h5", ".hdf5"):
+    if formats.is_archive_path(output):
         from ..io import write_database
 
         check_overwrite(output, force)

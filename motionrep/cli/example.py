@@ -28,7 +28,9 @@ def example(output: Path, force: bool, quiet: bool) -> None:
     from .._demo import demo_path
     from ..io import atomic_path
 
-    if output.suffix.lower() != ".bvh":
+    from ..formats import suffix_format
+
+    if suffix_format(output) != "bvh":
         raise click.UsageError(f"output {output}: the demo clip is a .bvh file")
     check_outputs([output], force)
     with atomic_path(output) as tmp:

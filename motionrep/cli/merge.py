@@ -18,7 +18,6 @@ __all__ = ["merge", "CLASH_POLICIES"]
 
 #: How clips of the same name in two inputs are resolved (identical bytes never clash).
 CLASH_POLICIES = ("error", "first", "last", "prefix")
-_COMPRESSED = (".mrc", ".h5", ".hdf5")
 
 
 def _shard(path: Path) -> list[Any]:
@@ -27,7 +26,9 @@ def _shard(path: Path) -> list[Any]:
     from ..errors import FormatError
     from ..sources import open_source
 
-    refs = collect([path], scan=(".mrc",) if path.is_dir() else _COMPRESSED)
+    from ..formats import COMPRESSED_SUFFIXES, CONTAINER_SUFFIX
+
+    refs = collect([path], scan=(CONTAINER_SUFFIX,) if path.is_dir() else COMPRESSED_SUFFIXES)
     if not path.is_dir():
         with open_source(path) as src:
             if src.kind not in ("compressed", "archive"):
@@ -69,14 +70,15 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, qu
       motionrep merge clips_mrc/ extra.mrc -o all.h5
     """
     from ..errors import FormatError
+    from ..formats import COMPRESSED_SUFFIXES, CONTAINER_SUFFIX, is_archive_path
     from ..sources import NAME_SEPARATOR, listing
 
     for p in inputs:
         if not p.is_dir():
-            usage_suffix(p, _COMPRESSED, "input")
+            usage_suffix(p, COMPRESSED_SUFFIXES, "input")
         if p.exists() and output.exists() and p.resolve() == output.resolve():
             raise click.UsageError(f"input and output are the same: {p}")
-    to_archive = output.suffix.lower() in (".h5", ".hdf5")
+    to_archive = is_archive_path(output)
     if not to_archive and output.suffix:
         raise click.UsageError(f"output {output}: merge writes OUT.h5 (an archive) or a directory")
     from ..io._atomic import remove_stale_files  # temporary files a killed run left beside (or in) the output
@@ -131,7 +133,7 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, qu
         if output.exists() and not output.is_dir():
             raise click.UsageError(f"output {output} exists and is not a directory")
         for name in names:
-            check_overwrite(output / f"{name}.mrc", force)
+            check_overwrite(output / f"{name}{CONTAINER_SUFFIX}", force)
         store = DirectoryStore(output)
         for name, data in clips():
             store.commit(name, data)

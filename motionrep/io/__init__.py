@@ -33,6 +33,7 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
+from .. import formats
 from .._model import Motion
 from ..errors import (BVHFormatError, FBXFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError,
                       ValidationError)
@@ -93,9 +94,8 @@ __all__ = [
     "atomic_path",
 ]
 
-#: Known suffixes and the format each selects.
-SUFFIXES: dict[str, str] = {".bvh": "bvh", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5", ".gltf": "gltf",
-                            ".glb": "gltf", ".fbx": "fbx"}
+#: Known suffixes and the format each selects (the motion formats of :data:`motionrep.formats.FORMATS`).
+SUFFIXES: dict[str, str] = {s: f.name for s, f in formats.BY_SUFFIX.items() if f.motion}
 
 _ERRORS: dict[str, type[FormatError]] = {"bvh": BVHFormatError, "npz": NPZFormatError, "hdf5": HDF5FormatError,
                                          "gltf": GLTFFormatError, "fbx": FBXFormatError}

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from .._model import Motion
 from ..errors import ValidationError
+from ..formats import BY_NAME
 from ._atomic import atomic_path
 from ._clipfile import ClipFile
 from ._gltf_anim import Unique, clips
@@ -127,7 +128,7 @@ def _check_write_options(motion: Motion, scale: float | None, up: str) -> tuple[
         raise ValidationError(f"up must be 'auto', 'y' or 'z', got {up!r}")
     if up == "auto":
         from ..kinematics import global_positions
-        from ..render import detect_up_axis
+        from ..ops import detect_up_axis
 
         step = max(1, motion.num_frames // 500)  # a few hundred frames decide as well as all of them
         up = detect_up_axis(global_positions(motion.frames(slice(None, None, step))))
@@ -138,7 +139,7 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
     """The pygltflib document and its binary buffer for ``motion``."""
     import pygltflib as g
 
-    from .. import __version__
+    from .._version import __version__
     from ..rotations import quat_make_continuous
 
     sk = motion.skeleton
@@ -286,13 +287,13 @@ def write_gltf(motion: Motion, path: str | os.PathLike[str], clip: str | None = 
         scale: metres per file unit, applied by the armature node (the joints keep the clip's own numbers).
             Default: from ``motion.skeleton.units`` when it is one of :data:`UNIT_METRES`, else 1 (BVH does not
             state its units: give ``scale=0.01`` for a clip in centimetres).
-        up: the clip's up axis, ``"y"``, ``"z"`` or ``"auto"`` (:func:`motionrep.render.detect_up_axis`); a
+        up: the clip's up axis, ``"y"``, ``"z"`` or ``"auto"`` (:func:`motionrep.ops.detect_up_axis`); a
             Z-up clip is turned to glTF's Y-up by the armature node.
 
     Raises:
         ValidationError: ``motion`` is not a Motion, or a bad ``scale`` or ``up``.
     """
-    data = gltf_bytes(motion, binary=Path(path).suffix.lower() == ".glb",
+    data = gltf_bytes(motion, binary=Path(path).suffix.lower() == BY_NAME["gltf"].binary,
                       clip=Path(path).stem if clip is None else clip, scale=scale, up=up)
     with atomic_path(path) as tmp:
         Path(tmp).write_bytes(data)

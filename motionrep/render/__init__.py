@@ -20,7 +20,7 @@ than 1.5 times the width the figure needs is followed (the floor moves under a f
 otherwise the travel across the floor is shown.  Bones join every end site to its joint and every joint to its
 parent, except joints moved by position channels over the clip (a root-motion node: :func:`bone_segments`); a
 grey shadow of the reference on the floor shows depth and foot contact.  The up axis is detected
-(:func:`detect_up_axis`) unless given.
+(:func:`motionrep.ops.detect_up_axis`) unless given.
 
 matplotlib is imported only when a picture is drawn, always on the non-interactive Agg canvas (no window, no
 ``pyplot`` state).
@@ -53,7 +53,7 @@ import numpy as np
 
 from .._model import Motion
 from ..errors import FormatError, ValidationError
-from ..evaluate import ErrorReport, Evaluator
+from ..evaluate import ErrorReport, Evaluator, compare
 from ..io import atomic_path
 from ..kinematics import character_height, global_positions, point_names
 from .draw import (CANDIDATE_COLOR, REFERENCE_COLOR, Curve, Progress, describe_error, require_matplotlib,
@@ -201,7 +201,7 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
     notes: list[str] = []
     paired = None
     if candidate is not None and options is not None:
-        from ..pairing import compare, compared_bones, paired_positions
+        from ..pairing import compared_bones, paired_positions
 
         error = compare(reference, candidate, options)
         ref_sub, cand_sub, points, _ = paired_positions(reference, candidate, options)

@@ -15,30 +15,9 @@ from .._model import Motion
 from ..errors import ValidationError
 from ..evaluate import ErrorReport
 from ..kinematics import character_height
-from ..ops import resample
+from ..ops import detect_up_axis, resample  # detect_up_axis: public here too, as before it moved
 
 __all__ = ["detect_up_axis", "to_plot", "align_candidate", "Worst", "bone_segments", "Scene", "build_scene"]
-
-
-def detect_up_axis(positions: NDArray[np.float64]) -> str:
-    """Guess whether a clip is Y-up or Z-up from its ``(F, P, 3)`` world positions.
-
-    Only Y and Z compete (X-up files are rare).  First the floor: feet rest on the ground, so along the up axis
-    the lowest point of each frame stays nearly level, while along a horizontal axis it follows the steps and
-    the travel.  The axis whose lowest point varies clearly less over the frames wins.  When that does not
-    decide (a single frame, a motion without ground contact), the body: a person is taller than deep most of
-    the time, so Z wins only if the median per-frame extent along Z is 1.3 times that along Y; otherwise Y
-    (BVH's usual convention).
-    """
-    pos = np.asarray(positions, dtype=np.float64)
-    extent = np.median(pos.max(axis=1) - pos.min(axis=1), axis=0)
-    size = float(extent.max())
-    if pos.shape[0] > 1 and size > 0:
-        floor_spread = pos.min(axis=1).std(axis=0) / size
-        y, z = float(floor_spread[1]), float(floor_spread[2])
-        if abs(y - z) > 0.02 and min(y, z) < 0.5 * max(y, z):
-            return "y" if y < z else "z"
-    return "z" if extent[2] > 1.3 * extent[1] else "y"
 
 
 def to_plot(positions: NDArray[np.float64], up: str) -> NDArray[np.float64]:

@@ -24,7 +24,7 @@ import numpy as np
 from .._model import Motion
 from ..errors import FormatError, ValidationError
 from ..ops import resampled_count
-from ..sources import SCAN_SUFFIXES, ClipRef, Source, collect_clips, open_source
+from ..sources import SOURCE_SUFFIXES, ClipRef, Source, collect_clips, open_source
 
 __all__ = ["ClipInfo", "index_clips", "ClipCache"]
 
@@ -83,7 +83,7 @@ def index_clips(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]
         ValidationError: for a name in ``clips`` that no input holds.
     """
     inputs = [source] if isinstance(source, (str, os.PathLike)) else list(source)
-    refs = collect_clips(inputs, scan=SCAN_SUFFIXES + (".mrc",))
+    refs = collect_clips(inputs, scan=SOURCE_SUFFIXES)
     if clips is not None:
         wanted = list(clips)
         have = {r.name for r in refs}

@@ -56,7 +56,7 @@ class MotionDataset(torch.utils.data.Dataset):
         contact_height: a contact joint is on the ground within this fraction of the character's height above
             its floor (its 5th-percentile height over the clip; default 0.04) ...
         contact_speed: ... and slower than this many character heights per second (default 0.25).
-        up: ``"x"``, ``"y"``, ``"z"`` or ``"auto"`` (``motionrep.render.detect_up_axis`` on the first clip).
+        up: ``"x"``, ``"y"``, ``"z"`` or ``"auto"`` (``motionrep.ops.detect_up_axis`` on the first clip).
         stats: a :class:`FeatureStats` (or the path of its file) to normalise features with.
         rotate: augment by a rotation about the up axis through the origin, uniform in ``[-rotate, rotate]``
             degrees (True: 180); 0/False: none.
@@ -327,7 +327,7 @@ def _contact_pairs(joints: np.ndarray, pairs: np.ndarray) -> np.ndarray:
 
 def _detect_up(motion: Motion) -> str:
     from ..kinematics import global_positions
-    from ..render.scene import detect_up_axis
+    from ..ops import detect_up_axis
 
     return detect_up_axis(global_positions(motion.frames(slice(0, None, max(1, motion.num_frames // 200)))))
 
