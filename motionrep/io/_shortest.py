@@ -65,53 +65,75 @@ def _digits(out, pos, x, count):
 
 
 @jit_inline
+def _nearest(f, s, E, n, mask, half):
+    """``(status, D)``: the nearest decimal of ``n`` significant digits to ``a = f 2**-s`` (exponent ``E``) is
+    ``D 10**(E + 1 - n)``; status 1 if it reads back as ``a``, 0 if not, 2 if this cannot be sure (a tie, the
+    interval's boundary, ``E`` off by one)."""
+    k = n - 1 - E
+    p = _POW10U[k]
+    hi, lo = _mul(f, p)
+    q = (lo >> _U(s)) | (hi << _U(64 - s))
+    r = lo & mask
+    if r == half:
+        return 2, _ZERO
+    D = q + _ONE if r > half else q
+    if D < _POW10U[n - 1] or D >= _POW10U[n]:
+        return 2, _ZERO  # E is off by one (near a power of ten), or the nearest is 10**n
+    # |D 2**(s + 1) - 2 f 10**k| against 10**k
+    ah, al = _shl(_ZERO, D, s + 1)
+    bh, bl = _shl(hi, lo, 1)
+    if ah > bh or (ah == bh and al >= bl):
+        dh, dl = ah - bh - (_ONE if al < bl else _ZERO), al - bl
+    else:
+        dh, dl = bh - ah - (_ONE if bl < al else _ZERO), bl - al
+    if dh == _ZERO and dl == p:
+        return 2, _ZERO
+    return (1 if dh == _ZERO and dl < p else 0), D
+
+
+@jit_inline
 def _repr_digits(a):
     """``(D, n, E)``: repr's shortest digits ``D`` (``n`` of them) of ``a > 0`` and its decimal exponent ``E``
-    (``a`` is about ``D 10**(E + 1 - n)``); ``n = 0`` where this cannot be sure (module docstring, step 2)."""
+    (``a`` is about ``D 10**(E + 1 - n)``); ``n = 0`` where this cannot be sure (module docstring, step 2).
+
+    Whether ``n`` digits suffice is monotone in ``n`` (a shorter decimal padded with zeros is a longer one), so
+    the search starts at 16 (most values that get here need 16 or 17) and walks down while ``n`` digits do."""
     if not (1e-3 <= a < 4503599627370496.0):
         return _ZERO, 0, 0
     bits = _bits(a)
     f = (bits & _FRACTION) | _HIDDEN
-    s = 1075 - np.int64(bits >> _U(52))  # a = f 2**-s, 1 <= s <= 62 in this range
+    s = 1075 - np.int64(bits >> _U(52))  # a = f 2**-s, 1 <= s <= 61 in this range
     if (bits & _FRACTION) == _ZERO:
         return _ZERO, 0, 0
     E = np.int64(np.floor(np.log10(a)))
-    if E < -3 or E > 15:
+    if E < -3 or E > 14:
         return _ZERO, 0, 0
-    low = 1 if E + 2 < 1 else E + 2
+    low = 1 if E + 2 < 1 else E + 2  # fewer digits would make a whole number (those have d >= 0)
     mask = (_ONE << _U(s)) - _ONE
     half = _ONE << _U(s - 1)
-    for n in range(low, 18):
-        k = n - 1 - E
-        p = _POW10U[k]
-        hi, lo = _mul(f, p)
-        q = (lo >> _U(s)) | (hi << _U(64 - s))
-        r = lo & mask
-        if r == half:
+    status, D = _nearest(f, s, E, 16, mask, half)
+    if status == 2:
+        return _ZERO, 0, 0
+    if status == 0:
+        status, D = _nearest(f, s, E, 17, mask, half)
+        return (D, 17, E) if status == 1 else (_ZERO, 0, 0)
+    n = 16
+    while n > low:
+        status, shorter = _nearest(f, s, E, n - 1, mask, half)
+        if status == 2:
             return _ZERO, 0, 0
-        D = q + _ONE if r > half else q
-        if D < _POW10U[n - 1] or D >= _POW10U[n]:
-            return _ZERO, 0, 0  # E is off by one (near a power of ten), or the nearest is 10**n
-        # |D 2**(s + 1) - 2 f 10**k| against 10**k
-        ah, al = _shl(_ZERO, D, s + 1)
-        bh, bl = _shl(hi, lo, 1)
-        ch, cl = _ZERO, p
-        if ah > bh or (ah == bh and al >= bl):
-            dh, dl = ah - bh - (_ONE if al < bl else _ZERO), al - bl
-        else:
-            dh, dl = bh - ah - (_ONE if bl < al else _ZERO), bl - al
-        if dh == ch and dl == cl:
-            return _ZERO, 0, 0
-        if dh < ch or (dh == ch and dl < cl):
-            if n == low:
-                return _ZERO, 0, 0  # a shorter one might exist below the search's start
-            while D % _U(10) == _ZERO:  # not expected at the shortest length; repr writes none
-                D //= _U(10)
-                n -= 1
-            if n <= E + 1:  # a whole number: repr writes '.0' (not expected: it has d >= 0)
-                return _ZERO, 0, 0
-            return D, n, E
-    return _ZERO, 0, 0
+        if status == 0:
+            break
+        D = shorter
+        n -= 1
+    else:
+        return _ZERO, 0, 0  # n digits suffice down to the search's start: a shorter one might exist below it
+    while D % _U(10) == _ZERO:  # not expected at the shortest length; repr writes none
+        D //= _U(10)
+        n -= 1
+    if n <= E + 1:  # a whole number: repr writes '.0' (not expected: it has d >= 0)
+        return _ZERO, 0, 0
+    return D, n, E
 
 
 @jit_inline
