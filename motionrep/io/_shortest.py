@@ -37,6 +37,8 @@ _MAX_SAFE = 2.0 ** 53
 _M32, _S32 = _U(0xFFFFFFFF), _U(32)
 _ONE, _ZERO = _U(1), _U(0)
 _FRACTION, _HIDDEN = _U((1 << 52) - 1), _U(1 << 52)
+#: Values left to repr whose place the first pass records; more take a second pass.
+_FALLBACK_CAPACITY = 4096
 _WIDTH = 26  # the most bytes a value takes (repr of a double: 24) and its separator
 
 
@@ -143,8 +145,8 @@ def _bits(a):
 
 @jit
 def _format_kernel(flat, C, out, fallback):
-    """Write ``flat``'s values (``C`` per line) into ``out``; return ``(length, fallbacks)``, the ``fallbacks``
-    first rows of ``fallback`` holding ``(offset in out, value index)`` of each value left to repr."""
+    """Write ``flat``'s values (``C`` per line) into ``out``; return ``(length, fallbacks)``, the first rows of
+    ``fallback`` (as many as fit) holding ``(offset in out, value index)`` of each value left to repr."""
     pos = 0
     left = 0
     for i in range(flat.shape[0]):
@@ -178,8 +180,9 @@ def _format_kernel(flat, C, out, fallback):
         else:
             D, n, E = _repr_digits(a)
             if n == 0:
-                fallback[left, 0] = pos
-                fallback[left, 1] = i
+                if left < fallback.shape[0]:
+                    fallback[left, 0] = pos
+                    fallback[left, 1] = i
                 left += 1
             else:
                 if negative:
@@ -209,8 +212,11 @@ def format_shortest_compiled(values: NDArray[np.float64]) -> bytes:
     flat = np.ascontiguousarray(values, dtype=np.float64).ravel()
     C = values.shape[1]
     out = np.empty(flat.shape[0] * _WIDTH, np.uint8)
-    fallback = np.empty((flat.shape[0], 2), np.int64)
+    fallback = np.empty((min(flat.shape[0], _FALLBACK_CAPACITY), 2), np.int64)
     length, left = _format_kernel(flat, C, out, fallback)
+    if left > fallback.shape[0]:  # many values left to repr: again, with room for all of them
+        fallback = np.empty((left, 2), np.int64)
+        length, left = _format_kernel(flat, C, out, fallback)
     data = out[:length].tobytes()
     if not left:
         return data
