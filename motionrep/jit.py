@@ -18,12 +18,14 @@ about as long as importing numpy several times over, so commands that never run 
 --help``, ``motionrep plugins``, describing a file) do not pay it.
 
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
-There is no second, pure-numpy copy of a computation, with one measured exception: reading BVH text (its number
+There is no second, pure-numpy copy of a computation, with two measured exceptions.  Reading BVH text (its number
 parser and its Euler angles to quaternions) has a numpy path, bit-identical to the kernels (tested side by
 side), that a process uses until it has read enough text to win back numba's start-up (``motionrep.io._numbers
 .use_compiled``), so that ``motionrep info clip.bvh`` and other one-clip processes never import numba;
-:func:`sincos_numpy` is :func:`sincos` for it.  Plugins (shipped or third-party) may compile their
-own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
+:func:`sincos_numpy` is :func:`sincos` for it.  Writing BVH frame values is the mirror case: a numpy writer
+(``motionrep.io._bvh._format_shortest``) for processes without numba, and a compiled one
+(``motionrep.io._shortest``, the same bytes, tested side by side) once numba is loaded or for very large clips.
+Plugins (shipped or third-party) may compile their own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
 from Python (the runtime decoder, once per pose) can take :attr:`LazyKernel.dispatcher` once and call it
 directly, which saves the proxy's function call.

@@ -386,12 +386,21 @@ def _conj_times(G, p, QX, QY, QZ, QW, i):
 
 
 @jit_inline
-def _world(G, p, QX, QY, QZ, QW, j, i):
-    """``G[j, :, i] = G[p, :, i] Q[:, i]`` (or ``Q[:, i]`` for the root, ``p < 0``)."""
-    x, y, z, w = QX[i], QY[i], QZ[i], QW[i]
+def _world(G, j, QX, QY, QZ, QW, i):
+    """``G[j, :, i] = Q[:, i]``: a ``WORLD_QUAT`` joint's world rotation is its own ``r / |r|``, kept before it is
+    made local.  (Not ``G_parent local``: that product is ``|G_parent|^2 r``, so each level doubled the norm error
+    of the one above, to 1e-9 on a 42-joint skeleton and overflow on a 60-joint chain.)"""
+    G[j, 0, i], G[j, 1, i], G[j, 2, i], G[j, 3, i] = QX[i], QY[i], QZ[i], QW[i]
+
+
+@jit_inline
+def _inherit(G, j, p, i):
+    """``G[j, :, i] = G[p, :, i]`` (the identity for the root, ``p < 0``): a ``WORLD_IDENTITY`` joint turns with
+    its parent."""
     if p >= 0:
-        x, y, z, w = _product(G[p, 0, i], G[p, 1, i], G[p, 2, i], G[p, 3, i], x, y, z, w)
-    G[j, 0, i], G[j, 1, i], G[j, 2, i], G[j, 3, i] = x, y, z, w
+        G[j, 0, i], G[j, 1, i], G[j, 2, i], G[j, 3, i] = G[p, 0, i], G[p, 1, i], G[p, 2, i], G[p, 3, i]
+    else:
+        G[j, 0, i], G[j, 1, i], G[j, 2, i], G[j, 3, i] = 0.0, 0.0, 0.0, 1.0
 
 
 @jit
@@ -463,20 +472,21 @@ def _poses_kernel(X, count, plan_i, plan_f, check_finite, out, root, moved):
                     degenerate += 0 if ok else 1
                 for i in range(n):
                     _ortho6d_sign(QX, QY, QZ, QW, i)
-            else:  # WORLD_QUAT, WORLD_IDENTITY: r, or the parent's; local = conj(G_parent) r; G_j = G_p local
+            else:  # WORLD_QUAT, WORLD_IDENTITY: G_j = r / |r|, or G_parent; local = conj(G_parent) r
                 p = plan_i[o_parents + j]
                 if kind == 5:
                     for i in range(n):
                         ok = _normalized(X[c0, a + i], X[c1, a + i], X[c2, a + i], X[c3, a + i], QX, QY, QZ, QW, i)
                         zero += 0 if ok else 1
+                    for i in range(n):
+                        _world(G, j, QX, QY, QZ, QW, i)
                     if p >= 0:
                         for i in range(n):
                             _conj_times(G, p, QX, QY, QZ, QW, i)
                 else:
                     for i in range(n):
                         QX[i], QY[i], QZ[i], QW[i] = 0.0, 0.0, 0.0, 1.0
-                for i in range(n):
-                    _world(G, p, QX, QY, QZ, QW, j, i)
+                        _inherit(G, j, p, i)
             for i in range(n):
                 out[a + i, j, 0] = QX[i]
                 out[a + i, j, 1] = QY[i]

@@ -94,6 +94,23 @@ def test_world_rotations_are_made_local_through_the_parents():
     np.testing.assert_allclose(_canonical(rot[:, 2]), _canonical((g0.inv() * g2).as_quat()), atol=1e-12)
 
 
+def test_world_rotations_stay_unit_down_a_deep_chain():
+    # a world rotation is its own r / |r|, not G_parent (G_parent* r): that product doubled the norm error per
+    # level, overflowing by joint 60; every few joints does not rotate (WORLD_IDENTITY: its parent's rotation)
+    J = 64
+    kinds = [WORLD_IDENTITY if j % 7 == 3 else WORLD_QUAT for j in range(J)]
+    columns = [() if k == WORLD_IDENTITY else tuple(range(3 + 4 * j, 7 + 4 * j)) for j, k in enumerate(kinds)]
+    f = np.random.default_rng(6).normal(size=(100, 3 + 4 * J))
+    rot, _, _ = _decode(_plan(kinds, columns, width=3 + 4 * J), f)
+    # tolerance: a few roundings in one normalisation and one product per joint
+    np.testing.assert_allclose(np.linalg.norm(rot, axis=-1), 1.0, rtol=0, atol=1e-12)
+    world = Rotation.from_quat(f[:, 3:7])
+    for j in range(1, J):
+        g = world if kinds[j] == WORLD_IDENTITY else Rotation.from_quat(f[:, 3 + 4 * j:7 + 4 * j])
+        np.testing.assert_allclose(_canonical(rot[:, j]), _canonical((world.inv() * g).as_quat()), atol=1e-12)
+        world = g
+
+
 @pytest.mark.parametrize("change, message", [
     (dict(kinds=[QUAT], columns=[(0, 1, 2)]), "must read 4 columns"),
     (dict(kinds=[QUAT], columns=[(0, 1, 2, 99)]), "must read 4 columns"),
