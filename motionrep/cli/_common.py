@@ -265,10 +265,11 @@ def interrupt_line(exc: BaseException) -> tuple[str, int]:
 
 class CodecProgress:
     """A codec's progress on stderr, in the codec's words (``Codec.describe_progress``): the first report of
-    every stage, then at most one line every ``every`` seconds."""
+    every stage, then at most one line every ``every`` seconds.  A codec's internal diagnostics (reports with
+    ``diagnostic=True``, such as the transform codec's ``bisect regions=...``) only when ``verbose``."""
 
-    def __init__(self, codec: Any, every: float = 0.5):
-        self.codec, self.every = codec, every
+    def __init__(self, codec: Any, every: float = 0.5, verbose: bool = False):
+        self.codec, self.every, self.verbose = codec, every, verbose
         self.last = -float("inf")
         self.stage: str | None = None
         self.start: float | None = None
@@ -289,7 +290,13 @@ class CodecProgress:
             line += f", ETA at most {_duration((now - self.start) * (1 - done) / done)}"
         return line
 
+    def shows(self, fields: Mapping[str, Any]) -> bool:
+        """Whether a report with these fields is shown (a diagnostic only when verbose)."""
+        return self.verbose or not fields.get("diagnostic")
+
     def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
+        if not self.shows(fields):
+            return
         now = time.monotonic()
         line = self.text(stage, fields)
         if stage == self.stage and now - self.last < self.every:
