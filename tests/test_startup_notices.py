@@ -125,3 +125,37 @@ def test_codec_progress_hides_diagnostics_unless_verbose(capsys):
     assert capsys.readouterr().err == "  train K=2\n"
     CodecProgress(Codec(), verbose=True)("bisect", {"regions": 3, "diagnostic": True})
     assert capsys.readouterr().err == "  bisect regions=3\n"
+
+
+_KERNELS_LOADED = """
+import gc, sys
+from motionrep.cli import main
+from motionrep.jit import LazyKernel
+try:
+    main(sys.argv[1:])
+except SystemExit as exc:
+    assert not exc.code, exc.code
+names = sorted(k.py_func.__qualname__ for k in gc.get_objects()
+               if isinstance(k, LazyKernel) and k._dispatcher is not None and "inline" not in k._options)
+print("KERNELS", " ".join(names))
+"""
+
+
+def _kernels_loaded(tmp_path: Path, *args) -> list[str]:
+    env = _env(tmp_path, tmp_path / "numba-cache")
+    env.pop("NUMBA_CACHE_DIR")  # the tree's own cache: warm after the first run
+    done = subprocess.run([sys.executable, "-c", _KERNELS_LOADED, *map(str, args)], capture_output=True, text=True,
+                          env=env)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.split("KERNELS", 1)[1].split()
+
+
+def test_commands_load_only_the_kernels_they_need(tmp_path, walk):
+    """``info`` of a BVH file runs no kernel (numpy reads it); ``decompress`` to BVH only the pose plan (the
+    transform decoder is numpy; BVH writing is scipy's Euler conversion): a regression here costs numba's
+    start-up (about half a second quiet) or a kernel's cached code."""
+    mrc = tmp_path / "walk.mrc"
+    assert CliRunner().invoke(cli, ["compress", str(walk), "-o", str(mrc)]).exit_code == 0
+    assert _kernels_loaded(tmp_path, "info", walk) == []
+    assert _kernels_loaded(tmp_path, "info", mrc) == []
+    assert _kernels_loaded(tmp_path, "decompress", mrc, "-o", tmp_path / "out.bvh") == ["_poses_kernel"]
