@@ -43,8 +43,9 @@ REAL_CLIP = REPO.parent / "shared" / "data" / "cmu" / "bvh11" / "131_03.bvh"
 TARGETS = {"info": 0.25, "decompress": 0.5, "compress": 0.8, "evaluate": 0.5, "first compress": 3.0}
 
 
-def run_once(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
-    """Wall-clock and CPU seconds (user + system of the child) of one run of ``cmd``."""
+def run_once(cmd: list[str], env: dict[str, str], said: list[str] | None = None) -> tuple[float, float]:
+    """Wall-clock and CPU seconds (user + system of the child) of one run of ``cmd``; its stderr appended to
+    ``said`` when given."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, env=env)
@@ -52,6 +53,8 @@ def run_once(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode:
         raise SystemExit(f"{' '.join(cmd)} failed: {done.stderr.decode(errors='replace')[-500:]}")
+    if said is not None:
+        said.append(done.stderr.decode(errors="replace"))
     return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
@@ -149,26 +152,18 @@ def main() -> None:
             print(f"{title:<52}" + "".join(f"{c:>26}" for c in cells), flush=True)
         cold_title = "first compress walk.bvh, empty numba cache"
         cold_runs: dict[str, list[tuple[float, float]]] = {name: [] for name in trees}
-        cold_stderr: dict[str, str] = {}
+        cold_stderr: dict[str, list[str]] = {name: [] for name in trees}
+        cold_cmd = mr + ["compress", str(walk), "-o", str(tmp / "cold.mrc"), "--force"]
         for i in range(args.cold_repeats):
-            for name, root in trees.items():
+            for t, (name, root) in enumerate(trees.items()):
                 env = code_env(root)
-                env["NUMBA_CACHE_DIR"] = str(tmp / f"numba-cold-{i}-{len(cold_runs[name])}-{abs(hash(name))}")
-                before = resource.getrusage(resource.RUSAGE_CHILDREN)
-                start = time.perf_counter()
-                done = subprocess.run(mr + ["compress", str(walk), "-o", str(tmp / "cold.mrc"), "--force"],
-                                      capture_output=True, env=env, text=True)
-                wall = time.perf_counter() - start
-                after = resource.getrusage(resource.RUSAGE_CHILDREN)
-                if done.returncode:
-                    raise SystemExit(f"cold compress failed: {done.stderr[-500:]}")
-                cold_runs[name].append((wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime))
-                cold_stderr[name] = done.stderr
+                env["NUMBA_CACHE_DIR"] = str(tmp / f"numba-cold-{t}-{i}")  # fresh: nothing cached
+                cold_runs[name].append(run_once(cold_cmd, env, cold_stderr[name]))
         for name in trees:
             results[name][cold_title] = {
                 "key": "first compress", "wall": statistics.median(w for w, _ in cold_runs[name]),
                 "cpu": statistics.median(c for _, c in cold_runs[name]), "walls": [w for w, _ in cold_runs[name]],
-                "stderr": cold_stderr[name]}
+                "stderr": cold_stderr[name][-1]}
         print(f"{cold_title + f' ({args.cold_repeats} runs)':<52}" + "".join(
             f"{results[n][cold_title]['wall']:7.3f} s / {results[n][cold_title]['cpu']:6.3f} CPU" .rjust(26)
             for n in trees))
