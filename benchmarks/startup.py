@@ -107,6 +107,8 @@ def main() -> None:
         subprocess.run(mr + ["example", str(walk)], capture_output=True, check=True, env=this_env)
         subprocess.run(mr + ["compress", str(walk), "-o", str(walk_mrc)], capture_output=True, check=True,
                        env=this_env)
+        walk_h5 = tmp / "walk.h5"
+        subprocess.run(mr + ["convert", str(walk), str(walk_h5)], capture_output=True, check=True, env=this_env)
         clip = REAL_CLIP if REAL_CLIP.exists() else walk
         clip_mrc, clip_out, cand = tmp / "clip.mrc", tmp / "clip_out.bvh", tmp / "clip_cand.bvh"
         subprocess.run(mr + ["compress", str(clip), "-o", str(clip_mrc)], capture_output=True, check=True,
@@ -126,6 +128,7 @@ def main() -> None:
             (f"motionrep evaluate {label} decoded.bvh", "evaluate", mr + ["evaluate", str(clip), str(cand)]),
             ("motionrep info walk.bvh", None, mr + ["info", str(walk)]),
             ("motionrep info walk.mrc", None, mr + ["info", str(walk_mrc)]),
+            ("motionrep info walk.h5", None, mr + ["info", str(walk_h5)]),
             ("python -c 'import motionrep'", None, [sys.executable, "-c", "import motionrep"]),
             ("motionrep.open(walk.mrc).pose(0.1)", None,
              [sys.executable, "-c", f"import motionrep; motionrep.open({str(walk_mrc)!r}).pose(0.1)"]),

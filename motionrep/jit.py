@@ -20,7 +20,7 @@ about as long as importing numpy several times over, so commands that never run 
 **The first compilation says so**: when a kernel is about to be compiled because numba's cache has no machine
 code for it (the first run on a machine, after an upgrade, or with a fresh ``NUMBA_CACHE_DIR``), the process
 prints :data:`COMPILE_NOTICE` on stderr, once, before the several seconds it takes; a run that loads cached code
-prints nothing.
+prints nothing, and nor does a process whose environment sets :data:`NOTICE_ENV` to ``0`` (``--quiet``).
 
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
 There is no second, pure-numpy copy of a computation, with one measured exception: reading BVH text (its number
@@ -43,7 +43,7 @@ from typing import Any, Callable
 import numpy as np
 
 __all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "sincos_numpy", "affine_block", "affine_one",
-           "COMPILE_NOTICE"]
+           "COMPILE_NOTICE", "NOTICE_ENV"]
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 _lock = threading.Lock()
@@ -54,6 +54,8 @@ _typeof_registered = False
 COMPILE_NOTICE = ("motionrep: preparing compiled kernels (first run on this machine, about 10 s; "
                   "cached afterwards)")
 _noticed = False
+#: set to ``0`` to keep the notice back (``--quiet`` does, for its process and the workers it starts)
+NOTICE_ENV = "MOTIONREP_COMPILE_NOTICE"
 
 
 def _cache_is_empty(dispatcher: Any) -> bool:
@@ -69,10 +71,12 @@ def _cache_is_empty(dispatcher: Any) -> bool:
 def _notice_compile(dispatcher: Any) -> None:
     """Say :data:`COMPILE_NOTICE` on stderr (once per process) if ``dispatcher`` will compile on first call."""
     global _noticed
-    if _noticed or not _cache_is_empty(dispatcher):
+    import os
+    import sys
+
+    if _noticed or os.environ.get(NOTICE_ENV) == "0" or not _cache_is_empty(dispatcher):
         return
     _noticed = True
-    import sys
 
     try:
         print(COMPILE_NOTICE, file=sys.stderr, flush=True)

@@ -29,6 +29,7 @@ def _env(tmp_path: Path, cache: Path, *extra: Path) -> dict[str, str]:
     path = [str(p) for p in extra] + [str(REPO), str(REPO / "plugins")]
     env["PYTHONPATH"] = os.pathsep.join(path + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     env["NUMBA_CACHE_DIR"] = str(cache)
+    env.pop("MOTIONREP_COMPILE_NOTICE", None)  # an in-process --quiet of an earlier test sets it
     return env
 
 
@@ -56,6 +57,10 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_not(tmp_path):
     env["NUMBA_CACHE_DIR"] = str(tmp_path / "another-cache")  # another machine, or a cleared cache
     third = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert COMPILE_NOTICE in third.stderr
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "a-third-cache")
+    env["MOTIONREP_COMPILE_NOTICE"] = "0"  # what --quiet sets
+    kept = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert kept.returncode == 0 and COMPILE_NOTICE not in kept.stderr
 
 
 def test_a_process_that_compiles_nothing_says_nothing(tmp_path):
@@ -83,6 +88,9 @@ def test_the_quick_starts_first_compress_says_so_once(tmp_path):
     second = subprocess.run(cmd, capture_output=True, text=True, env=env)
     assert second.returncode == 0, second.stderr
     assert COMPILE_NOTICE not in second.stderr
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "another-cache")
+    quiet = subprocess.run(cmd + ["--quiet"], capture_output=True, text=True, env=env)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr  # --quiet: nothing, the notice neither
 
 
 @pytest.fixture
@@ -159,3 +167,25 @@ def test_commands_load_only_the_kernels_they_need(tmp_path, walk):
     assert _kernels_loaded(tmp_path, "info", walk) == []
     assert _kernels_loaded(tmp_path, "info", mrc) == []
     assert _kernels_loaded(tmp_path, "decompress", mrc, "-o", tmp_path / "out.bvh") == ["_poses_kernel"]
+
+
+def test_info_of_a_compact_hdf5_clip_imports_no_numba(tmp_path, walk):
+    """A compact HDF5 clip (channels stored as integers) is decoded by the BVH reader's rule: numpy below the
+    budget, so ``info`` imports neither numba nor scipy (it did, through the compiled Euler conversion)."""
+    import numpy as np
+
+    from motionrep.io import read
+    from motionrep.io._bvh import _motion_from_channels, channel_values
+
+    h5 = tmp_path / "walk.h5"
+    write(read(walk), h5)
+    code = ("import sys\nfrom motionrep.cli import main\ntry:\n    main(['info', %r])\nexcept SystemExit as e:\n"
+            "    assert not e.code\nprint('TOPS', ' '.join(sorted({m.split('.')[0] for m in sys.modules})))" % str(h5))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(tmp_path, tmp_path))
+    assert done.returncode == 0, done.stderr
+    assert not set(done.stdout.split("TOPS", 1)[1].split()) & {"numba", "scipy", "h5py"}
+    motion = read(walk)  # the numpy path gives the compiled kernel's bits (the same arithmetic, both IEEE)
+    values = np.ascontiguousarray(channel_values(motion), dtype=np.float64)
+    by_numpy = _motion_from_channels(motion.skeleton, values, motion.fps, False)
+    compiled = _motion_from_channels(motion.skeleton, values, motion.fps, True)
+    assert by_numpy.rotations.tobytes() == compiled.rotations.tobytes()

@@ -35,7 +35,7 @@ from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, s
 from ._crosstool import check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options, match_options
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
-           "MOTION_OUT_SUFFIXES", "force_option", "body_model_option",
+           "quiet_compile_notice", "MOTION_OUT_SUFFIXES", "force_option", "body_model_option",
            "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
@@ -207,10 +207,18 @@ def force_option(command: Callable) -> Callable:
                         help="Overwrite an existing output (without it, an existing output is an error).")(command)
 
 
+def quiet_compile_notice(ctx: Any, param: Any, value: bool) -> bool:
+    """Click callback of every ``--quiet``: no "preparing compiled kernels" line either (``motionrep.jit``), in
+    this process and the workers it starts (through the environment)."""
+    if value:
+        os.environ["MOTIONREP_COMPILE_NOTICE"] = "0"  # motionrep.jit.NOTICE_ENV (not imported: it imports numpy)
+    return value
+
+
 def quiet_option(command: Callable) -> Callable:
     """The ``-q`` / ``--quiet`` flag of every command that writes: nothing printed on success (no progress, no
-    report, no ``wrote ...`` line); errors are still one line on stderr."""
-    return click.option("-q", "--quiet", is_flag=True,
+    report, no ``wrote ...`` line, no first-run compile notice); errors are still one line on stderr."""
+    return click.option("-q", "--quiet", is_flag=True, callback=quiet_compile_notice,
                         help="Print nothing on success (no progress, no 'wrote ...' line).")(command)
 
 

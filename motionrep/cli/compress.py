@@ -20,7 +20,7 @@ import click
 
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
                       body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
-                      parse_params, stdin_inputs, stdout_output)
+                      parse_params, quiet_compile_notice, stdin_inputs, stdout_output)
 
 __all__ = ["compress"]
 
@@ -85,7 +85,8 @@ def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False
 @click.option("--verbose", "-v", is_flag=True,
               help="Also the other size figures (the paper's parameter ratio, vs float32 channels) and the "
                    "codec's internal diagnostics (the transform codec's 'bisect regions=...').")
-@click.option("--quiet", "-q", is_flag=True, help="Print nothing on success (no progress, report or 'wrote').")
+@click.option("--quiet", "-q", is_flag=True, callback=quiet_compile_notice,
+              help="Print nothing on success (no progress, report or 'wrote').")
 @body_model_option
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
