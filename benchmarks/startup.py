@@ -48,7 +48,9 @@ def run_once(cmd: list[str], env: dict[str, str], said: list[str] | None = None)
     ``said`` when given."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(cmd, capture_output=True, env=env)
+    # outside any checkout: `python -m` and `-c` put the working directory first on sys.path, which would import
+    # the checkout's motionrep whatever PYTHONPATH says
+    done = subprocess.run(cmd, capture_output=True, env=env, cwd=tempfile.gettempdir())
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode:
