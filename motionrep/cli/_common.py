@@ -208,10 +208,9 @@ def force_option(command: Callable) -> Callable:
 
 
 def quiet_compile_notice(ctx: Any, param: Any, value: bool) -> bool:
-    """Click callback of every ``--quiet``: no "preparing compiled kernels" line either (``motionrep.jit``), in
-    this process and the workers it starts (through the environment)."""
+    """Click callback of every ``--quiet``: no compile notice (``motionrep.jit.NOTICE_ENV``), workers included."""
     if value:
-        os.environ["MOTIONREP_COMPILE_NOTICE"] = "0"  # motionrep.jit.NOTICE_ENV (not imported: it imports numpy)
+        os.environ["MOTIONREP_COMPILE_NOTICE"] = "0"  # not imported from motionrep.jit: it imports numpy
     return value
 
 
