@@ -95,7 +95,9 @@ class EncodeContext(Protocol):
         would have in the whole clip."""
 
     def progress(self, stage: str, **fields: Any) -> None:
-        """Report progress (``stage`` like ``"train"``; fields like ``K=3, loss=..., error=...``)."""
+        """Report progress (``stage`` like ``"train"``; fields like ``K=3, loss=..., error=...``); with
+        ``diagnostic=True`` the report is the codec's internal detail, which the command line shows only with
+        ``--verbose``."""
 
 
 class ErrorReportLike(Protocol):
@@ -336,9 +338,12 @@ def describe_info(info: Mapping[str, Any], detail: bool = False) -> str:
 def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
     """The generic progress line: the stage, then ``key=value`` per field (lists left out); ``loss`` in
     scientific notation, ``error`` (with ``error_percent``) as ``L-inf=0.52 (1.97%)``; ``done`` (the share, 0-1,
-    of the most work the encode can take, see ``specs/plugins.md``) as ``23%``."""
+    of the most work the encode can take, see ``specs/plugins.md``) as ``23%``; ``diagnostic`` (the report is an
+    internal diagnostic, shown only with ``--verbose``) left out."""
     parts = [stage]
     for key, value in fields.items():
+        if key == "diagnostic":
+            continue
         if key == "done" and isinstance(value, (int, float)):
             parts.append(f"{100 * value:.0f}%")
             continue

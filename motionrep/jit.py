@@ -17,6 +17,11 @@ caller is typed: numba sees the dispatcher through the kernel).  Importing numba
 about as long as importing numpy several times over, so commands that never run a compiled loop (``motionrep
 --help``, ``motionrep plugins``, describing a file) do not pay it.
 
+**The first compilation says so**: when a kernel is about to be compiled because numba's cache has no machine
+code for it (the first run on a machine, after an upgrade, or with a fresh ``NUMBA_CACHE_DIR``), the process
+prints :data:`COMPILE_NOTICE` on stderr, once, before the several seconds it takes; a run that loads cached code
+prints nothing, and nor does a process whose environment sets :data:`NOTICE_ENV` to ``0`` (``--quiet``).
+
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
 There is no second, pure-numpy copy of a computation, with two measured exceptions.  Reading BVH text (its number
 parser and its Euler angles to quaternions) has a numpy path, bit-identical to the kernels (tested side by
@@ -39,11 +44,46 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "sincos_numpy", "affine_block", "affine_one"]
+__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "sincos_numpy", "affine_block", "affine_one",
+           "COMPILE_NOTICE", "NOTICE_ENV"]
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 _lock = threading.Lock()
 _typeof_registered = False
+
+#: the one line said on stderr, once per process, when a kernel is about to be compiled because numba's on-disk
+#: cache has nothing for it (the first run on a machine, after an upgrade, or with a fresh ``NUMBA_CACHE_DIR``)
+COMPILE_NOTICE = ("motionrep: preparing compiled kernels (first run on this machine, about 10 s; "
+                  "cached afterwards)")
+_noticed = False
+#: set to ``0`` to keep the notice back (``--quiet`` does, for its process and the workers it starts)
+NOTICE_ENV = "MOTIONREP_COMPILE_NOTICE"
+
+
+def _cache_is_empty(dispatcher: Any) -> bool:
+    """Whether numba's on-disk cache holds no machine code of ``dispatcher``'s current source (no index, or one
+    written by another numba or for an older version of the source): its first call compiles.  Reads one small
+    index file; False when numba's cache internals cannot tell (never a wrong notice)."""
+    try:
+        return not dispatcher._cache._cache_file._load_index()
+    except Exception:  # numba's private cache API changed or the index is unreadable: say nothing
+        return False
+
+
+def _notice_compile(dispatcher: Any) -> None:
+    """Say :data:`COMPILE_NOTICE` on stderr (once per process) if ``dispatcher`` will compile on first call."""
+    global _noticed
+    import os
+    import sys
+
+    if _noticed or os.environ.get(NOTICE_ENV) == "0" or not _cache_is_empty(dispatcher):
+        return
+    _noticed = True
+
+    try:
+        print(COMPILE_NOTICE, file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # stderr closed
+        pass
 
 
 def numba_loaded() -> bool:
@@ -91,7 +131,10 @@ class LazyKernel:
                     import numba
 
                     _register_typeof()
-                    self._dispatcher = numba.njit(**self._options)(self.py_func)
+                    dispatcher = numba.njit(**self._options)(self.py_func)
+                    if "inline" not in self._options:  # inlined helpers compile into their callers, never alone
+                        _notice_compile(dispatcher)
+                    self._dispatcher = dispatcher
                 d = self._dispatcher
         return d
 

@@ -33,10 +33,11 @@ import click
 from ..errors import Interrupted
 from .. import formats
 from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
-from ._crosstool import check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options, match_options
+from ._crosstool import (body_model_option, check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options,
+                         match_options)
 
 __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgress", "usage_suffix",
-           "MOTION_OUT_SUFFIXES", "force_option", "body_model_option",
+           "quiet_compile_notice", "MOTION_OUT_SUFFIXES", "force_option", "body_model_option",
            "check_overwrite", "check_outputs", "Interrupted",
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
@@ -186,32 +187,23 @@ def usage_suffix(path: Path, allowed: Iterable[str], what: str) -> str:
     return suffix
 
 
-def _set_body_model(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
-    if value is not None:  # the readers (and worker processes) take it from the environment
-        from ..io._amass import BODY_MODEL_ENV
-
-        os.environ[BODY_MODEL_ENV] = str(value)
-
-
-def body_model_option(command: Callable) -> Callable:
-    """``--body-model MODEL.npz``: the SMPL-H body model that AMASS ``.npz`` inputs are posed with (sets
-    ``MOTIONREP_SMPLH_MODEL`` for the readers)."""
-    return click.option("--body-model", metavar="MODEL.npz", expose_value=False, callback=_set_body_model,
-                        is_eager=True,
-                        help="SMPL-H body model (.npz: v_template, shapedirs, J_regressor, kintree_table) for AMASS "
-                             ".npz inputs (default: $MOTIONREP_SMPLH_MODEL).")(command)
-
-
 def force_option(command: Callable) -> Callable:
     """The ``-f`` / ``--force`` flag of every command that writes an output (:func:`check_overwrite`)."""
     return click.option("-f", "--force", is_flag=True,
                         help="Overwrite an existing output (without it, an existing output is an error).")(command)
 
 
+def quiet_compile_notice(ctx: Any, param: Any, value: bool) -> bool:
+    """Click callback of every ``--quiet``: no compile notice (``motionrep.jit.NOTICE_ENV``), workers included."""
+    if value:
+        os.environ["MOTIONREP_COMPILE_NOTICE"] = "0"  # not imported from motionrep.jit: it imports numpy
+    return value
+
+
 def quiet_option(command: Callable) -> Callable:
     """The ``-q`` / ``--quiet`` flag of every command that writes: nothing printed on success (no progress, no
-    report, no ``wrote ...`` line); errors are still one line on stderr."""
-    return click.option("-q", "--quiet", is_flag=True,
+    report, no ``wrote ...`` line, no first-run compile notice); errors are still one line on stderr."""
+    return click.option("-q", "--quiet", is_flag=True, callback=quiet_compile_notice,
                         help="Print nothing on success (no progress, no 'wrote ...' line).")(command)
 
 
@@ -266,10 +258,11 @@ def interrupt_line(exc: BaseException) -> tuple[str, int]:
 
 class CodecProgress:
     """A codec's progress on stderr, in the codec's words (``Codec.describe_progress``): the first report of
-    every stage, then at most one line every ``every`` seconds."""
+    every stage, then at most one line every ``every`` seconds.  A codec's internal diagnostics (reports with
+    ``diagnostic=True``, such as the transform codec's ``bisect regions=...``) only when ``verbose``."""
 
-    def __init__(self, codec: Any, every: float = 0.5):
-        self.codec, self.every = codec, every
+    def __init__(self, codec: Any, every: float = 0.5, verbose: bool = False):
+        self.codec, self.every, self.verbose = codec, every, verbose
         self.last = -float("inf")
         self.stage: str | None = None
         self.start: float | None = None
@@ -290,7 +283,13 @@ class CodecProgress:
             line += f", ETA at most {_duration((now - self.start) * (1 - done) / done)}"
         return line
 
+    def shows(self, fields: Mapping[str, Any]) -> bool:
+        """Whether a report with these fields is shown (a diagnostic only when verbose)."""
+        return self.verbose or not fields.get("diagnostic")
+
     def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
+        if not self.shows(fields):
+            return
         now = time.monotonic()
         line = self.text(stage, fields)
         if stage == self.stage and now - self.last < self.every:

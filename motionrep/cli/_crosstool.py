@@ -1,15 +1,17 @@
 """The command-line options of motionrep's borders with other tools, shared by the commands that take them
 (re-exported by :mod:`motionrep.cli._common`): the cross-tool comparison options of ``evaluate``, ``view`` and
 ``render`` (:mod:`motionrep.pairing`) and the glTF size options of ``convert`` and ``decompress``
-(:func:`motionrep.io.gltf_scale`)."""
+(:func:`motionrep.io.gltf_scale`), and the SMPL-H body model of AMASS inputs (``--body-model``)."""
 
 from __future__ import annotations
 
+import os
 from typing import Any, Callable, Sequence
 
 import click
 
-__all__ = ["comparison_options", "match_options", "gltf_unit_options", "gltf_write_options", "check_gltf_units"]
+__all__ = ["comparison_options", "match_options", "gltf_unit_options", "gltf_write_options", "check_gltf_units",
+           "body_model_option"]
 
 
 def comparison_options(command: Callable) -> Callable:
@@ -78,3 +80,19 @@ def check_gltf_units(scale: float | None, units: str | None, gltf_out: bool) -> 
                                "(.glb, .gltf)")
     if scale is not None and not (scale > 0 and scale < float("inf")):
         raise click.BadParameter("must be a positive number of metres per file unit", param_hint="--scale")
+
+
+def _set_body_model(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
+    if value is not None:  # the readers (and worker processes) take it from the environment
+        from ..io._amass import BODY_MODEL_ENV
+
+        os.environ[BODY_MODEL_ENV] = str(value)
+
+
+def body_model_option(command: Callable) -> Callable:
+    """``--body-model MODEL.npz``: the SMPL-H body model that AMASS ``.npz`` inputs are posed with (sets
+    ``MOTIONREP_SMPLH_MODEL`` for the readers)."""
+    return click.option("--body-model", metavar="MODEL.npz", expose_value=False, callback=_set_body_model,
+                        is_eager=True,
+                        help="SMPL-H body model (.npz: v_template, shapedirs, J_regressor, kintree_table) for AMASS "
+                             ".npz inputs (default: $MOTIONREP_SMPLH_MODEL).")(command)

@@ -15,7 +15,7 @@ from typing import Any
 
 import click
 
-from ._common import BatchProgress, body_model_option, check_outputs, collect, force_option
+from ._common import BatchProgress, body_model_option, check_outputs, collect, force_option, quiet_compile_notice
 
 __all__ = ["bench"]
 
@@ -47,7 +47,8 @@ __all__ = ["bench"]
 @click.option("--wide", is_flag=True,
               help="Every column (the paper's ratio, bytes ratio, bits/joint/frame, xz -9, decode speed...); by "
                    "default the table fits 120 columns.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr and no 'wrote ...' lines (the table stays).")
+@click.option("--quiet", "-q", is_flag=True, callback=quiet_compile_notice,
+              help="No progress on stderr and no 'wrote ...' lines (the table stays).")
 @force_option
 @body_model_option
 def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tuple[str, ...],

@@ -20,7 +20,7 @@ import click
 
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
                       body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
-                      parse_params, stdin_inputs, stdout_output)
+                      parse_params, quiet_compile_notice, stdin_inputs, stdout_output)
 
 __all__ = ["compress"]
 
@@ -83,8 +83,10 @@ def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False
               help="Most seconds one clip may take; a clip over it fails and the others go on.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object; no progress.")
 @click.option("--verbose", "-v", is_flag=True,
-              help="Also the other size figures (the paper's parameter ratio, vs float32 channels).")
-@click.option("--quiet", "-q", is_flag=True, help="Print nothing on success (no progress, report or 'wrote').")
+              help="Also the other size figures (the paper's parameter ratio, vs float32 channels) and the "
+                   "codec's internal diagnostics (the transform codec's 'bisect regions=...').")
+@click.option("--quiet", "-q", is_flag=True, callback=quiet_compile_notice,
+              help="Print nothing on success (no progress, report or 'wrote').")
 @body_model_option
 def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation: str, max_error: str,
              params: tuple[str, ...], seed: int, clip: str | None, jobs: int, scheduler: str | None,
@@ -204,7 +206,7 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
     with time_limit(timeout, display_name(ref.source)):
         with open_source(ref.path) as src:
             motion = src.read(ref.clip)
-        progress = None if as_json or say.quiet else CodecProgress(pipeline.codec)
+        progress = None if as_json or say.quiet else CodecProgress(pipeline.codec, verbose=say.verbose)
         from ..errors import UncodableClipError
 
         try:
@@ -300,7 +302,9 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             clocks: dict[str, CodecProgress] = {}
 
             def progress(name: str, stage: str, fields: Any) -> None:  # inside a clip (jobs=1: this process)
-                bar.note(name, clocks.setdefault(name, CodecProgress(pipeline.codec)).text(stage, fields))
+                clock = clocks.setdefault(name, CodecProgress(pipeline.codec, verbose=say.verbose))
+                if clock.shows(fields):
+                    bar.note(name, clock.text(stage, fields))
 
             compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
                            timeout=timeout, send_data=send_clips if scheduler else False, progress=progress)

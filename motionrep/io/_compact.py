@@ -97,7 +97,10 @@ def channel_matrix(digits: NDArray, deltas: NDArray, patches: NDArray, patch_val
 
 
 def motion_from_channel_arrays(skeleton: Skeleton, fps: float, values: NDArray[np.float64]) -> Motion:
-    """The motion of channel values, as the BVH reader builds it."""
+    """The motion of channel values, as the BVH reader builds it, and by the same rule: through numpy (the same
+    bits) until the process has converted enough to win back numba's start-up, so that ``motionrep info`` of a
+    compact HDF5 or NPZ clip does not import numba (``motionrep.io._numbers.use_compiled``; 8 bytes a value
+    counted)."""
     from ._bvh import _motion_from_channels
     from ._numbers import use_compiled
 

@@ -371,10 +371,10 @@ class TransformCodec(Codec):
         k0 = int(_log_step(bound))
         low = np.full(R, k0 - _SEARCH_BELOW, np.int64)
         k = largest_passing_each(passes, low, np.full(R, k0 + _SEARCH_ABOVE, np.int64))
-        context.progress("bisect", regions=R, evaluations=errors.evaluations)
+        context.progress("bisect", regions=R, evaluations=errors.evaluations, diagnostic=True)
         k = self._settle(k, region_errors, bound, low[0] - 1)
         context.progress("settle", regions=R, evaluations=errors.evaluations,
-                         step=[float(step_scale(k.min())), float(step_scale(k.max()))])
+                         step=[float(step_scale(k.min())), float(step_scale(k.max()))], diagnostic=True)
         return k
 
     @staticmethod
