@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Iterable, Iterator, Sequence, TypeVar
 
 from ._model import Motion
-from .errors import FormatError, MotionrepError, ParameterError
+from .errors import FormatError, MotionrepError, ParameterError, naming
 from .executors import (THREAD_VARIABLES, WorkerProgress, _ignore_interrupts, _process_pool, _stop_pool, dask_executor,
                         progress_relay, time_limit, worker_threads)
 from .sources import ClipRef, Source, listing
@@ -456,8 +456,8 @@ def pair_clips(reference: Source, candidate: Source, clip: str | None = None, co
         _same_names(ref_names, cand_names, str(reference.path), str(candidate.path), "files", candidate.path)
         return [(n, n, n) for n in ref_names]
     many, found = (reference, ref_names) if len(ref_names) > 1 else (candidate, cand_names)
-    raise ParameterError(f"{many.path} holds {len(found)} clips ({listing(found)}) and the other file one; "
-                         "use --clip NAME")
+    raise naming(ParameterError(f"{many.path} holds {len(found)} clips ({listing(found)}) and the other file "
+                                "one; use clip=NAME"), "clip=NAME")
 
 
 def pair_refs(reference: list[ClipRef], candidate: list[ClipRef], common: bool = False
@@ -505,8 +505,8 @@ def _same_names(ref: list[str], cand: list[str], ref_label: str, cand_label: str
         where = "; ".join(part for part in (
             f"only in {ref_label}: {listing(missing)}" if missing else "",
             f"only in {cand_label}: {listing(extra)}" if extra else "") if part)
-        raise FormatError(f"the two {what} hold different clips ({where}); use --clip NAME to compare one, or "
-                          "--common to compare the clips both hold", path)
+        raise naming(FormatError(f"the two {what} hold different clips ({where}); use clip=NAME to compare one, "
+                                 "or common=True to compare the clips both hold", path), "clip=NAME", "common=True")
 
 
 def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[str, str, str]],

@@ -8,7 +8,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from .errors import ParameterError
+from .errors import ParameterError, naming
 
 __all__ = ["MaxError", "parse_max_error"]
 
@@ -29,8 +29,8 @@ class MaxError:
         if not self.percent:
             return self.value
         if height <= 0:
-            raise ParameterError("the character height is 0, so a bound in % of it means nothing; give "
-                                 "--max-error as a distance in file units")
+            raise naming(ParameterError("the character height is 0, so a bound in % of it means nothing; give "
+                                        "max_error as a distance in file units"), "max_error")
         return self.value / 100.0 * height
 
     def read_as(self, height: float, units: str | None) -> str:
@@ -70,9 +70,9 @@ def parse_max_error(value: str | float | MaxError | None) -> MaxError | None:
             return None
         m = _MAX_ERROR_RE.match(text)
         if not m:
-            raise ParameterError(f"invalid --max-error {text!r}: give a percentage of the character height "
-                                 "('2%'), a distance in file units ('1.5'), or 'none'")
+            raise naming(ParameterError(f"invalid max_error {text!r}: give a percentage of the character height "
+                                        "('2%'), a distance in file units ('1.5'), or 'none'"), "max_error")
         number, percent = float(m.group(1)), bool(m.group(2))
     if not math.isfinite(number) or number <= 0:
-        raise ParameterError(f"--max-error must be > 0, got {value!r}")
+        raise naming(ParameterError(f"max_error must be > 0, got {value!r}"), "max_error")
     return MaxError(number, percent)

@@ -39,6 +39,7 @@ from os import PathLike
 
 __all__ = [
     "MotionrepError",
+    "naming",
     "UncodableClipError",
     "ValidationError",
     "FormatError",
@@ -64,7 +65,22 @@ __all__ = [
 
 
 class MotionrepError(Exception):
-    """Base class of every error motionrep raises on purpose."""
+    """Base class of every error motionrep raises on purpose.
+
+    A message speaks to a Python caller: it names a setting by its parameter (``max_error``, ``clip=NAME``), never
+    by a command-line flag.  :attr:`parameters` lists those mentions, exactly as the message writes them; the
+    command line rewrites each into its flag (one table, ``motionrep.cli._common.FLAGS``), so its users read
+    ``--max-error`` / ``--clip NAME`` instead.  Set it with :func:`naming`.
+    """
+
+    parameters: tuple[str, ...] = ()
+
+
+def naming(exc: MotionrepError, *parameters: str) -> MotionrepError:
+    """Record on ``exc`` the parameter mentions its message holds (``"max_error"``, ``"clip=NAME"``, ``"fps="``)
+    and return it: ``raise naming(ParameterError(f"max_error must be > 0, got {v!r}"), "max_error")``."""
+    exc.parameters = tuple(parameters)
+    return exc
 
 
 class ValidationError(MotionrepError, ValueError):
@@ -94,8 +110,8 @@ class FormatError(MotionrepError):
             where = f"{where}:{self.line}"
         return f"{where}: {self.message}"
 
-    def __reduce__(self):  # keep the attributes when pickled across worker processes
-        return (type(self), (self.message, self.path, self.line))
+    def __reduce__(self):  # keep the attributes (and the parameter mentions) when pickled across worker processes
+        return (type(self), (self.message, self.path, self.line), self.__dict__)
 
 
 class BVHFormatError(FormatError):

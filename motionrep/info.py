@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ._model import Skeleton
-from .errors import FormatError, MotionrepError
+from .errors import FormatError, MotionrepError, naming
 from .formats import BY_SUFFIX
 from .kinematics import character_height
 from .timefmt import duration
@@ -67,8 +67,8 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
         fmt = "mrc" if src.kind == "compressed" else FORMAT_NAMES.get(path.suffix.lower(), "hdf5")
         base: dict[str, Any] = {"info_version": INFO_JSON_VERSION, "file": str(path), "format": fmt}
         if clip is not None and src.kind in ("motion", "compressed"):
-            raise FormatError("--clip applies to HDF5 databases, archives and glTF files; this file holds one clip",
-                              path)
+            raise naming(FormatError("clip= applies to HDF5 databases, archives and glTF files; this file holds one "
+                                     "clip", path), "clip=")
         names = src.names
         if src.kind == "archive" and clip is None and len(names) != 1:
             return {**base, "kind": "archive",

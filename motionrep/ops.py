@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._model import Motion
-from .errors import ParameterError
+from .errors import ParameterError, naming
 from .rotations import euler_to_quat, quat_slerp, quat_to_euler_continuous
 
 __all__ = ["fixed_axes_restored", "resample", "resample_times", "interpolate_frames", "resampled_count",
@@ -61,7 +61,7 @@ def fixed_axes_restored(motion: Motion) -> Motion:
 def _check_fps(fps: float) -> float:
     fps = float(fps)
     if not (math.isfinite(fps) and fps > 0):
-        raise ParameterError(f"--fps must be > 0, got {fps!r}")
+        raise naming(ParameterError(f"fps must be > 0, got {fps!r}"), "fps")
     return fps
 
 

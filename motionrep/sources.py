@@ -43,7 +43,7 @@ from typing import Any, Iterable, Iterator
 
 from . import formats
 from ._model import Motion
-from .errors import FormatError, ValidationError
+from .errors import FormatError, ValidationError, naming
 
 __all__ = [
     "SOURCE_SUFFIXES",
@@ -129,8 +129,8 @@ class Source(ABC):
         names = self.names
         if name is None:
             if len(names) != 1:
-                raise FormatError(f"holds {len(names)} clips; choose one with --clip NAME: {listing(names)}",
-                                  self.path)
+                raise naming(FormatError(f"holds {len(names)} clips; choose one with clip=NAME: {listing(names)}",
+                                         self.path), "clip=NAME")
             return names[0]
         if name not in names:
             raise FormatError(f"no clip named {name!r}; clips in this file: {listing(names)}", self.path)

@@ -32,7 +32,7 @@ from typing import Any, Iterator
 
 from . import _signals
 from .container import SUFFIX, Container
-from .errors import ContainerError, FormatError, OutputExistsError
+from .errors import ContainerError, FormatError, OutputExistsError, naming
 
 __all__ = ["ClipStore", "DirectoryStore", "ArchiveStore", "open_store", "journal_path", "resume_key",
            "setting_changes", "stored_spec", "pipeline_spec", "SOURCE_CHECKSUM_KEY"]
@@ -301,12 +301,12 @@ def open_store(path: str | os.PathLike[str], *, force: bool = False, resume: boo
         if not (force or resume):
             if journal.is_dir() and any(journal.glob(f"*{SUFFIX}")):
                 n = len(list(journal.glob(f"*{SUFFIX}")))
-                raise OutputExistsError(f"an interrupted run left {n} finished clip{'s' if n != 1 else ''} in "
-                                        f"{journal.name}; use --resume to keep them and add the rest, or --force "
-                                        "to start over", p)
+                raise naming(OutputExistsError(f"an interrupted run left {n} finished clip{'s' if n != 1 else ''} in "
+                                               f"{journal.name}; use resume=True to keep them and add the rest, or "
+                                               "force=True to start over", p), "resume=True", "force=True")
             if p.exists():
-                raise OutputExistsError("exists; use --force to overwrite it or --resume to keep what it holds "
-                                        "and add the rest", p)
+                raise naming(OutputExistsError("exists; use force=True to overwrite it or resume=True to keep what it "
+                                               "holds and add the rest", p), "force=True", "resume=True")
         return ArchiveStore(p, force=force)
     if p.exists() and not p.is_dir():
         raise FormatError("exists and is not a directory", p)

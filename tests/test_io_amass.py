@@ -124,7 +124,7 @@ def test_posed_joints_are_the_body_models(tmp_path):
 
 def test_body_model_from_the_environment(tmp_path, monkeypatch):
     clip, model = write_files(tmp_path)
-    with pytest.raises(AMASSFormatError, match="--body-model"):
+    with pytest.raises(AMASSFormatError, match="body_model=MODEL.npz"):
         read(clip)
     monkeypatch.setenv(BODY_MODEL_ENV, str(model))
     assert read(clip).num_joints == 52

@@ -284,7 +284,7 @@ def test_ascii_fbx_rotation_orders_and_pre_rotations(tmp_path):
     path = tmp_path / "chain.fbx"
     path.write_text(ascii_fbx())
     assert list_clips(path) == ["Take1", "Take2"]
-    with pytest.raises(FBXFormatError, match="2 anim stacks; choose one with --clip"):
+    with pytest.raises(FBXFormatError, match="2 anim stacks; choose one with clip=NAME"):
         read(path)
     for s, clip in enumerate(("Take1", "Take2")):
         motion = read(path, clip=clip)

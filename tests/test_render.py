@@ -281,7 +281,7 @@ def test_long_clip_stays_within_max_frames_in_real_time():
     assert np.all(np.diff(shown) > 0)
     shown, rate, notes = render_frames.animation_frames(np.arange(344), False, 120.0, None, 150, ".gif")
     assert rate == 25 and shown.size == 72 and not notes
-    with pytest.raises(ValidationError, match="max-frames"):
+    with pytest.raises(ValidationError, match="more than max_frames=150: use a larger step or raise max_frames"):
         render_frames.animation_frames(np.arange(0, 400, 2), True, 120.0, None, 150, ".gif")
 
 

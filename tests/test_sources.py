@@ -106,7 +106,7 @@ def test_open_source_kinds(tree, tmp_path):
             assert motion.num_frames > 0
     with open_source(archive) as src:
         assert src.container("y").num_frames == 26 and src.size("y") > 0
-        with pytest.raises(FormatError, match="holds 2 clips; choose one with --clip NAME: x, y"):
+        with pytest.raises(FormatError, match="holds 2 clips; choose one with clip=NAME: x, y"):
             src.read()
         with pytest.raises(FormatError, match="no clip named 'z'"):
             src.read("z")

@@ -24,7 +24,7 @@ from .._version import __version__
 from .._signals import check as check_interrupted
 from ..errors import MotionrepError
 from . import bench, compress, convert, decompress, evaluate, example, info, merge, plugins, render, view
-from ._common import display_name, handling_signals, interrupt_line
+from ._common import display_name, flagged, handling_signals, interrupt_line
 
 __all__ = ["cli", "main"]
 
@@ -56,7 +56,7 @@ class _Group(click.Group):
         except MotionrepError as exc:
             if ctx.obj and ctx.obj.get("debug"):
                 raise
-            raise click.ClickException(display_name(str(exc))) from None
+            raise click.ClickException(display_name(flagged(exc))) from None
         except BrokenPipeError:  # `motionrep convert walk.bvh - | head`: the reader stopped; stop quietly, exit 0
             _quiet_stdout()  # exit 0: the output was not wanted any more, not an error (scripts with pipefail pass)
             ctx.exit(0)

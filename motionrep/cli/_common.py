@@ -42,7 +42,33 @@ __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgre
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
            "match_options", "comparison_options", "gltf_unit_options", "gltf_write_options",
-           "check_gltf_units"]
+           "check_gltf_units", "FLAGS", "flagged"]
+
+#: The one table from the library's parameter mentions (:attr:`motionrep.errors.MotionrepError.parameters`, as a
+#: message writes them) to the command line's flags.  ``name=`` is a mention followed by its value (``fps=60`` reads
+#: ``--fps 60``).
+FLAGS: dict[str, str] = {
+    "max_error": "--max-error",
+    "fps=": "--fps ",
+    "fps": "--fps",
+    "max_frames=": "--max-frames ",
+    "max_frames": "--max-frames",
+    "clip=NAME": "--clip NAME",
+    "clip=": "--clip",
+    "body_model=MODEL.npz": "--body-model MODEL.npz",
+    "force=True": "--force",
+    "resume=True": "--resume",
+    "common=True": "--common",
+}
+
+
+def flagged(exc: BaseException) -> str:
+    """``str(exc)`` with each parameter mention it records (``exc.parameters``) rewritten into its flag (:data:`FLAGS`):
+    what the command line shows for a library error."""
+    text = str(exc)
+    for mention in getattr(exc, "parameters", ()):
+        text = text.replace(mention, FLAGS[mention])
+    return text
 
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"
@@ -128,7 +154,7 @@ def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], 
         try:
             parsed = parse_max_error(max_error)
         except ParameterError as exc:
-            raise click.BadParameter(str(exc), param_hint="--max-error") from None
+            raise click.BadParameter(flagged(exc), param_hint="--max-error") from None
         if parsed is None:
             return None, None
         bound = parsed.bound(height)
@@ -169,7 +195,7 @@ def collect(inputs: Iterable[Any], **options: Any) -> list[Any]:
     try:
         return collect_clips(expand_globs(inputs), **options)
     except ValidationError as exc:
-        raise click.UsageError(str(exc)) from None
+        raise click.UsageError(flagged(exc)) from None
 
 
 def echo_json(obj: Any) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 
 import click
 
+from ._common import flagged
 from ._common import BatchProgress, body_model_option, check_outputs, collect, force_option, quiet_compile_notice
 
 __all__ = ["bench"]
@@ -82,7 +83,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     try:
         sweep = parse_sweep(params)
     except ParameterError as exc:
-        raise click.BadParameter(str(exc), param_hint="-p/--param") from None
+        raise click.BadParameter(flagged(exc), param_hint="-p/--param") from None
     if plot is not None and plot.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise click.BadParameter(f"{plot}: use a .png, .svg or .pdf file", param_hint="--plot")
     outputs = [out / name for name in _OUT_FILES] if out is not None else []

@@ -16,6 +16,7 @@ from typing import Any, Iterator
 
 import click
 
+from ..errors import naming
 from ..formats import BY_SUFFIX, MOTION_SUFFIXES
 from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, body_model_option, check_gltf_units,
                       check_outputs, collect, expand_globs, force_option, gltf_unit_options, gltf_write_options,
@@ -47,7 +48,7 @@ def _in_file_error(exc: Exception, path: Path) -> Exception:
     """A library error as a one-line FormatError naming a file (errors that already name one are kept)."""
     from ..errors import FormatError
 
-    return exc if isinstance(exc, FormatError) else FormatError(str(exc), path)
+    return exc if isinstance(exc, FormatError) else naming(FormatError(str(exc), path), *getattr(exc, "parameters", ()))
 
 
 def _converted(refs: list, representation: Any) -> Iterator[tuple[Any, Any]]:
@@ -84,7 +85,7 @@ def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | Non
         try:
             options.update(gltf_write_options(item, path, *units, shown=shown))
         except MotionrepError as exc:
-            raise FormatError(f"cannot write: {exc}", path) from None
+            raise naming(FormatError(f"cannot write: {exc}", path), *exc.parameters) from None
     if fmt == "bvh" and decimals is not None:
         options["decimals"] = decimals
     if fmt in ("hdf5", "gltf") and clip_name is not None:
@@ -97,7 +98,7 @@ def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | Non
     except MotionrepError as exc:
         if isinstance(exc, FormatError):
             raise
-        raise FormatError(f"cannot write: {exc}", path) from None
+        raise naming(FormatError(f"cannot write: {exc}", path), *exc.parameters) from None
 
 
 def _bar(items: Iterator, total: int, label: str) -> Any:

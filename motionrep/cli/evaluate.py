@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from ._common import flagged
 from ._common import (STDIN_NAME, body_model_option, collect, comparison_options, echo_json, is_stdio, match_options,
                       stdin_inputs)
 
@@ -100,7 +101,7 @@ def _evaluate(reference: Path, candidate: Path, shown: list[str], clip: str | No
             try:
                 pairs = pair_clips(ref, cand, clip, common=common)
             except ParameterError as exc:
-                raise click.UsageError(str(exc)) from None
+                raise click.UsageError(flagged(exc)) from None
             only = clip_sets(ref.names, cand.names) if common and clip is None and len(pairs) > 1 else ([], [])
             reports = evaluate_clips(ref, cand, pairs, options=options)
     if len(reports) == 1:

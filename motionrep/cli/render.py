@@ -15,6 +15,7 @@ from typing import Any, Callable
 import click
 
 from ..errors import ValidationError
+from ._common import flagged
 from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, force_option,
                       is_stdio, match_options, quiet_option, stdin_inputs)
 
@@ -41,7 +42,7 @@ def _parsed_by(parser: str) -> Callable[[click.Context, click.Parameter, str | N
         try:
             return getattr(render, parser)(value)
         except ValidationError as exc:
-            raise click.BadParameter(str(exc)) from None
+            raise click.BadParameter(flagged(exc)) from None
 
     return callback
 

@@ -35,6 +35,7 @@ from pathlib import Path
 
 from .. import formats
 from .._model import Motion
+from ..errors import naming
 from ..errors import (BVHFormatError, FBXFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError,
                       ValidationError)
 from ._atomic import atomic_path
@@ -117,8 +118,8 @@ def format_of(path: str | os.PathLike[str]) -> str:
 
 def _no_clip(fmt: str, path, clip: str | None) -> None:
     if clip is not None:
-        raise _ERRORS[fmt](f"a {fmt.upper()} file holds one clip; clip= (--clip) applies to HDF5 databases and "
-                           "glTF files", path)
+        raise naming(_ERRORS[fmt](f"a {fmt.upper()} file holds one clip; clip= applies to HDF5 databases and "
+                                  "glTF files", path), "clip=")
 
 
 def read_stored(path: str | os.PathLike[str], clip: str | None = None,

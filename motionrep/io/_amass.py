@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion, Skeleton
-from ..errors import AMASSFormatError, ValidationError
+from ..errors import AMASSFormatError, ValidationError, naming
 from ._files import check_regular
 
 __all__ = ["read_amass", "is_amass_keys", "body_model_joints", "SMPLH_JOINT_NAMES", "BODY_MODEL_ENV"]
@@ -134,8 +134,8 @@ def read_amass(path: str | os.PathLike[str], body_model: str | os.PathLike[str] 
     if body_model is None:
         body_model = os.environ.get(BODY_MODEL_ENV) or None
     if body_model is None:
-        raise AMASSFormatError("is an AMASS clip: give its SMPL-H body model with --body-model MODEL.npz "
-                               f"(body_model=, or the environment variable {BODY_MODEL_ENV})", path)
+        raise naming(AMASSFormatError("is an AMASS clip: give its SMPL-H body model with body_model=MODEL.npz "
+                                      f"(or the environment variable {BODY_MODEL_ENV})", path), "body_model=MODEL.npz")
     what = "AMASS clip"
     with _load(path, what) as clip:
         poses = _array(clip, "poses", path, what)

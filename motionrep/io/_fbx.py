@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion, Skeleton
-from ..errors import FBXFormatError, ValidationError
+from ..errors import FBXFormatError, ValidationError, naming
 from ._clipfile import ClipFile
 from ._files import read_regular
 
@@ -232,8 +232,8 @@ class FBXFile(ClipFile):
             return self.names[0], self._motion(None, np.zeros(1), 30.0)
         if name is None:
             if len(self.stacks) > 1:
-                raise self.fail(f"holds {len(self.stacks)} anim stacks; choose one with --clip (clip=): "
-                                + ", ".join(self.names))
+                raise naming(self.fail(f"holds {len(self.stacks)} anim stacks; choose one with clip=NAME: "
+                                       + ", ".join(self.names)), "clip=NAME")
             k = 0
         elif name in self.names:
             k = self.names.index(name)

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion
-from ..errors import ValidationError
+from ..errors import ValidationError, naming
 from ..formats import BY_NAME
 from ._atomic import atomic_path
 from ._clipfile import ClipFile
@@ -332,8 +332,9 @@ class GLTFFile(ClipFile):
             raise self._doc.fail("the file holds no animation (motionrep reads animated skeletons)")
         if clip is None:
             if len(names) > 1:
-                raise self._doc.fail(f"the file holds {len(names)} animations; choose one with clip=NAME (--clip "
-                                     "NAME): " + ", ".join(names[:20]) + (" ..." if len(names) > 20 else ""))
+                raise naming(self._doc.fail(f"the file holds {len(names)} animations; choose one with clip=NAME: "
+                                            + ", ".join(names[:20]) + (" ..." if len(names) > 20 else "")),
+                             "clip=NAME")
             index = 0
         elif clip in names:
             index = names.index(clip)

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from ..limits import current as current_limits
 from .._model import Motion
-from ..errors import FormatError, HDF5FormatError, ValidationError
+from ..errors import FormatError, HDF5FormatError, ValidationError, naming
 from ._atomic import atomic_path
 from ._compact import CHANNEL_KEYS, channel_arrays
 
@@ -444,8 +444,8 @@ class HDF5Database:
                 return names[0]
             if not names:
                 raise HDF5FormatError("the database holds no clips", self.path)
-            raise HDF5FormatError(f"the database holds {len(names)} clips; choose one with clip=NAME (--clip NAME "
-                                  f"on the command line): {_listing(names)}", self.path)
+            raise naming(HDF5FormatError(f"the database holds {len(names)} clips; choose one with clip=NAME: "
+                                         f"{_listing(names)}", self.path), "clip=NAME")
         if not isinstance(clip, str) or clip not in names:
             raise HDF5FormatError(f"no clip named {clip!r}; clips in this file: {_listing(names)}", self.path)
         return clip

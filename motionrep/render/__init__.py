@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from .._model import Motion
-from ..errors import FormatError, ValidationError
+from ..errors import FormatError, ValidationError, naming
 from ..evaluate import ErrorReport, Evaluator, compare
 from ..io import atomic_path
 from ..kinematics import character_height, global_positions, point_names
@@ -187,7 +187,7 @@ def render(path: str | os.PathLike[str], reference: Motion, candidate: Motion | 
             raise ValidationError(f"fps must be a positive number, got {fps!r}")
         fps = float(fps)
         if suffix == ".gif" and fps > GIF_MAX_FPS:
-            raise ValidationError(f"a GIF cannot play faster than {GIF_MAX_FPS:g} fps, got --fps {fps:g}")
+            raise naming(ValidationError(f"a GIF cannot play faster than {GIF_MAX_FPS:g} fps, got fps={fps:g}"), "fps=")
     if size is not None:
         size = check_size(size)
         if suffix == ".mp4" and (size[0] % 2 or size[1] % 2):

@@ -11,7 +11,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ValidationError
+from ..errors import ValidationError, naming
 
 __all__ = ["GIF_DEFAULT_FPS", "GIF_MAX_FPS", "MP4_DEFAULT_FPS", "MIN_SIDE", "MAX_SIDE", "parse_frames", "parse_size",
            "check_size", "select_frames", "animation_frames", "filmstrip_frames"]
@@ -135,8 +135,9 @@ def frames_and_rate(selected: NDArray[np.int64], exact: bool, clip_fps: float, f
     cap = GIF_DEFAULT_FPS if kind == ".gif" else MP4_DEFAULT_FPS
     if exact:
         if selected.size > max_frames:
-            raise ValidationError(f"the frame selection has {selected.size} frames, more than --max-frames "
-                                  f"{max_frames}: use a larger step or raise --max-frames")
+            raise naming(ValidationError(f"the frame selection has {selected.size} frames, more than "
+                                         f"max_frames={max_frames}: use a larger step or raise max_frames"),
+                         "max_frames=", "max_frames")
         step = int(selected[1] - selected[0]) if selected.size > 1 else 1
         rate = fps if fps is not None else representable(min(clip_fps / step, cap), kind)
         return selected, rate, notes
@@ -166,8 +167,9 @@ def filmstrip_frames(selected: NDArray[np.int64], exact: bool, count: int, max_f
                       worst_frame: int | None) -> NDArray[np.int64]:
     if exact:
         if selected.size > max_frames:
-            raise ValidationError(f"the frame selection has {selected.size} frames, more than --max-frames "
-                                  f"{max_frames}: use a larger step or raise --max-frames")
+            raise naming(ValidationError(f"the frame selection has {selected.size} frames, more than "
+                                         f"max_frames={max_frames}: use a larger step or raise max_frames"),
+                         "max_frames=", "max_frames")
         return selected
     n = min(count, selected.size)
     pick = selected[np.rint(np.linspace(0, selected.size - 1, n)).astype(np.int64)]
