@@ -526,7 +526,7 @@ def evaluate_clips(reference: Source, candidate: Source, pairs: Sequence[tuple[s
         try:
             return name, max_joint_error(reference.read(ref_clip), candidate.read(cand_clip), options)
         except ValidationError as exc:  # which files, then what differs
-            raise ValidationError(f"{reference.path} vs {candidate.path}: {exc}") from None
+            raise naming(ValidationError(f"{reference.path} vs {candidate.path}: {exc}"), *exc.parameters) from None
 
     return run_batch(work, pairs,
                      on_done=None if on_done is None else (lambda i, pair, result: on_done(*result)))

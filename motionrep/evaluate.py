@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._model import Motion, Skeleton
 from .codec import Payload, frame_times
-from .errors import ValidationError
+from .errors import ValidationError, naming
 from .kinematics import character_height, global_positions, point_names
 from .ops import fixed_axes_restored
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
@@ -154,18 +154,18 @@ class Evaluator:
         ref = self.reference
         what = skeleton_difference(self.skeleton, candidate.skeleton)
         if what is not None:
-            raise ValidationError(f"cannot compare motions of different skeletons: {what} (--match names compares "
-                                  "joints by name, and the points both have)")
+            raise naming(ValidationError(f"cannot compare motions of different skeletons: {what} (match='names' "
+                                         "compares joints by name, and the points both have)"), "match='names'")
         if candidate.num_frames != ref.num_frames:
             rates = ("" if math.isclose(candidate.fps, ref.fps, rel_tol=1e-6) else
-                     f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: --fps {ref.fps:g})")
-            raise ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
-                                  f"{candidate.num_frames}{rates} (--resample samples the candidate at the "
-                                  "reference's frame times)")
+                     f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: fps={ref.fps:g})")
+            raise naming(ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
+                                         f"{candidate.num_frames}{rates} (resample=True samples the candidate at the "
+                                         "reference's frame times)"), "fps=", "resample=True")
         if not math.isclose(candidate.fps, ref.fps, rel_tol=1e-6):
-            raise ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
-                                  f"{candidate.fps:g} fps (--resample samples the candidate at the reference's "
-                                  "frame times)")
+            raise naming(ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
+                                         f"{candidate.fps:g} fps (resample=True samples the candidate at the "
+                                         "reference's frame times)"), "resample=True")
         return self.positions_error(global_positions(candidate))
 
     def positions_error(self, positions: NDArray[np.float64], first: int | None = None) -> ErrorReport:

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._model import Motion, Skeleton
-from .errors import ValidationError
+from .errors import ValidationError, naming
 from .kinematics import character_height, global_positions, point_names, rest_positions
 
 __all__ = ["MatchOptions", "PointPairing", "FramePairing", "Comparison", "STRICT", "TAIL_TOLERANCE",
@@ -84,9 +84,9 @@ class MatchOptions:
             raise ValidationError(f"strip_prefix must be non-empty strings, got {self.strip_prefix!r}")
         object.__setattr__(self, "strip_prefix", prefixes)
         if prefixes and self.match != "names":
-            raise ValidationError("strip_prefix needs match='names' (--strip-prefix needs --match names)")
+            raise naming(ValidationError("strip_prefix needs match='names'"), "strip_prefix", "match='names'")
         if self.ignore_extra and self.match != "names":
-            raise ValidationError("ignore_extra needs match='names' (--ignore-extra needs --match names)")
+            raise naming(ValidationError("ignore_extra needs match='names'"), "ignore_extra", "match='names'")
 
     @property
     def strict(self) -> bool:
@@ -270,8 +270,8 @@ def _keys(skeleton: Skeleton, prefixes: tuple[str, ...], side: str) -> dict[str,
 def _order_pairing(ref: Skeleton, cand: Skeleton) -> PointPairing:
     what = skeleton_difference(ref, cand)
     if what is not None:
-        raise ValidationError(f"cannot compare motions of different skeletons: {what} (--match names compares "
-                              "joints by name, and the points both have)")
+        raise naming(ValidationError(f"cannot compare motions of different skeletons: {what} (match='names' "
+                                     "compares joints by name, and the points both have)"), "match='names'")
     names = point_names(ref)
     J = ref.num_joints
     idx = tuple(range(len(names)))
@@ -310,9 +310,9 @@ def _name_pairing(ref: Skeleton, cand: Skeleton, options: MatchOptions) -> Point
     joint_map = {rk[k]: ck[k] for k in rk if k in ck}  # reference joint -> candidate joint
     inverse = {c: r for r, c in joint_map.items()}
     if not joint_map:
-        raise ValidationError("cannot compare motions by name: the reference and the candidate have no joint name "
-                              "in common" + ("" if prefixes else " (--strip-prefix removes a namespace such as "
-                                                                   "'mixamorig:')"))
+        raise naming(ValidationError("cannot compare motions by name: the reference and the candidate have no joint "
+                                     "name in common" + ("" if prefixes else " (strip_prefix removes a namespace "
+                                                                          "such as 'mixamorig:')")), "strip_prefix")
     Jr, Jc = ref.num_joints, cand.num_joints
     rnames, cnames = point_names(ref), point_names(cand)
     # end sites paired with end sites of the paired joint, in order
@@ -343,8 +343,8 @@ def _name_pairing(ref: Skeleton, cand: Skeleton, options: MatchOptions) -> Point
     if (ref_only or cand_only) and not options.ignore_extra:
         parts = [f"{len(x)} joint{'s' * (len(x) != 1)} only in the {side}: {_listing(x)}"
                  for x, side in ((ref_only, "reference"), (cand_only, "candidate")) if x]
-        raise ValidationError(f"cannot compare motions by name: {'; '.join(parts)} (--ignore-extra compares the "
-                              "joints both have)")
+        raise naming(ValidationError(f"cannot compare motions by name: {'; '.join(parts)} (ignore_extra=True "
+                                     "compares the joints both have)"), "ignore_extra=True")
     pairs: list[tuple[int, int]] = [(r, c) for r, c in sorted(joint_map.items())]
     pairs += [(r, Jc + c) for c, r in cand_tails.items()]  # a reference joint that is a candidate end site
     pairs += [(Jr + e, Jc + c) for e, c in sorted(site_map.items())]
@@ -404,13 +404,14 @@ def pair_frames(reference: Motion, candidate: Motion, options: MatchOptions = ST
     if not options.resample:
         if Fc != Fr:
             rates = "" if same_rate else f" at {_rates(reference.fps, candidate.fps)} fps"
-            rates += "" if same_rate else f"; a .mrc decompresses at any rate: --fps {reference.fps:g}"
-            raise ValidationError(f"cannot compare motions with different frame counts: {Fr} vs {Fc}{rates} "
-                                  "(--resample samples the candidate at the reference's frame times)")
+            rates += "" if same_rate else f"; a .mrc decompresses at any rate: fps={reference.fps:g}"
+            raise naming(ValidationError(f"cannot compare motions with different frame counts: {Fr} vs {Fc}{rates} "
+                                         "(resample=True samples the candidate at the reference's frame times)"),
+                         "fps=", "resample=True")
         if not same_rate:
-            raise ValidationError(f"cannot compare motions with different frame rates: "
-                                  f"{_rates(reference.fps, candidate.fps)} fps (--resample samples the candidate at "
-                                  "the reference's frame times)")
+            raise naming(ValidationError(f"cannot compare motions with different frame rates: "
+                                         f"{_rates(reference.fps, candidate.fps)} fps (resample=True samples the "
+                                         "candidate at the reference's frame times)"), "resample=True")
         return FramePairing((0, Fr - 1), Fr, Fc, np.arange(Fr, dtype=np.float64))
     positions = np.arange(Fr) / reference.fps * candidate.fps  # reference frame times in candidate frames
     inside = positions <= (Fc - 1) + 1e-6

@@ -11,9 +11,10 @@ from click.testing import CliRunner
 from motionrep.bound import parse_max_error
 from motionrep.cli import cli
 from motionrep.cli._common import FLAGS, flagged
-from motionrep.errors import FormatError, MotionrepError, ParameterError, naming
+from motionrep.errors import FormatError, MotionrepError, ParameterError, ValidationError, naming
 from motionrep.io import read, write, write_database
 from motionrep.ops import resample
+from motionrep.pairing import MatchOptions
 from motionrep.synthetic import chain_skeleton, synthetic_motion
 
 
@@ -41,6 +42,10 @@ def test_a_python_caller_reads_parameter_names_not_flags(walk):
     for exc in (bound.value, rate.value, clip.value):
         assert "--" not in str(exc)
         assert exc.parameters and all(p in str(exc) and p in FLAGS for p in exc.parameters)
+    with pytest.raises(ValidationError) as match:
+        MatchOptions(strip_prefix=("a:",))
+    assert str(match.value) == "strip_prefix needs match='names'"
+    assert flagged(match.value) == "--strip-prefix needs --match names"
     assert flagged(bound.value).startswith("--max-error must be > 0")
     assert "one clip; --clip applies to HDF5" in flagged(clip.value)
 

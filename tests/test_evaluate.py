@@ -92,9 +92,9 @@ def test_compression_figures_follow_their_definitions():
 def test_frame_count_mismatch_says_the_rates():
     sk = chain_skeleton(3)
     ref = synthetic_motion(sk, frames=20, fps=30)
-    with pytest.raises(ValidationError, match=r"20 vs 40 at 30 vs 60 fps .*--fps 30"):
+    with pytest.raises(ValidationError, match=r"20 vs 40 at 30 vs 60 fps .*fps=30"):
         max_joint_error(ref, synthetic_motion(sk, frames=40, fps=60))
-    with pytest.raises(ValidationError, match=r"different frame counts: 20 vs 21 \(--resample samples"):
+    with pytest.raises(ValidationError, match=r"different frame counts: 20 vs 21 \(resample=True samples"):
         max_joint_error(ref, synthetic_motion(sk, frames=21, fps=30))
 
 

@@ -59,6 +59,11 @@ FLAGS: dict[str, str] = {
     "force=True": "--force",
     "resume=True": "--resume",
     "common=True": "--common",
+    "match='names'": "--match names",
+    "strip_prefix": "--strip-prefix",
+    "ignore_extra=True": "--ignore-extra",
+    "ignore_extra": "--ignore-extra",
+    "resample=True": "--resample",
 }
 
 

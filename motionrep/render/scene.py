@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._model import Motion
-from ..errors import ValidationError
+from ..errors import ValidationError, naming
 from ..evaluate import ErrorReport
 from ..kinematics import character_height
 from ..ops import detect_up_axis, resample  # detect_up_axis: public here too, as before it moved
@@ -47,23 +47,23 @@ def align_candidate(reference: Motion, candidate: Motion, ref_name: str = "REF",
 
     what = skeleton_difference(reference.skeleton, candidate.skeleton, ref_name, cand_name)
     if what is not None:
-        raise ValidationError(f"{ref_name} and {cand_name} do not share a skeleton: {what} (--match names compares "
-                              "joints by name, and the points both have)")
+        raise naming(ValidationError(f"{ref_name} and {cand_name} do not share a skeleton: {what} (match='names' "
+                                     "compares joints by name, and the points both have)"), "match='names'")
     if math.isclose(reference.fps, candidate.fps, rel_tol=1e-6):
         if reference.num_frames != candidate.num_frames:
-            raise ValidationError(
+            raise naming(ValidationError(
                 f"{ref_name} has {reference.num_frames} frames but {cand_name} has {candidate.num_frames} "
-                f"(both at {reference.fps:g} fps): compare clips of the same length, or --resample compares the "
-                "frames both have")
+                f"(both at {reference.fps:g} fps): compare clips of the same length, or resample=True compares the "
+                "frames both have"), "resample=True")
         return candidate, None
     tolerance = 1.0 / min(reference.fps, candidate.fps) + 1e-9
     ref_end = (reference.num_frames - 1) / reference.fps
     cand_end = (candidate.num_frames - 1) / candidate.fps
     if abs(ref_end - cand_end) > tolerance:
-        raise ValidationError(
+        raise naming(ValidationError(
             f"{ref_name} spans {ref_end:.4g} s ({reference.num_frames} frames at {reference.fps:g} fps) but "
             f"{cand_name} spans {cand_end:.4g} s ({candidate.num_frames} frames at {candidate.fps:g} fps): "
-            "they must cover the same time (--resample compares the frames both have)")
+            "they must cover the same time (resample=True compares the frames both have)"), "resample=True")
     note = (f"{cand_name} ({candidate.num_frames} frames at {candidate.fps:g} fps) resampled at {ref_name}'s "
             f"{reference.num_frames} frame times ({reference.fps:g} fps)")
     return resample(candidate, reference.fps, reference.num_frames), note
