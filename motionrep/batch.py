@@ -342,7 +342,9 @@ def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
         if isinstance(exc, FormatError) and job.data is not None:  # name the user's file, not the worker's copy
             message = FormatError(exc.message, ref.source, exc.line).args[0]
         return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
-                                            "cpu_seconds": time.process_time() - cpu}, "failed")
+                                            "cpu_seconds": time.process_time() - cpu,
+                                            **({"parameters": list(exc.parameters)} if exc.parameters else {})},
+                           "failed")
     except Exception as exc:  # a bug or a resource (MemoryError, RecursionError): this clip's failure only
         return _failed(ref, exc, time.process_time() - cpu)
     summary = dict(result.as_dict(), source=ref.source, source_sha256=checksum,

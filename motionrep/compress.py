@@ -39,7 +39,7 @@ from ._model import Motion
 from ._threads import one_blas_thread
 from .codec import Codec, Payload
 from .container import Container, pack
-from .errors import BoundNotMetError, CodecError, UncodableClipError
+from .errors import BoundNotMetError, CodecError, UncodableClipError, naming
 from .bound import MaxError, parse_max_error  # public here too, as before motionrep.bound existed
 from .decode import BVH_DECIMALS, decode_at, decompress, decompress_file, write_decoded  # public here too
 from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
@@ -252,10 +252,10 @@ class Pipeline:
         evaluator = context.evaluator
         report = evaluator(decompress(pack(container), codec=codec, representation=rep))
         if bound is not None and report.max_error > bound:
-            raise BoundNotMetError(
-                f"codec {codec.name!r} did not meet --max-error {self.max_error}: the stored payload decodes with "
+            raise naming(BoundNotMetError(
+                f"codec {codec.name!r} did not meet max_error={self.max_error}: the stored payload decodes with "
                 f"an L-inf error of {report.max_error:.4g} ({report.max_error_percent:.3g}% of height), above the "
-                f"bound {bound:.4g}", best_error=report.max_error, bound=bound)
+                f"bound {bound:.4g}", best_error=report.max_error, bound=bound), "max_error=")
         # The stored evaluation is always a strict comparison of every point and frame: its ``comparison`` (what
         # a cross-tool comparison left out) is None and is not stored, so the container's metadata is unchanged.
         stored = {k: v for k, v in report.as_dict().items() if k != "comparison"}

@@ -69,7 +69,7 @@ class MotionrepError(Exception):
 
     A message speaks to a Python caller: it names a setting by its parameter (``max_error``, ``clip=NAME``), never
     by a command-line flag.  :attr:`parameters` lists those mentions, exactly as the message writes them; the
-    command line rewrites each into its flag (one table, ``motionrep.cli._common.FLAGS``), so its users read
+    command line rewrites each into its flag (one table, ``motionrep.cli._flags.FLAGS``), so its users read
     ``--max-error`` / ``--clip NAME`` instead.  Set it with :func:`naming`.
     """
 
@@ -200,7 +200,7 @@ class BoundNotMetError(CodecError):
         super().__init__(message)
 
     def __reduce__(self):
-        return (type(self), (self.args[0] if self.args else "", self.best_error, self.bound))
+        return (type(self), (self.args[0] if self.args else "", self.best_error, self.bound), self.__dict__)
 
 
 class TimeLimitError(CodecError):
@@ -215,7 +215,7 @@ class TimeLimitError(CodecError):
         super().__init__(message)
 
     def __reduce__(self):
-        return (type(self), (self.args[0] if self.args else "", self.seconds))
+        return (type(self), (self.args[0] if self.args else "", self.seconds), self.__dict__)
 
 
 class Interrupted(KeyboardInterrupt):

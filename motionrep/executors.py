@@ -22,7 +22,7 @@ import threading
 import time
 from typing import Any, Callable, Iterator
 
-from .errors import ParameterError, TimeLimitError
+from .errors import ParameterError, TimeLimitError, naming
 
 __all__ = ["dask_executor", "time_limit", "die_with_parent", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT",
            "THREAD_VARIABLES", "worker_threads", "progress_relay", "WorkerProgress"]
@@ -258,5 +258,5 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
                 state["done"] = True
             stop.set()
     except _TimeUp:
-        raise TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (--timeout)",
-                             seconds) from None
+        raise naming(TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (timeout=)",
+                                    seconds), "timeout=") from None

@@ -107,7 +107,7 @@ def test_grid_validates_before_any_work(tmp_path):
         bench_tasks(clips, ["svd"], ["root-quat-axis-angle"], ["2%"], {"nope": ["1"]})
     with pytest.raises(ParameterError, match="rank"):
         bench_tasks(clips, ["svd"], ["root-quat-axis-angle"], ["2%"], {"rank": ["-1"]})
-    with pytest.raises(ParameterError, match="max-error"):
+    with pytest.raises(ParameterError, match="invalid max_error "):
         bench_tasks(clips, ["svd"], ["root-quat-axis-angle"], ["two percent"])
     with pytest.raises(UnknownPluginError):
         bench_tasks(clips, ["zip"], ["root-quat-axis-angle"], ["2%"])

@@ -321,7 +321,8 @@ def test_timeout_fails_the_slow_clip_and_the_others_go_on(tmp_path):
     assert r.exit_code == 1
     d = json.loads(r.output[:r.output.rindex("}") + 1])
     assert d["clips"]["short"]["status"] == "done"
-    assert d["clips"]["long"]["status"] == "failed" and "time limit of 0.3 s" in d["clips"]["long"]["error"]
+    assert d["clips"]["long"]["status"] == "failed" and "time limit of 0.3 s (--timeout)" in d["clips"]["long"]["error"]
+    assert "parameters" not in d["clips"]["long"]  # the library's mention, rewritten into the flag by the CLI
     assert sorted(p.name for p in out.iterdir()) == ["short.mrc"]
 
 

@@ -1,5 +1,5 @@
 """Library errors name the Python parameter (``max_error``, ``fps``, ``clip=``); the command line shows the flag
-(``--max-error``, ``--fps``, ``--clip``), rewritten in its one error funnel (``motionrep.cli._common.flagged``)."""
+(``--max-error``, ``--fps``, ``--clip``), rewritten in its one error funnel (``motionrep.cli._flags.flagged``)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from click.testing import CliRunner
 
 from motionrep.bound import parse_max_error
 from motionrep.cli import cli
-from motionrep.cli._common import FLAGS, flagged
-from motionrep.errors import FormatError, MotionrepError, ParameterError, ValidationError, naming
+from motionrep.cli._flags import FLAGS, flagged
+from motionrep.errors import FormatError, MotionrepError, ParameterError, TimeLimitError, ValidationError, naming
 from motionrep.io import read, write, write_database
 from motionrep.ops import resample
 from motionrep.pairing import MatchOptions
@@ -65,5 +65,7 @@ def test_the_command_line_shows_the_flag(walk, tmp_path):
 def test_parameter_mentions_survive_pickling_and_unknown_errors_are_unchanged():
     exc = pickle.loads(pickle.dumps(naming(FormatError("choose one with clip=NAME: a, b", "db.h5"), "clip=NAME")))
     assert exc.parameters == ("clip=NAME",) and flagged(exc) == "db.h5: choose one with --clip NAME: a, b"
+    limit = pickle.loads(pickle.dumps(naming(TimeLimitError("time limit of 1 s (timeout=)", 1.0), "timeout=")))
+    assert limit.seconds == 1.0 and flagged(limit) == "time limit of 1 s (--timeout)"
     plain = MotionrepError("fps= is untouched without a mention")
     assert flagged(plain) == str(plain)

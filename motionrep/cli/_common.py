@@ -32,6 +32,7 @@ import click
 
 from ..errors import Interrupted
 from .. import formats
+from ._flags import FLAGS, flag_text, flagged
 from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
 from ._crosstool import (body_model_option, check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options,
                          match_options)
@@ -42,38 +43,7 @@ __all__ = ["parse_params", "collect", "echo_json", "CodecProgress", "BatchProgre
            "handling_signals", "interrupt_line", "STDIO", "is_stdio", "stdin_inputs", "stdout_output",
            "expand_globs", "display_name", "STDIN_NAME", "MOTION_FORMATS", "STDOUT_NAME", "bound_for", "OUT_FORMATS",
            "match_options", "comparison_options", "gltf_unit_options", "gltf_write_options",
-           "check_gltf_units", "FLAGS", "flagged"]
-
-#: The one table from the library's parameter mentions (:attr:`motionrep.errors.MotionrepError.parameters`, as a
-#: message writes them) to the command line's flags.  ``name=`` is a mention followed by its value (``fps=60`` reads
-#: ``--fps 60``).
-FLAGS: dict[str, str] = {
-    "max_error": "--max-error",
-    "fps=": "--fps ",
-    "fps": "--fps",
-    "max_frames=": "--max-frames ",
-    "max_frames": "--max-frames",
-    "clip=NAME": "--clip NAME",
-    "clip=": "--clip",
-    "body_model=MODEL.npz": "--body-model MODEL.npz",
-    "force=True": "--force",
-    "resume=True": "--resume",
-    "common=True": "--common",
-    "match='names'": "--match names",
-    "strip_prefix": "--strip-prefix",
-    "ignore_extra=True": "--ignore-extra",
-    "ignore_extra": "--ignore-extra",
-    "resample=True": "--resample",
-}
-
-
-def flagged(exc: BaseException) -> str:
-    """``str(exc)`` with each parameter mention it records (``exc.parameters``) rewritten into its flag (:data:`FLAGS`):
-    what the command line shows for a library error."""
-    text = str(exc)
-    for mention in getattr(exc, "parameters", ()):
-        text = text.replace(mention, FLAGS[mention])
-    return text
+           "check_gltf_units", "FLAGS", "flagged", "flag_text"]
 
 #: How messages name standard output.
 STDOUT_NAME = "<stdout>"

@@ -18,6 +18,7 @@ from typing import Any
 
 import click
 
+from ._common import flag_text
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
                       body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
                       parse_params, quiet_compile_notice, stdin_inputs, stdout_output)
@@ -320,6 +321,9 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
             store.close()
     order = {n: i for i, n in enumerate(names)}
     outcomes.sort(key=lambda o: order[o.name])
+    for o in outcomes:  # a failed clip's library error names parameters: the command line shows the flags
+        if o.failed and "parameters" in o.summary:
+            o.summary["error"] = flag_text(o.summary["error"], o.summary.pop("parameters"))
     totals = BatchTotals.of(outcomes, kept, wall_seconds=time.monotonic() - start,
                             client_cpu_seconds=time.process_time() - cpu)
     failed = [o for o in outcomes if o.failed]

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_info_numbers
-from motionrep.errors import BoundNotMetError, ParameterError, PayloadError
+from motionrep.errors import BoundNotMetError, ParameterError, PayloadError, naming
 
 from ._network import Network, network_dtype
 from ._packed import declared, dequantized, unpack
@@ -96,7 +96,8 @@ class _FourierCodec(Codec):
                context: EncodeContext) -> Payload:
         params: FourierParams = context.params
         if params.k is None and context.bound is None:
-            raise ParameterError(f"{self.name}: give k=K when there is no error bound (--max-error none)")
+            raise naming(ParameterError(f"{self.name}: give k=K when there is no error bound (max_error=None)"),
+                         "max_error=None")
         from ._train import clip_scale, fit  # the training code is imported here, never when decoding
 
         scale = clip_scale(features, weights)  # one output scale for every window

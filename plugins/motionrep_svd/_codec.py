@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import (Codec, CompiledDecoder, EncodeContext, Payload, check_decode_work, check_frames,
                              check_info_numbers)
-from motionrep.errors import BoundNotMetError, ParameterError
+from motionrep.errors import BoundNotMetError, ParameterError, naming
 from motionrep.jit import affine_block, affine_one, jit
 
 __all__ = ["SVDCodec", "SVDParams", "SVDDecoder"]
@@ -70,7 +70,7 @@ class SVDCodec(Codec):
         if params.rank is not None and params.rank > max_rank:
             raise ParameterError(f"svd: rank {params.rank} exceeds min(frames, features) = {max_rank}")
         if params.rank is None and context.bound is None:
-            raise ParameterError("svd: give rank=R when there is no error bound (--max-error none)")
+            raise naming(ParameterError("svd: give rank=R when there is no error bound (max_error=None)"), "max_error=None")
         w = np.asarray(weights, dtype=np.float64)
         top = float(w.max()) if w.size else 0.0
         s = np.maximum(w, 1e-3 * top) if top > 0 else np.ones(D)

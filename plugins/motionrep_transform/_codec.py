@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
 from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
-from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError
+from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 from motionrep.jit import jit
 
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack, unpack
@@ -115,8 +115,8 @@ class _Plan:
         for c, step in zip(self.coefficients, steps):
             a = np.floor(np.abs(c) / step + rounding)
             if a.size and not float(a.max()) <= MAX_MAGNITUDE:
-                raise BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
-                                       "--max-error", None, None)
+                raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
+                                              "max_error", None, None), "max_error")
             out.append((np.sign(c) * a).astype(np.int64))
         return out, steps
 
@@ -331,8 +331,8 @@ class TransformCodec(Codec):
         params: TransformParams = context.params
         bound = context.bound
         if params.step is None and bound is None:
-            raise ParameterError("transform: give step=S (position units) when there is no error bound "
-                                 "(--max-error none)")
+            raise naming(ParameterError("transform: give step=S (position units) when there is no error bound "
+                                        "(max_error=None)"), "max_error=None")
         Y = np.asarray(features, dtype=np.float64)
         F, D = Y.shape
         feature_exp = feature_exponents(_sensitivity(context, Y, weights))
