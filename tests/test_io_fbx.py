@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ from motionrep.io import list_clips, read, read_bvh, write, write_bvh
 from motionrep.kinematics import point_names
 from motionrep.synthetic import synthetic_motion
 
+from blender import run_blender
 from helpers import SHARED_DATA, convert_fails_naming, real_params
 
 pytest.importorskip("ufbx")
@@ -68,10 +68,9 @@ def by_name_error(reference: Motion, candidate: Motion) -> tuple[float, int]:
 
 
 def blender_fbx(bvh: Path, fbx: Path, pose: Path | None = None) -> None:
-    extra = [str(pose)] if pose is not None else []
-    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python", str(SCRIPT), "--", str(bvh), str(fbx)]
-                         + extra, capture_output=True, text=True, timeout=1200)
-    assert run.returncode == 0 and fbx.is_file(), run.stdout[-2000:] + run.stderr[-2000:]
+    """make_blender_fbx.py in Blender (tests/blender.py's runner: a timeout, a failure with Blender's output)."""
+    run_blender(SCRIPT.read_text(encoding="utf-8"), bvh, fbx, *([pose] if pose is not None else []), timeout=1200)
+    assert fbx.is_file()
 
 
 def blender_pose_error(reference: Motion, pose: Path) -> float:
