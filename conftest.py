@@ -16,7 +16,7 @@ os.environ["MOTIONREP_LOAD_PLUGINS"] = ""
 @pytest.fixture(autouse=True)
 def _fresh_plugins():
     """Each test starts with the plugin registry unloaded, so environment changes take effect."""
-    from motionrep.plugins import reset_plugins
+    from motionrep.plugin.registry import reset_plugins
 
     reset_plugins()
     yield

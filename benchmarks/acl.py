@@ -3,7 +3,7 @@
 For each clip (``cmu/**.bvh``), bound (2 %, 0.588 %, 0.0588 % of the character height: ACL's 3.4, 1 and 0.1 cm on
 the CMU skeletons) and codec, one task:
 
-1. ``motionrep.compress.compress_file`` writes the ``.mrc`` (only if the bound is met, measured by the core on
+1. ``motionrep.pipeline.compress.compress_file`` writes the ``.mrc`` (only if the bound is met, measured by the core on
    the bytes written);
 2. ``motionrep decompress X.mrc -o X.bvh`` and ``motionrep evaluate SRC X.bvh --json`` (the command line, run
    in-process through click's test runner to spare a Python start-up per file) check the error of the BVH file
@@ -29,7 +29,7 @@ Usage::
 ``speed`` measures, on the eight CMU-31 clips at 2 %, in one process, best of ``--repeat``: the encode
 (``compress_motion``, the clip already read: features, the codec's search, the core's two checks); preparing a
 payload for decoding (``codec.decoder(payload)``: range decoding and the inverse wavelet); sampling the prepared
-decoder at the frame times (131072 of them), in blocks of ``motionrep.runtime.BLOCK`` into one feature-major
+decoder at the frame times (131072 of them), in blocks of ``motionrep.pipeline.runtime.BLOCK`` into one feature-major
 buffer through its compiled kernel, as ``motionrep.open`` calls it (features, frames/s); and
 ``motionrep.open(...).poses`` (local rotations and root translation, poses/s: the runtime decoder, the
 representation's decoding included). The load average is stored beside every figure.
@@ -81,7 +81,7 @@ def read_anchor(name: str) -> list[dict]:
 
 def acl_figures() -> dict[tuple[str, float], float]:
     """``{(clip, bound %): ACL bits/bone/frame}``; the salsa median under the clip ``salsa-median``."""
-    from motionrep.bench.anchors import acl_strict
+    from motionrep.present.bench.anchors import acl_strict
 
     return {(a.clip, a.bound_percent): a.payload_bits_per_bone_frame for a in acl_strict()}
 
@@ -104,10 +104,10 @@ def run_task(src: str, codec: str, bound: float, workdir: str) -> dict:
     from click.testing import CliRunner
 
     from motionrep.cli import cli
-    from motionrep.codec import Payload, frame_times
-    from motionrep.compress import compress_file
+    from motionrep.plugin.codec import Payload, frame_times
+    from motionrep.pipeline.compress import compress_file
     from motionrep.errors import BoundNotMetError
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     rel = str(Path(src).relative_to(DATA)).removesuffix(".bvh")
     name, *pairs = codec.split(":")
@@ -173,7 +173,7 @@ def run(args: argparse.Namespace) -> None:
     print(f"{len(tasks)} tasks ({len(done)} already in {runs}); load {_load():.1f}", flush=True)
     # import and load everything once, so that each forked task starts warm
     import motionrep.cli  # noqa: F401
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     for codec in args.codecs:
         get_codec(codec.split(":")[0]).warm_up()
@@ -352,11 +352,11 @@ def plot(latest, acl, cmu31, salsa, codecs, bounds) -> None:
 def speed(args: argparse.Namespace) -> None:
     import numpy as np
 
-    from motionrep.codec import Payload, frame_times
-    from motionrep.compress import compress_motion
+    from motionrep.plugin.codec import Payload, frame_times
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
-    from motionrep.plugins import get_codec
-    from motionrep.runtime import BLOCK, open_clip
+    from motionrep.plugin.registry import get_codec
+    from motionrep.pipeline.runtime import BLOCK, open_clip
 
     codec = get_codec("transform")
     codec.warm_up()
@@ -413,7 +413,7 @@ def entropy(args: argparse.Namespace) -> None:
 
     import numpy as np
 
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
     from motionrep_transform._stream import unpack
 

@@ -64,10 +64,10 @@ def clips(which: str = "all") -> list[Path]:
 
 
 def run_one(path: str, codec: str, workdir: str) -> dict:
-    from motionrep.codec import Payload, frame_times
-    from motionrep.compress import compress_file
+    from motionrep.plugin.codec import Payload, frame_times
+    from motionrep.pipeline.compress import compress_file
     from motionrep.errors import BoundNotMetError
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     rel = str(Path(path).relative_to(DATA))
     name, *pairs = codec.split(":")  # "adaptive-fourier:window=125": a codec with parameters
@@ -186,7 +186,7 @@ def table(rows: list[dict], paths: list[Path], codecs: list[str]) -> None:
 
 def _acl_figures() -> dict[str, float]:
     """ACL 2.1's strict-bound bits/bone/frame at 2 % per CMU clip (``motionrep/data/acl_strict.csv``, see ``acl.py``)."""
-    from motionrep.bench.anchors import acl_strict
+    from motionrep.present.bench.anchors import acl_strict
 
     return {a.clip + ".bvh": a.payload_bits_per_bone_frame for a in acl_strict() if a.bound_percent == 2}
 

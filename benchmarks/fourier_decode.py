@@ -69,7 +69,7 @@ def _use_kernel(clip, kernel) -> None:
 
 
 def measure(clip, kernel, times: dict, repeats: int, rng) -> dict:
-    from motionrep.representation import empty_poses
+    from motionrep.plugin.representation import empty_poses
 
     _use_kernel(clip, kernel)
     d = clip._decoder
@@ -118,9 +118,9 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
 
     import motionrep
-    from motionrep.bench import machine_info
-    from motionrep.compress import compress_motion
-    from motionrep.plugins import get_codec
+    from motionrep.present.bench import machine_info
+    from motionrep.pipeline.compress import compress_motion
+    from motionrep.plugin.registry import get_codec
     from speed import _read
 
     before_rev = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", args.before], capture_output=True,

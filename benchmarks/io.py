@@ -43,7 +43,7 @@ import numpy as np
 
 from motionrep.io import parse_bvh, read_bvh
 from motionrep.io._numbers import NUMPY_PATH_BUDGET
-from motionrep.kinematics import global_positions
+from motionrep.model.kinematics import global_positions
 
 try:  # optional comparison
     import pybvh

@@ -69,7 +69,7 @@ def _env(work: Path) -> dict[str, str]:
 def _prepare(work: Path) -> None:
     sys.path[:0] = [str(ROOT), str(ROOT / "plugins")]
     import motionrep
-    from motionrep.synthetic import synthetic_motion
+    from motionrep.model.synthetic import synthetic_motion
 
     (work / "clips").mkdir(parents=True)
     for i in range(16):

@@ -1,6 +1,6 @@
 """Reproduce the experiments of Tojo et al. (2022) on the CMU clips in ../shared/data/cmu.
 
-Stages (each runs its grid through ``motionrep.bench``, i.e. ``compress_motion`` and the shared evaluator, and
+Stages (each runs its grid through ``motionrep.present.bench``, i.e. ``compress_motion`` and the shared evaluator, and
 appends every finished run to ``benchmarks/results/paper_runs.jsonl``, so an interrupted run resumes where it
 stopped; runs made with other codec or pipeline sources than the current ones (:func:`code_hash`) are run
 again unless ``--keep-stale``; ``--fresh`` starts over). Every Fourier run pins the paper's layout,
@@ -102,7 +102,7 @@ def paper_params(row: dict, code: str) -> str:
 
 
 def clip_name(name: str) -> str:
-    """A clip's name as :func:`motionrep.sources.collect_clips` gives it (runs recorded before 2026-12-01 named
+    """A clip's name as :func:`motionrep.pipeline.sources.collect_clips` gives it (runs recorded before 2026-12-01 named
     ``InverseKinematics/02_01`` what is now ``InverseKinematics__02_01``)."""
     return name.replace("/", "__")
 
@@ -121,7 +121,7 @@ def run_key(row: dict, code: str) -> tuple:
 
 
 def task_key(task) -> tuple:
-    """:func:`run_key` of the run a :class:`~motionrep.bench.BenchTask` makes."""
+    """:func:`run_key` of the run a :class:`~motionrep.present.bench.BenchTask` makes."""
     return (task.clip.name, _trimmed_source(task.clip.source), task.codec, task.representation, task.max_error,
             " ".join(f"{k}={v}" for k, v in task.params), task.seed)
 
@@ -145,7 +145,7 @@ def leading_transition(motion) -> int:
     frames blending from one, as most of these BVH conversions start with), at most 10; 0 when there is none."""
     import numpy as np
 
-    from motionrep.kinematics import character_height, global_positions
+    from motionrep.model.kinematics import character_height, global_positions
 
     if motion.num_frames < 20:
         return 0
@@ -162,7 +162,7 @@ def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
     """The clips without their leading transition, from (or written to) the database :data:`TRIMMED`; and the
     number of frames dropped per clip name."""
     from motionrep.io import list_clips, write_database
-    from motionrep.sources import ClipRef
+    from motionrep.pipeline.sources import ClipRef
 
     dropped: dict[str, int] = {}
     names = {c.name: c.name.replace("/", "__") for c in clips}
@@ -184,7 +184,7 @@ def trimmed_clips(clips) -> tuple[list, dict[str, int]]:
 
 
 def stage_grid(stage: str, clips, bounds: list[str]):
-    from motionrep.bench import bench_tasks, parse_sweep
+    from motionrep.present.bench import bench_tasks, parse_sweep
 
     trimmed, dropped = trimmed_clips(clips)
     by_name = {c.name: c for c in clips}
@@ -235,8 +235,8 @@ def _info(clip) -> tuple[int, int, int, int]:
 
 
 def run(stages: list[str], jobs: int, bounds: list[str], fresh: bool, rerun_stale: bool = True) -> None:
-    from motionrep.bench import machine_info, run_bench
-    from motionrep.sources import collect_clips
+    from motionrep.present.bench import machine_info, run_bench
+    from motionrep.pipeline.sources import collect_clips
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     if fresh and RUNS.exists():
@@ -292,7 +292,7 @@ def rows_of(stage: str, clips) -> list:
     """The latest row of every run in the grid of ``stage``, in the grid's order. A run is shared between stages
     (``run`` does not repeat a run another stage already made with the same code), so the latest row with the
     same key is taken whichever stage wrote it."""
-    from motionrep.bench import BenchRow
+    from motionrep.present.bench import BenchRow
 
     latest: dict[tuple, dict] = {}
     codes: dict[tuple, str] = {}
@@ -311,14 +311,14 @@ def rows_of(stage: str, clips) -> list:
 
 
 def with_bone_figures(row: dict, refs: dict) -> dict:
-    """``row`` with ``payload_bytes`` and ``bits_per_bone_frame`` (figure (e) of :mod:`motionrep.evaluate`:
+    """``row`` with ``payload_bytes`` and ``bits_per_bone_frame`` (figure (e) of :mod:`motionrep.pipeline.evaluate`:
     payload bits per frame and bone, bones = joints + end sites, ACL's count) where a run recorded before
-    ``motionrep.bench`` wrote them lacks them.  Its payload is then derived from its stored numbers: every
+    ``motionrep.present.bench`` wrote them lacks them.  Its payload is then derived from its stored numbers: every
     array of those runs' layouts is float32 (svd: ``mean``, ``coefficients``, ``basis``; a Fourier network with
     ``dtype=float32``: ``omega``, ``W0`` ... ``b2``), so it is 4 bytes per parameter; the figure itself comes
-    from :func:`motionrep.evaluate.compression_figures` with the clip's skeleton. Rows of other layouts are
+    from :func:`motionrep.pipeline.evaluate.compression_figures` with the clip's skeleton. Rows of other layouts are
     left without it."""
-    from motionrep.evaluate import compression_figures
+    from motionrep.pipeline.evaluate import compression_figures
 
     if row.get("payload_bytes") is not None or row["status"] != "ok" or not _all_float32(row):
         return row
@@ -376,8 +376,8 @@ def _interp_error(curve: list[tuple[float, float]], ratio: float) -> float | Non
 
 
 def report() -> None:
-    from motionrep.bench import format_table, machine_info, plot_rate_distortion, write_csv, write_json
-    from motionrep.sources import collect_clips
+    from motionrep.present.bench import format_table, machine_info, plot_rate_distortion, write_csv, write_json
+    from motionrep.pipeline.sources import collect_clips
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     clips = collect_clips([CMU])
@@ -393,7 +393,7 @@ def report() -> None:
            f"{min(loads):.1f}-{max(loads):.1f} (median {statistics.median(loads):.1f}) on 2 cores, so encode "
            f"seconds are pessimistic and noisy; errors and ratios do not depend on load." if loads else "", "",
            f"Code (SHA-256 of codec, representation and pipeline sources): {', '.join(codes)}.", "",
-           "Every number comes from `motionrep.bench` (`compress_motion`: encode, pack to `.mrc` bytes, decode "
+           "Every number comes from `motionrep.present.bench` (`compress_motion`: encode, pack to `.mrc` bytes, decode "
            "from the bytes, shared FK-based L-inf error over all joints and end sites). Error is in % of the "
            "character height; the ratio is the paper's: frames x feature width / stored parameters (every stored "
            "number counted, frequencies and biases included). The Fourier runs pin the paper's layout, "
@@ -402,7 +402,7 @@ def report() -> None:
            "be the paper's); other parameters are the codec defaults unless stated (adaptive-fourier: max_k 24, "
            "seed 0). Sizes: `bytes` is the `.mrc` file, `payload bytes` the codec's arrays without the skeleton "
            "and metadata every file has, and bits/bone/frame is `8 x payload bytes / (frames x (joints + end "
-           "sites))` (`motionrep.evaluate.compression_figures`, ACL's bone count, as `motionrep info` and "
+           "sites))` (`motionrep.pipeline.evaluate.compression_figures`, ACL's bone count, as `motionrep info` and "
            "`motionrep bench` report it). Runs recorded before `motionrep bench` wrote the payload size (code "
            + ", ".join(sorted(RAW_DEFAULT_CODES)) + ") have it derived: every array of their layouts is float32, "
            "so their payload is 4 bytes per stored parameter (checked against `Container.payload_bytes` for "
@@ -497,7 +497,7 @@ def _rig(joints: int) -> str:
 
 
 def _fig2_section(rows) -> list[str]:
-    from motionrep.bench import format_table
+    from motionrep.present.bench import format_table
 
     md = []
     for bound in dict.fromkeys(r.max_error for r in rows):
@@ -576,7 +576,7 @@ def failed_ratio(row, width: int) -> float:
     """The paper's ratio of the network a Fourier codec gives up with (K = max_k): where a failed run would sit
     on the ratio axis, had the codec stored its last network (the paper's Fig. 2 shows such clips, with their
     error).  ``K + h (2K + 1) + h + h^2 + h + D h + D`` parameters, ``h = 2 (2K + 1)``."""
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     params = dict(p.split("=", 1) for p in row.params.split()) if row.params else {}
     K = int(params.get("max_k", get_codec(row.codec).Params().max_k))
@@ -588,7 +588,7 @@ def _fig2_plot(rows, path: Path) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from motionrep.bench import plain_log_ticks
+    from motionrep.present.bench import plain_log_ticks
 
     ad = [r for r in rows if r.codec == "adaptive-fourier"]
     bounds = list(dict.fromkeys(r.max_error for r in ad))
@@ -675,7 +675,7 @@ def _fig3_section(rows) -> list[str]:
                   f"| {_pct(k10['naive-fourier'].error_percent if k10['naive-fourier'] else None)} "
                   f"| {_pct(svd_at)} |" if a10 else f"| {clip} | {frames} | - | - | - | - | - | - |")
     md += ["", "Per-K medians over the clips:", ""]
-    from motionrep.bench import summarize
+    from motionrep.present.bench import summarize
 
     md += ["| codec | size | clips | median L-inf % | median paper ratio | median .mrc bytes "
            "| median payload bytes | median bits/bone/frame |", "|---|---|---:|---:|---:|---:|---:|---:|"]

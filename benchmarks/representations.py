@@ -88,7 +88,7 @@ def quaternion_representation():
     """Local quaternions of every joint (xyzw, made continuous over frames) after the root translation: the
     paper's "quaternions" input, which no shipped representation is."""
     from motionrep import Motion
-    from motionrep.representation import Representation
+    from motionrep.plugin.representation import Representation
 
     class Quaternions(Representation):
         name = "bench-quaternions"
@@ -124,7 +124,7 @@ def salsa_database(path: Path, trials: tuple[str, ...] | None = None) -> list[st
     returns the clip names."""
     from motionrep import Motion
     from motionrep.io import read_bvh, write_database
-    from motionrep.ops import resample
+    from motionrep.model.ops import resample
 
     files = sorted(p for p in SALSA.glob("6[01]_*.bvh") if trials is None or trial(p.stem) in trials)
     if not files:

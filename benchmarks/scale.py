@@ -2,8 +2,8 @@
 (the client) costs per clip.
 
 Measurements, on the CMU clips of ``../shared/data/cmu`` (every ``.bvh``), with a fast codec (``svd`` at 2 %,
-or ``--codec``), each through the one batch engine (:func:`motionrep.batch.compress_clips`) into an archive
-through the store that ``motionrep compress`` uses (:mod:`motionrep.store`: a journal commit per clip, the
+or ``--codec``), each through the one batch engine (:func:`motionrep.batch.engine.compress_clips`) into an archive
+through the store that ``motionrep compress`` uses (:mod:`motionrep.batch.store`: a journal commit per clip, the
 archive written at the end):
 
 1. ``local-1``: in this process (``--jobs 1``);
@@ -48,8 +48,8 @@ def _load() -> float:
 
 def _batch(refs, pipeline, out: Path, *, jobs: int = 1, executor=None) -> dict:
     """One run into an archive, as ``motionrep compress`` does it; the seconds it took."""
-    from motionrep.batch import compress_clips
-    from motionrep.store import open_store
+    from motionrep.batch.engine import compress_clips
+    from motionrep.batch.store import open_store
 
     if out.exists():
         out.unlink()
@@ -78,7 +78,7 @@ def _batch(refs, pipeline, out: Path, *, jobs: int = 1, executor=None) -> dict:
 
 def _writer_costs(sizes: list[int], count: int, tmp: Path) -> dict:
     """The client's costs per clip, on ``count`` containers of the measured sizes (cycled)."""
-    from motionrep.store import ArchiveStore
+    from motionrep.batch.store import ArchiveStore
 
     import numpy as np
 
@@ -121,9 +121,9 @@ def main() -> None:
     parser.add_argument("--skip", nargs="*", default=[], choices=RUNS + ("writer",))
     args = parser.parse_args()
 
-    from motionrep.batch import dask_executor
-    from motionrep.compress import Pipeline
-    from motionrep.sources import collect_clips
+    from motionrep.batch.engine import dask_executor
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.pipeline.sources import collect_clips
 
     cmu = DATA / "cmu"
     if not cmu.is_dir():
@@ -181,7 +181,7 @@ def main() -> None:
         if cluster is not None:
             cluster.close()
         if "writer" not in args.skip:
-            from motionrep.archive import Archive
+            from motionrep.io.archive import Archive
 
             if not (tmp / "out.h5").exists():
                 _batch(refs, pipeline, tmp / "out.h5", jobs=2)

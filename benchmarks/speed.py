@@ -114,11 +114,11 @@ def _read(name: str, trim: bool):
 # ---------------------------------------------------------------------------------------------------------------
 def encode_one(name: str, bound: str, trim: bool = True) -> dict:
     t = time.perf_counter()
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     get_codec("adaptive-fourier").warm_up()
     warm = time.perf_counter() - t
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.errors import BoundNotMetError
 
     t = time.perf_counter()
@@ -161,7 +161,7 @@ def encode_one(name: str, bound: str, trim: bool = True) -> dict:
 
 
 def _height(motion) -> float:
-    from motionrep.kinematics import character_height
+    from motionrep.model.kinematics import character_height
 
     return character_height(motion.skeleton)
 
@@ -171,22 +171,22 @@ def _height(motion) -> float:
 # ---------------------------------------------------------------------------------------------------------------
 #: (label, file suffix, function name): cumulative times read from the profile.
 _PROFILE_KEYS = [
-    ("compress_motion (everything)", "motionrep/compress.py", "compress_motion"),
+    ("compress_motion (everything)", "motionrep/pipeline/compress.py", "compress_motion"),
     ("codec encode", "_codecs.py", "encode"),
     ("L-BFGS run (training)", "_train.py", "run"),
     ("network loss and gradient (torch)", "_train.py", "loss_and_grad"),
     ("L-BFGS two-loop direction (numpy)", "_train.py", "_direction"),
     ("strong-Wolfe line search (scipy)", "_linesearch.py", "line_search_wolfe2"),
     ("line search", "_train.py", "_line_search"),
-    ("shared evaluation of candidates", "motionrep/compress.py", "evaluate_payload"),
+    ("shared evaluation of candidates", "motionrep/pipeline/compress.py", "evaluate_payload"),
     ("  codec decode (compiled float32 network)", "_codecs.py", "decode"),
     ("  representation from_features", "_rep.py", "from_features"),
-    ("  evaluator (FK + L-inf)", "motionrep/evaluate.py", "__call__"),
+    ("  evaluator (FK + L-inf)", "motionrep/pipeline/evaluate.py", "__call__"),
     ("payload building", "_train.py", "payload_of"),
     ("frequency selection (PCA + DCT)", "_train.py", "next_adaptive_frequency"),
     ("network growth (warm start)", "_train.py", "_grow"),
-    ("container pack", "motionrep/container.py", "pack"),
-    ("container unpack", "motionrep/container.py", "unpack"),
+    ("container pack", "motionrep/io/container.py", "pack"),
+    ("container unpack", "motionrep/io/container.py", "unpack"),
 ]
 
 
@@ -195,10 +195,10 @@ def profile_one(name: str, bound: str, trim: bool = True) -> dict:
     import pstats
     import tracemalloc
 
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     get_codec("adaptive-fourier").warm_up()
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.errors import BoundNotMetError
 
     motion, _ = _read(name, trim)
@@ -280,10 +280,10 @@ def decode_speed(name: str, poses: int) -> dict:
     import numpy as np
 
     import motionrep
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.errors import MotionrepError
-    from motionrep.plugins import get_codec
-    from motionrep.representation import empty_poses
+    from motionrep.plugin.registry import get_codec
+    from motionrep.plugin.representation import empty_poses
 
     get_codec("adaptive-fourier").warm_up()
     motion, _ = _read(name, True)
@@ -400,7 +400,7 @@ def _child(kind: str, *args: str) -> dict:
 
 
 def machine() -> dict:
-    from motionrep.bench import machine_info
+    from motionrep.present.bench import machine_info
 
     return machine_info()
 

@@ -1,5 +1,5 @@
 """Torch forward kinematics (``motionrep.torch.global_positions``, float32, CPU) beside motionrep's compiled numpy
-FK (``motionrep.kinematics.fk_arrays``, numba, float64 arithmetic) on the same poses.
+FK (``motionrep.model.kinematics.fk_arrays``, numba, float64 arithmetic) on the same poses.
 
 Poses: a batch of 64 windows of 64 frames (4,096 poses) of a CMU clip with the 31-joint CMU skeleton
 (``cmu/InverseKinematics/02_01.bvh``; windows start every 4 frames, wrapping round the clip).  Measured: numpy FK
@@ -43,7 +43,7 @@ def main() -> None:
 
     import motionrep
     import motionrep.torch as mt
-    from motionrep.kinematics import fk_arrays
+    from motionrep.model.kinematics import fk_arrays
 
     load_before = os.getloadavg()
     motion = motionrep.read(args.clip)
@@ -75,7 +75,7 @@ def main() -> None:
     # same poses: torch float32 against numpy (float64 arithmetic), to float32 rounding
     ref = fk_arrays(sk, flat_rot, flat_root, flat_jt)[0]
     got = mt.global_positions(sk, t_root, t_rot, t_jt).reshape(ref.shape).double().numpy()
-    agreement = float(np.abs(got - ref).max() / motionrep.kinematics.character_height(sk))
+    agreement = float(np.abs(got - ref).max() / motionrep.model.kinematics.character_height(sk))
     for fn in (numpy_fk, torch_forward, torch_backward):  # compile / warm up
         fn()
 

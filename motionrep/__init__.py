@@ -7,6 +7,9 @@ Quaternions are ``(..., 4)`` arrays in **xyzw** order everywhere; arrays are ``(
 """
 
 from ._version import __version__
+from . import _moved
+
+_moved.install()  # the flat layout's module names keep answering (motionrep/_moved.py)
 
 __all__ = [
     "open",
@@ -26,16 +29,16 @@ __all__ = [
 # The public names are imported on first use (PEP 562), so `import motionrep` -- and `motionrep --help`, which
 # only needs the version -- starts without numpy.
 _PUBLIC = {
-    "Skeleton": "._model", "Motion": "._model", "MotionrepError": ".errors", "hookimpl": ".hookspecs",
-    "FeatureClip": ".io", "read": ".io", "write": ".io", "forward_kinematics": ".kinematics",
-    "global_positions": ".kinematics", "character_height": ".kinematics",
+    "Skeleton": ".model._pose", "Motion": ".model._pose", "MotionrepError": ".errors", "hookimpl": ".plugin.hookspecs",
+    "FeatureClip": ".io", "read": ".io", "write": ".io", "forward_kinematics": ".model.kinematics",
+    "global_positions": ".model.kinematics", "character_height": ".model.kinematics",
 }
 
 
 def open(source):  # noqa: A001 - motionrep.open, like io.open: the runtime entry point
-    """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.runtime.Clip`
-    (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.runtime``)."""
-    from .runtime import open_clip
+    """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.pipeline.runtime.Clip`
+    (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.pipeline.runtime``)."""
+    from .pipeline.runtime import open_clip
 
     return open_clip(source)
 

@@ -11,7 +11,7 @@ format      suffixes               reads  writes  clips       notes
 ``hdf5``    ``.h5``, ``.hdf5``     yes    yes     many        a database of clips, or an archive of ``.mrc``
 ``gltf``    ``.gltf``, ``.glb``    yes    yes     many        ``.glb`` the binary variant (and on stdin)
 ``fbx``     ``.fbx``               yes    no      many        read through ``ufbx`` (the ``fbx`` extra)
-``mrc``     ``.mrc``               --     --      one         a compressed clip (:mod:`motionrep.container`)
+``mrc``     ``.mrc``               --     --      one         a compressed clip (:mod:`motionrep.io.container`)
 ==========  =====================  =====  ======  ==========  ===============================================
 
 This module is standard library only (it sits outside :mod:`motionrep.io`, whose package imports numpy) so that
@@ -43,7 +43,7 @@ class Format:
         motion: :mod:`motionrep.io` reads motions from it (``.mrc`` is decoded, not read, so False).
         writes: :mod:`motionrep.io` writes motions to it.
         many: a file may hold several named clips (``--clip`` picks one).
-        archive: a file may be an archive of compressed clips (:mod:`motionrep.archive`).
+        archive: a file may be an archive of compressed clips (:mod:`motionrep.io.archive`).
         stdin: the suffix a file read from standard input is given when its first bytes are this format, and
             how messages name it (``(".h5", "an HDF5 file")``); None when standard input cannot hold it.
         binary: the suffix of the binary variant, when the format has a text and a binary one (glTF's ``.glb``).
@@ -110,7 +110,7 @@ MOTION_SUFFIXES: tuple[str, ...] = _suffixes(f for f in FORMATS if f.motion)
 WRITE_SUFFIXES: tuple[str, ...] = _suffixes(f for f in FORMATS if f.writes)
 #: Files that may hold several named clips (``--clip``).
 MANY_CLIP_SUFFIXES: tuple[str, ...] = _suffixes(f for f in FORMATS if f.many)
-#: Every clip-bearing file: motions and compressed clips (:func:`motionrep.sources.open_source`).
+#: Every clip-bearing file: motions and compressed clips (:func:`motionrep.pipeline.sources.open_source`).
 SOURCE_SUFFIXES: tuple[str, ...] = _suffixes(FORMATS)
 #: Files of compressed clips: the container first, then archives of them.
 COMPRESSED_SUFFIXES: tuple[str, ...] = (CONTAINER_SUFFIX,) + _suffixes(f for f in FORMATS if f.archive)

@@ -13,7 +13,7 @@ A plugin's own tests call these, e.g.::
 Each check raises AssertionError (explicitly, so ``python -O`` does not strip it) with a message naming the
 plugin, the clip and what failed.  Codecs are measured through :class:`ConformanceContext`, the encode context
 of the core (``motionrep compress``), so a codec is judged here exactly as in production.  The clips come from
-:mod:`motionrep.synthetic`.  Runtime code never imports this module.
+:mod:`motionrep.model.synthetic`.  Runtime code never imports this module.
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ._model import Motion
-from .codec import Codec, Payload, codec_problems
+from .model._pose import Motion
+from .plugin.codec import Codec, Payload, codec_problems
 from .errors import BoundNotMetError, MotionrepError, ParameterError
-from .evaluate import MotionContext
-from .kinematics import character_height, global_positions
-from .ops import resample
-from .representation import Representation, representation_problems
-from .synthetic import SIX_ORDERS, humanoid_skeleton, odd_skeleton, spinning_motion, synthetic_motion
+from .pipeline.evaluate import MotionContext
+from .model.kinematics import character_height, global_positions
+from .model.ops import resample
+from .plugin.representation import Representation, representation_problems
+from .model.synthetic import SIX_ORDERS, humanoid_skeleton, odd_skeleton, spinning_motion, synthetic_motion
 
 __all__ = [
     "conformance_motions",
@@ -71,7 +71,7 @@ def conformance_motions() -> list[Motion]:
 
 
 def upsample_motion(motion: Motion, factor: int) -> Motion:
-    """``motion`` with ``factor - 1`` frames inserted between each pair of frames (:func:`motionrep.ops.resample`
+    """``motion`` with ``factor - 1`` frames inserted between each pair of frames (:func:`motionrep.model.ops.resample`
     at ``factor`` times the frame rate): frame ``i`` of the input is frame ``i * factor`` of the output."""
     F = motion.num_frames
     if F < 2 or factor < 2:
@@ -102,7 +102,7 @@ def _expect_validation_error(call, what: str) -> None:
 
 def check_representation(rep: Representation, motions: Iterable[Motion] | None = None, *,
                          tolerance: float = 1e-6, refine: int = 8) -> None:
-    """Check that ``rep`` honours the :class:`~motionrep.representation.Representation` contract.
+    """Check that ``rep`` honours the :class:`~motionrep.plugin.representation.Representation` contract.
 
     For every clip (default :func:`conformance_motions`):
 
@@ -205,7 +205,7 @@ def _have_torch() -> bool:
 
 def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = None, *,
                      tolerance: float = 1e-10) -> None:
-    """Check a representation's torch path (:meth:`~motionrep.representation.Representation.torch_path`)
+    """Check a representation's torch path (:meth:`~motionrep.plugin.representation.Representation.torch_path`)
     against its numpy path, in float64 (:func:`check_representation` runs it when torch is installed):
 
     * its encoding equals ``to_features`` within ``tolerance`` times ``1 + |column|``, and its decoding
@@ -220,7 +220,7 @@ def check_torch_path(rep: Representation, motions: Iterable[Motion] | None = Non
     """
     import torch
 
-    from .representation import empty_poses
+    from .plugin.representation import empty_poses
     from .torch import decode_features, encode_features, global_positions
 
     who = f"representation {getattr(rep, 'name', rep)!r}"
@@ -280,12 +280,12 @@ def _check_continuity(rep: Representation, motion: Motion, feats: NDArray, names
 
 
 class ConformanceContext(MotionContext):
-    """The :class:`~motionrep.codec.EncodeContext` the conformance suite encodes with: the core's own context
-    (:class:`motionrep.evaluate.MotionContext`: decode through the representation, FK, the shared L-infinity
-    :class:`~motionrep.evaluate.ErrorReport`), which also records every progress report.
+    """The :class:`~motionrep.plugin.codec.EncodeContext` the conformance suite encodes with: the core's own context
+    (:class:`motionrep.pipeline.evaluate.MotionContext`: decode through the representation, FK, the shared L-infinity
+    :class:`~motionrep.pipeline.evaluate.ErrorReport`), which also records every progress report.
 
     Args:
-        motion, representation, codec, params, bound, seed: as for :class:`~motionrep.evaluate.MotionContext`.
+        motion, representation, codec, params, bound, seed: as for :class:`~motionrep.pipeline.evaluate.MotionContext`.
 
     Attributes:
         progress_log: every :meth:`progress` call, as ``(stage, fields)``.
@@ -300,7 +300,7 @@ class ConformanceContext(MotionContext):
 
 def _payload_arrays(codec: Codec, payload: Payload, where: str) -> dict[str, NDArray]:
     if not isinstance(payload, Payload):
-        _fail(f"{where}: encode must return a motionrep.codec.Payload, got {type(payload).__name__}")
+        _fail(f"{where}: encode must return a motionrep.plugin.codec.Payload, got {type(payload).__name__}")
     arrays = dict(payload.arrays)
     if not arrays:
         _fail(f"{where}: the payload stores no arrays")
@@ -325,13 +325,13 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
                 representation: Representation | str = "root-quat-axis-angle", *,
                 params: Mapping[str, Any] | None = None, bound_fraction: float | None = 0.05,
                 bound_params: Mapping[str, Any] | None = None, seed: int = 0) -> list[dict[str, Any]]:
-    """Check that ``codec`` honours the :class:`~motionrep.codec.Codec` contract.
+    """Check that ``codec`` honours the :class:`~motionrep.plugin.codec.Codec` contract.
 
     * ``name``, ``format_version`` and ``Params`` are valid; every parameter has a default and a help text;
       ``parse_params({})`` works and an unknown parameter raises :class:`~motionrep.errors.ParameterError`.
     * For every clip (default: one small :func:`synthetic_motion`) of at least ``codec.min_frames`` frames,
       encoded from ``representation`` with ``params`` and no bound: ``encode`` returns a
-      :class:`~motionrep.codec.Payload` of named numeric arrays with JSON-serialisable ``info`` that the codec's own ``check_info`` accepts once read back from JSON; the
+      :class:`~motionrep.plugin.codec.Payload` of named numeric arrays with JSON-serialisable ``info`` that the codec's own ``check_info`` accepts once read back from JSON; the
       same seed gives the same arrays, byte for byte; ``decode`` gives finite ``(T, D)`` float64 at any times in
       [0, 1] (also one time, and a subset gives the same rows); the arrays survive a save to ``.npz`` and back;
       ``decode`` does not import torch.
@@ -370,7 +370,7 @@ def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
     else:
         _fail(f"{who}: an unknown parameter must raise ParameterError")
     if isinstance(representation, str):
-        from .plugins import get_representation
+        from .plugin.registry import get_representation
 
         representation = get_representation(representation)
     p = codec.parse_params(dict(params or {}))

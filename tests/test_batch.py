@@ -1,4 +1,4 @@
-"""The batch engine (``motionrep.batch``): results in item order on any executor, errors raised, the same bytes
+"""The batch engine (``motionrep.batch.engine``): results in item order on any executor, errors raised, the same bytes
 in this process as on another executor."""
 
 from __future__ import annotations
@@ -7,11 +7,11 @@ import concurrent.futures as cf
 
 import pytest
 
-from motionrep.batch import compress_clips, run_batch
-from motionrep.compress import Pipeline
+from motionrep.batch.engine import compress_clips, run_batch
+from motionrep.pipeline.compress import Pipeline
 from motionrep.io import write
-from motionrep.sources import collect_clips
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.pipeline.sources import collect_clips
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def _square(x: int) -> int:

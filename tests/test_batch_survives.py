@@ -10,9 +10,9 @@ import types
 import pytest
 
 import motionrep
-from motionrep.batch import compress_clips, run_batch
-from motionrep.sources import ClipRef
-from motionrep.synthetic import synthetic_motion
+from motionrep.batch.engine import compress_clips, run_batch
+from motionrep.pipeline.sources import ClipRef
+from motionrep.model.synthetic import synthetic_motion
 
 #: frames of a clip -> what compressing it does (module level: worker processes import this module)
 _RAISES = {11: MemoryError, 12: TypeError, 14: RecursionError, 16: KeyError}
@@ -33,7 +33,7 @@ class FlakyPipeline:
             raise kind(f"crafted failure for {motion.num_frames} frames")
         if motion.num_frames == _CRASH and self.crash:
             os._exit(3)  # a worker dying (as the out-of-memory killer would kill it)
-        from motionrep.compress import Pipeline
+        from motionrep.pipeline.compress import Pipeline
 
         return Pipeline.build("transform").compress(motion, **kwargs)
 

@@ -1,4 +1,4 @@
-"""``motionrep bench`` and ``motionrep.bench``: the grid, the table arithmetic, CSV/JSON/plot agreement, the CLI."""
+"""``motionrep bench`` and ``motionrep.present.bench``: the grid, the table arithmetic, CSV/JSON/plot agreement, the CLI."""
 
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from motionrep.bench import (COLUMNS, BenchRow, BenchTask, bench_tasks, csv_text, format_table, is_sweep,
+from motionrep.present.bench import (COLUMNS, BenchRow, BenchTask, bench_tasks, csv_text, format_table, is_sweep,
                              parse_sweep, plot_series, read_csv, run_bench, run_task, summarize, write_csv,
                              write_json)
 from motionrep.cli import cli
-from motionrep.compress import compress_motion, decompress
+from motionrep.pipeline.compress import compress_motion, decompress
 from motionrep.errors import FormatError, ParameterError, UnknownPluginError
-from motionrep.evaluate import max_joint_error
+from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.io import read, write, write_database
-from motionrep.kinematics import character_height
-from motionrep.sources import ClipRef, collect_clips
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.kinematics import character_height
+from motionrep.pipeline.sources import ClipRef, collect_clips
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 from helpers import SHARED_DATA, requires_shared
 
@@ -487,7 +487,7 @@ def test_log_axes_are_labelled_with_plain_numbers():
     pytest.importorskip("matplotlib")
     from matplotlib.figure import Figure
 
-    from motionrep.bench import plain_log_ticks
+    from motionrep.present.bench import plain_log_ticks
 
     ax = Figure().add_subplot()
     ax.set_xscale("log")
@@ -499,8 +499,8 @@ def test_log_axes_are_labelled_with_plain_numbers():
 
 
 def test_codecs_describe_their_own_outcomes():
-    from motionrep.codec import describe_info
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.codec import describe_info
+    from motionrep.plugin.registry import get_codec
 
     fourier, svd = get_codec("adaptive-fourier"), get_codec("svd")
     assert fourier.describe({"K": 5, "omega": [1.0, 2.5], "hidden": 22}) == "K=5"
@@ -537,7 +537,7 @@ def test_xz_baseline_totals_and_clip_markers(clip_dir, tmp_path):
     assert "totals: 3 runs on 3 clips: 3 ok, 0 failed (bound not met), 0 errors; encode " in r.output
     assert f"xz -9 of the sources {total:,} bytes" in r.output and "| xz -9 bytes |" in table
     # the plot: one colour per codec, one marker shape per clip
-    from motionrep.bench.plot import plot_rate_distortion
+    from motionrep.present.bench.plot import plot_rate_distortion
 
     import matplotlib.figure
 

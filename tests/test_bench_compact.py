@@ -6,10 +6,10 @@ from __future__ import annotations
 import pytest
 from click.testing import CliRunner
 
-from motionrep.bench.anchors import acl_anchors_for, acl_strict
+from motionrep.present.bench.anchors import acl_anchors_for, acl_strict
 from motionrep.cli import cli
 from motionrep.io import write
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def test_acl_anchors_match_by_source_path_never_by_a_bare_name():
@@ -48,7 +48,7 @@ def test_plot_is_drawn_on_payload_bits_with_acl_where_known(tmp_path):
                                  "--decode-poses", "0", "--plot", str(plot)])
     assert r.exit_code == 0, r.output
     assert plot.read_bytes()[:4] == b"\x89PNG" and f"wrote {plot}" in r.stdout
-    from motionrep.bench.plot import DEFAULT_X
+    from motionrep.present.bench.plot import DEFAULT_X
 
     assert DEFAULT_X == "payload_bits_per_bone_frame"
 
@@ -63,10 +63,10 @@ def test_bench_quiet_keeps_the_table_and_drops_wrote(tmp_path, flag):
 
 
 def test_bench_is_not_silent_while_a_run_takes_long(tmp_path, monkeypatch):
-    """The heartbeat with its ETA on stderr while no run has finished (every 10 s; 0.3 s here)."""
+    """The heartbeat with its ETA on stderr while no run has finished (every 10 s; 0.05 s here, so that even a fast machine sees one)."""
     path = tmp_path / "c.bvh"
     write(synthetic_motion(chain_skeleton(4), frames=120, seed=3), path)
-    monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
+    monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.05")
     r = CliRunner().invoke(cli, ["bench", str(path), "-c", "adaptive-fourier", "-p", "k=6", "-p", "iters=4000",
                                  "--max-error", "none", "--decode-poses", "0"])
     assert r.exit_code == 0, r.output

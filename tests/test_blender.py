@@ -28,7 +28,7 @@ from helpers import HAVE_SHARED, SHARED_DATA
 from motionrep import Motion, Skeleton
 from motionrep.cli import cli
 from motionrep.io import gltf_scale, read, write
-from motionrep.kinematics import character_height
+from motionrep.model.kinematics import character_height
 
 
 #: Largest error accepted through Blender, in percent of the height (the issue's target).
@@ -70,7 +70,7 @@ def _small_clip() -> Motion:
                   end_site_offsets=np.array([[0, 10, 0], [0, -45, 5]], float))
     F = 12
     t = np.arange(F) / F
-    from motionrep.rotations import euler_to_quat
+    from motionrep.model.rotations import euler_to_quat
 
     angles = np.zeros((F, 6, 3))
     angles[:, :, 0] = 0.6 * np.sin(2 * np.pi * t)[:, None] * np.linspace(0.2, 1.0, 6)

@@ -18,7 +18,7 @@ from motionrep.io import _numbers
 from motionrep.io._numbers import parse_numbers, scan_block
 from motionrep.io._plain_rows import parse_plain_rows
 from motionrep.jit import sincos, sincos_numpy
-from motionrep.poseplan import EULER, EULER_DEGREES, PosePlan, decode_euler_numpy, decode_planned
+from motionrep.model.poseplan import EULER, EULER_DEGREES, PosePlan, decode_euler_numpy, decode_planned
 
 from helpers import real_params
 from test_bvh_fuzz import mutated
@@ -281,7 +281,7 @@ def test_reading_a_small_file_does_not_import_numba(tmp_path):
     code = ("import sys, motionrep\n"
             "assert 'numba' not in sys.modules and 'numpy' not in sys.modules\n"
             "from motionrep.io import read_bvh\n"
-            "from motionrep.info import info_dict\n"
+            "from motionrep.present.info import info_dict\n"
             f"m = read_bvh({str(path)!r}); info_dict({str(path)!r})\n"
             "print(m.num_frames, sorted(k for k in sys.modules if k.split('.')[0] in ('numba', 'scipy', 'llvmlite')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()

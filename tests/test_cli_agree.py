@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from motionrep.cli import cli
 from motionrep.io import write
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def run(*args):
@@ -112,7 +112,7 @@ def test_a_clip_a_codec_cannot_code_gets_one_line_saying_what_and_which_codec_ca
 
 
 def test_min_frames_is_checked_before_any_work():
-    from motionrep.compress import Pipeline
+    from motionrep.pipeline.compress import Pipeline
     from motionrep.errors import UncodableClipError
 
     pipeline = Pipeline.build("adaptive-fourier", "root-quat-axis-angle", {}, "2%", 0)
@@ -123,8 +123,8 @@ def test_min_frames_is_checked_before_any_work():
 
 
 def test_min_frames_is_part_of_the_codec_contract():
-    from motionrep.codec import codec_problems
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.codec import codec_problems
+    from motionrep.plugin.registry import get_codec
 
     codec = get_codec("svd")
     assert codec.min_frames == 1 and not codec_problems(codec)

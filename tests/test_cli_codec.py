@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from motionrep._demo import demo_path, demo_walk
+from motionrep.io._demo import demo_path, demo_walk
 from motionrep.cli import cli
-from motionrep.archive import is_archive, read_archive
+from motionrep.io.archive import is_archive, read_archive
 from motionrep.io import read, write, write_database
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def run(*args: str):

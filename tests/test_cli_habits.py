@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from motionrep.cli import cli
 from motionrep.io import read, write
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
 
 def run(*args, input: bytes | None = None):

@@ -22,8 +22,8 @@ def _help(*command: str) -> str:
 
 
 def test_info_help_lists_every_suffix_and_format_it_reads():
-    from motionrep.info import FORMAT_NAMES
-    from motionrep.sources import SOURCE_SUFFIXES
+    from motionrep.present.info import FORMAT_NAMES
+    from motionrep.pipeline.sources import SOURCE_SUFFIXES
 
     text = _help("info")
     listed = set(re.search(r"Suffixes: ([^.]*(?:\.\w+[, ]*)+)", text).group(1).replace(",", " ").split())
@@ -68,6 +68,6 @@ def test_every_writing_command_offers_quiet(command):
 
 
 def test_compress_help_names_the_default_codec_the_code_uses():
-    from motionrep.compress import DEFAULT_CODEC
+    from motionrep.pipeline.compress import DEFAULT_CODEC
 
     assert f"[default: {DEFAULT_CODEC}]" in _help("compress")

@@ -12,15 +12,17 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from motionrep import Motion, Skeleton, plugins
+from motionrep import Motion, Skeleton
+
+from motionrep.plugin import registry as plugins
 from motionrep.cli import cli
 from motionrep.errors import ValidationError
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 from motionrep.io import list_clips, read, read_bvh, read_features, read_stored, write, write_database
 from motionrep.io._bvh import channel_values, format_bvh
-from motionrep.kinematics import character_height
-from motionrep.representation import Representation
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.kinematics import character_height
+from motionrep.plugin.representation import Representation
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 from helpers import HAVE_SHARED, SHARED_DATA, requires_shared
 

@@ -18,8 +18,8 @@ from click.testing import CliRunner
 from motionrep import read
 from motionrep.cli import cli
 from motionrep.io import atomic_path, list_clips, write
-from motionrep.ops import resample_times, resampled_count
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.ops import resample_times, resampled_count
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def run(*args):
@@ -146,7 +146,7 @@ def test_resampling_keeps_the_last_frame_of_a_clip_whose_rate_has_few_digits():
 
 
 def test_decompress_fps_keeps_the_clip_duration(tmp_path):
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
 
     m = synthetic_motion(chain_skeleton(3), frames=277, fps=1 / 0.0083333, seed=4)
     mrc = tmp_path / "c.mrc"

@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 
 from helpers import SHARED_DATA, requires_shared
-from motionrep.codec import Payload
-from motionrep.compress import compress_file, compress_motion, decompress, decompress_file
+from motionrep.plugin.codec import Payload
+from motionrep.pipeline.compress import compress_file, compress_motion, decompress, decompress_file
 from motionrep.errors import BoundNotMetError, ParameterError
-from motionrep.evaluate import max_joint_error
+from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.io import read, write
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 FAST_FOURIER = {"iters": 200}
 
@@ -62,7 +62,7 @@ def test_svd_fixed_rank_without_bound_and_validation():
 
 
 def test_svd_interpolates_linearly_between_frames():
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     codec = get_codec("svd")
     coeff = np.array([[0.0], [2.0], [4.0]], np.float32)
@@ -88,7 +88,7 @@ def test_svd_version_1_files_decode_in_float64_as_they_were_measured():
     import dataclasses
 
     import motionrep
-    from motionrep.container import pack, unpack
+    from motionrep.io.container import pack, unpack
 
     m = synthetic_motion(chain_skeleton(4), frames=40)
     r = compress_motion(m, "svd", params={"rank": 3, "dtype": "float16"}, max_error=None)
@@ -116,13 +116,13 @@ def test_svd_version_1_files_decode_in_float64_as_they_were_measured():
 
 
 def get_representation_of(container):
-    from motionrep.plugins import get_representation
+    from motionrep.plugin.registry import get_representation
 
     return get_representation(container.representation, version=container.representation_version)
 
 
 def _svd_decoded(container, version, times=None):
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     t = np.arange(container.num_frames) / (container.num_frames - 1) if times is None else times
     return get_codec("svd").decode(Payload(container.arrays, container.info, version=version), t)
@@ -212,8 +212,8 @@ def test_same_seed_gives_identical_bytes(chain_motion):
 
 
 _COMPRESS_TO_STDOUT = (
-    "import sys; from motionrep.synthetic import chain_skeleton, synthetic_motion; "
-    "from motionrep.compress import compress_motion; "
+    "import sys; from motionrep.model.synthetic import chain_skeleton, synthetic_motion; "
+    "from motionrep.pipeline.compress import compress_motion; "
     "m = synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20); "
     "sys.stdout.buffer.write(compress_motion(m, 'adaptive-fourier', max_error='4%', seed=5, "
     "params={'iters': 100}).data)")
@@ -242,7 +242,7 @@ def test_decoding_imports_no_torch(chain_motion, tmp_path):
     path = tmp_path / "m.mrc"
     path.write_bytes(compress_motion(chain_motion, "adaptive-fourier", max_error=None,
                                      params={"k": 1, "iters": 50}).data)
-    code = ("import sys; from motionrep.compress import decompress_file; m = decompress_file(sys.argv[1], "
+    code = ("import sys; from motionrep.pipeline.compress import decompress_file; m = decompress_file(sys.argv[1], "
             "fps=45.0); assert 'torch' not in sys.modules, 'torch imported'; print(m.num_frames)")
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True)
     assert int(out.stdout) == 71  # 48 frames at 30 fps span 47/30 s: 71 frames at 45 fps

@@ -1,4 +1,4 @@
-"""motionrep.coding: quantisation, the integer model, the range coder and step bisection."""
+"""motionrep.plugin.coding: quantisation, the integer model, the range coder and step bisection."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from motionrep.coding import (MAX_MAGNITUDE, IntegerDecoder, IntegerEncoder, MatrixModel, Model, decode_integers,
+from motionrep.plugin.coding import (MAX_MAGNITUDE, IntegerDecoder, IntegerEncoder, MatrixModel, Model, decode_integers,
                               dequantize, encode_integers, fit_matrix_model, fit_model, largest_passing,
                               largest_passing_each, quantize, step_scale)
 from motionrep.errors import ParameterError, PayloadError
@@ -260,7 +260,7 @@ def test_matrix_models_are_validated_and_damage_is_refused():
 
 def test_bytes_identical_in_another_process():
     code = ("import numpy as np, sys; sys.path.insert(0, 'tests'); from test_coding import golden_groups; "
-            "from test_coding import golden_matrices; from motionrep.coding import encode_integers, IntegerEncoder; "
+            "from test_coding import golden_matrices; from motionrep.plugin.coding import encode_integers, IntegerEncoder; "
             "enc = IntegerEncoder(); enc.encode_matrices(golden_matrices()); "
             "sys.stdout.write(encode_integers(golden_groups()).hex() + ' ' + enc.to_bytes().hex())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,

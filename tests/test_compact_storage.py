@@ -13,7 +13,7 @@ from motionrep.io import _hdf5 as hdf5_module
 from motionrep.io import _npz as npz_module
 from motionrep.io import format_bvh, parse_bvh, read, write, write_database
 from motionrep.io._compact import channel_arrays
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
 from helpers import SHARED_DATA, mutant_outcomes, real_bvh_files, real_params
 

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionrep.compress import compress_motion, decompress, decompress_file
-from motionrep.container import CONTAINER_VERSION, MAGIC, pack, read_container, unpack, write_container
+from motionrep.pipeline.compress import compress_motion, decompress, decompress_file
+from motionrep.io.container import CONTAINER_VERSION, MAGIC, pack, read_container, unpack, write_container
 from motionrep.errors import ContainerError, FormatError, PluginVersionError, UnknownPluginError
-from motionrep.evaluate import max_joint_error
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.pipeline.evaluate import max_joint_error
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 SPEC = Path(__file__).resolve().parent.parent / "specs" / "container.md"
 
@@ -23,7 +23,7 @@ SPEC = Path(__file__).resolve().parent.parent / "specs" / "container.md"
 @pytest.fixture(scope="module")
 def small():
     """A small real container: 12 frames of a 3-joint chain, svd rank 1, no bound."""
-    from motionrep.plugins import reset_plugins
+    from motionrep.plugin.registry import reset_plugins
 
     reset_plugins()
     motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
@@ -158,7 +158,7 @@ def test_spec_describes_the_bytes(small):
 
 def test_metadata_is_small_next_to_the_payload_of_a_long_clip():
     """A 900-frame clip's file is dominated by its payload (here a 15-joint humanoid, svd rank 8)."""
-    from motionrep.synthetic import humanoid_skeleton
+    from motionrep.model.synthetic import humanoid_skeleton
 
     motion = synthetic_motion(humanoid_skeleton(), frames=900, seed=1)
     data = compress_motion(motion, "svd", params={"rank": 8}, max_error=None).data
@@ -201,9 +201,9 @@ def _third_party(check_info=None):
     frame; with ``check_info`` given, that is its check of its outcome (otherwise it has none of its own)."""
     from dataclasses import dataclass, field
 
-    from motionrep import plugins
-    from motionrep.codec import Codec, Payload
-    from motionrep.hookspecs import hookimpl
+    from motionrep.plugin import registry as plugins
+    from motionrep.plugin.codec import Codec, Payload
+    from motionrep.plugin.hookspecs import hookimpl
 
     @dataclass(frozen=True)
     class Params:
@@ -231,7 +231,7 @@ def _third_party(check_info=None):
 def test_a_codec_without_its_own_check_reads_any_plain_outcome(small, tmp_path):
     """The words of the shipped codecs mean nothing to a third party's codec: its ``"K": "its own"`` (which
     the core once refused as not an integer) is read, described and decoded."""
-    from motionrep.compress import describe_outcome
+    from motionrep.pipeline.compress import describe_outcome
 
     codec = _third_party()
     motion = small[0]
@@ -274,7 +274,7 @@ def test_the_conformance_suite_checks_the_outcome_against_check_info():
 
 
 def test_check_info_numbers_says_what_a_key_must_be():
-    from motionrep.codec import check_info_numbers
+    from motionrep.plugin.codec import check_info_numbers
     from motionrep.errors import PayloadError
 
     check_info_numbers({}, "K", integers=True)  # absent: nothing to check

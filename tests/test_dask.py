@@ -13,10 +13,10 @@ from click.testing import CliRunner
 
 distributed = pytest.importorskip("distributed")
 
-from motionrep.archive import Archive  # noqa: E402
+from motionrep.io.archive import Archive  # noqa: E402
 from motionrep.cli import cli  # noqa: E402
 from motionrep.io import write, write_database  # noqa: E402
-from motionrep.synthetic import chain_skeleton, synthetic_motion  # noqa: E402
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion  # noqa: E402
 
 
 def run(*args: str, env: dict | None = None):
@@ -101,7 +101,7 @@ def test_standard_input_is_sent_to_the_cluster(cluster, tmp_path):
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
-    monkeypatch.setattr("motionrep.executors.CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr("motionrep.batch.executors.CONNECT_TIMEOUT", "1s")
     src, _ = _inputs(tmp_path)
     r = run("compress", src, "-o", tmp_path / "out.h5", "--codec", "svd", "--scheduler", "tcp://127.0.0.1:9")
     assert r.exit_code == 1 and "cannot reach the Dask scheduler tcp://127.0.0.1:9" in r.output
@@ -110,9 +110,9 @@ def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
 
 @pytest.mark.slow  # kills a worker process and waits for its nanny to start another
 def test_a_worker_killed_mid_run_loses_nothing(cluster, tmp_path):
-    from motionrep.batch import compress_clips, dask_executor
-    from motionrep.compress import Pipeline
-    from motionrep.sources import collect_clips
+    from motionrep.batch.engine import compress_clips, dask_executor
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.pipeline.sources import collect_clips
 
     src = tmp_path / "clips"
     src.mkdir()
@@ -143,7 +143,7 @@ def test_resume_after_a_killed_client_finishes_only_the_rest(cluster, tmp_path):
     import sys
     import time
 
-    from motionrep.store import journal_path
+    from motionrep.batch.store import journal_path
 
     src = tmp_path / "clips"
     src.mkdir()

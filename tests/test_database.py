@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from motionrep.archive import read_archive
+from motionrep.io.archive import read_archive
 from motionrep.cli import cli
 from motionrep.io import read, write, write_database
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def run(*args: str):
@@ -125,10 +125,10 @@ def test_resume_keeps_unchanged_clips_and_redoes_the_others(tmp_path, suffix):
 
 def test_a_killed_run_leaves_a_journal_that_resume_finishes(tmp_path):
     """A run killed after two clips (simulated: the store is never closed) keeps them in the journal."""
-    from motionrep.batch import compress_clips
-    from motionrep.compress import Pipeline
-    from motionrep.sources import collect_clips
-    from motionrep.store import journal_path, open_store
+    from motionrep.batch.engine import compress_clips
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.pipeline.sources import collect_clips
+    from motionrep.batch.store import journal_path, open_store
 
     src = _clips(tmp_path / "clips", count=5)
     out = tmp_path / "out.h5"
@@ -157,7 +157,7 @@ def test_a_killed_run_leaves_a_journal_that_resume_finishes(tmp_path):
     # the same bytes as one uninterrupted run
     whole = tmp_path / "whole.h5"
     assert run("compress", src, "-o", whole, "--codec", "svd").exit_code == 0
-    from motionrep.archive import Archive
+    from motionrep.io.archive import Archive
 
     with Archive(out) as a, Archive(whole) as b:
         assert all(a.read_bytes(n) == b.read_bytes(n) for n in b.names)
@@ -184,7 +184,7 @@ def test_totals_name_every_failure_and_the_others_are_kept(tmp_path):
     compressed = sum(c["bytes"] for c in clips.values())
     bone_frames = sum(c["frames"] * (c["joints"] + c["end_sites"]) for c in clips.values())
     assert t["compressed_mb"] == pytest.approx(compressed / 1e6)
-    # one definition each (motionrep.figures): the file's bits divide the containers, the payload's the arrays
+    # one definition each (motionrep.pipeline.figures): the file's bits divide the containers, the payload's the arrays
     assert t["file_bits_per_bone_frame"] == pytest.approx(8 * compressed / bone_frames)
     payload = sum(c["figures"]["payload_bytes"] for c in clips.values())
     assert t["payload_bits_per_bone_frame"] == pytest.approx(8 * payload / bone_frames)
@@ -224,7 +224,7 @@ def test_progress_without_a_terminal_names_failures_and_gives_an_eta():
 # --timeout
 # ---------------------------------------------------------------------------------------------------------------
 def test_time_limit_stops_python_work_in_any_thread():
-    from motionrep.batch import time_limit
+    from motionrep.batch.engine import time_limit
     from motionrep.errors import TimeLimitError
 
     def spin():
@@ -256,7 +256,7 @@ def test_time_limit_stops_python_work_in_any_thread():
 def test_time_limit_is_raised_again_when_python_drops_it():
     """Python prints and drops an exception raised in a garbage collector's callback (a weakref's): the limit
     must still stop the block (a slow clip once ran to the end and the batch exited 0)."""
-    from motionrep.batch import time_limit
+    from motionrep.batch.engine import time_limit
     from motionrep.errors import TimeLimitError
 
     dropped = []
@@ -276,9 +276,9 @@ def test_time_limit_is_raised_again_when_python_drops_it():
 
 _DROPPED_TIME_LIMIT = """
 import weakref
-from motionrep.batch import time_limit
+from motionrep.batch.engine import time_limit
 from motionrep.errors import TimeLimitError
-from motionrep.executors import _TimeUp
+from motionrep.batch.executors import _TimeUp
 
 class Thing:
     pass
@@ -372,7 +372,7 @@ def test_merge_joins_shards_and_refuses_clashes(tmp_path):
     assert r.exit_code == 0, r.output
     merged, parts = read_archive(both), {**read_archive(a), **read_archive(b)}
     assert sorted(merged) == ["c0", "c1", "c2", "c3"]
-    from motionrep.archive import Archive
+    from motionrep.io.archive import Archive
 
     with Archive(both) as m, Archive(a) as pa, Archive(b) as pb:
         for name in m.names:
@@ -425,7 +425,7 @@ def _long_clips(directory: Path, count: int, frames: int = 1500) -> Path:
 
 
 def _interrupt(tmp_path: Path, sig: int, jobs: int, group: bool, count: int = 16, frames: int = 1500) -> None:
-    from motionrep.store import journal_path
+    from motionrep.batch.store import journal_path
 
     src = _long_clips(tmp_path / "clips", count, frames)
     out = tmp_path / "out.h5"
@@ -464,7 +464,7 @@ def test_ctrl_c_with_two_jobs_one_line_no_traceback(tmp_path):
 
 @pytest.mark.slow  # two spawned worker processes, and a killed client
 def test_resume_after_the_client_is_killed(tmp_path):
-    from motionrep.store import journal_path
+    from motionrep.batch.store import journal_path
 
     src = _long_clips(tmp_path / "clips", 10)
     out = tmp_path / "out.h5"

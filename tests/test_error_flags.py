@@ -8,14 +8,14 @@ import pickle
 import pytest
 from click.testing import CliRunner
 
-from motionrep.bound import parse_max_error
+from motionrep.model.bound import parse_max_error
 from motionrep.cli import cli
 from motionrep.cli._flags import FLAGS, flagged
 from motionrep.errors import FormatError, MotionrepError, ParameterError, TimeLimitError, ValidationError, naming
 from motionrep.io import read, write, write_database
-from motionrep.ops import resample
-from motionrep.pairing import MatchOptions
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.ops import resample
+from motionrep.pipeline.pairing import MatchOptions
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def run(*args):

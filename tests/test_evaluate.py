@@ -9,10 +9,10 @@ import pytest
 
 from motionrep import Motion
 from motionrep.errors import ValidationError
-from motionrep.evaluate import Evaluator, compression_figures, max_joint_error
-from motionrep.kinematics import character_height
-from motionrep.rotations import euler_to_quat
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.evaluate import Evaluator, compression_figures, max_joint_error
+from motionrep.model.kinematics import character_height
+from motionrep.model.rotations import euler_to_quat
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def _still(skeleton, frames=10, fps=30.0):
@@ -103,7 +103,7 @@ def test_positions_error_of_some_frames_reports_clip_frames():
     ref = synthetic_motion(sk, frames=30, fps=30, seed=1)
     cand = synthetic_motion(sk, frames=30, fps=30, seed=2)
     ev = Evaluator(ref)
-    from motionrep.kinematics import global_positions
+    from motionrep.model.kinematics import global_positions
 
     pos = global_positions(cand)
     whole = ev.positions_error(pos)
@@ -117,8 +117,8 @@ def test_positions_error_of_some_frames_reports_clip_frames():
 
 
 def test_context_frame_errors_match_the_report():
-    from motionrep.evaluate import MotionContext
-    from motionrep.plugins import get_codec, get_representation
+    from motionrep.pipeline.evaluate import MotionContext
+    from motionrep.plugin.registry import get_codec, get_representation
 
     m = synthetic_motion(humanoid_skeleton(), frames=40, seed=2)
     rep = get_representation("root-quat-axis-angle")
@@ -138,8 +138,8 @@ def test_context_frame_errors_match_the_report():
 def test_context_feature_sensitivity():
     """Position units per feature unit: 1 for the root translation, the lever arm for a rotation, 0 for a
     feature that moves nothing."""
-    from motionrep.evaluate import MotionContext
-    from motionrep.plugins import get_codec, get_representation
+    from motionrep.pipeline.evaluate import MotionContext
+    from motionrep.plugin.registry import get_codec, get_representation
 
     sk = chain_skeleton(3, orders=("ZXY", "ZXY", "ZXY"), bone=10.0)  # j0 -> j1 -> j2 -> end site, along +Y
     m = synthetic_motion(sk, frames=100, seed=1, amplitude_deg=0.0)  # rest pose: the chain straight up

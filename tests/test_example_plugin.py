@@ -26,11 +26,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from motionrep import plugins
+from motionrep.plugin import registry as plugins
 from motionrep.cli import cli
-from motionrep.codec import frame_times
+from motionrep.plugin.codec import frame_times
 from motionrep.errors import DuplicateNameError, ParameterError, PluginError
-from motionrep.synthetic import synthetic_motion
+from motionrep.model.synthetic import synthetic_motion
 from motionrep.testing import ConformanceContext, check_codec, check_representation
 
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
@@ -145,7 +145,7 @@ def duplicate_site(tmp_path):
     source = tmp_path / "src"
     (source / "motionrep_dupe").mkdir(parents=True)
     (source / "motionrep_dupe" / "__init__.py").write_text(
-        "from motionrep.hookspecs import hookimpl\n"
+        "from motionrep.plugin.hookspecs import hookimpl\n"
         "from motionrep_ortho6d import Ortho6D\n\n\n"
         "class Same(Ortho6D):\n    name = 'local-quaternion'\n\n\n"
         "@hookimpl\ndef register_representations(register):\n    register(Same())\n")
@@ -217,7 +217,7 @@ def test_keyframe_codec_stores_keyframes_and_interpolates(on_path):
 def test_example_is_usable_from_every_command(on_path, tmp_path, monkeypatch):
     """compress with the example codec and representation, decompress, and a clear error once it is gone."""
     from motionrep.io import read, write
-    from motionrep.kinematics import character_height, global_positions
+    from motionrep.model.kinematics import character_height, global_positions
 
     motion = synthetic_motion(frames=40)
     src, mrc, back = tmp_path / "walk.bvh", tmp_path / "walk.mrc", tmp_path / "back.bvh"

@@ -1,13 +1,13 @@
-"""The size vocabulary (motionrep.figures): one definition per figure, the same in every report."""
+"""The size vocabulary (motionrep.pipeline.figures): one definition per figure, the same in every report."""
 
 from __future__ import annotations
 
 import pytest
 
-from motionrep import figures as fg
+from motionrep.pipeline import figures as fg
 from motionrep.errors import ValidationError
-from motionrep.evaluate import compression_figures
-from motionrep.totals import BatchTotals
+from motionrep.pipeline.evaluate import compression_figures
+from motionrep.batch.totals import BatchTotals
 
 
 def test_each_figure_has_one_definition():

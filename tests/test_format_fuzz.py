@@ -14,8 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from motionrep import Motion, limits
-from motionrep.compress import decompress, describe_outcome
-from motionrep.container import unpack
+from motionrep.pipeline.compress import decompress, describe_outcome
+from motionrep.io.container import unpack
 from motionrep.errors import ContainerError, FormatError, MotionrepError
 from motionrep.io import format_bvh, parse_bvh, read, write
 

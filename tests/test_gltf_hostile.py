@@ -18,7 +18,7 @@ import pytest
 from motionrep import limits
 from motionrep.errors import GLTFFormatError
 from motionrep.io import gltf_bytes, list_clips, read
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
 from fuzz.mutate import join_glb as glb_bytes
 from fuzz.mutate import split_glb

@@ -16,7 +16,7 @@ from motionrep import Motion, Skeleton
 from motionrep.cli import cli
 from motionrep.errors import ValidationError
 from motionrep.io import gltf_scale, read, read_bvh, write
-from motionrep.kinematics import character_height
+from motionrep.model.kinematics import character_height
 
 
 def _clip(height: float, units: str | None = None) -> Motion:

@@ -20,7 +20,7 @@ from motionrep.errors import BVHFormatError, FormatError, HDF5FormatError, NPZFo
 from motionrep.io import format_bvh, parse_bvh, read, write
 from motionrep.io._bvh import channel_values
 from motionrep.io._h5read import shutdown_worker
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 from fuzz.crafted import build, check_leak, small_motion, write_v1_hdf5
 
@@ -258,7 +258,7 @@ def test_shortest_values_read_back_bit_for_bit():
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_a_fifo_never_blocks_a_reader(tmp_path):
-    from motionrep.container import read_container
+    from motionrep.io.container import read_container
     from motionrep.errors import ContainerError
 
     for suffix, error in ((".bvh", BVHFormatError), (".npz", NPZFormatError), (".h5", HDF5FormatError)):
@@ -274,7 +274,7 @@ def test_a_fifo_never_blocks_a_reader(tmp_path):
 
 
 def test_archives_carry_checksums_and_old_archives_still_read(tmp_path):
-    from motionrep.archive import ARCHIVE_VERSION, read_archive, write_archive
+    from motionrep.io.archive import ARCHIVE_VERSION, read_archive, write_archive
     from fuzz.crafted import mrc_parts, pack_meta
 
     meta, payload = mrc_parts()
@@ -338,7 +338,7 @@ def test_npz_names_beyond_unicode_are_refused(tmp_path):
 
     from motionrep.errors import FormatError
     from motionrep.io import read, write
-    from motionrep.synthetic import chain_skeleton, synthetic_motion
+    from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
     write(synthetic_motion(chain_skeleton(3), frames=5, seed=1), tmp_path / "good.npz")
     with np.load(tmp_path / "good.npz") as z:

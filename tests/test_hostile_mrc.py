@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from motionrep import limits
-from motionrep.compress import Pipeline, decompress
-from motionrep.container import pack, unpack
+from motionrep.pipeline.compress import Pipeline, decompress
+from motionrep.io.container import pack, unpack
 from motionrep.errors import ContainerError
-from motionrep.synthetic import synthetic_motion
+from motionrep.model.synthetic import synthetic_motion
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +75,7 @@ def test_stored_evaluation_disagrees_with_metadata(transform):
 
 
 def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform):
-    from motionrep.coding import IntegerEncoder
+    from motionrep.plugin.coding import IntegerEncoder
 
     enc = IntegerEncoder()
     enc.encode_raw([999_999], 32)

@@ -12,14 +12,14 @@ from click.testing import CliRunner
 from scipy.spatial.transform import Rotation
 
 from motionrep import Motion, Skeleton
-from motionrep._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS
+from motionrep.model._pose import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS
 from motionrep.errors import ValidationError
 from motionrep.io import format_bvh, parse_bvh, read_bvh, write_bvh
 from motionrep.io._bvh import _format_fixed, channel_values
 from motionrep.io._numbers import parse_numbers
-from motionrep.kinematics import character_height, global_positions
-from motionrep.rotations import euler_to_quat
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.kinematics import character_height, global_positions
+from motionrep.model.rotations import euler_to_quat
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
 from helpers import real_params
 

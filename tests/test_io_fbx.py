@@ -16,8 +16,8 @@ from scipy.spatial.transform import Rotation
 from motionrep import Motion, Skeleton, character_height, global_positions
 from motionrep.errors import FBXFormatError
 from motionrep.io import list_clips, read, read_bvh, write, write_bvh
-from motionrep.kinematics import point_names
-from motionrep.synthetic import synthetic_motion
+from motionrep.model.kinematics import point_names
+from motionrep.model.synthetic import synthetic_motion
 
 from blender import run_blender
 from helpers import SHARED_DATA, convert_fails_naming, real_params

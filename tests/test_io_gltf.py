@@ -17,7 +17,7 @@ from motionrep import Motion, Skeleton, character_height, global_positions
 from motionrep.errors import GLTFFormatError
 from motionrep.io import gltf_bytes, list_clips, read, read_clips, read_stored, write
 from motionrep.io._bvh import channel_values
-from motionrep.synthetic import humanoid_skeleton, odd_skeleton, synthetic_motion
+from motionrep.model.synthetic import humanoid_skeleton, odd_skeleton, synthetic_motion
 
 from helpers import real_params
 

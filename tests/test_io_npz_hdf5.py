@@ -12,8 +12,8 @@ import pytest
 import motionrep.io._hdf5 as hdf5_module
 import motionrep.io._npz as npz_module
 from motionrep import Motion, Skeleton
-from motionrep.hookspecs import hookimpl
-from motionrep import plugins
+from motionrep.plugin.hookspecs import hookimpl
+from motionrep.plugin import registry as plugins
 from motionrep.errors import (
     FormatError,
     HDF5FormatError,
@@ -36,8 +36,8 @@ from motionrep.io import (
 )
 from motionrep.io._bvh import channel_values, format_bvh
 from motionrep.io._hdf5 import clip_summaries
-from motionrep.representation import Representation
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.plugin.representation import Representation
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 from helpers import real_params
 

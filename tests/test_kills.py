@@ -14,7 +14,7 @@ import pytest
 
 import motionrep
 from motionrep.io._atomic import remove_stale_files, remove_stale_folders
-from motionrep.synthetic import synthetic_motion
+from motionrep.model.synthetic import synthetic_motion
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG and /proc are Linux's")
 

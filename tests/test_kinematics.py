@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from motionrep import Motion, Skeleton
 from motionrep.io import read_bvh
-from motionrep.kinematics import (
+from motionrep.model.kinematics import (
     character_height,
     forward_kinematics,
     global_positions,
@@ -19,15 +19,15 @@ from motionrep.kinematics import (
     quat_to_matrix_fast,
     rest_positions,
 )
-from motionrep.rotations import euler_to_quat, matrix_to_quat
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, random_unit_quaternions, synthetic_motion
+from motionrep.model.rotations import euler_to_quat, matrix_to_quat
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, random_unit_quaternions, synthetic_motion
 
 from helpers import SHARED_DATA, real_params, requires_shared
 
 
 def reference_fk(motion: Motion):
     """World positions (F, J + E, 3) and world rotations (list of scipy Rotations, joints then end sites),
-    computed joint by joint with scipy, independently of motionrep.kinematics."""
+    computed joint by joint with scipy, independently of motionrep.model.kinematics."""
     sk = motion.skeleton
     F, J = motion.num_frames, sk.num_joints
     local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()

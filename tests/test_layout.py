@@ -116,8 +116,8 @@ def _imports(module: Path, inside_functions: bool = False) -> set[str]:
 def test_no_import_circle():
     """No circle of imports inside ``motionrep``, counting the imports inside functions too (a circle hidden in a
     function still ties the two modules together).  There is no list of allowed circles: a new one is broken
-    by moving what both sides need below them (as ``motionrep.decode``, ``motionrep.ops.detect_up_axis``,
-    ``motionrep.pairing.skeleton_difference`` and ``motionrep._version`` were)."""
+    by moving what both sides need below them (as ``motionrep.pipeline.decode``, ``motionrep.model.ops.detect_up_axis``,
+    ``motionrep.pipeline.pairing.skeleton_difference`` and ``motionrep._version`` were)."""
     graph = {}
     for module in _modules():
         rel = module.relative_to(REPO).with_suffix("")
@@ -217,7 +217,8 @@ def test_one_home_for_the_suffixes():
 
 
 def test_cli_defaults_agree_with_the_library():
-    from motionrep import compress, hookspecs
+    from motionrep.pipeline import compress
+    from motionrep.plugin import hookspecs
     from motionrep.cli import compress as cli_compress
     from motionrep.cli import plugins as cli_plugins
 
@@ -227,8 +228,8 @@ def test_cli_defaults_agree_with_the_library():
 
 
 def test_runtime_never_imports_test_support():
-    code = ("import sys, motionrep, motionrep.cli, motionrep.compress, motionrep.batch, motionrep.bench, "
-            "motionrep.render, motionrep._demo; print('motionrep.testing' in sys.modules)")
+    code = ("import sys, motionrep, motionrep.cli, motionrep.pipeline.compress, motionrep.batch.engine, motionrep.present.bench, "
+            "motionrep.present.render, motionrep.io._demo; print('motionrep.testing' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
 
@@ -244,3 +245,56 @@ def test_library_code_validates_without_assert():
             if isinstance(node, ast.Assert):
                 found.append(f"{path.relative_to(REPO)}:{node.lineno}")
     assert not found, "assert in library code: " + ", ".join(found)
+
+
+#: The wings of ``motionrep`` from the bottom up (CONTRIBUTING.md, "Layout"): a module imports only from its own
+#: wing and the wings below it.  The base is the top-level modules that hold facts and machinery every wing uses
+#: (errors, formats, defaults, limits, the compiler, signals, threads, the version); ``motionrep.testing`` (the
+#: conformance suite) and ``torch`` stand above the pipeline, ``cli`` above all.
+WINGS = [
+    ("base", ("motionrep.errors", "motionrep.formats", "motionrep.defaults", "motionrep.limits", "motionrep.jit",
+              "motionrep._signals", "motionrep._threads", "motionrep._version", "motionrep._ccore",
+              "motionrep._cpose", "motionrep._moved")),
+    ("model", ("motionrep.model",)),
+    ("plugin", ("motionrep.plugin",)),
+    ("io", ("motionrep.io",)),
+    ("pipeline", ("motionrep.pipeline",)),
+    ("batch", ("motionrep.batch",)),
+    ("present", ("motionrep.present", "motionrep.torch", "motionrep.testing")),
+    ("cli", ("motionrep.cli", "motionrep.__main__", "motionrep")),
+]
+
+
+def _wing(module: str) -> int:
+    best, rank = -1, -1
+    for i, (_, prefixes) in enumerate(WINGS):
+        for prefix in prefixes:
+            if (module == prefix or module.startswith(prefix + ".")) and len(prefix) > best:
+                best, rank = len(prefix), i
+    return rank
+
+
+def test_every_module_belongs_to_a_wing():
+    unplaced = []
+    for module in _modules():
+        rel = module.relative_to(REPO).with_suffix("")
+        name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        if name != "motionrep" and _wing(name) in (-1, len(WINGS) - 1) and not name.startswith("motionrep.cli") \
+                and name != "motionrep.__main__":
+            unplaced.append(name)
+    assert not unplaced, f"modules in no wing (add them to a wing folder or to WINGS' base): {unplaced}"
+
+
+def test_data_flows_down_the_wings():
+    """No import (inside functions too) from a lower wing into a higher one: the model never reaches for a file
+    format, a file format never for the pipeline, the pipeline never for the batch engine or the presentation."""
+    upward = []
+    for module in _modules():
+        rel = module.relative_to(REPO).with_suffix("")
+        name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        if name == "motionrep":
+            continue  # the front door names things from every wing, imported on first use
+        for target in sorted(_imports(module, inside_functions=True)):
+            if _wing(target) > _wing(name):
+                upward.append(f"{name} ({WINGS[_wing(name)][0]}) -> {target} ({WINGS[_wing(target)][0]})")
+    assert not upward, "imports up the wings: " + "; ".join(upward)

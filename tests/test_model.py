@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from motionrep import Motion, Skeleton
-from motionrep._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS
+from motionrep.model._pose import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS
 from motionrep.errors import MotionrepError, ValidationError
-from motionrep.rotations import euler_to_quat
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.rotations import euler_to_quat
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def three_joints(**changes) -> Skeleton:

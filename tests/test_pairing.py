@@ -1,4 +1,4 @@
-"""Comparison across exports (motionrep.pairing, evaluate/view/render --match, --resample, --common): small
+"""Comparison across exports (motionrep.pipeline.pairing, evaluate/view/render --match, --resample, --common): small
 skeletons written by the tests; the Blender round trips are tests/test_blender.py."""
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ from helpers import HAVE_SHARED, SHARED_DATA
 from motionrep import Motion, Skeleton
 from motionrep.cli import cli as main
 from motionrep.errors import ValidationError
-from motionrep.evaluate import compare, max_joint_error
+from motionrep.pipeline.evaluate import compare, max_joint_error
 from motionrep.io import read, write
-from motionrep.kinematics import global_positions
-from motionrep.ops import resample
-from motionrep.pairing import RESAMPLE_METHOD, MatchOptions, compared_bones, pair_points
-from motionrep.rotations import euler_to_quat
+from motionrep.model.kinematics import global_positions
+from motionrep.model.ops import resample
+from motionrep.pipeline.pairing import RESAMPLE_METHOD, MatchOptions, compared_bones, pair_points
+from motionrep.model.rotations import euler_to_quat
 
 NAMES = ("Hips", "Spine", "Head", "LeftLeg", "LeftFoot", "RightLeg", "RightFoot")
 PARENTS = [-1, 0, 1, 0, 3, 0, 5]

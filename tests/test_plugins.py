@@ -15,12 +15,12 @@ import pytest
 from click.testing import CliRunner
 
 import motionrep
-from motionrep import plugins
+from motionrep.plugin import registry as plugins
 from motionrep.cli import cli
-from motionrep.codec import Codec, Payload
+from motionrep.plugin.codec import Codec, Payload
 from motionrep.errors import DuplicateNameError, PluginError, UnknownPluginError
-from motionrep.representation import Representation
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.representation import Representation
+from motionrep.plugin.hookspecs import hookimpl
 
 from motionrep_ortho6d import Ortho6D
 
@@ -176,7 +176,7 @@ def test_plugins_load_lazily_and_once(installed):
 
 
 def test_importing_motionrep_loads_no_plugin():
-    code = ("import sys, motionrep, motionrep.cli, motionrep.plugins as p; "
+    code = ("import sys, motionrep, motionrep.cli, motionrep.plugin.registry as p; "
             "print(p._State.loaded, sorted(m for m in sys.modules if m.startswith('motionrep_')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={**os.environ, "MOTIONREP_LOAD_PLUGINS": ""}).stdout
@@ -234,7 +234,7 @@ class _NoLayout(Ortho6D):
 
 
 @pytest.mark.parametrize("obj, message", [
-    (object(), "which is invalid: is not a motionrep.representation.Representation"),
+    (object(), "which is invalid: is not a motionrep.plugin.representation.Representation"),
     (type("NoVersion", (Ortho6D,), {"name": "v0", "version": 0})(), "version must be an integer >= 1, got 0"),
     (type("NoName", (Ortho6D,), {"name": ""})(), "name must be a non-empty string"),
     (_NoLayout(), "must define layout\\(skeleton\\), or width\\(skeleton\\) and feature_names"),
@@ -372,7 +372,7 @@ def test_every_shipped_codec_has_conformance_settings():
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if "fourier" in n else [])
                                   for n in sorted(_CODEC_SETTINGS)])
 def test_shipped_codecs_conform(name):
-    from motionrep.synthetic import synthetic_motion
+    from motionrep.model.synthetic import synthetic_motion
     from motionrep.testing import check_codec
 
     params, bound_params, bound = _CODEC_SETTINGS.get(name, ({}, None, 0.05))
@@ -401,7 +401,7 @@ def test_plugins_describe_lists_a_codecs_parameters():
 
 @pytest.mark.slow
 def test_windowed_fourier_codec_conforms():
-    from motionrep.synthetic import synthetic_motion
+    from motionrep.model.synthetic import synthetic_motion
     from motionrep.testing import check_codec
 
     results = check_codec(plugins.get_codec("adaptive-fourier"), [synthetic_motion(frames=32, seed=7)],

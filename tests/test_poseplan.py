@@ -1,4 +1,4 @@
-"""motionrep.poseplan: one compiled pass from feature columns to poses, checked against scipy's conversions."""
+"""motionrep.model.poseplan: one compiled pass from feature columns to poses, checked against scipy's conversions."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from motionrep.errors import ValidationError
-from motionrep.poseplan import (AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, QUAT, WORLD_IDENTITY, WORLD_QUAT,
+from motionrep.model.poseplan import (AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, QUAT, WORLD_IDENTITY, WORLD_QUAT,
                                 PosePlan, decode_planned)
 
 

@@ -9,7 +9,7 @@ import time
 import pytest
 
 from motionrep.cli._common import BatchProgress, CodecProgress
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 
 def test_the_heartbeat_prints_while_no_item_finishes():
@@ -37,7 +37,7 @@ def test_no_heartbeat_when_quiet():
 
 
 def test_codec_progress_gives_an_upper_bound_eta_from_done():
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     clock = CodecProgress(get_codec("adaptive-fourier"))
     first = clock.text("train", {"K": 0, "done": 0.1})
@@ -52,7 +52,7 @@ def test_codec_progress_gives_an_upper_bound_eta_from_done():
 def test_fourier_training_reports_its_progress_through_the_hook():
     """The plugin reports through ``context.progress`` (never prints): ``done`` grows from 0 to at most 1
     within each fit."""
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
 
     seen = []
     motion = synthetic_motion(chain_skeleton(4), frames=40, fps=30, seed=3)
@@ -94,7 +94,7 @@ def test_worker_processes_relay_the_codec_progress_to_the_heartbeat(tmp_path, mo
 def test_worker_progress_pickles_and_is_silent_without_a_relay():
     import pickle
 
-    from motionrep.executors import WorkerProgress
+    from motionrep.batch.executors import WorkerProgress
 
     relay = pickle.loads(pickle.dumps(WorkerProgress()))
     relay("c0", "train", {"K": 1})  # no queue in this process: nothing happens, nothing raises

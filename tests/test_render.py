@@ -1,4 +1,4 @@
-"""``motionrep render`` and :mod:`motionrep.render`: stick-figure GIFs and PNG filmstrips.
+"""``motionrep render`` and :mod:`motionrep.present.render`: stick-figure GIFs and PNG filmstrips.
 
 Everything is drawn on matplotlib's Agg canvas (no window, no pyplot).  Pictures are kept small and short so
 the whole file runs in a few seconds.
@@ -16,16 +16,16 @@ from click.testing import CliRunner
 pytest.importorskip("matplotlib")
 Image = pytest.importorskip("PIL.Image")
 
-from motionrep import render as rmod  # noqa: E402
-from motionrep.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
-from motionrep.render import strip as render_strip  # noqa: E402
+from motionrep.present import render as rmod  # noqa: E402
+from motionrep.present.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
+from motionrep.present.render import strip as render_strip  # noqa: E402
 from motionrep.cli import cli  # noqa: E402
 from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
-from motionrep.evaluate import max_joint_error  # noqa: E402
+from motionrep.pipeline.evaluate import max_joint_error  # noqa: E402
 from motionrep.io import read, write  # noqa: E402
-from motionrep.kinematics import global_positions  # noqa: E402
-from motionrep.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
+from motionrep.model.kinematics import global_positions  # noqa: E402
+from motionrep.model.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
 
 from helpers import SHARED_DATA, requires_shared  # noqa: E402
 
@@ -174,7 +174,7 @@ def test_candidate_at_another_rate_is_resampled_by_time(tmp_path, pair):
 
 
 def test_mrc_input(tmp_path, files):
-    from motionrep.compress import compress_file
+    from motionrep.pipeline.compress import compress_file
 
     ref_path, _ = files
     mrc = tmp_path / "ref.mrc"
@@ -438,8 +438,8 @@ def test_each_frame_circles_its_own_worst_joint(pair):
     assert points[8] != points[30]  # the two bumps are on different joints
     bones = rmod.bone_segments(ref)
     scene = render_scene.build_scene(ref_pos, cand_pos, bones, "y", np.arange(ref.num_frames), 170.0, ref.fps)
-    from motionrep.evaluate import Evaluator
-    from motionrep.kinematics import point_names
+    from motionrep.pipeline.evaluate import Evaluator
+    from motionrep.model.kinematics import point_names
 
     error = Evaluator(ref).positions_error(cand_pos)
     worst = render_scene.Worst(error, list(point_names(ref.skeleton)).index(error.joint))

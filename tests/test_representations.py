@@ -8,16 +8,17 @@ import pytest
 from click.testing import CliRunner
 
 import motionrep
-from motionrep import Motion, plugins
+from motionrep import Motion
+from motionrep.plugin import registry as plugins
 from motionrep.cli import cli
 from motionrep.errors import ValidationError
 from motionrep.io import FeatureClip, read, read_bvh, read_features, write, write_features
 from motionrep.io._bvh import channel_values
-from motionrep.kinematics import character_height, forward_kinematics, global_positions
-from motionrep.representation import joint_reach
-from motionrep.rotations import (axis_angle_to_quat, euler_to_quat, quat_conjugate, quat_multiply,
+from motionrep.model.kinematics import character_height, forward_kinematics, global_positions
+from motionrep.plugin.representation import joint_reach
+from motionrep.model.rotations import (axis_angle_to_quat, euler_to_quat, quat_conjugate, quat_multiply,
                                  quat_to_axis_angle, quat_to_matrix)
-from motionrep.synthetic import (chain_skeleton, humanoid_skeleton, odd_skeleton, random_unit_quaternions,
+from motionrep.model.synthetic import (chain_skeleton, humanoid_skeleton, odd_skeleton, random_unit_quaternions,
                                  spinning_motion, synthetic_motion)
 from motionrep.testing import check_representation
 
@@ -624,7 +625,7 @@ def test_features_of_the_wrong_width_are_a_one_line_error(reps, tmp_path, suffix
 
 
 def test_per_skeleton_remembers_the_last_skeleton_by_identity():
-    from motionrep.representation import per_skeleton
+    from motionrep.plugin.representation import per_skeleton
 
     calls = []
 

@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 from motionrep.errors import ValidationError
-from motionrep.rotations import (
+from motionrep.model.rotations import (
     axis_angle_make_continuous,
     axis_angle_to_quat,
     euler_branch,
@@ -34,7 +34,7 @@ from motionrep.rotations import (
     quat_wxyz_to_xyzw,
     quat_xyzw_to_wxyz,
 )
-from motionrep.synthetic import random_unit_quaternions
+from motionrep.model.synthetic import random_unit_quaternions
 
 TAIT_BRYAN = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 PROPER = ("XYX", "XZX", "YXY", "YZY", "ZXZ", "ZYZ")

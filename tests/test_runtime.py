@@ -11,13 +11,13 @@ import pytest
 
 import motionrep
 from motionrep import Motion, Skeleton
-from motionrep.compress import compress_motion, decompress
-from motionrep.container import unpack
+from motionrep.pipeline.compress import compress_motion, decompress
+from motionrep.io.container import unpack
 from motionrep.errors import ContainerError, ValidationError
-from motionrep.kinematics import global_positions
-from motionrep.representation import empty_poses
-from motionrep.runtime import BLOCK, Clip
-from motionrep.synthetic import chain_skeleton, odd_skeleton, synthetic_motion
+from motionrep.model.kinematics import global_positions
+from motionrep.plugin.representation import empty_poses
+from motionrep.pipeline.runtime import BLOCK, Clip
+from motionrep.model.synthetic import chain_skeleton, odd_skeleton, synthetic_motion
 
 
 def _partial_axes_skeleton() -> Skeleton:

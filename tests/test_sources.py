@@ -1,4 +1,4 @@
-"""``motionrep.sources``: every clip-bearing file opened one way, and one rule that names the clips of many inputs
+"""``motionrep.pipeline.sources``: every clip-bearing file opened one way, and one rule that names the clips of many inputs
 for every command (convert, compress, bench)."""
 
 from __future__ import annotations
@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from motionrep.archive import read_archive
+from motionrep.io.archive import read_archive
 from motionrep.cli import cli
 from motionrep.errors import FormatError, ParameterError, ValidationError
 from motionrep.io import list_clips, write, write_database
-from motionrep.ops import resample, resample_times
-from motionrep.batch import pair_clips
-from motionrep.sources import collect_clips, open_source
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.ops import resample, resample_times
+from motionrep.batch.engine import pair_clips
+from motionrep.pipeline.sources import collect_clips, open_source
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def run(*args):
@@ -148,7 +148,7 @@ def test_pair_clips(tree, tmp_path):
 
 def test_one_resampler(tmp_path):
     """ops.resample serves decompress --fps, render's alignment and the conformance suite's upsampling."""
-    from motionrep.synthetic import odd_skeleton
+    from motionrep.model.synthetic import odd_skeleton
     from motionrep.testing import upsample_motion
 
     m = synthetic_motion(odd_skeleton(), frames=31, fps=30.0, seed=2)
@@ -168,7 +168,7 @@ def test_one_resampler(tmp_path):
 
 def test_options_are_resolved_once_and_passed_down(tree, tmp_path, monkeypatch):
     """compress and bench resolve a setting (codec, representation, parameters, bound) once, not per clip."""
-    from motionrep.compress import Pipeline
+    from motionrep.pipeline.compress import Pipeline
 
     built = []
     original = Pipeline.build.__func__

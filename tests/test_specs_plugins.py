@@ -9,11 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from motionrep import hookspecs, plugins
+from motionrep.plugin import hookspecs
+
+from motionrep.plugin import registry as plugins
 from motionrep.cli.plugins import plugins_command
-from motionrep.codec import Codec
-from motionrep.representation import Representation
-from motionrep.synthetic import humanoid_skeleton, odd_skeleton
+from motionrep.plugin.codec import Codec
+from motionrep.plugin.representation import Representation
+from motionrep.model.synthetic import humanoid_skeleton, odd_skeleton
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
 PLUGINS_MD = (SPECS / "plugins.md").read_text()
@@ -62,7 +64,7 @@ def test_every_documented_hook_exists():
     hooks_section = _section(PLUGINS_MD, "## Hooks")
     documented = re.findall(r"^### `(\w+)\(", hooks_section, flags=re.M)
     assert sorted(documented) == sorted(_hookspecs())
-    # and the hookspecs module lists them for `from motionrep.hookspecs import *`
+    # and the hookspecs module lists them for `from motionrep.plugin.hookspecs import *`
     assert set(_hookspecs()) <= set(hookspecs.__all__)
 
 

@@ -16,10 +16,10 @@ from click.testing import CliRunner
 
 from motionrep.cli import cli
 from motionrep.cli._common import CodecProgress
-from motionrep.codec import describe_progress
+from motionrep.plugin.codec import describe_progress
 from motionrep.io import write
 from motionrep.jit import COMPILE_NOTICE
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -113,7 +113,7 @@ def test_bisect_lines_only_with_verbose(tmp_path, walk):
 
 
 def test_the_transform_codec_reports_its_diagnostics_through_the_callback(walk):
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
 
     seen = []

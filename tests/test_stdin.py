@@ -19,12 +19,12 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from motionrep.archive import Archive
+from motionrep.io.archive import Archive
 from motionrep.cli import cli
 from motionrep.cli._stdin import sniff, stdin_inputs
 from motionrep.errors import FormatError, Interrupted
 from motionrep.io import read, write, write_database
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 
 def run(*args, input: bytes | None = None, env: dict | None = None):
@@ -208,9 +208,9 @@ def test_a_real_pipe_and_a_signal_while_reading_it(tmp_path, files):
 def test_clips_from_standard_input_are_sent_to_the_workers(tmp_path, files, monkeypatch):
     """With ``send_data``, the clips of the named files are read by the client (here: the main thread) and
     sent; the workers (a thread pool) never open them; other files are read by the workers."""
-    from motionrep.batch import compress_clips
-    from motionrep.compress import Pipeline
-    from motionrep.sources import ClipRef, collect_clips
+    from motionrep.batch.engine import compress_clips
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.pipeline.sources import ClipRef, collect_clips
 
     refs = collect_clips([files["db"], files["bvh"]])
     opened: list[tuple[str, bool]] = []

@@ -18,7 +18,7 @@ CLIP = SHARED_DATA / "cmu" / "beemsoft_salsa" / "60_09_scaled.bvh"
 SCRIPT = """
 import hashlib, sys
 import motionrep
-from motionrep.compress import compress_motion, decompress
+from motionrep.pipeline.compress import compress_motion, decompress
 m = motionrep.read(sys.argv[1])
 data = compress_motion(m, "svd").data
 decoded = decompress(data)

@@ -1,12 +1,12 @@
-"""motionrep.timefmt: one definition of duration, rates written as the file states them (issue 26)."""
+"""motionrep.model.timefmt: one definition of duration, rates written as the file states them (issue 26)."""
 
 from __future__ import annotations
 
 import pytest
 
 from motionrep.errors import ValidationError
-from motionrep.synthetic import humanoid_skeleton, synthetic_motion
-from motionrep.timefmt import (duration, duration_text, fps_text, frame_time, frame_time_text, rate_text,
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.model.timefmt import (duration, duration_text, fps_text, frame_time, frame_time_text, rate_text,
                                seconds_text)
 
 

@@ -17,10 +17,10 @@ from helpers import SHARED_DATA, requires_shared  # noqa: E402
 
 from motionrep.errors import FormatError, ValidationError  # noqa: E402
 from motionrep.io import write, write_database  # noqa: E402
-from motionrep.kinematics import global_positions  # noqa: E402
-from motionrep.ops import resample, resampled_count  # noqa: E402
-from motionrep.plugins import get_representation  # noqa: E402
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
+from motionrep.model.kinematics import global_positions  # noqa: E402
+from motionrep.model.ops import resample, resampled_count  # noqa: E402
+from motionrep.plugin.registry import get_representation  # noqa: E402
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
 from motionrep.torch import FeatureStats, MotionDataset, WindowSampler, split_clips  # noqa: E402
 from motionrep.torch._augment import mirror_pairs  # noqa: E402
 
@@ -80,8 +80,8 @@ def test_directory_and_database_give_the_same_windows(bvh_dir, database):
 
 
 def test_mrc_archive_source(tmp_path):
-    from motionrep.archive import write_archive
-    from motionrep.compress import compress_motion
+    from motionrep.io.archive import write_archive
+    from motionrep.pipeline.compress import compress_motion
 
     m = synthetic_motion(frames=40, fps=30.0)
     path = tmp_path / "clips.h5"

@@ -11,8 +11,8 @@ pytest.importorskip("roma", reason="motionrep.torch needs roma (pip install 'mot
 
 import motionrep.torch as mt  # noqa: E402
 from motionrep.io import read  # noqa: E402
-from motionrep.kinematics import character_height, global_positions  # noqa: E402
-from motionrep.synthetic import odd_skeleton, synthetic_motion  # noqa: E402
+from motionrep.model.kinematics import character_height, global_positions  # noqa: E402
+from motionrep.model.synthetic import odd_skeleton, synthetic_motion  # noqa: E402
 
 
 @pytest.mark.parametrize("name", ["root-quat-axis-angle", "ortho6d", "euler", "dual-quaternion"])

@@ -14,8 +14,8 @@ _SCRIPT = textwrap.dedent("""
     import motionrep, motionrep.cli, motionrep.io, motionrep.testing
     import motionrep_dualquat, motionrep_euler, motionrep_ortho6d, motionrep_rootquat
     from click.testing import CliRunner
-    from motionrep.plugins import codecs, representations
-    from motionrep.synthetic import synthetic_motion
+    from motionrep.plugin.registry import codecs, representations
+    from motionrep.model.synthetic import synthetic_motion
     m = synthetic_motion(frames=6, seed=0)
     for rep in representations().values():
         rep.from_features(rep.to_features(m), m.skeleton, m.fps)

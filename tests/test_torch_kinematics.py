@@ -1,4 +1,4 @@
-"""motionrep.torch forward kinematics against the compiled numpy FK (motionrep.kinematics): synthetic skeletons
+"""motionrep.torch forward kinematics against the compiled numpy FK (motionrep.model.kinematics): synthetic skeletons
 (position channels on non-root joints, end sites, joints without rotation channels), batch dimensions, dtypes,
 gradients, and every real clip of ../shared/data (with the shared L-infinity error against motionrep evaluate's)."""
 
@@ -14,9 +14,9 @@ import motionrep.torch as mt  # noqa: E402
 from helpers import real_params  # noqa: E402
 from test_torch_losses import check_max_joint_error_equals_evaluate  # noqa: E402
 from motionrep.io import read  # noqa: E402
-from motionrep.kinematics import character_height, forward_kinematics, global_positions  # noqa: E402
+from motionrep.model.kinematics import character_height, forward_kinematics, global_positions  # noqa: E402
 from motionrep.errors import ValidationError  # noqa: E402
-from motionrep.synthetic import humanoid_skeleton, odd_skeleton, spinning_motion, synthetic_motion  # noqa: E402
+from motionrep.model.synthetic import humanoid_skeleton, odd_skeleton, spinning_motion, synthetic_motion  # noqa: E402
 from motionrep.testing import conformance_motions  # noqa: E402
 
 # float64 FK in torch and in numba round differently (the same formulas, other operation order), so the

@@ -11,11 +11,11 @@ pytest.importorskip("roma", reason="motionrep.torch needs roma (pip install 'mot
 
 import motionrep.torch as mt  # noqa: E402
 from motionrep.errors import ValidationError  # noqa: E402
-from motionrep.evaluate import max_joint_error  # noqa: E402
-from motionrep.kinematics import global_positions  # noqa: E402
-from motionrep.plugins import get_representation  # noqa: E402
-from motionrep.rotations import quat_normalize  # noqa: E402
-from motionrep.synthetic import odd_skeleton, synthetic_motion  # noqa: E402
+from motionrep.pipeline.evaluate import max_joint_error  # noqa: E402
+from motionrep.model.kinematics import global_positions  # noqa: E402
+from motionrep.plugin.registry import get_representation  # noqa: E402
+from motionrep.model.rotations import quat_normalize  # noqa: E402
+from motionrep.model.synthetic import odd_skeleton, synthetic_motion  # noqa: E402
 from motionrep_dualquat import (dualquat_conjugate, dualquat_multiply, dualquat_normalize,  # noqa: E402
                                 dualquat_to_rotation_translation)
 

@@ -14,8 +14,8 @@ import motionrep.torch as mt  # noqa: E402
 from helpers import real_params  # noqa: E402
 from motionrep.errors import ValidationError  # noqa: E402
 from motionrep.io import read  # noqa: E402
-from motionrep.plugins import get_representation  # noqa: E402
-from motionrep.synthetic import synthetic_motion  # noqa: E402
+from motionrep.plugin.registry import get_representation  # noqa: E402
+from motionrep.model.synthetic import synthetic_motion  # noqa: E402
 from motionrep.testing import check_representation, check_torch_path  # noqa: E402
 from motionrep_ortho6d import Ortho6D  # noqa: E402
 from motionrep_ortho6d._torch import Ortho6DTorch  # noqa: E402

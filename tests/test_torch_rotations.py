@@ -1,4 +1,4 @@
-"""motionrep.torch.rotations against motionrep.rotations (same names, xyzw, 6D columns, Euler orders), and finite,
+"""motionrep.torch.rotations against motionrep.model.rotations (same names, xyzw, 6D columns, Euler orders), and finite,
 correct gradients at the identity and at 180 degrees."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 torch = pytest.importorskip("torch", reason="motionrep.torch needs torch (pip install torch==2.13.0)")
 pytest.importorskip("roma", reason="motionrep.torch needs roma (pip install 'motionrep[torch]')")
 
-import motionrep.rotations as R  # noqa: E402
+import motionrep.model.rotations as R  # noqa: E402
 import motionrep.torch.rotations as T  # noqa: E402
 
 # torch and numpy/scipy/numba evaluate the same formulas in different operation orders (and scipy's Euler

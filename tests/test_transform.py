@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 
 from helpers import SHARED_DATA, real_params, requires_shared
-from motionrep.codec import Payload, frame_times
-from motionrep.compress import compress_file, compress_motion, decompress, decompress_file
+from motionrep.plugin.codec import Payload, frame_times
+from motionrep.pipeline.compress import compress_file, compress_motion, decompress, decompress_file
 from motionrep.errors import BoundNotMetError, ContainerError, MotionrepError, ParameterError, PayloadError
-from motionrep.evaluate import max_joint_error
+from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.io import read
-from motionrep.plugins import get_codec
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.plugin.registry import get_codec
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 from motionrep.testing import check_codec, conformance_motions
 
 REPO = Path(__file__).resolve().parent.parent
@@ -178,7 +178,7 @@ def test_damaged_payloads_give_clean_errors(walk):
 
 def test_same_input_gives_identical_bytes_across_processes_and_threads(walk):
     code = ("import sys; from motionrep.testing import humanoid_skeleton, synthetic_motion; "
-            "from motionrep.compress import compress_motion; "
+            "from motionrep.pipeline.compress import compress_motion; "
             "m = synthetic_motion(humanoid_skeleton(), frames=150, fps=60, seed=3); "
             "sys.stdout.buffer.write(compress_motion(m, 'transform', max_error='1%').data)")
     here = compress_motion(walk, "transform", max_error="1%").data

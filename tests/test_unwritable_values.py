@@ -13,7 +13,7 @@ import pytest
 import motionrep
 from motionrep import Motion, Skeleton
 from motionrep.errors import FormatError, ValidationError
-from motionrep.synthetic import synthetic_motion
+from motionrep.model.synthetic import synthetic_motion
 
 BAD_NAMES = ["a\x00b", "a\x1bb", "a\vb", "a\u2028b", "a\x85b", "a  b", "a\tb", " a"]
 
@@ -69,8 +69,8 @@ def _h5(motion, path, fps=None, name=None):
 
 
 def _mrc(motion, path, fps=None, name=None):
-    from motionrep.compress import Pipeline
-    from motionrep.container import pack, skeleton_to_json
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.io.container import pack, skeleton_to_json
 
     c = Pipeline.build("transform").compress(motion).container
     if fps is not None:
@@ -81,7 +81,7 @@ def _mrc(motion, path, fps=None, name=None):
         import struct
         import zlib
 
-        from motionrep.container import _PREAMBLE, _CRC
+        from motionrep.io.container import _PREAMBLE, _CRC
 
         magic, version, flags, total, meta_len = _PREAMBLE.unpack_from(data)
         meta = json.loads(zlib.decompress(data[_PREAMBLE.size:_PREAMBLE.size + meta_len]))
@@ -139,7 +139,7 @@ def test_hdf5_names_refused(motion, tmp_path, name):
 
 def test_mrc_fps_5e_324_refused(motion, tmp_path):
     _mrc(motion, tmp_path / "a.mrc", fps=5e-324)
-    from motionrep.container import read_container
+    from motionrep.io.container import read_container
 
     with pytest.raises(FormatError, match="finite frame time"):
         read_container(tmp_path / "a.mrc")
@@ -148,7 +148,7 @@ def test_mrc_fps_5e_324_refused(motion, tmp_path):
 @pytest.mark.parametrize("name", ["a\x00b", "a\x1bb", "a\vb", "a\u2028b"])
 def test_mrc_names_refused(motion, tmp_path, name):
     _mrc(motion, tmp_path / "a.mrc", name=name)
-    from motionrep.container import read_container
+    from motionrep.io.container import read_container
 
     with pytest.raises(FormatError, match="invalid joint name") as info:
         read_container(tmp_path / "a.mrc")

@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from motionrep import character_height, global_positions
-from motionrep.compress import decompress
+from motionrep.pipeline.compress import decompress
 from motionrep.errors import ValidationError
 from motionrep.io import read, write
-from motionrep.rotations import euler_to_quat, quat_multiply
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
-from motionrep.view import CANDIDATE_COLORS, REFERENCE_COLOR, ViewClip, view_html, write_view
+from motionrep.model.rotations import euler_to_quat, quat_multiply
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.present.view import CANDIDATE_COLORS, REFERENCE_COLOR, ViewClip, view_html, write_view
 
 
 def perturbed(motion, joint: int, first: int, count: int, radians: float = 0.4):
@@ -214,7 +214,7 @@ def test_viewer_of_one_clip_in_a_browser(browser, tmp_path):
 # issue 26: labels by codec and path, magnification, per-joint error colours, worst frame per candidate, framing
 # ---------------------------------------------------------------------------------------------------------------
 def test_distinct_names_take_enough_of_the_path():
-    from motionrep.view import distinct_names
+    from motionrep.present.view import distinct_names
 
     assert distinct_names(["x/svd/clip.mrc", "x/fourier/clip.mrc", "clip.bvh"]) == [
         "svd/clip.mrc", "fourier/clip.mrc", "clip.bvh"]

@@ -4,7 +4,7 @@ Each command lives in its own module of this package (``convert``, ``info``, ``c
 ``evaluate``, ``merge``, ``bench``, ``render``, ``view``, ``plugins``, ``example``) and is added to the group here with
 ``add_command``; command modules never import this one (no import circle), and share only
 :mod:`motionrep.cli._common`.  Commands parse each option once and pass the resulting objects (a
-:class:`~motionrep.compress.Pipeline`, open :class:`~motionrep.sources.Source` s) to the library; heavy
+:class:`~motionrep.pipeline.compress.Pipeline`, open :class:`~motionrep.pipeline.sources.Source` s) to the library; heavy
 imports happen inside the commands.
 
 Library errors (:class:`~motionrep.errors.MotionrepError`) and operating-system errors are turned into one-line

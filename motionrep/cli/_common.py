@@ -109,7 +109,7 @@ def expand_globs(inputs: Iterable[Any]) -> list[Any]:
     return out
 
 
-# ---- the bound, and how it was read (motionrep.bound.MaxError.read_as) ------------------------------------
+# ---- the bound, and how it was read (motionrep.model.bound.MaxError.read_as) ------------------------------------
 def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
               ) -> tuple[float | None, str | None]:
     """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
@@ -118,10 +118,10 @@ def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], 
     Raises:
         click.BadParameter: for a ``--max-error`` that does not parse.
     """
-    from ..bound import parse_max_error
+    from ..model.bound import parse_max_error
     from ..errors import ParameterError
-    from ..kinematics import character_height
-    from ..sources import open_source
+    from ..model.kinematics import character_height
+    from ..pipeline.sources import open_source
 
     height = character_height(reference.skeleton)
     units = reference.skeleton.units
@@ -162,10 +162,10 @@ def parse_params(pairs: Iterable[str]) -> dict[str, str]:
 
 
 def collect(inputs: Iterable[Any], **options: Any) -> list[Any]:
-    """:func:`motionrep.sources.collect_clips`, with a problem in how the inputs were given (a file given twice,
+    """:func:`motionrep.pipeline.sources.collect_clips`, with a problem in how the inputs were given (a file given twice,
     an unknown suffix) as a usage error (exit 2)."""
     from ..errors import ValidationError
-    from ..sources import collect_clips
+    from ..pipeline.sources import collect_clips
 
     try:
         return collect_clips(expand_globs(inputs), **options)

@@ -1,6 +1,6 @@
 """The command-line options of motionrep's borders with other tools, shared by the commands that take them
 (re-exported by :mod:`motionrep.cli._common`): the cross-tool comparison options of ``evaluate``, ``view`` and
-``render`` (:mod:`motionrep.pairing`) and the glTF size options of ``convert`` and ``decompress``
+``render`` (:mod:`motionrep.pipeline.pairing`) and the glTF size options of ``convert`` and ``decompress``
 (:func:`motionrep.io.gltf_scale`), and the SMPL-H body model of AMASS inputs (``--body-model``)."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ __all__ = ["comparison_options", "match_options", "gltf_unit_options", "gltf_wri
 
 
 def comparison_options(command: Callable) -> Callable:
-    """``--match``, ``--strip-prefix``, ``--ignore-extra`` and ``--resample`` (see :mod:`motionrep.pairing`), the
+    """``--match``, ``--strip-prefix``, ``--ignore-extra`` and ``--resample`` (see :mod:`motionrep.pipeline.pairing`), the
     same for evaluate, view and render; :func:`match_options` turns them into options."""
     for option in reversed([
         click.option("--match", "match", type=click.Choice(["order", "names"]), default="order", show_default=True,
@@ -36,12 +36,12 @@ def comparison_options(command: Callable) -> Callable:
 
 
 def match_options(match: str, strip_prefix: Sequence[str], ignore_extra: bool, resample: bool) -> Any:
-    """The :class:`motionrep.pairing.MatchOptions` of the comparison options (the strict default when none is
+    """The :class:`motionrep.pipeline.pairing.MatchOptions` of the comparison options (the strict default when none is
     given, so the report still says what it compared; a usage error for --strip-prefix or --ignore-extra without
     --match names)."""
     if match != "names" and (strip_prefix or ignore_extra):
         raise click.UsageError(f"{'--strip-prefix' if strip_prefix else '--ignore-extra'} needs --match names")
-    from ..pairing import MatchOptions
+    from ..pipeline.pairing import MatchOptions
 
     return MatchOptions(match=match, strip_prefix=tuple(strip_prefix), ignore_extra=ignore_extra,
                         resample=resample)

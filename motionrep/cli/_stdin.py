@@ -67,7 +67,7 @@ def sniff(head: bytes) -> str | None:
 
 
 def _sniff_format(head: bytes) -> str | None:
-    from ..container import MAGIC
+    from ..io.container import MAGIC
 
     if head.startswith(MAGIC):
         return "mrc"

@@ -73,12 +73,12 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
       motionrep bench walk.bvh -c svd -p rank=1..30 --out results/
       motionrep bench database.h5 --jobs 2 --out results/ --plot results/rd.png
     """
-    from ..bench import (DEFAULT_DECODE_POSES, bench_tasks, format_compact, format_table, is_sweep, parse_sweep,
+    from ..present.bench import (DEFAULT_DECODE_POSES, bench_tasks, format_compact, format_table, is_sweep, parse_sweep,
                          plot_rate_distortion, run_bench, summarize, write_csv, write_json)
-    from ..compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
+    from ..pipeline.compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
     from ..errors import ParameterError
-    from ..plugins import codecs as installed_codecs
-    from ..sources import read_refs
+    from ..plugin.registry import codecs as installed_codecs
+    from ..pipeline.sources import read_refs
 
     try:
         sweep = parse_sweep(params)
@@ -89,7 +89,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     outputs = [out / name for name in _OUT_FILES] if out is not None else []
     check_outputs([*outputs, plot], force)  # before any work: an earlier run's results are not replaced silently
     if plot is not None:
-        from ..bench import require_matplotlib
+        from ..present.bench import require_matplotlib
 
         require_matplotlib()  # fail before any work when matplotlib is missing
     swept = any(is_sweep(p.partition("=")[2]) for p in params)
@@ -98,7 +98,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     if not chosen:
         chosen = list(installed_codecs())
         if sweep:
-            from ..bench import codec_parameter_names
+            from ..present.bench import codec_parameter_names
 
             chosen = [c for c in chosen if set(sweep) & set(codec_parameter_names(c))] or chosen
     reps = list(representations) or [DEFAULT_REPRESENTATION]

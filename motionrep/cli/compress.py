@@ -1,9 +1,9 @@
 """``motionrep compress``: one clip into a ``.mrc`` file, or many into an archive or a directory of them.
 
-Many clips run on the batch engine (:func:`motionrep.batch.compress_clips`): in this process, in ``--jobs``
+Many clips run on the batch engine (:func:`motionrep.batch.engine.compress_clips`): in this process, in ``--jobs``
 worker processes, or on a Dask cluster (``--scheduler``); each finished clip is committed to the output at once
-(:mod:`motionrep.store`), ``--resume`` skips the clips the output already holds from the same source and
-setting, and the run ends with its totals (:mod:`motionrep.totals`).
+(:mod:`motionrep.batch.store`), ``--resume`` skips the clips the output already holds from the same source and
+setting, and the run ends with its totals (:mod:`motionrep.batch.totals`).
 
 Exit codes: 0 on success; 1 for a library error (unknown codec or representation, bad parameter, bound not
 met, malformed file, an output that exists without ``--force``; in a batch, after the totals, when any clip
@@ -35,8 +35,8 @@ def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False
     c, r, f = result.container, result.report, result.figures
     how = result.bound_read_as()
     bound = "none (--max-error none)" if how is None else f"--max-error {how}"
-    from ..compress import describe_outcome
-    from ..timefmt import duration_text, fps_text
+    from ..pipeline.compress import describe_outcome
+    from ..model.timefmt import duration_text, fps_text
 
     return [
         f"{name}: {c.num_frames} frames at {fps_text(c.fps)} fps ({duration_text(c.num_frames, c.fps)}), {c.skeleton.num_joints} joints "
@@ -136,7 +136,7 @@ def compress(inputs: tuple[Path, ...], output: Path, codec: str, representation:
       cat walk.bvh | motionrep compress - -o - > walk.mrc
       cat db.h5 | motionrep compress - -o db_mrc.h5 --scheduler tcp://10.0.0.5:8786
     """
-    from ..compress import Pipeline
+    from ..pipeline.compress import Pipeline
 
     pipeline = Pipeline.build(codec, representation, parse_params(params), max_error, seed)  # before any work
     to_stdout = is_stdio(output)
@@ -177,7 +177,7 @@ def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs:
     refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output, journal_of(output)])
     if to_mrc:
         if len(refs) != 1:
-            from ..sources import listing
+            from ..pipeline.sources import listing
 
             shown = STDOUT_NAME if to_stdout else output
             raise click.UsageError(f"output {shown}: the inputs hold {len(refs)} clips "
@@ -194,15 +194,15 @@ def _compress(inputs: list, output: Path, pipeline: Any, clip: str | None, jobs:
 
 
 def journal_of(output: Path) -> Path:
-    from ..store import journal_path
+    from ..batch.store import journal_path
 
     return journal_path(output)
 
 
 def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None, say: _Say) -> None:
-    from ..batch import time_limit
-    from ..container import write_container
-    from ..sources import open_source
+    from ..batch.engine import time_limit
+    from ..io.container import write_container
+    from ..pipeline.sources import open_source
 
     with time_limit(timeout, display_name(ref.source)):
         with open_source(ref.path) as src:
@@ -236,7 +236,7 @@ def _clip_line(o: Any) -> str:
     ev, fig = s["evaluation"], s["figures"]
     how = s.get("max_error_read_as")
     bound = "none" if how is None else f"--max-error {how}"
-    from ..figures import LABELS, PAYLOAD_BPBF
+    from ..pipeline.figures import LABELS, PAYLOAD_BPBF
 
     bpbf = fig.get(PAYLOAD_BPBF)
     size = "" if bpbf is None else f" ({bpbf:.3f} {LABELS[PAYLOAD_BPBF]})"
@@ -250,11 +250,11 @@ def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jo
     import contextlib
     import time
 
-    from ..batch import compress_clips, dask_executor
+    from ..batch.engine import compress_clips, dask_executor
     from ..errors import OutputExistsError
-    from ..sources import listing
-    from ..store import open_store, resume_key, setting_changes
-    from ..totals import BatchTotals, container_summary
+    from ..pipeline.sources import listing
+    from ..batch.store import open_store, resume_key, setting_changes
+    from ..batch.totals import BatchTotals, container_summary
 
     start, cpu = time.monotonic(), time.process_time()
     store = open_store(output, force=force, resume=resume)

@@ -56,7 +56,7 @@ def _converted(refs: list, representation: Any) -> Iterator[tuple[Any, Any]]:
     that representation and version are copied exactly; other features are decoded first)."""
     from ..errors import MotionrepError
     from ..io import FeatureClip, features_from_motion, motion_from_features
-    from ..sources import read_refs
+    from ..pipeline.sources import read_refs
 
     clips = read_refs(refs, stored=True)
     for i in range(len(refs)):
@@ -249,7 +249,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         raise click.UsageError("--clip takes one clip out of a single HDF5 database, glTF or FBX file input")
     rep = None
     if representation is not None:
-        from ..plugins import get_representation
+        from ..plugin.registry import get_representation
 
         rep = get_representation(representation)  # an unknown name fails before any work (exit 1, lists names)
 
@@ -260,7 +260,7 @@ def _convert(inputs: list[Path], raw_out: str, clip: str | None, out_format: str
         _to_directory(refs, out, suffix, rep, decimals, units)
         return f"{len(refs)} file{'s' if len(refs) > 1 else ''} to {out}"
     if len(refs) != 1 and out_fmt != "hdf5":
-        from ..sources import listing
+        from ..pipeline.sources import listing
 
         raise click.UsageError(f"{STDIO if to_stdout else out} holds one clip but the inputs hold {len(refs)} "
                                f"({listing([r.name for r in refs])}); use --clip NAME, an .h5 output or a "
@@ -289,7 +289,7 @@ def _to_database(refs: list, out: Path, representation: Any, append: bool = Fals
         new = {r.name for r in refs}
         clash = [n for n in names if n in new]
         if clash and not force:
-            from ..sources import listing
+            from ..pipeline.sources import listing
 
             raise FormatError(f"already holds clip{'s' if len(clash) > 1 else ''} {listing(clash)}; use --force "
                               "to replace them", out)
@@ -313,7 +313,7 @@ def _to_database(refs: list, out: Path, representation: Any, append: bool = Fals
 def _to_directory(refs: list, out: Path, suffix: str, representation: Any, decimals: int | None,
                   units: tuple[float | None, str | None] = (None, None)) -> None:
     from ..errors import FormatError, MotionrepError
-    from ..sources import listing
+    from ..pipeline.sources import listing
 
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)

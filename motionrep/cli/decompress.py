@@ -28,9 +28,9 @@ def decoded_clips(refs: list, fps: float | None) -> Iterator[tuple[Any, Any]]:
     Raises:
         FormatError: naming the file, for one that holds motions rather than compressed clips.
     """
-    from ..compress import decompress as decode
+    from ..pipeline.compress import decompress as decode
     from ..errors import FormatError
-    from ..sources import read_refs
+    from ..pipeline.sources import read_refs
 
     def decoded(src: Any, ref: Any) -> Any:
         if src.kind not in ("compressed", "archive"):
@@ -101,7 +101,7 @@ def decompress(inputs: tuple[Path, ...], output: Path, fps: float | None, clip: 
 
 def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None, suffix: str, force: bool,
                 units: tuple[float | None, str | None] = (None, None), quiet: bool = False) -> None:
-    from ..compress import write_decoded
+    from ..pipeline.compress import write_decoded
 
     def written(motion: Any, target: Path, shown: Any) -> None:
         write_decoded(motion, target, **gltf_write_options(motion, target, *units, shown=shown))
@@ -109,7 +109,7 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
     to_stdout = is_stdio(output)
     refs = collect(inputs, clip=clip, exclude=[] if to_stdout else [output], scan=COMPRESSED_SUFFIXES)
     if to_stdout and len(refs) != 1:
-        from ..sources import listing
+        from ..pipeline.sources import listing
 
         raise click.UsageError(f"{STDOUT_NAME} holds one clip but the inputs hold {len(refs)} "
                                f"({listing([r.name for r in refs])}); pick one with --clip, or write OUT.h5 or a "
@@ -123,7 +123,7 @@ def _decompress(inputs: list, output: Path, fps: float | None, clip: str | None,
             written(motion, target, STDOUT_NAME if to_stdout else output)
         which = f" (clip {ref.clip})" if ref.clip is not None else ""
         shown = STDOUT_NAME if to_stdout else output
-        from ..timefmt import fps_text
+        from ..model.timefmt import fps_text
 
         if not quiet:
             click.echo(f"wrote {shown}{which}: {motion.num_frames} frames at {fps_text(motion.fps)} fps",

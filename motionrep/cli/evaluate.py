@@ -74,17 +74,17 @@ def evaluate(reference: Path, candidate: Path, clip: str | None, as_json: bool, 
 
 def _evaluate(reference: Path, candidate: Path, shown: list[str], clip: str | None, as_json: bool,
               options: object = None, common: bool = False) -> None:
-    from ..batch import clip_sets, evaluate_clips, pair_clips
+    from ..batch.engine import clip_sets, evaluate_clips, pair_clips
     from ..errors import ParameterError
-    from ..sources import CLIP_SUFFIXES, open_source
+    from ..pipeline.sources import CLIP_SUFFIXES, open_source
 
     if clip is not None and not any(p.suffix.lower() in CLIP_SUFFIXES or p.is_dir()
                                     for p in (reference, candidate)):
         raise click.UsageError("--clip applies to HDF5 databases, archives, glTF files and directories")
     if reference.is_dir() or candidate.is_dir():
-        from ..batch import evaluate_refs, pair_refs
+        from ..batch.engine import evaluate_refs, pair_refs
         from ..errors import FormatError
-        from ..sources import SOURCE_SUFFIXES, listing
+        from ..pipeline.sources import SOURCE_SUFFIXES, listing
 
         sides = [collect([p], scan=SOURCE_SUFFIXES) for p in (reference, candidate)]
         if clip is not None:

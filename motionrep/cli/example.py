@@ -25,7 +25,7 @@ def example(output: Path, force: bool, quiet: bool) -> None:
       motionrep example walk.bvh
       motionrep compress walk.bvh -o walk.mrc
     """
-    from .._demo import demo_path
+    from ..io._demo import demo_path
     from ..io import atomic_path
 
     from ..formats import suffix_format

@@ -1,4 +1,4 @@
-"""``motionrep info``: what a motion file holds, as text or as the JSON of :func:`motionrep.info.info_dict`.
+"""``motionrep info``: what a motion file holds, as text or as the JSON of :func:`motionrep.present.info.info_dict`.
 
 Exit codes: 0 on success; 1 when the file cannot be read (one line naming it); 2 for a usage error (unknown
 suffix, ``--clip`` on a file of one clip).
@@ -22,19 +22,19 @@ def _fmt(x: float) -> str:
 
 
 def _fps(x: float) -> str:
-    from ..timefmt import fps_text
+    from ..model.timefmt import fps_text
 
     return fps_text(x)
 
 
 def _rate(x: float) -> str:
-    from ..timefmt import fps_text, frame_time_text
+    from ..model.timefmt import fps_text, frame_time_text
 
     return f"{fps_text(x)} (frame time {frame_time_text(x)} s)"
 
 
 def _seconds(x: float) -> str:
-    from ..timefmt import seconds_text
+    from ..model.timefmt import seconds_text
 
     return seconds_text(x)
 
@@ -76,7 +76,7 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
         lines.append(f"outcome:    {c['description']}")
         lines.append(f"features:   {r['name']} version {r['version']}"
                      + (f", width {r['width']}" if r["width"] is not None else ""))
-        from ..figures import FILE_BPBF, PAYLOAD_BPBF, size_line
+        from ..pipeline.figures import FILE_BPBF, PAYLOAD_BPBF, size_line
 
         lines.append(f"size:       {size_line(d['bytes'], d[PAYLOAD_BPBF], d[FILE_BPBF], None)}")
         f = d["figures"]
@@ -89,7 +89,7 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
         if e is not None:
             bound = "none" if e.get("bound") is None else _fmt(e["bound"])
             if e.get("bound") is not None and d.get("max_error"):
-                from ..bound import parse_max_error
+                from ..model.bound import parse_max_error
 
                 bound = f"--max-error {parse_max_error(d['max_error']).read_as(d['height'], d['units'])}"
             lines.append(f"L-inf:      {_fmt(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
@@ -119,7 +119,7 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
 
 def _row(d: dict[str, Any]) -> list[str]:
     """One row of the ``info DIR`` table."""
-    from ..figures import PAYLOAD_BPBF
+    from ..pipeline.figures import PAYLOAD_BPBF
 
     kind = d["kind"]
     if kind in ("archive", "database"):
@@ -135,7 +135,7 @@ def _row(d: dict[str, Any]) -> list[str]:
 
 def _table(described: list[dict[str, Any]]) -> str:
     """``info DIR``: one row per file."""
-    from ..figures import LABELS, PAYLOAD_BPBF
+    from ..pipeline.figures import LABELS, PAYLOAD_BPBF
 
     head = ["file", "format", "kind", "clips", "frames", "fps", "joints", LABELS[PAYLOAD_BPBF], "L-inf"]
     rows = [head] + [_row(d) for d in described]
@@ -187,8 +187,8 @@ def info(files: tuple[str, ...], clip: str | None, as_json: bool, verbose: bool)
     parameters, payload_bytes, payload_bits_per_bone_frame,
     file_bits_per_bone_frame, arrays, evaluation, figures.
     """
-    from ..info import info_dict
-    from ..sources import CLIP_SUFFIXES, SOURCE_SUFFIXES, scan_files
+    from ..present.info import info_dict
+    from ..pipeline.sources import CLIP_SUFFIXES, SOURCE_SUFFIXES, scan_files
 
     given: list[str] = []
     table = False

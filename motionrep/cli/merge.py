@@ -24,7 +24,7 @@ def _shard(path: Path) -> list[Any]:
     """The compressed clips of one input, under their own names (an archive's clip names, a directory's .mrc
     files by their path relative to it, a .mrc file by its stem)."""
     from ..errors import FormatError
-    from ..sources import open_source
+    from ..pipeline.sources import open_source
 
     from ..formats import COMPRESSED_SUFFIXES, CONTAINER_SUFFIX
 
@@ -37,8 +37,8 @@ def _shard(path: Path) -> list[Any]:
 
 
 def _read_bytes(ref: Any) -> bytes:
-    from ..container import unpack
-    from ..sources import open_source
+    from ..io.container import unpack
+    from ..pipeline.sources import open_source
 
     with open_source(ref.path) as src:
         data = src.archive.read_bytes(ref.clip) if src.kind == "archive" else Path(ref.path).read_bytes()
@@ -71,7 +71,7 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, qu
     """
     from ..errors import FormatError
     from ..formats import COMPRESSED_SUFFIXES, CONTAINER_SUFFIX, is_archive_path
-    from ..sources import NAME_SEPARATOR, listing
+    from ..pipeline.sources import NAME_SEPARATOR, listing
 
     for p in inputs:
         if not p.is_dir():
@@ -123,12 +123,12 @@ def merge(inputs: tuple[Path, ...], output: Path, on_clash: str, force: bool, qu
             yield name, data if data is not None else _read_bytes(ref)
 
     if to_archive:
-        from ..archive import write_archive
+        from ..io.archive import write_archive
 
         check_overwrite(output, force)
         write_archive(clips(), output)
     else:
-        from ..store import DirectoryStore
+        from ..batch.store import DirectoryStore
 
         if output.exists() and not output.is_dir():
             raise click.UsageError(f"output {output} exists and is not a directory")

@@ -9,7 +9,7 @@ from ._common import echo_json
 
 __all__ = ["plugins_command"]
 
-#: The hooks of motionrep.hookspecs (written out to keep this module light; a test checks they agree).
+#: The hooks of motionrep.plugin.hookspecs (written out to keep this module light; a test checks they agree).
 HOOKS = ("register_codecs", "register_representations")
 
 
@@ -57,7 +57,7 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe
       motionrep plugins --describe adaptive-fourier   # its -p parameters
       MOTIONREP_LOAD_PLUGINS= motionrep plugins      # shipped plugins only
     """
-    from ..plugins import plugin_infos
+    from ..plugin.registry import plugin_infos
 
     if describe is not None:
         _describe(describe, as_json)
@@ -77,9 +77,9 @@ def plugins_command(as_json: bool, hook: str | None, third_party: bool, describe
 
 
 def _describe(name: str, as_json: bool) -> None:
-    from ..codec import params_help
+    from ..plugin.codec import params_help
     from ..errors import UnknownPluginError
-    from ..plugins import codecs, get_codec, get_representation, provider_of, representations
+    from ..plugin.registry import codecs, get_codec, get_representation, provider_of, representations
 
     if name in codecs():
         codec = get_codec(name)

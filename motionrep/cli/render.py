@@ -24,20 +24,20 @@ __all__ = ["render"]
 
 def _read(path: Path, clip: str | None) -> Any:
     """The clip of ``path`` (``clip`` of a database or archive; any clip-bearing file, ``.mrc`` decoded)."""
-    from ..sources import open_source
+    from ..pipeline.sources import open_source
 
     with open_source(path) as src:
         return src.read(clip if src.kind in ("database", "archive") else None)
 
 
 def _parsed_by(parser: str) -> Callable[[click.Context, click.Parameter, str | None], Any]:
-    """A click callback: the option's value parsed by ``motionrep.render.<parser>`` (imported when an option is
+    """A click callback: the option's value parsed by ``motionrep.present.render.<parser>`` (imported when an option is
     given), its ``ValidationError`` a usage error."""
 
     def callback(ctx: click.Context, param: click.Parameter, value: str | None) -> Any:
         if value is None:
             return None
-        from .. import render
+        from ..present import render
 
         try:
             return getattr(render, parser)(value)
@@ -135,8 +135,8 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
       motionrep render walk.bvh walk.mrc -o detail.png --frames 180:230:10
       motionrep render walk.bvh -o walk.gif --frames 0:240 --fps 20
     """
-    from ..render import OUTPUT_SUFFIXES, check_output
-    from ..render import render as draw
+    from ..present.render import OUTPUT_SUFFIXES, check_output
+    from ..present.render import render as draw
 
     options = match_options(match, strip_prefix, ignore_extra, resample)
     options = None if options.strict else options
@@ -165,7 +165,7 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
             else f"{n} picture{'s' if n != 1 else ''}")
     line = f"wrote {output}: {what}, {result.size[0]}x{result.size[1]} pixels"
     if result.error is not None:
-        from ..render import describe_error
+        from ..present.render import describe_error
 
         line += f"; worst joint {describe_error(result.error)}"
     if not quiet:

@@ -21,9 +21,9 @@ __all__ = ["view"]
 def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
     """What a compressed clip says about itself: codec and outcome, representation, sizes, ratios, the bound it
     was made for and the error stored with it."""
-    from ..compress import describe_outcome
-    from ..evaluate import compression_figures
-    from ..plugins import get_representation
+    from ..pipeline.compress import describe_outcome
+    from ..pipeline.evaluate import compression_figures
+    from ..plugin.registry import get_representation
 
     c = src.container(name)
     size = src.size(name)
@@ -54,7 +54,7 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
 
 def _settings(src: Any, name: str) -> str:
     """A compressed clip's codec and settings in a few words, for its label: ``"svd rank=4, within 2%"``."""
-    from ..compress import describe_outcome
+    from ..pipeline.compress import describe_outcome
 
     c = src.container(name)
     words = [c.codec]
@@ -106,8 +106,8 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
       motionrep view walk.bvh walk_svd.mrc walk_fourier.mrc -o compare.html
       motionrep view dance.glb -o dance.html --clip Dance
     """
-    from ..sources import open_source
-    from ..view import MAX_CANDIDATES, ViewClip, distinct_names, write_view
+    from ..pipeline.sources import open_source
+    from ..present.view import MAX_CANDIDATES, ViewClip, distinct_names, write_view
 
     options = match_options(match, strip_prefix, ignore_extra, resample)
     options = None if options.strict else options
@@ -143,7 +143,7 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
     line = f"wrote {output}: {result.frames} frames, {len(clips)} clip{'s' if len(clips) > 1 else ''}, " \
            f"{result.bytes / 1e6:.1f} MB"
     if result.errors:
-        from ..render import describe_error
+        from ..present.render import describe_error
 
         line += f"; worst joint of {clips[1].label}: {describe_error(result.errors[0])}"
     if not quiet:

@@ -34,7 +34,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from .. import formats
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import naming
 from ..errors import (BVHFormatError, FBXFormatError, FormatError, GLTFFormatError, HDF5FormatError, NPZFormatError,
                       ValidationError)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion, Skeleton
+from ..model._pose import Motion, Skeleton
 from ..errors import AMASSFormatError, ValidationError, naming
 from ._files import check_regular
 
@@ -159,7 +159,7 @@ def read_amass(path: str | os.PathLike[str], body_model: str | os.PathLike[str] 
         raise AMASSFormatError(f"{what}: 'poses' has {poses.shape[1]} values per frame but the body model "
                                f"{Path(body_model)} has {J} joints ({3 * J} values); give the body model these "
                                "poses were made for", path)
-    from ..rotations import axis_angle_to_quat
+    from ..model.rotations import axis_angle_to_quat
 
     rotations = axis_angle_to_quat(poses.reshape(F, J, 3))
     offsets = joints.copy()

@@ -21,10 +21,10 @@ import re
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import CHANNEL_NAMES, Motion, Skeleton
+from ..model._pose import CHANNEL_NAMES, Motion, Skeleton
 from ..errors import BVHFormatError, ValidationError
 from ..limits import check_clip
-from ..rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
+from ..model.rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._files import read_regular
 from ._numbers import _python_float, first_control_byte, scan_block, use_compiled
@@ -482,7 +482,7 @@ def channel_values(motion: Motion) -> NDArray[np.float64]:
 
     Euler angles are in degrees: the source's own angles ``motion.euler_angles`` where the motion has them (and
     they describe its rotations), bit for bit; otherwise of the solution ``motion.euler_branch`` names (when
-    set), unwrapped over frames (see :func:`~motionrep.rotations.quat_to_euler_continuous`).
+    set), unwrapped over frames (see :func:`~motionrep.model.rotations.quat_to_euler_continuous`).
 
     Raises:
         ValidationError: if the motion moves a joint along an axis, or rotates it about an axis, for which

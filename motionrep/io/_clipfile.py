@@ -6,7 +6,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any
 
-from .._model import Motion
+from ..model._pose import Motion
 
 __all__ = ["ClipFile"]
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion, Skeleton
+from ..model._pose import Motion, Skeleton
 
 __all__ = ["channel_arrays", "motion_from_channel_arrays", "CHANNEL_KEYS", "MAX_DIGITS"]
 

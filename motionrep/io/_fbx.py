@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion, Skeleton
+from ..model._pose import Motion, Skeleton
 from ..errors import FBXFormatError, ValidationError, naming
 from ._clipfile import ClipFile
 from ._files import read_regular
@@ -244,7 +244,7 @@ class FBXFile(ClipFile):
         return self.names[k], self._motion(stack, times, float(self.scene.settings.frames_per_second))
 
     def _motion(self, stack: Any, times: NDArray, fps: float) -> Motion:
-        from ..rotations import quat_apply, quat_multiply
+        from ..model.rotations import quat_apply, quat_multiply
         from ._gltf_read import _rest_to_identity
 
         anim = stack.anim if stack is not None else None
@@ -301,7 +301,7 @@ class FBXFile(ClipFile):
         return self._assemble(offsets, rotations, translations, fps)
 
     def _assemble(self, offsets: NDArray, rotations: NDArray, translations: NDArray, fps: float) -> Motion:
-        from ..kinematics import character_height
+        from ..model.kinematics import character_height
 
         J = len(self.order)
         scale = max(float(np.abs(offsets).max()), float(np.abs(translations[:, 0]).max()), 1e-12)
@@ -335,7 +335,7 @@ class FBXFile(ClipFile):
 def _affine(t: NDArray, r: NDArray, s: NDArray) -> NDArray[np.float64]:
     """``(F, 4, 4)`` local matrices ``T R S`` of a node from its ``(F, 3)`` translations, ``(F, 4)`` xyzw rotations
     and ``(F, 3)`` scales."""
-    from ..kinematics import quat_to_matrix_fast
+    from ..model.kinematics import quat_to_matrix_fast
 
     m = np.zeros((t.shape[0], 4, 4))
     m[:, :3, :3] = quat_to_matrix_fast(r / np.linalg.norm(r, axis=-1, keepdims=True)) * s[:, None, :]
@@ -352,7 +352,7 @@ def _exact_translations(parents: NDArray, positions: NDArray, rotations: NDArray
     noise in scales (Blender: 1.00002 on a hip) and compensate it in the children's transforms, so dropping the
     scale alone would move the children by that noise; this keeps every joint where the file puts it.
     """
-    from ..rotations import quat_apply, quat_conjugate, quat_multiply
+    from ..model.rotations import quat_apply, quat_conjugate, quat_multiply
 
     J = parents.size
     G = np.empty_like(rotations)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion, Skeleton, _checked_motion_header, _readonly
+from ..model._pose import Motion, Skeleton, _checked_motion_header, _readonly
 from ..errors import ValidationError
 
 __all__ = ["FeatureClip", "features_from_motion", "motion_from_features"]
@@ -95,7 +95,7 @@ def features_from_motion(motion: Motion, representation: str) -> FeatureClip:
     Raises:
         UnknownPluginError: listing the available representations if none has that name.
     """
-    from ..plugins import get_representation
+    from ..plugin.registry import get_representation
 
     rep = get_representation(representation)
     features = rep.to_features(motion)
@@ -117,7 +117,7 @@ def motion_from_features(clip: FeatureClip, path: str | os.PathLike[str] | None 
         PluginVersionError: (a :class:`~motionrep.errors.FormatError`) if the installed representation's version
             differs from the stored one.
     """
-    from ..plugins import get_representation
+    from ..plugin.registry import get_representation
 
     rep = get_representation(clip.representation, version=clip.representation_version, path=path, clip=clip_name)
     return rep.from_features(clip.features, clip.skeleton, clip.fps)

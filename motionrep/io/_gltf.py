@@ -36,7 +36,7 @@ from typing import Any, Iterator
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import ValidationError, naming
 from ..formats import BY_NAME
 from ._atomic import atomic_path
@@ -80,14 +80,14 @@ def gltf_scale(motion: Motion, scale: float | None = None, units: str | None = N
     * ``scale`` given: that number; ``units`` given (one of :data:`GLTF_UNITS`): its size in metres;
     * else the skeleton's units when they are one of :data:`UNIT_METRES` (an NPZ, HDF5 or glTF file states them);
     * else (BVH does not state its units) the guess: the first of m, cm, in, mm that puts the character height
-      (:func:`motionrep.kinematics.character_height`, the rest pose's largest extent) between 1 and 2.5 m; when
+      (:func:`motionrep.model.kinematics.character_height`, the rest pose's largest extent) between 1 and 2.5 m; when
       none does (a CMU clip of about 24 units is 0.6 m in inches, 24 m in metres), the scale that makes it
       1.8 m tall.  A skeleton of height 0 gets 1.
 
     Raises:
         ValidationError: both given, an unknown unit, or a scale that is not a positive number.
     """
-    from ..kinematics import character_height
+    from ..model.kinematics import character_height
 
     if scale is not None and units is not None:
         raise ValidationError("give a glTF scale or units, not both")
@@ -127,8 +127,8 @@ def _check_write_options(motion: Motion, scale: float | None, up: str) -> tuple[
     if up not in ("auto", "y", "z"):
         raise ValidationError(f"up must be 'auto', 'y' or 'z', got {up!r}")
     if up == "auto":
-        from ..kinematics import global_positions
-        from ..ops import detect_up_axis
+        from ..model.kinematics import global_positions
+        from ..model.ops import detect_up_axis
 
         step = max(1, motion.num_frames // 500)  # a few hundred frames decide as well as all of them
         up = detect_up_axis(global_positions(motion.frames(slice(None, None, step))))
@@ -140,7 +140,7 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
     import pygltflib as g
 
     from .._version import __version__
-    from ..rotations import quat_make_continuous
+    from ..model.rotations import quat_make_continuous
 
     sk = motion.skeleton
     J, E, F = sk.num_joints, sk.num_end_sites, motion.num_frames
@@ -211,7 +211,7 @@ def _build(motion: Motion, name: str, scale: float, up: str) -> tuple[Any, bytes
 
     # rest pose: identity rotations, every joint at its OFFSET; the skin binds it (inverse bind = -rest position,
     # in the armature's space, which is the skin's model space)
-    from ..kinematics import rest_positions
+    from ..model.kinematics import rest_positions
 
     rest = rest_positions(sk)
     arm = np.eye(4)
@@ -287,7 +287,7 @@ def write_gltf(motion: Motion, path: str | os.PathLike[str], clip: str | None = 
         scale: metres per file unit, applied by the armature node (the joints keep the clip's own numbers).
             Default: from ``motion.skeleton.units`` when it is one of :data:`UNIT_METRES`, else 1 (BVH does not
             state its units: give ``scale=0.01`` for a clip in centimetres).
-        up: the clip's up axis, ``"y"``, ``"z"`` or ``"auto"`` (:func:`motionrep.ops.detect_up_axis`); a
+        up: the clip's up axis, ``"y"``, ``"z"`` or ``"auto"`` (:func:`motionrep.model.ops.detect_up_axis`); a
             Z-up clip is turned to glTF's Y-up by the armature node.
 
     Raises:

@@ -135,7 +135,7 @@ def tracks(doc: Doc, indices: list[int]) -> dict[tuple[int, str], Track]:
 
 def sample(track: Track, times: NDArray[np.float64], rotation: bool, snap: float) -> NDArray[np.float64]:
     """The track's values at ``times`` (held before the first and after the last key)."""
-    from ..rotations import quat_slerp
+    from ..model.rotations import quat_slerp
 
     keys, cubic = track.times, track.interpolation == "CUBICSPLINE"
     values = track.values[1::3] if cubic else track.values

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, Motion, Skeleton
+from ..model._pose import DEFAULT_JOINT_CHANNELS, DEFAULT_ROOT_CHANNELS, Motion, Skeleton
 from ..errors import MotionrepError, ValidationError
 from ._gltf_anim import Track, Unique, frame_times, sample
 from ._gltf_anim import tracks as read_tracks
@@ -49,7 +49,7 @@ def _node_rest(doc: Doc, i: int) -> _Rest:
                 or np.ptp(col) > _SCALE_TOLERANCE * col.max()):
             raise doc.fail(f"{what}: its matrix is not a rotation with a uniform scale; motionrep's pose model "
                            "cannot hold it")
-        from ..rotations import matrix_to_quat
+        from ..model.rotations import matrix_to_quat
 
         return _Rest(t, matrix_to_quat(lin / col), float(col.mean()))
     t = doc.floats(node, "translation", 3, what)
@@ -278,7 +278,7 @@ def _read_animation(doc: Doc, indices: list[int], name: str, where: str) -> Moti
         return s
 
     # what is above the skeleton (a foreign file's armature or scene nodes) is folded into the root
-    from ..rotations import quat_apply, quat_multiply
+    from ..model.rotations import quat_apply, quat_multiply
 
     top_r = np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), (F, 4))
     top_t = np.zeros((F, 3))
@@ -345,7 +345,7 @@ def _rest_to_identity(parents: NDArray, top: NDArray, rest: list[NDArray], offse
     new local rotations ``G[parent] * q * G[joint]^-1``: every world position is unchanged and the character
     height measures the rest pose the file describes.
     """
-    from ..rotations import quat_apply, quat_conjugate, quat_multiply
+    from ..model.rotations import quat_apply, quat_conjugate, quat_multiply
 
     J = len(rest)
     G = np.empty((J, 4))
@@ -373,8 +373,8 @@ def _assemble(doc: Doc, where: str, names: list[str], parents: NDArray, offsets:
               translations: NDArray, sites: list[int], channels: list[tuple[str, ...]] | None, units: str | None,
               fps: float) -> Motion:
     """The Motion: end sites split off, translated joints found, the channel layout chosen."""
-    from ..kinematics import character_height
-    from ..rotations import euler_to_quat, quat_to_euler
+    from ..model.kinematics import character_height
+    from ..model.rotations import euler_to_quat, quat_to_euler
 
     J = len(names)
     is_site = np.zeros(J, bool)

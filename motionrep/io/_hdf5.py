@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..limits import current as current_limits
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import FormatError, HDF5FormatError, ValidationError, naming
 from ._atomic import atomic_path
 from ._compact import CHANNEL_KEYS, channel_arrays

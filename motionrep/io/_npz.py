@@ -21,7 +21,7 @@ from typing import Any, BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import MotionrepError, NPZFormatError, ValidationError
 from ._atomic import atomic_path
 from ._compact import channel_arrays

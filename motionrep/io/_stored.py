@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ..limits import ENVIRONMENT, check_clip
 from ..limits import current as current_limits
-from .._model import Motion, Skeleton
+from ..model._pose import Motion, Skeleton
 from ..errors import FormatError, ValidationError
 from ._features import FeatureClip
 

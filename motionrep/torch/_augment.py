@@ -20,9 +20,9 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from .._model import Skeleton
+from ..model._pose import Skeleton
 from ..errors import ValidationError
-from ..kinematics import rest_positions
+from ..model.kinematics import rest_positions
 
 __all__ = ["mirror_pairs", "lateral_axis", "mirror_poses", "rotate_poses", "foot_contacts", "contact_joints",
            "UP_AXES"]

@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import FormatError, ValidationError
-from ..ops import resampled_count
-from ..sources import SOURCE_SUFFIXES, ClipRef, Source, collect_clips, open_source
+from ..model.ops import resampled_count
+from ..pipeline.sources import SOURCE_SUFFIXES, ClipRef, Source, collect_clips, open_source
 
 __all__ = ["ClipInfo", "index_clips", "ClipCache"]
 
@@ -34,13 +34,13 @@ class ClipInfo:
     """One clip of a dataset.
 
     Attributes:
-        name: its name (the naming rules of ``motionrep.sources``: a database's clip names, a directory's relative
+        name: its name (the naming rules of ``motionrep.pipeline.sources``: a database's clip names, a directory's relative
             paths with ``__`` for ``/``).
         path: its file.
         clip: its name in that file (None for a file of one clip).
         source_frames: frames as stored.
         source_fps: frame rate as stored.
-        frames: frames after resampling to the dataset's rate (``motionrep.ops.resampled_count``).
+        frames: frames after resampling to the dataset's rate (``motionrep.model.ops.resampled_count``).
         layout: the clip's feature columns, when indexing was asked to find them (else None).
     """
 

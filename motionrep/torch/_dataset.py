@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from .._model import Motion
+from ..model._pose import Motion
 from ..errors import ValidationError
-from ..kinematics import character_height, fk_arrays
-from ..ops import resample
-from ..plugins import get_representation
-from ..representation import Representation
+from ..model.kinematics import character_height, fk_arrays
+from ..model.ops import resample
+from ..plugin.registry import get_representation
+from ..plugin.representation import Representation
 from ._augment import (UP_AXES, contact_joints, foot_contacts, lateral_axis, mirror_pairs, mirror_poses,
                        rotate_poses)
 from ._clips import ClipCache, ClipInfo, index_clips
@@ -48,7 +48,7 @@ class MotionDataset(torch.utils.data.Dataset):
             from its numpy ``to_features``.
         length: frames per window (>= 1).
         stride: frames between window starts (default ``length``: no overlap).
-        fps: resample every clip to this rate first (``motionrep.ops.resample``); None keeps each clip's own.
+        fps: resample every clip to this rate first (``motionrep.model.ops.resample``); None keeps each clip's own.
         clips: only these clip names (e.g. ``split_clips(...)["train"]``).
         positions, velocities, contacts: add those targets (``velocities`` are central differences of the
             positions over the whole clip, ``numpy.gradient``, times the rate).
@@ -56,7 +56,7 @@ class MotionDataset(torch.utils.data.Dataset):
         contact_height: a contact joint is on the ground within this fraction of the character's height above
             its floor (its 5th-percentile height over the clip; default 0.04) ...
         contact_speed: ... and slower than this many character heights per second (default 0.25).
-        up: ``"x"``, ``"y"``, ``"z"`` or ``"auto"`` (``motionrep.ops.detect_up_axis`` on the first clip).
+        up: ``"x"``, ``"y"``, ``"z"`` or ``"auto"`` (``motionrep.model.ops.detect_up_axis`` on the first clip).
         stats: a :class:`FeatureStats` (or the path of its file) to normalise features with.
         rotate: augment by a rotation about the up axis through the origin, uniform in ``[-rotate, rotate]``
             degrees (True: 180); 0/False: none.
@@ -326,8 +326,8 @@ def _contact_pairs(joints: np.ndarray, pairs: np.ndarray) -> np.ndarray:
 
 
 def _detect_up(motion: Motion) -> str:
-    from ..kinematics import global_positions
-    from ..ops import detect_up_axis
+    from ..model.kinematics import global_positions
+    from ..model.ops import detect_up_axis
 
     return detect_up_axis(global_positions(motion.frames(slice(0, None, max(1, motion.num_frames // 200)))))
 

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from .._model import Motion, Skeleton
+from ..model._pose import Motion, Skeleton
 from ..errors import ValidationError
-from ..representation import FeatureLayout, Representation, TorchPath
+from ..plugin.representation import FeatureLayout, Representation, TorchPath
 
 __all__ = ["encode_features", "decode_features", "features_to_motion", "write_features", "torch_path_of",
            "layout_split", "layout_blocks", "layout_place", "layout_assemble", "motion_tensors"]
@@ -20,13 +20,13 @@ __all__ = ["encode_features", "decode_features", "features_to_motion", "write_fe
 def _representation(representation: str | Representation) -> Representation:
     if isinstance(representation, Representation):
         return representation
-    from ..plugins import get_representation
+    from ..plugin.registry import get_representation
 
     return get_representation(representation)
 
 
 def torch_path_of(representation: str | Representation) -> TorchPath:
-    """The :class:`~motionrep.representation.TorchPath` of a representation (a registered name or an instance).
+    """The :class:`~motionrep.plugin.representation.TorchPath` of a representation (a registered name or an instance).
 
     Raises:
         ValidationError: if the representation has no torch path (its numpy path still works everywhere).
@@ -85,7 +85,7 @@ def features_to_motion(representation: str | Representation, features: Any, skel
     """A network's ``(F, D)`` output features (a tensor, detached and copied here, or an array) as a
     :class:`~motionrep.Motion`, through the representation's numpy decoder (its ``from_features``: the very
     Motion ``motionrep`` would decode, Euler branch hints included), with the translation axes that have no
-    position channel set back to their OFFSET as ``motionrep decompress`` does (:func:`motionrep.ops.fixed_axes_restored`),
+    position channel set back to their OFFSET as ``motionrep decompress`` does (:func:`motionrep.model.ops.fixed_axes_restored`),
     so that it can be written to BVH.  Rotations about axes a joint has no channel for are not projected away: a
     skeleton with 1- or 2-axis joints is written to BVH from ``euler`` features (or from float64 features of the
     other representations, whose round trip is exact there).
@@ -93,7 +93,7 @@ def features_to_motion(representation: str | Representation, features: Any, skel
     Raises:
         ValidationError: for features that are not ``(F, D)`` for ``skeleton`` or not finite.
     """
-    from ..ops import fixed_axes_restored
+    from ..model.ops import fixed_axes_restored
 
     rep = _representation(representation)
     if isinstance(features, torch.Tensor):
@@ -113,7 +113,7 @@ def write_features(path: str | os.PathLike[str], representation: str | Represent
     return motion
 
 
-# --- the column layout of motionrep.representation.FeatureLayout, on tensors --------------------------------
+# --- the column layout of motionrep.plugin.representation.FeatureLayout, on tensors --------------------------------
 def _index(a: np.ndarray, device: torch.device) -> torch.Tensor:
     return torch.tensor(np.array(a, np.int64), device=device)
 

@@ -1,4 +1,4 @@
-"""Forward kinematics on torch tensors, with the conventions of :mod:`motionrep.kinematics`.
+"""Forward kinematics on torch tensors, with the conventions of :mod:`motionrep.model.kinematics`.
 
 Points are joints first (``J``), then end sites (``E``).  The root is at ``root_translation`` (its OFFSET with
 the axes that have position channels replaced, as ``Motion.root_translation``); every other joint is at its
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from .._model import Skeleton
+from ..model._pose import Skeleton
 from ..errors import ValidationError
 
 __all__ = ["forward_kinematics", "global_positions", "skeleton_tensors"]

@@ -7,7 +7,7 @@
   leading dimension (frames, batch) and joint; ``reduction="none"`` keeps them, ``(..., J)``.
 * :func:`fk_position_loss`: the mean joint and end-site position error through FK, for any representation with
   a torch path.
-* :func:`max_joint_error`: the L-infinity error of ``motionrep evaluate`` (:mod:`motionrep.evaluate`), worst
+* :func:`max_joint_error`: the L-infinity error of ``motionrep evaluate`` (:mod:`motionrep.pipeline.evaluate`), worst
   joint or end site over frames, in file units and percent of the reference's character height.
 
 Distances are differentiable where they are zero (gradient 0 there, not NaN).
@@ -20,10 +20,10 @@ from dataclasses import dataclass
 
 import torch
 
-from .._model import Skeleton
+from ..model._pose import Skeleton
 from ..errors import ValidationError
-from ..kinematics import character_height
-from ..representation import Representation
+from ..model.kinematics import character_height
+from ..plugin.representation import Representation
 from ._dualquat import dualquat_conjugate, dualquat_multiply, dualquat_normalize, dualquat_to_rotation_translation
 from ._features import decode_features, layout_blocks
 from ._kinematics import global_positions
@@ -59,7 +59,7 @@ def _pair(predicted: torch.Tensor, target: torch.Tensor) -> None:
 def dualquats_of_features(features: torch.Tensor, skeleton: Skeleton) -> torch.Tensor:
     """``(..., F, J, 8)`` dual quaternions of ``(..., F, D)`` ``dual-quaternion`` features (as they are, not
     normalised)."""
-    from ..plugins import get_representation
+    from ..plugin.registry import get_representation
 
     return layout_blocks(get_representation("dual-quaternion").layout(skeleton), features)
 
@@ -146,7 +146,7 @@ class JointError:
         mean_error: ``(...)`` mean distance over frames and points.
         frame: ``(...)`` frame of the largest distance.
         point: ``(...)`` point (joints, then end sites) of the largest distance.
-        height: the reference skeleton's character height (:func:`motionrep.kinematics.character_height`).
+        height: the reference skeleton's character height (:func:`motionrep.model.kinematics.character_height`).
     """
 
     max_error: torch.Tensor
@@ -166,7 +166,7 @@ def max_joint_error(skeleton: Skeleton, reference: tuple, candidate: tuple) -> J
 
     Returns:
         :class:`JointError` (differentiable in ``max_error``; equal to
-        :func:`motionrep.evaluate.max_joint_error`'s ``max_error`` to rounding).
+        :func:`motionrep.pipeline.evaluate.max_joint_error`'s ``max_error`` to rounding).
     """
     a = global_positions(skeleton, *reference)
     b = global_positions(skeleton, *candidate)

@@ -1,6 +1,6 @@
-"""Rotation conversions and quaternion algebra on torch tensors, under the names of :mod:`motionrep.rotations`.
+"""Rotation conversions and quaternion algebra on torch tensors, under the names of :mod:`motionrep.model.rotations`.
 
-Conventions (those of :mod:`motionrep.rotations`):
+Conventions (those of :mod:`motionrep.model.rotations`):
 
 * Quaternions are ``(..., 4)`` tensors in **xyzw** order (scalar last); roma uses the same order.
 * Rotation matrices are ``(..., 3, 3)`` and act on column vectors (``v' = R @ v``).
@@ -12,7 +12,7 @@ Conventions (those of :mod:`motionrep.rotations`):
 * Every function takes any leading batch dimensions and keeps the input's dtype and device.
 
 Hemisphere rule: ``q`` and ``-q`` are the same rotation.  Conversions *to* quaternions from a matrix or a 6D
-encoding return ``w >= 0`` (as :func:`motionrep.rotations.matrix_to_quat`); :func:`axis_angle_to_quat` and
+encoding return ``w >= 0`` (as :func:`motionrep.model.rotations.matrix_to_quat`); :func:`axis_angle_to_quat` and
 :func:`euler_to_quat` return the product of the half-angle quaternions without choosing a sign (an angle beyond
 pi gives ``w < 0``), as numpy does; :func:`quat_to_axis_angle` reads ``q`` with ``w >= 0`` (angle in
 ``[0, pi]``).  A map that picks a hemisphere is discontinuous where ``w = 0`` (180 degrees): there its gradient
@@ -26,7 +26,7 @@ the cause of NaN gradients in some libraries, kornia #3949).
 roma does the conversions it has (Euler in any order, axis-angle to quaternion, matrix to quaternion, Gram-Schmidt
 of the 6D columns, products); written here: the hemisphere rules, the 1- and 2-axis Euler orders, the
 axis-angle extraction with a gradient at the identity, and :func:`quat_make_continuous`.  The
-``*_columns_*`` kernels and the frame-by-frame Euler continuity of :mod:`motionrep.rotations` belong to numpy
+``*_columns_*`` kernels and the frame-by-frame Euler continuity of :mod:`motionrep.model.rotations` belong to numpy
 decoding and encoding and have no counterpart here.
 """
 
@@ -38,7 +38,7 @@ import roma
 import torch
 
 from ..errors import ValidationError
-from ..rotations import _check_order, _complete_order
+from ..model.rotations import _check_order, _complete_order
 
 __all__ = [
     "quat_identity",
@@ -141,7 +141,7 @@ def _angles(angles: torch.Tensor, order: str, degrees: bool) -> torch.Tensor:
 
 def euler_to_quat(angles: torch.Tensor, order: str, degrees: bool = False) -> torch.Tensor:
     """Euler angles ``(..., len(order))`` to ``(..., 4)`` xyzw quaternions: the product of the per-axis
-    half-angle quaternions (roma), not sign-canonicalised, as :func:`motionrep.rotations.euler_to_quat`."""
+    half-angle quaternions (roma), not sign-canonicalised, as :func:`motionrep.model.rotations.euler_to_quat`."""
     a = _angles(angles, order, degrees)
     return roma.euler_to_unitquat(order, a, normalize=False)
 
@@ -152,7 +152,7 @@ def euler_to_matrix(angles: torch.Tensor, order: str, degrees: bool = False) -> 
 
 
 def quat_to_euler(q: torch.Tensor, order: str, degrees: bool = False) -> torch.Tensor:
-    """``(..., 4)`` xyzw quaternions to Euler angles ``(..., len(order))``, as :func:`motionrep.rotations.quat_to_euler`.
+    """``(..., 4)`` xyzw quaternions to Euler angles ``(..., len(order))``, as :func:`motionrep.model.rotations.quat_to_euler`.
 
     Three-axis orders: scipy's solution (roma's, the same algorithm), the middle angle in [-90, 90] degrees for
     Tait-Bryan orders.  One- and two-axis orders: of the two solutions of the order completed to three axes, the
@@ -184,7 +184,7 @@ def axis_angle_to_quat(v: torch.Tensor) -> torch.Tensor:
 
 def quat_to_axis_angle(q: torch.Tensor) -> torch.Tensor:
     """``(..., 4)`` xyzw quaternions (normalised first) to ``(..., 3)`` rotation vectors, angle in [0, pi]
-    (``q`` read with ``w >= 0``, as :func:`motionrep.rotations.quat_to_axis_angle`).
+    (``q`` read with ``w >= 0``, as :func:`motionrep.model.rotations.quat_to_axis_angle`).
 
     ``v = u * 2 atan2(|u|, w) / |u|`` with ``u`` the vector part; below ``|u| = 1e-6`` the factor is its series
     ``(2 / w) (1 - |u|**2 / (3 w**2))``, so the gradient at the identity is finite (2 / w times the identity).

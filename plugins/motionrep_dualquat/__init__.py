@@ -8,7 +8,7 @@ vectorised over any leading dimensions; ``(..., 8)`` arrays ``[real xyzw, dual x
 from __future__ import annotations
 
 from motionrep import __version__
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
                        dualquat_multiply, dualquat_normalize, dualquat_to_rotation_translation)

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep.errors import ValidationError
-from motionrep.rotations import quat_conjugate, quat_multiply
+from motionrep.model.rotations import quat_conjugate, quat_multiply
 
 __all__ = [
     "dualquat_multiply",

@@ -8,11 +8,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.kinematics import global_positions
-from motionrep.poseplan import WORLD_IDENTITY, WORLD_QUAT
-from motionrep.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
+from motionrep.model.kinematics import global_positions
+from motionrep.model.poseplan import WORLD_IDENTITY, WORLD_QUAT
+from motionrep.plugin.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
                                       feature_layout, per_skeleton)
-from motionrep.rotations import quat_multiply
+from motionrep.model.rotations import quat_multiply
 
 from ._algebra import (dualquat_conjugate, dualquat_from_rotation_translation, dualquat_make_continuous,
                        dualquat_multiply, dualquat_normalize, dualquat_to_rotation_translation)
@@ -62,7 +62,7 @@ def _pose_plan(skeleton: Skeleton) -> PosePlan:
 class DualQuaternion(Representation):
     """Root translation and one unit dual quaternion per joint in root-relative current coordinates.
 
-    Columns (see :class:`~motionrep.representation.FeatureLayout`): root translation (3, file units); for every
+    Columns (see :class:`~motionrep.plugin.representation.FeatureLayout`): root translation (3, file units); for every
     joint (the root included), the unit dual quaternion (8: real xyzw, dual xyzw) of its *current* transform,
     its world rotation and its position relative to the root (root orientation kept, root translation zeroed;
     the root's own dual part is therefore zero); for joints with position channels, their local translation
@@ -72,7 +72,7 @@ class DualQuaternion(Representation):
     Decoding normalises each dual quaternion's real part (eq. 13) and uses only the real parts: joint ``j``'s
     local rotation is ``G_parent* r_j`` with ``G_parent`` the parent's already decoded world rotation (the
     identity for joints without rotation channels), in one compiled pass (its :meth:`pose_plan`,
-    ``motionrep.poseplan``).  The root translation comes from its 3 columns, joint offsets from
+    ``motionrep.model.poseplan``).  The root translation comes from its 3 columns, joint offsets from
     the skeleton (and from the translation columns for joints with position channels).  The dual parts are kept
     for users who want positions without FK; :func:`dual_part_offset_error` measures how far they have drifted.
     """

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 
 from motionrep import Skeleton
-from motionrep.representation import TorchPath
+from motionrep.plugin.representation import TorchPath
 from motionrep.torch import (dualquat_from_rotation_translation, global_positions, layout_assemble, layout_blocks,
                              layout_split)
 from motionrep.torch.rotations import quat_conjugate, quat_multiply, quat_normalize

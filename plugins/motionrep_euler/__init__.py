@@ -6,7 +6,7 @@ See ``specs/representations.md`` for the column layout, units and weights.
 from __future__ import annotations
 
 from motionrep import __version__
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 
 from ._rep import Euler
 

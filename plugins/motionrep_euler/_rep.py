@@ -6,10 +6,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.poseplan import EULER_DEGREES
-from motionrep.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
+from motionrep.model.poseplan import EULER_DEGREES
+from motionrep.plugin.representation import (FeatureLayout, PosePlan, Representation, check_features, decoded_motion,
                                       feature_layout, joint_reach, per_skeleton)
-from motionrep.rotations import euler_branch, euler_columns, quat_to_euler_continuous
+from motionrep.model.rotations import euler_branch, euler_columns, quat_to_euler_continuous
 
 __all__ = ["Euler"]
 
@@ -21,7 +21,7 @@ def _layout(skeleton: Skeleton) -> FeatureLayout:
 
 @per_skeleton
 def _pose_plan(skeleton: Skeleton) -> PosePlan:
-    """Each joint's angles in the order its factors apply (``motionrep.rotations.euler_columns``), degrees."""
+    """Each joint's angles in the order its factors apply (``motionrep.model.rotations.euler_columns``), degrees."""
     def entry(j: int, cols: NDArray[np.int64]) -> tuple[int, list[int], list[int]]:
         positions, axes = euler_columns([skeleton.rotation_orders[j]])
         used = [k for k in positions[0].tolist() if k >= 0]
@@ -41,7 +41,7 @@ def _by_order(skeleton: Skeleton, joints: NDArray[np.int64]) -> dict[str, list[i
 class Euler(Representation):
     """Root translation and every joint's own rotation channels.
 
-    Columns (see :class:`~motionrep.representation.FeatureLayout`): root translation (3, file units); for every
+    Columns (see :class:`~motionrep.plugin.representation.FeatureLayout`): root translation (3, file units); for every
     joint with rotation channels, one column per channel in the file's order (``"<joint>/Zrotation"``...),
     intrinsic angles in **degrees** as in BVH; for joints with position channels, their local translation
     (3, file units).  Joints without rotation channels take no rotation columns and decode to the identity.

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import TorchPath
+from motionrep.plugin.representation import TorchPath
 from motionrep.torch import layout_assemble, layout_blocks, layout_place, layout_split
 from motionrep.torch.rotations import euler_to_quat, quat_to_euler
 

@@ -10,7 +10,7 @@ Training is numpy (imported inside ``encode`` only, one BLAS thread); decoding i
 from __future__ import annotations
 
 from motionrep import __version__
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 
 from ._codecs import AdaptiveFourierCodec, FourierParams, NaiveFourierCodec
 

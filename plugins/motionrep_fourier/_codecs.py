@@ -10,7 +10,7 @@ from typing import Any, Callable, Literal, Mapping, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_info_numbers
+from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_work, check_info_numbers
 from motionrep.errors import BoundNotMetError, ParameterError, PayloadError, naming
 
 from ._network import Network, network_dtype

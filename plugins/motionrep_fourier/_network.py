@@ -16,7 +16,7 @@ returns them as float64).
 One kernel serves a single network and a clip in windows (``_windows``; a quantised payload is dequantised to
 the same arrays first): each time is decoded by the network of the window it falls in, at its local time, the
 call's times grouped by window first (:data:`GROUP` at a time) so that each network runs on whole blocks.  It writes the features **feature-major**
-(``out[d, i]``, the layout of the runtime decoder's blocks, ``motionrep.poseplan``).
+(``out[d, i]``, the layout of the runtime decoder's blocks, ``motionrep.model.poseplan``).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import CompiledDecoder
+from motionrep.plugin.codec import CompiledDecoder
 from motionrep.jit import affine_block, affine_one, jit, jit_inline, sincos
 
 __all__ = ["fourier_features", "elu", "Network", "Networks", "network_forward", "network_dtype", "ARRAY_NAMES",
@@ -36,7 +36,7 @@ __all__ = ["fourier_features", "elu", "Network", "Networks", "network_forward", 
 ARRAY_NAMES = ("omega", "W0", "b0", "W1", "b1", "W2", "b2")
 #: Times evaluated together: the block's activations stay in the CPU cache and in vector registers.
 ROWS = 64
-#: Times grouped by window before they are evaluated (one runtime block, ``motionrep.runtime.BLOCK``, or more).
+#: Times grouped by window before they are evaluated (one runtime block, ``motionrep.pipeline.runtime.BLOCK``, or more).
 GROUP = 1024
 #: Payload versions decoded in float64 (their files were measured in float64 when they were written).
 FLOAT64_VERSIONS = (1, 2)
@@ -250,7 +250,7 @@ class Networks(CompiledDecoder):
         kernel, kernel_args: the compiled decoder and its prepared arguments: ``kernel(times, out,
             *kernel_args)`` writes the features at ``times (T,)`` into ``out (D, >= T)`` float64, feature-major
             (what ``motionrep.open`` calls for each block of poses; a plain call runs it too,
-            ``motionrep.codec.CompiledDecoder``).
+            ``motionrep.plugin.codec.CompiledDecoder``).
 
     Raises:
         ValueError: if the arrays' shapes do not fit together.

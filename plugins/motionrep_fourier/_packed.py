@@ -7,9 +7,9 @@ for an integer step index ``i`` per layer and window; column ``k`` of layers 1 a
 so that a unit of large activations gets a finer step); row ``j`` of the output layer times ``u_j =
 step_scale(v_j)``, the clip's per-feature output scale (its weights' reciprocal, so one step means about the
 same joint-position error for every feature); ``omega = o / 2`` for integers ``o``.  All of it is one
-``uint8`` array of range-coded integers (``motionrep.coding``), laid out in ``specs/codecs.md``: version 3 codes
+``uint8`` array of range-coded integers (``motionrep.plugin.coding``), laid out in ``specs/codecs.md``: version 3 codes
 each layer's weights under one model; version 4 (written today) codes each layer as a matrix under one model or
-one per row or column, whichever is smaller (``motionrep.coding.fit_matrix_model``: the output layer's rows, one
+one per row or column, whichever is smaller (``motionrep.plugin.coding.fit_matrix_model``: the output layer's rows, one
 per feature, differ in magnitude by orders of magnitude, and a feature that never moves has a row of zeros).
 
 :func:`pack` writes it, :func:`unpack` reads it back to the float32 arrays the decoder evaluates
@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.coding import IntegerDecoder, IntegerEncoder, fit_matrix_model, fit_model, step_scale
+from motionrep.plugin.coding import IntegerDecoder, IntegerEncoder, fit_matrix_model, fit_model, step_scale
 from motionrep.errors import PayloadError
 
 __all__ = ["QuantizedNetwork", "pack", "unpack", "declared", "dequantized", "layer_bits", "MAX_K", "MAX_WIDTH", "MAX_INDEX",

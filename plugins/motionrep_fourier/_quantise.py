@@ -8,7 +8,7 @@ layer matrices ``A0 = [W0 | b0]``, ``A1 = [W1 | b1]``, ``A2 = [W2 | b2]``.  Each
   of the outputs with respect to the layer's ``n_l`` numbers, a step ``d`` adds about ``d^2 / 12 * G_l`` to the
   mean squared output error, and the rate is smallest for a given error when every number adds the same:
   ``d_l ~ sqrt(n_l / G_l)``;
-* one offset common to the three is then bisected to the bound (``motionrep.coding.largest_passing``), each
+* one offset common to the three is then bisected to the bound (``motionrep.plugin.coding.largest_passing``), each
   candidate measured by the shared evaluator exactly as it would be decoded;
 * then each layer's step, largest layer first, is made coarser one index at a time while the bound holds.
 
@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.coding import largest_passing, step_scale
+from motionrep.plugin.coding import largest_passing, step_scale
 from motionrep.errors import MotionrepError
 
 from ._packed import MAX_INDEX, QuantizedNetwork, dequantized, layer_bits

@@ -26,8 +26,8 @@ from threadpoolctl import threadpool_limits
 from scipy.linalg.lapack import dpotrf, dpotrs, dtrtrs
 from numpy.typing import NDArray
 
-from motionrep.codec import EncodeContext, Payload
-from motionrep.coding import step_scale
+from motionrep.plugin.codec import EncodeContext, Payload
+from motionrep.plugin.coding import step_scale
 from motionrep.errors import BoundNotMetError, CodecError
 
 from ._network import fourier_features, network_forward

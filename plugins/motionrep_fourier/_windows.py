@@ -13,7 +13,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Payload
+from motionrep.plugin.codec import Payload
 
 from ._network import Networks
 from ._packed import pack, unpack

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import EncodeContext, Payload
+from motionrep.plugin.codec import EncodeContext, Payload
 from motionrep.errors import BoundNotMetError
 
 from ._network import network_forward
@@ -68,7 +68,7 @@ def worker_count(jobs: int, tasks: int) -> int:
 
 
 class WindowContext:
-    """The :class:`~motionrep.codec.EncodeContext` of one window: its frames' local times, its ``max_k``, and
+    """The :class:`~motionrep.plugin.codec.EncodeContext` of one window: its frames' local times, its ``max_k``, and
     the shared evaluation of a candidate on the window's frames (``context.evaluate_frames``; frames are measured
     independently, so this is the error they have in the whole clip), or, from a context without it, on the
     whole clip with every other frame exact.  Progress goes to ``relay`` when given (a forked worker's, read by
@@ -174,7 +174,7 @@ class Runner:
         # process which only describes or decodes a file (`motionrep info clip.mrc`) should not pay
         from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-        from motionrep.executors import die_with_parent  # a killed encoder leaves no worker behind
+        from motionrep.batch.executors import die_with_parent  # a killed encoder leaves no worker behind
 
         global _JOB
         fork = multiprocessing.get_context("fork")

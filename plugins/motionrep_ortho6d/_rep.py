@@ -6,10 +6,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.poseplan import ORTHO6D
-from motionrep.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
+from motionrep.model.poseplan import ORTHO6D
+from motionrep.plugin.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
                                       joint_reach, per_skeleton)
-from motionrep.rotations import quat_to_ortho6d
+from motionrep.model.rotations import quat_to_ortho6d
 
 __all__ = ["Ortho6D"]
 
@@ -30,7 +30,7 @@ def _pose_plan(skeleton: Skeleton) -> PosePlan:
 class Ortho6D(Representation):
     """Root translation and the 6D encoding of every joint's local rotation.
 
-    Columns (see :class:`~motionrep.representation.FeatureLayout`): root translation (3, file units); for every
+    Columns (see :class:`~motionrep.plugin.representation.FeatureLayout`): root translation (3, file units); for every
     joint with rotation channels (the root included), the first two columns of its local rotation matrix
     (6, ``[R00, R10, R20, R01, R11, R21]``, dimensionless); for joints with position channels, their local
     translation (3, file units).  The encoding is continuous by construction (no sign or wrap choice).

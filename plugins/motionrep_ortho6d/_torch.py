@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from motionrep import Skeleton
-from motionrep.representation import TorchPath
+from motionrep.plugin.representation import TorchPath
 from motionrep.torch import layout_assemble, layout_blocks, layout_place, layout_split
 from motionrep.torch.rotations import ortho6d_to_quat, quat_to_ortho6d
 

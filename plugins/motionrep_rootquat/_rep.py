@@ -6,10 +6,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.poseplan import AXIS_ANGLE, QUAT
-from motionrep.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
+from motionrep.model.poseplan import AXIS_ANGLE, QUAT
+from motionrep.plugin.representation import (FeatureLayout, PosePlan, Representation, decoded_motion, feature_layout,
                                       joint_reach, per_skeleton)
-from motionrep.rotations import axis_angle_make_continuous, quat_make_continuous, quat_to_axis_angle
+from motionrep.model.rotations import axis_angle_make_continuous, quat_make_continuous, quat_to_axis_angle
 
 __all__ = ["RootQuatAxisAngle"]
 
@@ -35,7 +35,7 @@ def _pose_plan(skeleton: Skeleton) -> PosePlan:
 class RootQuatAxisAngle(Representation):
     """Root translation, root orientation as a quaternion, every other joint as an axis-angle vector.
 
-    Columns (see :class:`~motionrep.representation.FeatureLayout`): root translation (3, file units); if the
+    Columns (see :class:`~motionrep.plugin.representation.FeatureLayout`): root translation (3, file units); if the
     root has rotation channels, its orientation as a unit quaternion (4, **xyzw**), the sign of frame 0 chosen
     with ``w >= 0`` and every later frame's sign the one closest in L2 to the frame before; for every other
     joint with rotation channels, its local rotation as a rotation vector (3, axis times angle in radians),
@@ -44,7 +44,7 @@ class RootQuatAxisAngle(Representation):
     without rotation channels take no rotation columns and decode to the identity.
 
     Decoding normalises the root quaternion and converts the rotation vectors in one compiled pass (its
-    :meth:`pose_plan`, ``motionrep.poseplan``), straight from the feature columns, float32 or float64 features
+    :meth:`pose_plan`, ``motionrep.model.poseplan``), straight from the feature columns, float32 or float64 features
     alike (the arithmetic is float64).
     """
 

@@ -8,7 +8,7 @@ import numpy as np
 import torch
 
 from motionrep import Skeleton
-from motionrep.representation import TorchPath
+from motionrep.plugin.representation import TorchPath
 from motionrep.torch import layout_assemble, layout_blocks, layout_place, layout_split
 from motionrep.torch.rotations import axis_angle_to_quat, quat_make_continuous, quat_normalize, quat_to_axis_angle
 
@@ -54,7 +54,7 @@ class RootQuatAxisAngleTorch(TorchPath):
         if others.size:
             aa = quat_to_axis_angle(rotations[:, torch.tensor(others.copy(), device=rotations.device)])
             if reference is None:
-                from motionrep.rotations import axis_angle_make_continuous
+                from motionrep.model.rotations import axis_angle_make_continuous
 
                 target = axis_angle_make_continuous(aa.detach().cpu().double().numpy())
             else:

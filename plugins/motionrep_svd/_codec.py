@@ -20,7 +20,7 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import (Codec, CompiledDecoder, EncodeContext, Payload, check_decode_work, check_frames,
+from motionrep.plugin.codec import (Codec, CompiledDecoder, EncodeContext, Payload, check_decode_work, check_frames,
                              check_info_numbers)
 from motionrep.errors import BoundNotMetError, ParameterError, naming
 from motionrep.jit import affine_block, affine_one, jit

@@ -6,7 +6,7 @@ See ``specs/codecs.md`` for the payload layout and parameters.
 from __future__ import annotations
 
 from motionrep import __version__
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 
 from ._codec import TransformCodec, TransformDecoder, TransformParams, interpolate_rows
 

@@ -29,8 +29,8 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
-from motionrep.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
+from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
+from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 from motionrep.jit import jit
 
@@ -133,7 +133,7 @@ class _Plan:
 
 def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
     """``2 ** (e / 8)`` of every exponent array (through a table of the distinct values: the same bits as
-    :func:`motionrep.coding.step_scale`, faster)."""
+    :func:`motionrep.plugin.coding.step_scale`, faster)."""
     low = min(int(e.min()) for e in exponents if e.size)
     high = max(int(e.max()) for e in exponents if e.size)
     table = step_scale(np.arange(low, high + 1))
@@ -314,7 +314,7 @@ class _RegionErrors:
 
 class TransformCodec(Codec):
     """Error-bounded transform coding: CDF 9/7 wavelet over frames, steps from the features' FK sensitivity
-    and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.coding``).
+    and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.plugin.coding``).
 
     Payload (format version 1): ``data`` ``(n,)`` uint8, the range-coded stream of :mod:`._stream`.
     Info: ``{"bytes": n, "regions": R, "region_frames": region, "step": [smallest, largest]}`` (the position

@@ -1,5 +1,5 @@
 """The bytes of a ``transform`` payload (format 1): quantised wavelet coefficients, range-coded with context
-models (``motionrep.coding``). Layout in ``specs/codecs.md``; every count and range read is checked.
+models (``motionrep.plugin.coding``). Layout in ``specs/codecs.md``; every count and range read is checked.
 
 Coefficients are coded coarse to fine. The approximation is coded as differences between neighbouring samples.
 Each detail level is coded in two passes, its even then its odd coefficients; a coefficient's context is the
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.coding import IntegerDecoder, IntegerEncoder, Model, fit_model, max_values
+from motionrep.plugin.coding import IntegerDecoder, IntegerEncoder, Model, fit_model, max_values
 from motionrep.errors import PayloadError
 
 from ._wavelet import level_sizes, num_levels
@@ -29,7 +29,7 @@ _CONTEXTS = 2 * 2 * _SIZES
 #: Largest magnitude of a stored step exponent (steps are 2 ** (exponent / 8)).
 MAX_EXPONENT = (1 << 15) - 1
 #: Largest zero index of a stored model (P(0) <= 0.999): a byte then holds at most ~5700 values, so a header
-#: cannot make the decoder work or allocate out of proportion to the data (``motionrep.coding.max_values``).
+#: cannot make the decoder work or allocate out of proportion to the data (``motionrep.plugin.coding.max_values``).
 MAX_ZERO = 208
 
 

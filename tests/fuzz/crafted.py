@@ -25,9 +25,9 @@ import h5py
 import numpy as np
 
 from motionrep import Motion
-from motionrep.container import MAGIC
+from motionrep.io.container import MAGIC
 from motionrep.io import write
-from motionrep.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
 SECRET = b"TOP-SECRET-0123456789abcdef-do-not-leak\n" * 8  # 320 bytes; in no file motionrep may read
 
@@ -115,7 +115,7 @@ def mrc_parts(motion: Motion | None = None, codec: str = "svd",
     """``(metadata, payload)`` of a real, small ``.mrc`` container: ``svd`` (rank 2), or any other codec (e.g.
     ``transform``, the default codec of ``motionrep compress``, or ``adaptive-fourier``) with ``params`` at its
     default bound."""
-    from motionrep.compress import compress_motion
+    from motionrep.pipeline.compress import compress_motion
 
     if codec == "svd" and not params:
         motion = motion or synthetic_motion(chain_skeleton(3), frames=12, seed=2)
@@ -395,7 +395,7 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
                                              payload), "", "traceback (ValueError) in motionrep info: the outcome "
         "is described generically", command="info")
     cases[-1].kind = "accept"
-    from motionrep.coding import IntegerEncoder
+    from motionrep.plugin.coding import IntegerEncoder
 
     enc = IntegerEncoder()  # a payload header claiming 2^32 frames x 2^20 features, the rest zeros
     enc.encode_raw([2 ** 32 - 1], 32)

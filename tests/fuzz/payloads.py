@@ -7,7 +7,7 @@ the payloads' own consistency checks, not the checksum, meet the damage.
 Each mutant (``tests/fuzz/mutate.py``'s ``mutate_bytes`` on the payload's ``data`` array: bytes overwritten,
 inserted, removed, truncated; half of the seeds also overwrite bytes of the head, where the declared frame and
 feature counts, window edges and frequency counts live) is unpacked and decoded in this process
-(``motionrep.container.unpack`` then ``motionrep.compress.decompress``) under an address-space limit
+(``motionrep.io.container.unpack`` then ``motionrep.pipeline.compress.decompress``) under an address-space limit
 (``--memory``) and classified:
 
 - ``refused``: a ``ContainerError`` naming the file;
@@ -42,8 +42,8 @@ from fuzz.mutate import mutate_bytes  # noqa: E402
 
 
 def _originals() -> dict[str, object]:
-    from motionrep.compress import Pipeline
-    from motionrep.synthetic import synthetic_motion
+    from motionrep.pipeline.compress import Pipeline
+    from motionrep.model.synthetic import synthetic_motion
 
     motion = synthetic_motion(frames=120, seed=3)
     return {
@@ -65,8 +65,8 @@ def _mutant(data: bytes, rng: random.Random) -> bytes:
 
 
 def _classify(container, original, data: bytes, name: str) -> str:
-    from motionrep.compress import decompress
-    from motionrep.container import pack, unpack
+    from motionrep.pipeline.compress import decompress
+    from motionrep.io.container import pack, unpack
     from motionrep.errors import ContainerError
 
     mutated = dataclasses.replace(container, arrays={"data": np.frombuffer(data, np.uint8)})
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--memory", type=int, default=4 << 30, help="address-space limit (bytes)")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args(argv)
-    from motionrep.compress import decompress
+    from motionrep.pipeline.compress import decompress
 
     originals = _originals()
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)

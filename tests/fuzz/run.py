@@ -141,8 +141,8 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
     from fuzz.crafted import SECRET
     from fuzz.mutate import SECRET_VALUE, bvh_mutant, glb_mutant, gltf_json_mutant, h5_mutant, mrc_mutant, npz_mutant
     from motionrep import Motion, limits
-    from motionrep.compress import decompress
-    from motionrep.container import unpack
+    from motionrep.pipeline.compress import decompress
+    from motionrep.io.container import unpack
     from motionrep.errors import FormatError, MotionrepError
     from motionrep.io import parse_bvh, read
 

@@ -11,10 +11,10 @@ import sys
 import numpy as np
 import pytest
 
-from motionrep.compress import compress_motion, decompress
+from motionrep.pipeline.compress import compress_motion, decompress
 from motionrep.errors import BoundNotMetError, ParameterError
-from motionrep.evaluate import max_joint_error
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.pipeline.evaluate import max_joint_error
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 FAST_FOURIER = {"iters": 200}
 
@@ -144,8 +144,8 @@ def test_training_uses_one_blas_thread_and_no_torch(chain_motion):
     before = [(p["internal_api"], p["num_threads"]) for p in threadpool_info()]
     compress_motion(chain_motion, "naive-fourier", max_error=None, params={"k": 1, "iters": 25})
     assert [(p["internal_api"], p["num_threads"]) for p in threadpool_info()] == before
-    code = ("import sys; from motionrep.synthetic import chain_skeleton, synthetic_motion; "
-            "from motionrep.compress import compress_motion; "
+    code = ("import sys; from motionrep.model.synthetic import chain_skeleton, synthetic_motion; "
+            "from motionrep.pipeline.compress import compress_motion; "
             "m = synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20); "
             "compress_motion(m, 'adaptive-fourier', max_error=None, params={'k': 1, 'iters': 25}); "
             "assert 'torch' not in sys.modules, 'torch imported'")
@@ -383,9 +383,9 @@ def test_version_1_and_2_payloads_decode_in_float64_as_they_were_measured(versio
     import dataclasses
 
     import motionrep
-    from motionrep.codec import Payload
-    from motionrep.container import pack, unpack
-    from motionrep.plugins import get_codec, get_representation
+    from motionrep.plugin.codec import Payload
+    from motionrep.io.container import pack, unpack
+    from motionrep.plugin.registry import get_codec, get_representation
     from motionrep_fourier._network import fourier_features
     from motionrep_fourier._windows import split_windows
 
@@ -436,7 +436,7 @@ def test_version_1_and_2_payloads_decode_in_float64_as_they_were_measured(versio
 
 def test_windows_measure_the_same_with_or_without_evaluate_frames(chain_motion):
     """A context without ``evaluate_frames`` (the method is new) is measured on the whole clip instead."""
-    from motionrep.plugins import get_codec, get_representation
+    from motionrep.plugin.registry import get_codec, get_representation
     from motionrep.testing import ConformanceContext
 
     codec, rep = get_codec("adaptive-fourier"), get_representation("root-quat-axis-angle")
@@ -602,7 +602,7 @@ def test_version_3_quantised_files_decode_as_they_were_written(chain_motion):
     import dataclasses
 
     import motionrep
-    from motionrep.container import pack, unpack
+    from motionrep.io.container import pack, unpack
     from motionrep_fourier._packed import pack as pack_data, unpack as unpack_data
 
     r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
@@ -623,7 +623,7 @@ def test_version_3_quantised_files_decode_as_they_were_written(chain_motion):
 
 
 def test_damaged_quantised_payloads_are_refused_not_decoded_wrongly():
-    from motionrep.coding import IntegerEncoder
+    from motionrep.plugin.coding import IntegerEncoder
     from motionrep.errors import PayloadError
     from motionrep_fourier._packed import pack, unpack
 
@@ -643,7 +643,7 @@ def test_damaged_quantised_payloads_are_refused_not_decoded_wrongly():
 
 def test_quantised_windows_meet_the_bound_and_decode_once(chain_motion, monkeypatch):
     import motionrep_fourier._codecs as codecs
-    from motionrep.plugins import get_codec
+    from motionrep.plugin.registry import get_codec
 
     r = compress_motion(chain_motion, "adaptive-fourier", max_error="3%", params={"window": 16, **FAST_FOURIER})
     c = r.container
@@ -655,7 +655,7 @@ def test_quantised_windows_meet_the_bound_and_decode_once(chain_motion, monkeypa
     calls = []
     real = codecs.unpack
     monkeypatch.setattr(codecs, "unpack", lambda *args: calls.append(1) or real(*args))
-    from motionrep.codec import Payload
+    from motionrep.plugin.codec import Payload
 
     decoder = get_codec("adaptive-fourier").decoder(Payload(c.arrays))
     first = decoder(np.linspace(0, 1, 97))

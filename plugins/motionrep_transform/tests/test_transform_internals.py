@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from motionrep.codec import Payload, frame_times
-from motionrep.compress import compress_motion
+from motionrep.plugin.codec import Payload, frame_times
+from motionrep.pipeline.compress import compress_motion
 from motionrep.errors import PayloadError
-from motionrep.evaluate import max_joint_error
-from motionrep.plugins import get_codec, get_representation
-from motionrep.synthetic import chain_skeleton, synthetic_motion
+from motionrep.pipeline.evaluate import max_joint_error
+from motionrep.plugin.registry import get_codec, get_representation
+from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from motionrep_transform._stream import unpack as unpack_stream
 from motionrep_transform._wavelet import forward, inverse, level_sizes, num_levels
 
@@ -30,7 +30,7 @@ def test_wavelet_is_critically_sampled_and_invertible(frames):
 
 
 def test_a_header_cannot_ask_for_more_than_the_bytes_hold():
-    from motionrep.coding import IntegerEncoder
+    from motionrep.plugin.coding import IntegerEncoder
 
     enc = IntegerEncoder()
     enc.encode_raw([2 ** 32 - 1], 32)  # 4 billion frames

@@ -6,7 +6,7 @@ calls the two hooks below, exactly as it does for its shipped plugins.
 
 from __future__ import annotations
 
-from motionrep.hookspecs import hookimpl
+from motionrep.plugin.hookspecs import hookimpl
 
 from ._codec import KeyframeCodec, KeyframeParams
 from ._representation import LocalQuaternion

@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from motionrep.codec import Codec, EncodeContext, Payload
+from motionrep.plugin.codec import Codec, EncodeContext, Payload
 from motionrep.errors import BoundNotMetError, ParameterError
 
 __all__ = ["KeyframeCodec", "KeyframeParams"]

@@ -6,9 +6,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep import Motion, Skeleton
-from motionrep.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
+from motionrep.plugin.representation import (FeatureLayout, Representation, check_features, feature_layout, joint_reach,
                                       per_skeleton)
-from motionrep.rotations import quat_make_continuous, quat_normalize
+from motionrep.model.rotations import quat_make_continuous, quat_normalize
 
 __all__ = ["LocalQuaternion"]
 

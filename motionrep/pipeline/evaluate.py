@@ -1,0 +1,479 @@
+"""The shared evaluation: one FK-based L-infinity joint-position error and the compression figures.
+
+Every codec, shipped or third-party, is judged by these functions and by nothing else: codecs never measure
+their own error or compression ratio.
+
+Error
+    Both motions are run through forward kinematics (:func:`motionrep.model.kinematics.global_positions`); the error
+    of a point in a frame is the Euclidean distance between its two positions, over every joint **and every end
+    site**.  The reported error is the largest over all points and frames (the L-infinity norm of Tojo et al.
+    2022), in file units and in percent of the reference's character height
+    (:func:`motionrep.model.kinematics.character_height`), together with the mean over points and frames and where the
+    worst error is (frame index, point name).
+
+Codecs ask for this error while they search, through the :class:`MotionContext` they are given (the
+:class:`~motionrep.plugin.codec.EncodeContext` of ``motionrep compress`` and of the conformance suite alike).
+
+Compression figures (:func:`compression_figures`), always reported together:
+
+(a) ``paper_ratio``: ``frames x feature width`` of the representation divided by the number of stored
+    parameters (every stored number, frequencies and normalisation included) -- the ratio of Tojo et al. 2022.
+(b) ``float32_ratio``: bytes of the source's channel data stored as float32 (``frames x channels x 4``) divided
+    by the bytes of the compressed file.
+(c) ``bits_per_joint_frame``: compressed file bits divided by ``frames x joints`` (end sites excluded).
+(d) ``file_ratio``: source file bytes divided by compressed file bytes (None when the motion did not come from
+    a file).
+(e) ``bits_per_bone_frame``: the codec's payload bits (``payload_bytes``: its arrays, without the skeleton and
+    metadata every ``.mrc`` file has) divided by ``frames x (joints + end sites)``, ACL's count, so that sizes
+    compare with ACL's and between codecs whatever the container adds (None when the payload size is not
+    given).  The same figure as (f); kept under this name for older readers.
+(f) ``payload_bits_per_bone_frame``, ``file_bits_per_bone_frame`` and ``ratio_vs_source``: the size vocabulary of
+    :mod:`motionrep.pipeline.figures`, the figures every report shows first (the others behind ``--verbose`` and in JSON).
+
+Size: one concern, the shared measure; the error, the encode context built on it and the compression figures
+reported beside it are what every codec is judged by, kept in one place.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any, Callable, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..model._pose import Motion, Skeleton
+from ..plugin.codec import Payload, frame_times
+from ..errors import ValidationError, naming
+from ..model.kinematics import character_height, global_positions, point_names
+from ..model.ops import fixed_axes_restored
+from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
+
+if TYPE_CHECKING:
+    from ..plugin.codec import Codec
+    from ..plugin.representation import Representation
+
+__all__ = ["ErrorReport", "Evaluator", "max_joint_error", "compare", "skeleton_difference", "MotionContext",
+           "ProgressCallback", "CompressionFigures",
+           "compression_figures"]
+
+
+@dataclass(frozen=True)
+class ErrorReport:
+    """The shared L-infinity measure between a reference and a candidate motion.
+
+    Attributes:
+        max_error: largest joint or end-site position error over all frames, in file units.
+        max_error_percent: ``max_error`` in percent of the character height (``inf`` if the height is 0 and the
+            error is not).
+        mean_error: mean position error over all points and frames, in file units.
+        mean_error_percent: ``mean_error`` in percent of the character height.
+        frame: index of the frame with the largest error.
+        joint: name of the point with the largest error (a joint name, or ``"<joint>/End Site"``).
+        height: character height of the reference (file units).
+        units: length unit of the reference skeleton when known, else None.
+        num_frames: frames compared.
+        num_points: points compared per frame (joints + end sites).
+        comparison: what was compared and left out (a :class:`motionrep.pipeline.pairing.Comparison`), or None for a
+            strict comparison of every point and frame made without :mod:`motionrep.pipeline.pairing`.
+    """
+
+    max_error: float
+    max_error_percent: float
+    mean_error: float
+    mean_error_percent: float
+    frame: int
+    joint: str
+    height: float
+    units: str | None
+    num_frames: int
+    num_points: int
+    comparison: Any = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-serialisable dict of every field (``comparison`` as a dict, or None)."""
+        d = asdict(self)
+        d["comparison"] = None if self.comparison is None else self.comparison.as_dict()
+        return d
+
+    def summary(self) -> str:
+        """One line: ``L-inf 0.49 (1.89% of height 26.2), mean 0.08 (0.31%), worst at frame 0, LeftHand``."""
+        unit = f" {self.units}" if self.units else ""
+        return (f"L-inf error {self.max_error:.4g}{unit} ({self.max_error_percent:.3g}% of height "
+                f"{self.height:.4g}{unit}), mean {self.mean_error:.3g}{unit} ({self.mean_error_percent:.3g}%), "
+                f"worst at frame {self.frame}, {self.joint}")
+
+
+def _percent(value: float, height: float) -> float:
+    if height > 0:
+        return 100.0 * value / height
+    return 0.0 if value == 0 else math.inf
+
+
+class Evaluator:
+    """Measures candidates against one reference motion; FK of the reference is computed once.
+
+    Args:
+        reference: the motion every candidate is compared with.
+
+    Use it when many candidates are compared with the same reference (a codec's search); for a single
+    comparison :func:`max_joint_error` is simpler.
+    """
+
+    def __init__(self, reference: Motion):
+        self.reference = reference
+        self.skeleton: Skeleton = reference.skeleton
+        self.height = character_height(reference.skeleton)
+        self.names = point_names(reference.skeleton)
+        self._positions = global_positions(reference)
+
+    @property
+    def reference_positions(self) -> NDArray[np.float64]:
+        """``(F, J + E, 3)`` FK positions of the reference (read-only view)."""
+        view = self._positions.view()
+        view.flags.writeable = False
+        return view
+
+    def __call__(self, candidate: Motion, options: Any = None) -> ErrorReport:
+        """Compare ``candidate`` with the reference.
+
+        Args:
+            candidate: the motion to measure.
+            options: a :class:`motionrep.pipeline.pairing.MatchOptions` saying what may differ (joint order and names,
+                extra joints, end sites, frame rate); default strict. With options the report's ``comparison``
+                says what was compared and left out.
+
+        Raises:
+            ValidationError: if the skeletons differ in joints, parents or end sites, or the frame counts or
+                frame rates differ (strict), or cannot be paired under ``options``; the message names the
+                option that would compare them.
+        """
+        if options is not None:
+            return self.points_error(*compared_points(self.reference, candidate, options))
+        ref = self.reference
+        what = skeleton_difference(self.skeleton, candidate.skeleton)
+        if what is not None:
+            raise naming(ValidationError(f"cannot compare motions of different skeletons: {what} (match='names' "
+                                         "compares joints by name, and the points both have)"), "match='names'")
+        if candidate.num_frames != ref.num_frames:
+            rates = ("" if math.isclose(candidate.fps, ref.fps, rel_tol=1e-6) else
+                     f" at {ref.fps:g} vs {candidate.fps:g} fps (a .mrc decompresses at any rate: fps={ref.fps:g})")
+            raise naming(ValidationError(f"cannot compare motions with different frame counts: {ref.num_frames} vs "
+                                         f"{candidate.num_frames}{rates} (resample=True samples the candidate at the "
+                                         "reference's frame times)"), "fps=", "resample=True")
+        if not math.isclose(candidate.fps, ref.fps, rel_tol=1e-6):
+            raise naming(ValidationError(f"cannot compare motions with different frame rates: {ref.fps:g} vs "
+                                         f"{candidate.fps:g} fps (resample=True samples the candidate at the "
+                                         "reference's frame times)"), "resample=True")
+        return self.positions_error(global_positions(candidate))
+
+    def positions_error(self, positions: NDArray[np.float64], first: int | None = None) -> ErrorReport:
+        """Compare ``(F, J + E, 3)`` candidate FK positions with the reference's; with ``first``, ``(n, J + E, 3)``
+        positions of the reference frames ``first .. first + n - 1`` only (the report's frame is then a frame of
+        the clip, its mean and ``num_frames`` those of these frames)."""
+        dist = self._distances(positions, first)
+        flat = int(np.argmax(dist))
+        frame, point = divmod(flat, dist.shape[1])
+        frame += first or 0
+        max_error = float(dist.reshape(-1)[flat])
+        mean_error = float(dist.mean())
+        return ErrorReport(
+            max_error=max_error,
+            max_error_percent=_percent(max_error, self.height),
+            mean_error=mean_error,
+            mean_error_percent=_percent(mean_error, self.height),
+            frame=frame,
+            joint=self.names[point],
+            height=self.height,
+            units=self.skeleton.units,
+            num_frames=int(dist.shape[0]),
+            num_points=int(dist.shape[1]),
+        )
+
+
+    def points_error(self, positions: NDArray[np.float64], points: Any, comparison: Any) -> ErrorReport:
+        """Compare ``(n, P, 3)`` candidate positions with the reference's points ``points`` (``P`` indices into the
+        ``J + E`` FK points) of the frames ``0 .. n - 1``; the report carries ``comparison``
+        (:func:`motionrep.pipeline.pairing.compared_points` gives all three)."""
+        positions = np.asarray(positions, dtype=np.float64)
+        idx = np.asarray(points, dtype=np.int64)
+        reference = self._positions[:positions.shape[0]][:, idx] if positions.ndim == 3 else None
+        if reference is None or positions.shape != reference.shape or positions.shape[0] < 1 or idx.size < 1:
+            raise ValidationError(f"candidate positions must have shape (n, {idx.size}, 3) with 1 <= n <= "
+                                  f"{self._positions.shape[0]}, got {positions.shape}")
+        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))
+        if not np.all(np.isfinite(dist)):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        flat = int(np.argmax(dist))
+        frame, point = divmod(flat, dist.shape[1])
+        max_error = float(dist.reshape(-1)[flat])
+        mean_error = float(dist.mean())
+        return ErrorReport(max_error=max_error, max_error_percent=_percent(max_error, self.height),
+                           mean_error=mean_error, mean_error_percent=_percent(mean_error, self.height),
+                           frame=frame, joint=self.names[int(idx[point])], height=self.height,
+                           units=self.skeleton.units, num_frames=int(dist.shape[0]), num_points=int(idx.size),
+                           comparison=comparison)
+
+    def frame_errors(self, positions: NDArray[np.float64], first: int | None = None) -> NDArray[np.float64]:
+        """``(n,)`` largest distance of each frame (over joints and end sites), with the arguments of
+        :meth:`positions_error`: one evaluation for a codec that measures many stretches of a clip at once."""
+        return self._distances(positions, first).max(axis=1)
+
+    def _distances(self, positions: NDArray[np.float64], first: int | None) -> NDArray[np.float64]:
+        """``(n, J + E)`` distances of candidate positions to the reference's (checked shapes, finite)."""
+        positions = np.asarray(positions, dtype=np.float64)
+        reference = self._positions
+        if first is not None:
+            n = positions.shape[0] if positions.ndim == 3 else -1
+            if not 0 <= first or n < 1 or first + n > reference.shape[0]:
+                raise ValidationError(f"frames {first}..{first + n - 1} are not frames of the reference "
+                                      f"(0..{reference.shape[0] - 1})")
+            reference = reference[first:first + n]
+        if positions.shape != reference.shape:
+            raise ValidationError(f"candidate positions must have shape {reference.shape}, got {positions.shape}")
+        dist = np.sqrt(np.sum((positions - reference) ** 2, axis=-1))
+        if not np.all(np.isfinite(dist)):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        return dist
+
+
+#: :meth:`MotionContext.feature_sensitivity` samples at most this many frames, and at most
+#: ``SENSITIVITY_BUDGET / D`` of them (but at least 8) for ``D`` features, since it decodes ``D`` copies of each.
+SENSITIVITY_FRAMES = 64
+SENSITIVITY_BUDGET = 4096
+
+#: ``progress(stage, fields)``: what :meth:`MotionContext.progress` calls.
+ProgressCallback = Callable[[str, Mapping[str, Any]], None]
+
+
+class MotionContext:
+    """The :class:`~motionrep.plugin.codec.EncodeContext` that measures candidates against one reference motion: decode
+    the features through the representation, restore fixed translation axes, run FK and take the shared
+    L-infinity error over every joint and end site (:class:`~motionrep.pipeline.evaluate.Evaluator`).
+
+    :meth:`motionrep.pipeline.compress.Pipeline.compress` hands one to ``codec.encode``; the conformance suite
+    (:class:`motionrep.testing.ConformanceContext`) is this class too.
+
+    Args:
+        motion: the reference clip.
+        representation: the representation the features come from.
+        codec: the codec being encoded with (used by :meth:`evaluate_payload`).
+        params: the codec's validated ``Params``.
+        bound: the bound handed to the codec, in file units, or None.
+        seed: random seed.
+        progress: called as ``progress(stage, fields)`` by :meth:`progress`.
+        evaluator: the shared evaluator of ``motion`` (default: a new one).
+
+    Attributes:
+        times: ``(F,)`` normalised frame times (read-only).
+        evaluations: how many candidates were measured.
+    """
+
+    def __init__(self, motion: Motion, representation: Representation, codec: Codec, params: Any,
+                 bound: float | None = None, seed: int = 0, progress: ProgressCallback | None = None,
+                 evaluator: Evaluator | None = None):
+        self.motion = motion
+        self.representation = representation
+        self.codec = codec
+        self.params = params
+        self.bound = bound
+        self.seed = int(seed)
+        self.times = frame_times(motion.num_frames)
+        self.times.flags.writeable = False
+        self.evaluations = 0
+        self.evaluator = evaluator if evaluator is not None else Evaluator(motion)
+        self._progress = progress
+
+    def evaluate(self, features: ArrayLike) -> ErrorReport:
+        """The error of candidate ``(F, D)`` features."""
+        return self.evaluator(self._decoded(features))
+
+    def evaluate_payload(self, payload: Payload) -> ErrorReport:
+        """The error of a candidate payload, decoded at the frame times."""
+        return self.evaluate(self.codec.decode(payload, self.times))
+
+    def evaluate_frames(self, features: ArrayLike, first: int) -> ErrorReport:
+        """The error of candidate ``(n, D)`` features of the frames ``first .. first + n - 1`` only."""
+        return self.evaluator.positions_error(global_positions(self._decoded(features)), first=int(first))
+
+    def frame_errors(self, features: ArrayLike, first: int = 0) -> NDArray[np.float64]:
+        """``(n,)`` error of each frame of candidate ``(n, D)`` features of the frames ``first ..
+        first + n - 1``, in one evaluation."""
+        return self.evaluator.frame_errors(global_positions(self._decoded(features)), first=int(first))
+
+    def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
+        """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:
+        :data:`SENSITIVITY_BUDGET`), how far a unit change of each feature moves the farthest joint or end site,
+        in position units per feature unit.
+
+        Forward differences through the representation and FK, all features at once (one decode of ``n * D``
+        frames); the step of feature ``c`` is ``1e-6 (1 + max |feature c|)``. A feature that moves nothing (a
+        fixed axis, a joint without descendants) gets 0.
+        """
+        x_all = np.asarray(features, dtype=np.float64)
+        F, D = x_all.shape
+        count = min(F, SENSITIVITY_FRAMES, max(8, SENSITIVITY_BUDGET // max(D, 1)))
+        rows = np.unique(np.linspace(0, F - 1, count).round().astype(np.int64))
+        x = x_all[rows]
+        n = x.shape[0]
+        h = 1e-6 * (1.0 + np.abs(x).max(axis=0))
+        moved = np.repeat(x[None], D, axis=0)  # (D, n, D): copy c has feature c moved by h_c
+        moved[np.arange(D), :, np.arange(D)] += h[:, None]
+        base = global_positions(self._decoded(x))
+        pos = global_positions(self._decoded(moved.reshape(D * n, D))).reshape((D,) + base.shape)
+        shift = np.sqrt(np.sum((pos - base[None]) ** 2, axis=-1)).max(axis=-1)  # (D, n)
+        return (shift / h[:, None]).T
+
+    def _decoded(self, features: ArrayLike) -> Motion:
+        """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""
+        self.evaluations += 1
+        return fixed_axes_restored(self.representation.from_features(features, self.motion.skeleton,
+                                                                     self.motion.fps))
+
+    def progress(self, stage: str, **fields: Any) -> None:
+        """Report progress to the callback, if any."""
+        if self._progress is not None:
+            self._progress(stage, fields)
+
+
+def max_joint_error(reference: Motion, candidate: Motion, options: Any = None) -> ErrorReport:
+    """The shared L-infinity joint-position error of ``candidate`` against ``reference``.
+
+    Args:
+        reference: the original motion.
+        candidate: a motion of the same skeleton (same joints, parents and end sites; offsets may differ), with
+            the same number of frames and frame rate (strict), or what ``options`` allows.
+        options: a :class:`motionrep.pipeline.pairing.MatchOptions` (default strict; see :mod:`motionrep.pipeline.pairing`).
+
+    Returns:
+        An :class:`ErrorReport` (file units and percent of the reference's character height).
+
+    Raises:
+        ValidationError: if the motions cannot be compared.
+    """
+    return Evaluator(reference)(candidate, options)
+
+
+def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT,
+            evaluator: Evaluator | None = None) -> ErrorReport:
+    """The shared L-infinity error of ``candidate`` against ``reference`` on the points and frames ``options``
+    pair (:func:`motionrep.pipeline.pairing.compared_points`), with a :class:`~motionrep.pipeline.pairing.Comparison` saying what
+    was compared and left out.
+
+    Args:
+        reference: the original motion.
+        candidate: the motion after another tool.
+        options: what may differ (default: nothing, as :func:`max_joint_error`).
+        evaluator: an :class:`Evaluator` of ``reference``, to reuse its FK.
+
+    Returns:
+        An :class:`ErrorReport` (``frame`` a reference frame, ``joint`` a reference point name, ``num_points`` and
+        ``num_frames`` what was compared, ``comparison`` the details).
+
+    Raises:
+        ValidationError: when the motions cannot be compared under ``options`` (naming the option that would).
+    """
+    ev = evaluator if evaluator is not None else Evaluator(reference)
+    return ev(candidate, options)
+
+
+@dataclass(frozen=True)
+class CompressionFigures:
+    """The four compression figures, reported together (see the module docstring).
+
+    Attributes:
+        paper_ratio: (a) ``num_frames * feature_width / num_parameters``.
+        float32_ratio: (b) ``num_frames * num_channels * 4 / compressed_bytes``.
+        bits_per_joint_frame: (c) ``8 * compressed_bytes / (num_frames * num_joints)``.
+        file_ratio: (d) ``source_bytes / compressed_bytes``, or None without a source file.
+        bits_per_bone_frame: (e) ``8 * payload_bytes / (num_frames * (num_joints + num_end_sites))``, or None
+            without ``payload_bytes``.
+        num_frames, feature_width, num_parameters, num_channels, num_joints, compressed_bytes, source_bytes,
+        num_end_sites, payload_bytes: the inputs.
+    """
+
+    paper_ratio: float
+    float32_ratio: float
+    bits_per_joint_frame: float
+    file_ratio: float | None
+    num_frames: int
+    feature_width: int
+    num_parameters: int
+    num_channels: int
+    num_joints: int
+    compressed_bytes: int
+    source_bytes: int | None
+    bits_per_bone_frame: float | None = None
+    num_end_sites: int = 0
+    payload_bytes: int | None = None
+    payload_bits_per_bone_frame: float | None = None
+    file_bits_per_bone_frame: float | None = None
+    ratio_vs_source: float | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-serialisable dict of every field."""
+        return asdict(self)
+
+    def summary(self) -> str:
+        """The short line: file bytes, the payload's and the file's bits per bone per frame, the ratio against
+        the source (:func:`motionrep.pipeline.figures.size_line`)."""
+        from .figures import size_line
+
+        return size_line(self.compressed_bytes, self.payload_bits_per_bone_frame, self.file_bits_per_bone_frame,
+                         self.ratio_vs_source)
+
+    def details(self) -> str:
+        """The other figures, for ``--verbose``: the paper's parameter ratio, the float32-channel ratio, bits per
+        joint per frame of the file, the payload's bytes."""
+        payload = "" if self.payload_bytes is None else f", payload {self.payload_bytes} bytes"
+        return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} stored numbers), "
+                f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} file "
+                f"bits/joint/frame{payload}")
+
+
+def compression_figures(*, num_frames: int, feature_width: int, num_parameters: int, num_channels: int,
+                        num_joints: int, compressed_bytes: int, source_bytes: int | None = None,
+                        num_end_sites: int = 0, payload_bytes: int | None = None) -> CompressionFigures:
+    """Compute the compression figures.
+
+    Args:
+        num_frames: frames of the clip ``F``.
+        feature_width: columns ``D`` of the representation the codec compressed.
+        num_parameters: every number the codec stored (all payload array elements).
+        num_channels: BVH channel values per frame of the source skeleton.
+        num_joints: joints ``J`` (end sites excluded).
+        compressed_bytes: size of the compressed file.
+        source_bytes: size of the source file, or None.
+        num_end_sites: end sites of the skeleton (bones = joints + end sites, for ``bits_per_bone_frame``).
+        payload_bytes: bytes of the codec's payload arrays (``Container.payload_bytes``), or None.
+
+    Raises:
+        ValidationError: for non-positive sizes.
+    """
+    if num_frames < 1 or num_joints < 1 or compressed_bytes < 1:
+        raise ValidationError("compression figures need at least one frame, one joint and one compressed byte")
+    from . import figures as fg
+
+    params = max(int(num_parameters), 1)
+    bone_frames = num_frames * fg.bones(num_joints, num_end_sites)
+    payload_bpbf = None if payload_bytes is None else fg.payload_bits_per_bone_frame(payload_bytes, bone_frames)
+    return CompressionFigures(
+        paper_ratio=num_frames * feature_width / params,
+        float32_ratio=num_frames * num_channels * 4 / compressed_bytes,
+        bits_per_joint_frame=8.0 * compressed_bytes / (num_frames * num_joints),
+        file_ratio=None if source_bytes is None else source_bytes / compressed_bytes,
+        num_frames=int(num_frames),
+        feature_width=int(feature_width),
+        num_parameters=int(num_parameters),
+        num_channels=int(num_channels),
+        num_joints=int(num_joints),
+        compressed_bytes=int(compressed_bytes),
+        source_bytes=None if source_bytes is None else int(source_bytes),
+        bits_per_bone_frame=payload_bpbf,
+        num_end_sites=int(num_end_sites),
+        payload_bytes=None if payload_bytes is None else int(payload_bytes),
+        payload_bits_per_bone_frame=payload_bpbf,
+        file_bits_per_bone_frame=fg.file_bits_per_bone_frame(compressed_bytes, bone_frames),
+        ratio_vs_source=fg.ratio_vs_source(source_bytes, compressed_bytes),
+    )
