@@ -26,6 +26,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from .defaults import DEFAULT_REPRESENTATION
 from .model._pose import Motion
 from .plugin.codec import Codec, Payload, codec_problems
 from .errors import BoundNotMetError, MotionrepError, ParameterError
@@ -322,7 +323,7 @@ def _payload_arrays(codec: Codec, payload: Payload, where: str) -> dict[str, NDA
 
 
 def check_codec(codec: Codec, motions: Iterable[Motion] | None = None,
-                representation: Representation | str = "root-quat-axis-angle", *,
+                representation: Representation | str = DEFAULT_REPRESENTATION, *,
                 params: Mapping[str, Any] | None = None, bound_fraction: float | None = 0.05,
                 bound_params: Mapping[str, Any] | None = None, seed: int = 0) -> list[dict[str, Any]]:
     """Check that ``codec`` honours the :class:`~motionrep.plugin.codec.Codec` contract.

@@ -182,7 +182,7 @@ def test_the_command_modules_are_light():
         imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli._crosstool",
                                        "motionrep.cli._flags",
                                        "motionrep.cli"}
-        assert imported <= {"motionrep.errors", "motionrep.formats"}, \
+        assert imported <= {"motionrep.errors", "motionrep.formats", "motionrep.defaults"}, \
             f"{module.name} imports {sorted(imported)} at module level"
 
 
@@ -216,14 +216,26 @@ def test_one_home_for_the_suffixes():
     assert not found, "suffixes spelled outside motionrep/formats.py (derive them from it): " + ", ".join(found)
 
 
-def test_cli_defaults_agree_with_the_library():
-    from motionrep.pipeline import compress
+def test_defaults_have_one_home():
+    """``motionrep.defaults`` is the one home of the defaults (no other module assigns one), standard library only,
+    and the command line's options show them."""
+    from motionrep import defaults
     from motionrep.plugin import hookspecs
     from motionrep.cli import compress as cli_compress
     from motionrep.cli import plugins as cli_plugins
 
-    assert (cli_compress.DEFAULT_CODEC, cli_compress.DEFAULT_REPRESENTATION, cli_compress.DEFAULT_MAX_ERROR) == (
-        compress.DEFAULT_CODEC, compress.DEFAULT_REPRESENTATION, compress.DEFAULT_MAX_ERROR)
+    homes = []
+    for path in _modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id in defaults.__all__
+                                                    for t in node.targets):
+                homes.append(path.relative_to(REPO).as_posix())
+    assert homes == ["motionrep/defaults.py"] * len(defaults.__all__), homes
+    options = {p.name: p.default for p in cli_compress.compress.params}
+    assert (options["codec"], options["representation"], options["max_error"]) == (
+        defaults.DEFAULT_CODEC, defaults.DEFAULT_REPRESENTATION, defaults.DEFAULT_MAX_ERROR)
+    code = "import sys, motionrep.defaults; print(sorted(m for m in ('numpy', 'click') if m in sys.modules))"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
     assert set(cli_plugins.HOOKS) == {n for n in hookspecs.__all__ if n not in ("hookspec", "hookimpl")}
 
 

@@ -75,7 +75,7 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
     """
     from ..present.bench import (DEFAULT_DECODE_POSES, bench_tasks, format_compact, format_table, is_sweep, parse_sweep,
                          plot_rate_distortion, run_bench, summarize, write_csv, write_json)
-    from ..pipeline.compress import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
+    from ..defaults import DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION
     from ..errors import ParameterError
     from ..plugin.registry import codecs as installed_codecs
     from ..pipeline.sources import read_refs

@@ -25,10 +25,8 @@ from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, Co
 
 __all__ = ["compress"]
 
-# the defaults, written out so that `motionrep --help` does not import the library (a test checks they agree)
-DEFAULT_CODEC = "transform"
-DEFAULT_REPRESENTATION = "root-quat-axis-angle"
-DEFAULT_MAX_ERROR = "2%"
+# the library's defaults, from their one home (standard library only, so `motionrep --help` stays light)
+from ..defaults import DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION  # noqa: E402
 
 
 def _report_lines(name: str, result: Any, out: str | None, verbose: bool = False) -> list[str]:

@@ -64,12 +64,8 @@ __all__ = [
     "write_decoded",
 ]
 
-#: Codec used when none is named.
-DEFAULT_CODEC = "transform"
-#: Representation used when none is named (Tojo et al. 2022, section 3).
-DEFAULT_REPRESENTATION = "root-quat-axis-angle"
-#: The default bound: 2 % of the character height.
-DEFAULT_MAX_ERROR = "2%"
+# the defaults live in motionrep.defaults (one home, light enough for the command line); named here too
+from ..defaults import DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION  # noqa: E402
 
 #: Codecs are given ``bound * (1 - BOUND_MARGIN)`` as ``context.bound``; the core enforces ``bound`` itself.
 BOUND_MARGIN = 1e-6

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from ..defaults import DEFAULT_REPRESENTATION
 from ..model._pose import Motion
 from ..errors import ValidationError
 from ..model.kinematics import character_height, fk_arrays
@@ -70,7 +71,7 @@ class MotionDataset(torch.utils.data.Dataset):
         seed: seeds augmentation (with the ``torch`` seed of each worker).
     """
 
-    def __init__(self, source: Any, representation: str = "root-quat-axis-angle", length: int = 64,
+    def __init__(self, source: Any, representation: str = DEFAULT_REPRESENTATION, length: int = 64,
                  stride: int | None = None, fps: float | None = None, *, clips: Iterable[str] | None = None,
                  positions: bool = False, velocities: bool = False, contacts: bool = False,
                  contact_joints: Sequence[str] | None = None, contact_height: float = 0.04,
