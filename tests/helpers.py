@@ -68,3 +68,34 @@ def convert_fails_naming(args: list, named: Path, out: Path) -> None:
     errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
     assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
     assert not out.exists()
+
+
+def run_cli(*args, input: bytes | str | None = None, env: dict | None = None, catch: bool = False):
+    """``motionrep ARGS...`` in this process through click's test runner (arguments turned into strings). With
+    ``catch=False`` an exception the CLI's error funnel did not turn into an exit code fails the test with its
+    traceback; ``catch=True`` keeps it on the result (``result.exception``)."""
+    from click.testing import CliRunner
+
+    from motionrep.cli import cli
+
+    return CliRunner().invoke(cli, [str(a) for a in args], input=input, env=env, catch_exceptions=catch)
+
+
+def run_cli_caught(*args, input: bytes | str | None = None, env: dict | None = None):
+    """:func:`run_cli` keeping any exception on the result."""
+    return run_cli(*args, input=input, env=env, catch=True)
+
+
+def one_line_error(result, *needles: str, code: int = 1, in_line: bool = True) -> str:
+    """The result of a command that failed as bad input must: exit ``code``, exactly one ``Error`` line, no
+    traceback, and each of ``needles`` in that line (``in_line``) or anywhere on stderr. Returns the line."""
+    assert result.exit_code == code, result.output
+    assert "Traceback" not in result.output, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("Error")]
+    assert len(lines) == 1, result.output
+    for needle in needles:
+        if in_line:
+            assert needle in lines[0], lines[0]
+        else:
+            assert needle in result.stderr, result.stderr
+    return lines[0]

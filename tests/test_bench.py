@@ -23,20 +23,14 @@ from motionrep.model.kinematics import character_height
 from motionrep.pipeline.sources import ClipRef, collect_clips
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
-from helpers import SHARED_DATA, requires_shared
+from helpers import SHARED_DATA, one_line_error, requires_shared, run_cli
 
 
-def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+run = run_cli  # helpers.run_cli: the one CLI runner of the tests
 
 
 def _one_line_error(result, code: int, *needles: str) -> None:
-    assert result.exit_code == code, result.output
-    lines = [ln for ln in result.stderr.splitlines() if ln.startswith("Error")]
-    assert len(lines) == 1, result.stderr
-    assert "Traceback" not in result.output
-    for needle in needles:
-        assert needle in result.stderr, result.stderr
+    one_line_error(result, *needles, code=code, in_line=False)
 
 
 @pytest.fixture

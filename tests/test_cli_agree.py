@@ -12,10 +12,10 @@ from click.testing import CliRunner
 from motionrep.cli import cli
 from motionrep.io import write
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
-def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args])
+run = run_cli_caught  # helpers.run_cli_caught: the one CLI runner, exceptions kept
 
 
 @pytest.fixture

@@ -15,10 +15,10 @@ from motionrep.cli import cli
 from motionrep.io.archive import is_archive, read_archive
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import one_line_error, run_cli
 
 
-def run(*args: str):
-    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+run = run_cli  # helpers.run_cli: the one CLI runner of the tests
 
 
 @pytest.fixture
@@ -28,12 +28,7 @@ def clip(tmp_path) -> Path:
     return path
 
 
-def _one_line_error(result, *needles: str) -> None:
-    assert result.exit_code == 1, result.output
-    lines = [line for line in result.output.splitlines() if line.startswith("Error:")]
-    assert len(lines) == 1, result.output
-    for needle in needles:
-        assert needle in lines[0], lines[0]
+_one_line_error = one_line_error
 
 
 def test_shipped_demo_clip_is_what_the_generator_makes(tmp_path):

@@ -13,7 +13,7 @@ import pytest
 
 from motionrep.pipeline.compress import compress_motion, decompress, decompress_file
 from motionrep.io.container import CONTAINER_VERSION, MAGIC, pack, read_container, unpack, write_container
-from motionrep.errors import ContainerError, FormatError, PluginVersionError, UnknownPluginError
+from motionrep.errors import ContainerError, FormatError, PluginVersionError, UnknownPluginError, ValidationError
 from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
@@ -128,7 +128,7 @@ def test_newer_representation_version_is_refused(small):
 
 def test_unsupported_dtype_is_refused_when_packing(small):
     c = dataclasses.replace(unpack(small[1].data), arrays={"x": np.array(["a"])})
-    with pytest.raises(Exception, match="unsupported dtype"):
+    with pytest.raises(ValidationError, match="unsupported dtype"):
         pack(c)
 
 

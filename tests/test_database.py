@@ -19,10 +19,10 @@ from motionrep.io.archive import read_archive
 from motionrep.cli import cli
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import run_cli
 
 
-def run(*args: str):
-    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+run = run_cli  # helpers.run_cli: the one CLI runner of the tests
 
 
 def _clips(directory: Path, count: int = 4, frames: int = 30, joints: int = 4) -> Path:

@@ -16,10 +16,10 @@ from motionrep.io import read, write, write_database
 from motionrep.model.ops import resample
 from motionrep.pipeline.pairing import MatchOptions
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
-def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args])
+run = run_cli_caught  # helpers.run_cli_caught: the one CLI runner, exceptions kept
 
 
 @pytest.fixture

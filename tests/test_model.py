@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -186,7 +188,7 @@ def test_motion_properties_frames_and_immutability():
     np.testing.assert_array_equal(picked.root_translation, m.root_translation[[0, 9]])
     with pytest.raises(ValueError):
         m.rotations[0, 0, 0] = 1.0
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         m.fps = 10.0  # frozen dataclass
     # replace() validates again
     with pytest.raises(ValidationError, match="fps must be finite"):

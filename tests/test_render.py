@@ -27,14 +27,13 @@ from motionrep.model.kinematics import global_positions  # noqa: E402
 from motionrep.model.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
 
-from helpers import SHARED_DATA, requires_shared  # noqa: E402
+from helpers import SHARED_DATA, one_line_error, requires_shared, run_cli  # noqa: E402
 
 FRAMES, FPS, BUMP_FRAME, JOINT = 40, 30.0, 23, "LeftForeArm"
 SMALL = (240, 200)
 
 
-def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+run = run_cli  # helpers.run_cli: the one CLI runner of the tests
 
 
 def _perturbed(motion, joint: str, frame: int, radians: float = 0.5):
@@ -74,12 +73,7 @@ def _colour_pixels(path: Path) -> dict[str, int]:
 
 
 def _one_line_error(result, code: int, *needles: str) -> str:
-    assert result.exit_code == code, result.output
-    lines = [line for line in result.output.splitlines() if line.startswith("Error:")]
-    assert len(lines) == 1, result.output
-    for needle in needles:
-        assert needle in lines[0], lines[0]
-    return lines[0]
+    return one_line_error(result, *needles, code=code)
 
 
 def _no_output_left(directory: Path, name: str) -> None:

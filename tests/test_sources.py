@@ -19,10 +19,10 @@ from motionrep.model.ops import resample, resample_times
 from motionrep.batch.engine import pair_clips
 from motionrep.pipeline.sources import collect_clips, open_source
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from helpers import run_cli
 
 
-def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+run = run_cli  # helpers.run_cli: the one CLI runner of the tests
 
 
 @pytest.fixture
