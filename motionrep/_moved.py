@@ -57,20 +57,19 @@ class _OldNames:
 
     def find_spec(self, fullname: str, path: object = None, target: object = None) -> ModuleSpec | None:
         new = _target(fullname) if fullname.startswith("motionrep.") else None
-        return None if new is None else ModuleSpec(fullname, self)
+        return None if new is None else ModuleSpec(fullname, self, loader_state=new)
 
     def create_module(self, spec: ModuleSpec):
-        new = _target(spec.name)
+        new = spec.loader_state
         warnings.warn(f"{spec.name} is now {new} (motionrep's modules moved into wings; CONTRIBUTING.md, "
                       "'Layout'): import it from there", DeprecationWarning, stacklevel=4)
         module = importlib.import_module(new)
-        self._spec = getattr(module, "__spec__", None)
+        spec.loader_state = module.__spec__  # the module's own spec, given back in exec_module
         return module
 
     def exec_module(self, module) -> None:
         # the import system stamped the old name's spec on the module: give it its own back
-        if self._spec is not None:
-            module.__spec__ = self._spec
+        module.__spec__ = module.__spec__.loader_state
 
 
 _finder = _OldNames()

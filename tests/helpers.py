@@ -59,14 +59,8 @@ def mutant_outcomes(path: Path, mutants, error: type[Exception], warnings_are_er
 def convert_fails_naming(args: list, named: Path, out: Path) -> None:
     """``motionrep convert ARGS...`` fails as bad input must: exit 1, one ``Error:`` line naming ``named``, no
     traceback, no ``out`` written."""
-    from click.testing import CliRunner
-
-    from motionrep.cli import cli
-
-    result = CliRunner().invoke(cli, ["convert", *map(str, args)])
-    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]
-    assert len(errors) == 1 and errors[0].startswith(f"Error: {named}: "), result.output
+    line = one_line_error(run_cli_caught("convert", *args))
+    assert line.startswith(f"Error: {named}: "), line
     assert not out.exists()
 
 
@@ -88,10 +82,10 @@ def run_cli_caught(*args, input: bytes | str | None = None, env: dict | None = N
 
 def one_line_error(result, *needles: str, code: int = 1, in_line: bool = True) -> str:
     """The result of a command that failed as bad input must: exit ``code``, exactly one ``Error`` line, no
-    traceback, and each of ``needles`` in that line (``in_line``) or anywhere on stderr. Returns the line."""
+    traceback, and each of ``needles`` in that line (``Error: ...``) (``in_line``) or anywhere on stderr. Returns the line."""
     assert result.exit_code == code, result.output
     assert "Traceback" not in result.output, result.output
-    lines = [line for line in result.output.splitlines() if line.startswith("Error")]
+    lines = [line for line in result.output.splitlines() if line.startswith("Error: ")]
     assert len(lines) == 1, result.output
     for needle in needles:
         if in_line:

@@ -9,7 +9,6 @@ import re
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.present.bench import (COLUMNS, BenchRow, BenchTask, bench_tasks, csv_text, format_table, is_sweep,
                              parse_sweep, plot_series, read_csv, run_bench, run_task, summarize, write_csv,

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep.io._demo import demo_path, demo_walk
 from motionrep.cli import cli

@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.io.archive import read_archive
 from motionrep.cli import cli

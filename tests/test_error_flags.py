@@ -6,7 +6,6 @@ from __future__ import annotations
 import pickle
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.model.bound import parse_max_error
 from motionrep.cli import cli

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep.io.archive import read_archive
 from motionrep.cli import cli
