@@ -1,0 +1,135 @@
+/* motionrep_transform._ccoder: the thin Python binding of mrcoder.c (the entropy coder of transform payloads of
+ * version 2). Arrays cross as buffers (numpy int64 arrays, C-contiguous); the GIL is released while coding.
+ *
+ *   declared(data) -> (frames, features, region)
+ *   encode(frames, features, region, fexp, rexp, coef) -> bytes
+ *   decode(data, fexp, rexp, coef) -> None      (writes into the three writable int64 buffers)
+ *
+ * Errors: ValueError with mrcoder's one-line text (the Python side turns it into a PayloadError).
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <stdlib.h>
+
+#include "mrcoder.h"
+
+static int get_int64s(PyObject *obj, Py_buffer *view, Py_ssize_t count, int writable, const char *what) {
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    const char *f = view->format ? view->format : "B";
+    if (*f == '<' || *f == '=' || *f == '@') f++;
+    if (view->itemsize != 8 || (*f != 'q' && *f != 'l') || f[1] != '\0' || view->len != count * 8) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd int64 values", what, count);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_declared(PyObject *self, PyObject *args) {
+    Py_buffer data;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "y*", &data)) return NULL;
+    int64_t F, D, region;
+    int e = mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region);
+    PyBuffer_Release(&data);
+    if (e) return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
+    return Py_BuildValue("LLL", (long long)F, (long long)D, (long long)region);
+}
+
+static PyObject *py_encode(PyObject *self, PyObject *args) {
+    long long F, D, region;
+    PyObject *fo, *ro, *co;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "LLLOOO", &F, &D, &region, &fo, &ro, &co)) return NULL;
+    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(MRC_E_ARGUMENT));
+    Py_ssize_t R = (Py_ssize_t)((F + region - 1) / region);
+    Py_buffer fv, rv, cv;
+    if (get_int64s(fo, &fv, (Py_ssize_t)D, 0, "fexp") < 0) return NULL;
+    if (get_int64s(ro, &rv, R, 0, "rexp") < 0) {
+        PyBuffer_Release(&fv);
+        return NULL;
+    }
+    if (get_int64s(co, &cv, (Py_ssize_t)(F * D), 0, "coef") < 0) {
+        PyBuffer_Release(&fv);
+        PyBuffer_Release(&rv);
+        return NULL;
+    }
+    uint8_t *out = NULL;
+    size_t n = 0;
+    int e;
+    Py_BEGIN_ALLOW_THREADS
+    e = mrc_encode(F, D, region, (const int64_t *)fv.buf, (const int64_t *)rv.buf, (const int64_t *)cv.buf, &out,
+                   &n);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&fv);
+    PyBuffer_Release(&rv);
+    PyBuffer_Release(&cv);
+    if (e) {
+        if (e == MRC_E_MEMORY) return PyErr_NoMemory();
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
+    }
+    PyObject *result = PyBytes_FromStringAndSize((const char *)out, (Py_ssize_t)n);
+    free(out);
+    return result;
+}
+
+static PyObject *py_decode(PyObject *self, PyObject *args) {
+    Py_buffer data;
+    PyObject *fo, *ro, *co;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "y*OOO", &data, &fo, &ro, &co)) return NULL;
+    int64_t F, D, region;
+    int e = mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region);
+    if (e) {
+        PyBuffer_Release(&data);
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
+    }
+    Py_ssize_t R = (Py_ssize_t)((F + region - 1) / region);
+    Py_buffer fv, rv, cv;
+    if (get_int64s(fo, &fv, (Py_ssize_t)D, 1, "fexp") < 0) {
+        PyBuffer_Release(&data);
+        return NULL;
+    }
+    if (get_int64s(ro, &rv, R, 1, "rexp") < 0) {
+        PyBuffer_Release(&data);
+        PyBuffer_Release(&fv);
+        return NULL;
+    }
+    if (get_int64s(co, &cv, (Py_ssize_t)(F * D), 1, "coef") < 0) {
+        PyBuffer_Release(&data);
+        PyBuffer_Release(&fv);
+        PyBuffer_Release(&rv);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    e = mrc_decode((const uint8_t *)data.buf, (size_t)data.len, (int64_t *)fv.buf, (int64_t *)rv.buf,
+                   (int64_t *)cv.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&data);
+    PyBuffer_Release(&fv);
+    PyBuffer_Release(&rv);
+    PyBuffer_Release(&cv);
+    if (e) {
+        if (e == MRC_E_MEMORY) return PyErr_NoMemory();
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
+    }
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"declared", py_declared, METH_VARARGS, "declared(data) -> (frames, features, region): the payload's head."},
+    {"encode", py_encode, METH_VARARGS,
+     "encode(frames, features, region, fexp, rexp, coef) -> bytes: the version-2 payload of int64 arrays."},
+    {"decode", py_decode, METH_VARARGS,
+     "decode(data, fexp, rexp, coef): decode a version-2 payload into writable int64 arrays of the declared "
+     "sizes."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ccoder",
+                                    "The entropy coder of transform payloads of version 2 (C).", -1, methods,
+                                    NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__ccoder(void) { return PyModule_Create(&module); }
