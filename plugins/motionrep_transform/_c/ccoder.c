@@ -1,7 +1,7 @@
 /* motionrep_transform._ccoder: the thin Python binding of mrcoder.c (the entropy coder of transform payloads of
  * version 2). Arrays cross as buffers (numpy int64 arrays, C-contiguous); the GIL is released while coding.
  *
- *   declared(data) -> (frames, features, region)
+ *   declared(data) -> (frames, features, region)     (the head only; decode checks they fit the bytes)
  *   encode(frames, features, region, fexp, rexp, coef) -> bytes
  *   decode(data, fexp, rexp, coef) -> None      (writes into the three writable int64 buffers)
  *
@@ -83,6 +83,7 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "y*OOO", &data, &fo, &ro, &co)) return NULL;
     int64_t F, D, region;
     int e = mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region);
+    if (!e && !mrc_fits(F, D, region, (size_t)data.len)) e = MRC_E_TOO_MANY;
     if (e) {
         PyBuffer_Release(&data);
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));

@@ -421,9 +421,11 @@ static int values_fit(int64_t frames, int64_t features, int64_t region, size_t l
 
 int mrc_declared(const uint8_t *data, size_t len, int64_t *frames, int64_t *features, int64_t *region) {
     size_t body;
-    int e = head(data, len, frames, features, region, &body);
-    if (e) return e;
-    return values_fit(*frames, *features, *region, len) ? MRC_OK : MRC_E_TOO_MANY;
+    return head(data, len, frames, features, region, &body);
+}
+
+int mrc_fits(int64_t frames, int64_t features, int64_t region, size_t len) {
+    return values_fit(frames, features, region, len);
 }
 
 /* detail contexts */

@@ -43,8 +43,12 @@ const char *mrc_error_text(int code);
  * 21 entries; returns L. */
 int mrc_level_sizes(int64_t frames, int64_t *sizes);
 
-/* The head of a payload: frames F, features D, region frames. Returns an error code. */
+/* The head of a payload: frames F, features D, region frames (each within its limit). Returns an error code. */
 int mrc_declared(const uint8_t *data, size_t len, int64_t *frames, int64_t *features, int64_t *region);
+
+/* Whether a payload of `len` bytes may declare these counts: F * D + D + R <= MRC_VALUES_PER_BYTE * len (the
+ * decoder refuses a payload that does not, before anything is allocated). */
+int mrc_fits(int64_t frames, int64_t features, int64_t region, size_t len);
 
 /* Encode. coef: F x D int64, row-major, the bands stacked in storage order; fexp (D), rexp (R = ceil(F /
  * region)). On success *out is a malloc'ed buffer of *out_len bytes (free it with free()). */
