@@ -27,6 +27,24 @@ static int get_int64s(PyObject *obj, Py_buffer *view, Py_ssize_t count, int writ
     return 0;
 }
 
+/* the three int64 arrays of a payload (fexp D, rexp R, coef F x D); on failure none is held */
+static int get_arrays(PyObject *const objs[3], Py_buffer views[3], long long F, long long D, long long region,
+                      int writable) {
+    static const char *names[3] = {"fexp", "rexp", "coef"};
+    Py_ssize_t counts[3] = {(Py_ssize_t)D, (Py_ssize_t)((F + region - 1) / region), (Py_ssize_t)(F * D)};
+    for (int i = 0; i < 3; i++) {
+        if (get_int64s(objs[i], &views[i], counts[i], writable, names[i]) < 0) {
+            while (i-- > 0) PyBuffer_Release(&views[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static void release_arrays(Py_buffer views[3]) {
+    for (int i = 0; i < 3; i++) PyBuffer_Release(&views[i]);
+}
+
 static PyObject *py_declared(PyObject *self, PyObject *args) {
     Py_buffer data;
     (void)self;
@@ -45,28 +63,17 @@ static PyObject *py_encode(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "LLLOOO", &F, &D, &region, &fo, &ro, &co)) return NULL;
     if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(MRC_E_ARGUMENT));
-    Py_ssize_t R = (Py_ssize_t)((F + region - 1) / region);
-    Py_buffer fv, rv, cv;
-    if (get_int64s(fo, &fv, (Py_ssize_t)D, 0, "fexp") < 0) return NULL;
-    if (get_int64s(ro, &rv, R, 0, "rexp") < 0) {
-        PyBuffer_Release(&fv);
-        return NULL;
-    }
-    if (get_int64s(co, &cv, (Py_ssize_t)(F * D), 0, "coef") < 0) {
-        PyBuffer_Release(&fv);
-        PyBuffer_Release(&rv);
-        return NULL;
-    }
+    PyObject *const objs[3] = {fo, ro, co};
+    Py_buffer v[3];
+    if (get_arrays(objs, v, F, D, region, 0) < 0) return NULL;
     uint8_t *out = NULL;
     size_t n = 0;
     int e;
     Py_BEGIN_ALLOW_THREADS
-    e = mrc_encode(F, D, region, (const int64_t *)fv.buf, (const int64_t *)rv.buf, (const int64_t *)cv.buf, &out,
-                   &n);
+    e = mrc_encode(F, D, region, (const int64_t *)v[0].buf, (const int64_t *)v[1].buf, (const int64_t *)v[2].buf,
+                   &out, &n);
     Py_END_ALLOW_THREADS
-    PyBuffer_Release(&fv);
-    PyBuffer_Release(&rv);
-    PyBuffer_Release(&cv);
+    release_arrays(v);
     if (e) {
         if (e == MRC_E_MEMORY) return PyErr_NoMemory();
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
@@ -88,31 +95,18 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
         PyBuffer_Release(&data);
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
     }
-    Py_ssize_t R = (Py_ssize_t)((F + region - 1) / region);
-    Py_buffer fv, rv, cv;
-    if (get_int64s(fo, &fv, (Py_ssize_t)D, 1, "fexp") < 0) {
+    PyObject *const objs[3] = {fo, ro, co};
+    Py_buffer v[3];
+    if (get_arrays(objs, v, F, D, region, 1) < 0) {
         PyBuffer_Release(&data);
-        return NULL;
-    }
-    if (get_int64s(ro, &rv, R, 1, "rexp") < 0) {
-        PyBuffer_Release(&data);
-        PyBuffer_Release(&fv);
-        return NULL;
-    }
-    if (get_int64s(co, &cv, (Py_ssize_t)(F * D), 1, "coef") < 0) {
-        PyBuffer_Release(&data);
-        PyBuffer_Release(&fv);
-        PyBuffer_Release(&rv);
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    e = mrc_decode((const uint8_t *)data.buf, (size_t)data.len, (int64_t *)fv.buf, (int64_t *)rv.buf,
-                   (int64_t *)cv.buf);
+    e = mrc_decode((const uint8_t *)data.buf, (size_t)data.len, (int64_t *)v[0].buf, (int64_t *)v[1].buf,
+                   (int64_t *)v[2].buf);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&data);
-    PyBuffer_Release(&fv);
-    PyBuffer_Release(&rv);
-    PyBuffer_Release(&cv);
+    release_arrays(v);
     if (e) {
         if (e == MRC_E_MEMORY) return PyErr_NoMemory();
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));

@@ -535,6 +535,27 @@ static int code_detail(Coder *c, Models *m, int64_t *cur, int64_t i, const int64
     return MRC_OK;
 }
 
+/* exponents, each as its difference from the previous one coded; where `active` (may be NULL) is 0 nothing is
+ * coded (0 on decoding) */
+static int code_exponents(Coder *c, Counter *set, int64_t *values, int64_t count, const uint8_t *active) {
+    int64_t last = 0;
+    for (int64_t i = 0; i < count; i++) {
+        if (active && !active[i]) {
+            if (c->dec) values[i] = 0;
+            continue;
+        }
+        int64_t v = c->dec ? 0 : values[i] - last;
+        code_sint(c, set, &v);
+        if (c->dec) {
+            if (v > 2 * MRC_MAX_EXPONENT || v < -2 * MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
+            values[i] = last + v;
+            if (values[i] > MRC_MAX_EXPONENT || values[i] < -MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
+        }
+        last = values[i];
+    }
+    return MRC_OK;
+}
+
 /* The body in both directions. Arrays: fexp (D), rexp (R), coef (F x D); on decoding they are written. */
 static int code_body(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef) {
     Models m;
@@ -555,32 +576,8 @@ static int code_body(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, i
         active[d] = (uint8_t)code_counter(c, &m.gen[GEN_ACTIVE][prev], active[d]);
         prev = active[d];
     }
-    int64_t last = 0;
-    for (int64_t d = 0; d < D && !e; d++) {
-        if (!active[d]) {
-            if (c->dec) fexp[d] = 0;
-            continue;
-        }
-        int64_t v = c->dec ? 0 : fexp[d] - last;
-        code_sint(c, m.gen[GEN_FEXP], &v);
-        if (c->dec) {
-            if (v > 2 * MRC_MAX_EXPONENT || v < -2 * MRC_MAX_EXPONENT) e = MRC_E_EXPONENT;
-            else fexp[d] = last + v;
-            if (!e && (fexp[d] > MRC_MAX_EXPONENT || fexp[d] < -MRC_MAX_EXPONENT)) e = MRC_E_EXPONENT;
-        }
-        if (!e) last = fexp[d];
-    }
-    last = 0;
-    for (int64_t r = 0; r < R && !e; r++) {
-        int64_t v = c->dec ? 0 : rexp[r] - last;
-        code_sint(c, m.gen[GEN_REXP], &v);
-        if (c->dec) {
-            if (v > 2 * MRC_MAX_EXPONENT || v < -2 * MRC_MAX_EXPONENT) e = MRC_E_EXPONENT;
-            else rexp[r] = last + v;
-            if (!e && (rexp[r] > MRC_MAX_EXPONENT || rexp[r] < -MRC_MAX_EXPONENT)) e = MRC_E_EXPONENT;
-        }
-        if (!e) last = rexp[r];
-    }
+    e = code_exponents(c, m.gen[GEN_FEXP], fexp, D, active);
+    if (!e) e = code_exponents(c, m.gen[GEN_REXP], rexp, R, NULL);
     int64_t sizes[21];
     int levels = mrc_level_sizes(F, sizes);
     /* the approximation: its first row, then differences of consecutive rows */
