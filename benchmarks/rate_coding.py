@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{row['clip']:40s} {bound:<7g} v1 {len(v1):7d} v2 {len(v2):7d} {row['ratio']:.3f}  decode "
                   f"v1 {1e3 * row['v1_decode_seconds']:.1f} ms v2 {1e3 * row['v2_decode_seconds']:.1f} ms", flush=True)
     for bound in BOUNDS:
-        for group, keep in (("CMU-31", lambda c: "beemsoft_salsa" not in c), ("salsa", lambda c: "salsa" in c)):
+        for group, keep in (("CMU without salsa", lambda c: "salsa" not in c), ("salsa", lambda c: "salsa" in c)):
             sel = [r for r in rows if r["bound_percent"] == bound and keep(r["clip"])]
             if sel:
                 print(f"{bound:g} % {group}: v2 / v1 median {statistics.median(r['ratio'] for r in sel):.3f}, "
