@@ -125,6 +125,7 @@ static void tables_init(Tables *t) {
 #define MIX_SETS 18
 #define MIX_INIT 19661 /* 0.3 in 1/65536 */
 #define MIX_RATE 82    /* learning rate 0.02: w += err12 * st * 82 / 65536 */
+#define MIX_LIMIT (1 << 24) /* |w| <= 256 (real clips stay within a few units): no overflow on any data */
 
 typedef struct {
     int32_t w[MIX_SETS][MIX_INPUTS];
@@ -301,7 +302,8 @@ static int code_mixed(Coder *c, Counter **k, int n, int set, int y) {
     y = code_bit(c, p, y);
     int err = (y << 12) - p;
     for (int i = 0; i < n; i++) {
-        w[i] += (int32_t)asr((int64_t)st[i] * err * MIX_RATE, 16);
+        int64_t v = w[i] + asr((int64_t)st[i] * err * MIX_RATE, 16);
+        w[i] = (int32_t)(v > MIX_LIMIT ? MIX_LIMIT : (v < -MIX_LIMIT ? -MIX_LIMIT : v));
         counter_update(k[i], y);
     }
     return y;

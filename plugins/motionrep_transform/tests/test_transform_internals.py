@@ -90,6 +90,16 @@ def test_format_2_payloads_decode_and_code_the_same_integers_to_the_same_bytes()
     assert r.container.codec_version == 2
 
 
+def test_both_versions_of_the_same_integers_decode_to_the_same_frames_bit_for_bit():
+    m = synthetic_motion(chain_skeleton(5), frames=300, fps=60, seed=2)
+    v2 = compress_motion(m, "transform", max_error="0.5%").container.arrays["data"]
+    v1 = np.frombuffer(pack_stream(_stream2.unpack(v2.tobytes())), np.uint8)
+    codec = get_codec("transform")
+    frames_1 = codec.decoder(Payload({"data": v1}, version=1)).frames
+    assert np.array_equal(frames_1, codec.decoder(Payload({"data": v2}, version=2)).frames)
+    assert v2.size < v1.size
+
+
 def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
     """``motionrep.open`` samples with the compiled kernel, ``decode`` with numpy: the same values."""
     from motionrep_transform._codec import interpolate_rows
