@@ -6,8 +6,8 @@ Compared with version 1 (static models fitted per clip and stored, pass-parallel
 adapt as the clip is decoded, so none is stored; each coefficient's zero flag, sign and magnitude bits are
 predicted from three contexts at once (its neighbourhood in time and in the coarser level, the same with the
 time and parent parts apart, and the feature itself at that level), mixed by weights that adapt too; features
-whose coefficients are all zero are flagged once and cost nothing more (not even their step exponent). About
-11 % fewer bytes on the CMU clips at every bound (``benchmarks/results/rate_coding.md``), lossless: the same
+whose coefficients are all zero are flagged once and cost nothing more (not even their step exponent).
+10-15 % fewer bytes on the CMU clips at every bound (``benchmarks/results/rate_coding.md``), lossless: the same
 integers, so the same decoded motion.
 """
 
