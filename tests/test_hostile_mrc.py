@@ -74,15 +74,20 @@ def test_stored_evaluation_disagrees_with_metadata(transform):
         unpack(pack(bad), "crafted.mrc")
 
 
-def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform):
+@pytest.mark.parametrize("version", [1, 2])
+def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform, version):
     from motionrep.plugin.coding import IntegerEncoder
 
-    enc = IntegerEncoder()
-    enc.encode_raw([999_999], 32)
-    enc.encode_raw([50], 20)
-    enc.encode_raw([63], 16)
-    data = np.frombuffer(enc.to_bytes() + bytes(9000), np.uint8)
-    bad = dataclasses.replace(transform, arrays={"data": data})
+    if version == 1:
+        enc = IntegerEncoder()
+        enc.encode_raw([999_999], 32)
+        enc.encode_raw([50], 20)
+        enc.encode_raw([63], 16)
+        head = enc.to_bytes()
+    else:  # frames - 1, features - 1, region - 1 as LEB128
+        head = bytes([0xBF, 0x84, 0x3D, 50, 63])
+    data = np.frombuffer(head + bytes(9000), np.uint8)
+    bad = dataclasses.replace(transform, arrays={"data": data}, codec_version=version)
     _refused(bad, "1000000 frames", "has 60")
 
 
@@ -120,14 +125,17 @@ def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
     assert "bad.mrc" in err and "extra.max_error" in err and len(err.splitlines()) == 1, err
 
 
-def test_transform_step_that_overflows_is_one_error_without_warnings(transform):
+@pytest.mark.parametrize("version", [1, 2])
+def test_transform_step_that_overflows_is_one_error_without_warnings(transform, version):
     import warnings
 
-    from motionrep_transform._stream import pack as pack_data, unpack as unpack_data
+    from motionrep_transform import _stream, _stream2
 
-    q = unpack_data(np.asarray(transform.arrays["data"]).tobytes())
+    stream = _stream2 if version == 2 else _stream
+    q = _stream2.unpack(np.asarray(transform.arrays["data"]).tobytes())
     q = dataclasses.replace(q, region_exponents=np.full_like(q.region_exponents, 32_000))
-    bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(pack_data(q), np.uint8)})
+    bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(stream.pack(q), np.uint8)},
+                              codec_version=version)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a numpy overflow warning printed before the error is the bug
         _refused(bad, "not finite")

@@ -397,15 +397,22 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     cases[-1].kind = "accept"
     from motionrep.plugin.coding import IntegerEncoder
 
-    enc = IntegerEncoder()  # a payload header claiming 2^32 frames x 2^20 features, the rest zeros
-    enc.encode_raw([2 ** 32 - 1], 32)
-    enc.encode_raw([2 ** 20 - 1], 20)
-    enc.encode_raw([15], 16)
-    claim = enc.to_bytes() + bytes(len(payload))
+    # a payload header claiming 2^32 frames x 2^20 features, the rest zeros: version 2 (LEB128 counts, what the
+    # codec writes) and version 1 (raw bits of the range coder, what files of 0.1.0 hold)
+    claim = bytes([0xFF, 0xFF, 0xFF, 0xFF, 0x0F, 0xFF, 0xFF, 0x3F, 15]) + bytes(len(payload))
     table = edited()
     table["arrays"][0]["shape"] = [len(claim)]
     mrc("mrc-transform-payload-4e9-frames", pack_meta(table, claim), "transform payload declares 4294967296 frames",
         "payload error without the file")
+    enc = IntegerEncoder()
+    enc.encode_raw([2 ** 32 - 1], 32)
+    enc.encode_raw([2 ** 20 - 1], 20)
+    enc.encode_raw([15], 16)
+    claim = enc.to_bytes() + bytes(len(payload))
+    table = edited(codec__version=1)
+    table["arrays"][0]["shape"] = [len(claim)]
+    mrc("mrc-transform-v1-payload-4e9-frames", pack_meta(table, claim),
+        "transform payload declares 4294967296 frames", "payload error without the file")
 
     # ---- BVH ---------------------------------------------------------------------------------------------------
     path = d / "bvh-zero-channels-1e9.bvh"
