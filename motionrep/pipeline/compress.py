@@ -40,7 +40,7 @@ from .._threads import one_blas_thread
 from ..plugin.codec import Codec, Payload
 from ..io.container import Container, pack
 from ..errors import BoundNotMetError, CodecError, UncodableClipError, naming
-from ..model.bound import MaxError, parse_max_error  # public here too, as before motionrep.model.bound existed
+from ..model.bound import MaxError, StoredBound, parse_max_error  # public here too, as before motionrep.model.bound existed
 from .decode import BVH_DECIMALS, decode_at, decompress, decompress_file, write_decoded  # public here too
 from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
 from ..model.kinematics import character_height
@@ -99,10 +99,10 @@ class CompressResult:
 
     def bound_read_as(self) -> str | None:
         """How ``--max-error`` was read for this clip (:meth:`MaxError.read_as`); None without a bound."""
-        asked = parse_max_error(self.container.extra.get("max_error"))
-        if asked is None or self.bound is None:
+        stored = self.container.bound
+        if stored is None or self.bound is None:
             return None
-        return asked.read_as(self.report.height, self.report.units)
+        return stored.read_as(self.report.height, self.report.units)
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-serialisable summary (what ``motionrep compress --json`` prints)."""
@@ -112,7 +112,8 @@ class CompressResult:
             "outcome": self.outcome,
             "representation": c.representation, "representation_version": c.representation_version,
             "frames": c.num_frames, "joints": c.skeleton.num_joints, "end_sites": c.skeleton.num_end_sites,
-            "fps": c.fps, "bound": self.bound, "max_error_request": c.extra.get("max_error"),
+            "fps": c.fps, "bound": self.bound,
+            "max_error_request": None if c.bound is None or c.bound.asked is None else str(c.bound.asked),
             "max_error_read_as": self.bound_read_as(),
             "evaluation": self.report.as_dict(), "figures": self.figures.as_dict(), "bytes": len(self.data),
             "seconds": self.seconds, "evaluations": self.evaluations,
@@ -185,7 +186,8 @@ class Pipeline:
                 str(self.max_error), "seed": self.seed}
 
     def __reduce__(self):
-        return (_pipeline_from_spec, (self.spec(),))
+        # the bound travels as the MaxError it is (a worker never parses it again)
+        return (_pipeline_from_spec, (dict(self.spec(), max_error=self.max_error),))
 
     def bound_for(self, motion: Motion) -> float | None:
         """The bound in file units for ``motion`` (None without one).
@@ -242,8 +244,8 @@ class Pipeline:
             representation_plugin=provider_of(rep.name, "representation"),
             skeleton=motion.skeleton, fps=motion.fps, num_frames=motion.num_frames,
             arrays=dict(payload.arrays), evaluation=None,
-            extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed,
-                   "max_error": None if self.max_error is None else str(self.max_error)},
+            extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed},
+            bound=StoredBound(self.max_error, bound),
         )
         evaluator = context.evaluator
         report = evaluator(decompress(pack(container), codec=codec, representation=rep))
