@@ -28,6 +28,8 @@ then representation, then :func:`~motionrep.model.ops.fixed_axes_restored`), at 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import os
 import time
 from dataclasses import dataclass
@@ -56,6 +58,8 @@ __all__ = [
     "parse_max_error",
     "Pipeline",
     "CompressResult",
+    "SETTING_KEYS",
+    "setting_digest",
     "compress_motion",
     "compress_file",
     "decode_at",
@@ -69,6 +73,21 @@ from ..defaults import DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION 
 
 #: Codecs are given ``bound * (1 - BOUND_MARGIN)`` as ``context.bound``; the core enforces ``bound`` itself.
 BOUND_MARGIN = 1e-6
+
+#: What identifies a compression setting (:meth:`Pipeline.setting`): what ``Pipeline.spec()`` states, with the
+#: codec's payload version and the representation's version.
+SETTING_KEYS = ("codec", "codec_version", "representation", "representation_version", "params", "max_error", "seed")
+
+
+def setting_digest(setting: Mapping[str, Any]) -> str:
+    """The SHA-256 (hex) of a compression setting: its :data:`SETTING_KEYS` as canonical JSON (sorted keys, no
+    whitespace, tuples as lists, the bound as ``str(MaxError)``).  Two settings that give the same bytes for the
+    same clip have the same digest; what ``--resume`` compares (``specs/databases.md``)."""
+    plain = json.loads(json.dumps({k: setting.get(k) for k in SETTING_KEYS},
+                                  default=lambda v: v.item() if hasattr(v, "item") else str(v)))
+    text = json.dumps(plain, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # compress
@@ -185,6 +204,17 @@ class Pipeline:
                 "params": dataclasses.asdict(self.params), "max_error": None if self.max_error is None else
                 str(self.max_error), "seed": self.seed}
 
+    def setting(self) -> dict[str, Any]:
+        """:meth:`spec` with the codec's payload version and the representation's version: everything that makes
+        the bytes of a clip (:data:`SETTING_KEYS`)."""
+        return dict(self.spec(), codec_version=self.codec.format_version,
+                    representation_version=self.representation.version)
+
+    def digest(self) -> str:
+        """The SHA-256 (hex) identifying this setting (:func:`setting_digest` of :meth:`setting`); stored in every
+        container as ``extra.setting_sha256``."""
+        return setting_digest(self.setting())
+
     def __reduce__(self):
         # the bound travels as the MaxError it is (a worker never parses it again)
         return (_pipeline_from_spec, (dict(self.spec(), max_error=self.max_error),))
@@ -244,7 +274,8 @@ class Pipeline:
             representation_plugin=provider_of(rep.name, "representation"),
             skeleton=motion.skeleton, fps=motion.fps, num_frames=motion.num_frames,
             arrays=dict(payload.arrays), evaluation=None,
-            extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed},
+            extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed,
+                   "setting_sha256": self.digest()},
             bound=StoredBound(self.max_error, bound),
         )
         evaluator = context.evaluator
