@@ -40,8 +40,7 @@ __all__ = ["ClipStore", "DirectoryStore", "ArchiveStore", "open_store", "journal
            "setting_changes", "stored_spec", "pipeline_spec", "stored_digest", "SOURCE_CHECKSUM_KEY",
            "SETTING_DIGEST_KEY"]
 
-#: Key of ``Container.extra`` holding the SHA-256 (hex) of the clip's source, written by batch compression.
-SOURCE_CHECKSUM_KEY = "source_sha256"
+from ..pipeline.checksum import SOURCE_CHECKSUM_KEY  # noqa: E402 - named here too, as before
 
 
 #: Key of ``Container.extra`` holding the SHA-256 (hex) of the setting a clip was compressed with

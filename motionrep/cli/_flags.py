@@ -26,6 +26,7 @@ FLAGS: dict[str, str] = {
     "body_model=MODEL.npz": "--body-model MODEL.npz",
     "force=True": "--force",
     "resume=True": "--resume",
+    "recompress_changed=True": "--recompress-changed",
     "common=True": "--common",
     "match='names'": "--match names",
     "strip_prefix": "--strip-prefix",

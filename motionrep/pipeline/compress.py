@@ -61,6 +61,7 @@ __all__ = [
     "SETTING_KEYS",
     "setting_digest",
     "compress_motion",
+    "compress_clip",
     "compress_file",
     "decode_at",
     "decompress",
@@ -236,7 +237,7 @@ class Pipeline:
             progress: called as ``progress(stage, fields)`` while the codec works.
             source_bytes: size of the source file, for compression figure (d).
             extra: more keys for the container's ``extra`` metadata (a batch records the source's checksum,
-                ``motionrep.batch.store.SOURCE_CHECKSUM_KEY``); they cannot replace the keys written here.
+                ``motionrep.pipeline.checksum.SOURCE_CHECKSUM_KEY``); they cannot replace the keys written here.
 
         Raises:
             ParameterError: a bound in % of a character of height 0, or parameters the codec refuses.
@@ -346,6 +347,38 @@ def compress_motion(motion: Motion, codec: str | Codec = DEFAULT_CODEC, *,
     return pipeline.compress(motion, progress=progress, source_bytes=source_bytes)
 
 
+def compress_clip(pipeline: Pipeline, ref: Any, *, read: tuple[Motion, str | None] | None = None,
+                  progress: ProgressCallback | None = None) -> CompressResult:
+    """The one path that compresses one clip of a file (:func:`compress_file`, ``motionrep compress``, every batch
+    worker): read it, then :meth:`Pipeline.compress` it with its source's size, and its source checksum when
+    known.
+
+    Args:
+        pipeline: the setting.
+        ref: the clip, a :class:`motionrep.pipeline.sources.ClipRef` (its ``source_bytes``, when None, are read
+            from the file).
+        read: ``(motion, source checksum or None)`` already read (a batch worker reads them first, to skip a clip
+            ``--resume`` keeps); None: read ``ref`` here, its file opened once.
+        progress: as for :meth:`Pipeline.compress`.
+
+    Raises:
+        FormatError: the clip cannot be read.
+        and what :meth:`Pipeline.compress` raises.
+    """
+    from .checksum import SOURCE_CHECKSUM_KEY
+
+    size = ref.source_bytes
+    if read is None:
+        with ref.open() as src:
+            motion, checksum = src.read(ref.clip), None
+            if size is None:
+                size = src.size(ref.clip)
+    else:
+        motion, checksum = read
+    return pipeline.compress(motion, progress=progress, source_bytes=size,
+                             extra=None if checksum is None else {SOURCE_CHECKSUM_KEY: checksum})
+
+
 def compress_file(source: str | os.PathLike[str], target: str | os.PathLike[str] | None,
                   codec: str | Codec | Pipeline = DEFAULT_CODEC, *, clip: str | None = None,
                   progress: ProgressCallback | None = None, **options: Any) -> CompressResult:
@@ -363,13 +396,11 @@ def compress_file(source: str | os.PathLike[str], target: str | os.PathLike[str]
         **options: as for :meth:`Pipeline.build` (``representation``, ``max_error``, ``params``, ``seed``).
     """
     from ..io.container import write_container
-    from .sources import open_source
+    from .sources import ClipRef
 
     pipeline = codec if isinstance(codec, Pipeline) else Pipeline.build(codec, **options)
-    with open_source(source) as src:
-        motion = src.read(clip)
-        size = src.size(clip)
-    result = pipeline.compress(motion, progress=progress, source_bytes=size)
+    result = compress_clip(pipeline, ClipRef(str(clip or os.fspath(source)), os.fspath(source), clip),
+                           progress=progress)
     if target is not None:
         write_container(result.data, target)
     return result
