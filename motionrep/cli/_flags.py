@@ -17,6 +17,7 @@ FLAGS: dict[str, str] = {
     "max_error=": "--max-error ",
     "max_error": "--max-error",
     "timeout=": "--timeout",
+    "codec=": "--codec ",
     "fps=": "--fps ",
     "fps": "--fps",
     "max_frames=": "--max-frames ",

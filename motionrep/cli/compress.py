@@ -199,7 +199,7 @@ def journal_of(output: Path) -> Path:
 
 def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None, say: _Say) -> None:
     from ..batch.engine import time_limit
-    from ..errors import UncodableClipError
+    from ..errors import UncodableClipError, naming
     from ..io.container import write_container
     from ..pipeline.compress import compress_clip
 
@@ -208,7 +208,7 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
         with time_limit(timeout, display_name(ref.source)):
             result = compress_clip(pipeline, ref, progress=progress)
     except UncodableClipError as exc:  # the clip, not the setting: name the file
-        raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
+        raise naming(UncodableClipError(f"{display_name(ref.source)}: {exc}"), *exc.parameters) from None
     from ..formats import CONTAINER_SUFFIX
 
     with stdout_output(output, CONTAINER_SUFFIX) as target:
