@@ -93,3 +93,29 @@ def one_line_error(result, *needles: str, code: int = 1, in_line: bool = True) -
         else:
             assert needle in result.stderr, result.stderr
     return lines[0]
+
+
+def mrc_version_1(data: bytes, **extra) -> bytes:
+    """A version-1 ``.mrc`` file made from the bytes of a current one, as motionrep 0.1 wrote it: the bound as the
+    text ``extra.max_error`` (from ``bound``), no ``bound`` object, the setting digest not stored; ``extra`` keys
+    given here replace the file's (``max_error="abc"`` crafts a bad one).  The preamble, CRC and payload layout
+    are those of both versions (``specs/container.md``)."""
+    import json
+    import struct
+    import zlib
+
+    from motionrep.model.bound import MaxError
+
+    _, _, flags, _, meta_len = struct.unpack_from("<8sHHII", data, 0)
+    meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    bound = meta.pop("bound", None)
+    old = dict(meta.get("extra") or {})
+    old.pop("setting_sha256", None)
+    if bound is not None:
+        old["max_error"] = None if bound["kind"] == "none" else str(MaxError(bound["value"], bound["kind"] == "percent"))
+    old.update(extra)
+    meta["extra"] = old
+    text = zlib.compress(json.dumps(meta, sort_keys=True, separators=(",", ":")).encode(), 9)
+    payload = data[20 + meta_len:-4]
+    body = data[:8] + struct.pack("<HHII", 1, flags, 20 + len(text) + len(payload) + 4, len(text)) + text + payload
+    return body + struct.pack("<I", zlib.crc32(body))

@@ -122,6 +122,57 @@ def test_resume_keeps_unchanged_clips_and_redoes_the_others(tmp_path, suffix):
     _no_temp_files(tmp_path)
 
 
+def test_a_setting_is_identified_by_the_digest_of_its_spec():
+    """``Pipeline.digest()``: the SHA-256 of the canonical setting; the same for the same setting however it was
+    given, another for any change, and stored in every container."""
+    import hashlib
+
+    from motionrep.model.bound import MaxError
+    from motionrep.pipeline.compress import Pipeline, setting_digest
+
+    a = Pipeline.build("svd", params={"rank": "3"}, max_error="2%", seed=1)
+    same = Pipeline.build("svd", "root-quat-axis-angle", {"rank": 3}, MaxError(2.0, True), 1)
+    assert a.digest() == same.digest() == setting_digest(dict(reversed(list(a.setting().items()))))
+    canonical = json.dumps(a.setting(), sort_keys=True, separators=(",", ":"))
+    assert a.digest() == hashlib.sha256(canonical.encode()).hexdigest()
+    others = [Pipeline.build("svd", params={"rank": 4}, max_error="2%", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2.5%", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2%", seed=2),
+              Pipeline.build("transform", max_error="2%", seed=1)]
+    assert len({a.digest()} | {p.digest() for p in others}) == 6
+    free = Pipeline.build("svd", max_error="2%")
+    motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+    assert free.compress(motion).container.extra["setting_sha256"] == free.digest()
+
+
+@pytest.mark.parametrize("suffix", [".h5", ""])
+def test_resume_keeps_the_clips_of_an_output_written_before_the_digest(tmp_path, suffix):
+    """An output of version-1 containers (no stored digest, the bound as text) resumes: their digest is derived from
+    the setting they state; a changed setting is still refused naming what changed."""
+    from helpers import mrc_version_1
+    from motionrep.io.archive import write_archive
+
+    src = _clips(tmp_path / "clips", count=3)
+    out = tmp_path / f"out{suffix}"
+    r = run("compress", src, "-o", out, "--codec", "svd", "--json")
+    assert r.exit_code == 0, r.output
+    if suffix:
+        from motionrep.io.archive import Archive
+
+        with Archive(out) as archive:
+            old = {name: mrc_version_1(archive.read_bytes(name)) for name in archive.names}
+        write_archive(sorted(old.items()), out)
+    else:
+        for p in out.iterdir():
+            p.write_bytes(mrc_version_1(p.read_bytes()))
+    r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume")
+    assert r.exit_code == 0, r.output
+    assert set(_statuses(r.output).values()) == {"skipped"}
+    r = run("compress", src, "-o", out, "--codec", "svd", "--resume", "--seed", "3")
+    assert r.exit_code == 2 and "seed 0 stored, 3 now" in r.output and "--recompress-changed" in r.output, r.output
+
+
 def test_a_killed_run_leaves_a_journal_that_resume_finishes(tmp_path):
     """A run killed after two clips (simulated: the store is never closed) keeps them in the journal."""
     from motionrep.batch.engine import compress_clips

@@ -106,18 +106,49 @@ def test_decode_work_limit_from_the_environment(monkeypatch):
 
 @pytest.mark.parametrize("value", ["abc", [1], True, "-2%"])
 def test_stored_max_error_that_is_no_bound_names_the_file(transform, value):
-    bad = dataclasses.replace(transform, extra=dict(transform.extra, max_error=value))
+    """A version-1 file's bound is the text ``extra.max_error``."""
+    from helpers import mrc_version_1
+
     with pytest.raises(ContainerError) as info:
-        unpack(pack(bad), "crafted.mrc")
+        unpack(mrc_version_1(pack(transform), max_error=value), "crafted.mrc")
     assert "crafted.mrc" in str(info.value) and "extra.max_error" in str(info.value)
     assert "--max-error" not in str(info.value)
 
 
+@pytest.mark.parametrize("bound, words", [
+    ({"kind": "abc", "value": 2.0, "distance": 1.0}, "'kind' is 'abc'"),
+    ({"kind": "percent", "value": "2%", "distance": 1.0}, "'value' must be a finite number > 0"),
+    ({"kind": "percent", "value": 0, "distance": 1.0}, "'value' must be a finite number > 0"),
+    ({"kind": "distance", "value": 2.0, "distance": None}, "'distance' must be a finite number >= 0"),
+    ({"kind": "none", "value": 2.0, "distance": None}, "'value' must be null"),
+    ([1], "must be an object"),
+    ({"kind": "distance", "value": 2.0, "distance": 2.5}, "the stored evaluation enforced"),
+])
+def test_stored_bound_that_is_no_bound_names_the_file(transform, bound, words):
+    """A version-2 file's bound is the object ``bound``: a crafted one is the file's fault, named."""
+    import json
+    import struct
+    import zlib
+
+    data = pack(transform)
+    meta_len = struct.unpack_from("<I", data, 16)[0]
+    meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    meta["bound"] = bound
+    text = zlib.compress(json.dumps(meta, sort_keys=True).encode(), 9)
+    body = data[:12] + struct.pack("<II", 20 + len(text) + len(data) - 24 - meta_len + 4, len(text)) + text + \
+        data[20 + meta_len:-4]
+    with pytest.raises(ContainerError) as info:
+        unpack(body + struct.pack("<I", zlib.crc32(body)), "crafted.mrc")
+    text = str(info.value)
+    assert "crafted.mrc" in text and words in text and "--max-error" not in text, text
+
+
 def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
+    from helpers import mrc_version_1
     from motionrep.cli import main
 
     path = tmp_path / "bad.mrc"
-    path.write_bytes(pack(dataclasses.replace(transform, extra=dict(transform.extra, max_error="abc"))))
+    path.write_bytes(mrc_version_1(pack(transform), max_error="abc"))
     with pytest.raises(SystemExit) as info:
         main(["info", str(path)])
     assert info.value.code == 1

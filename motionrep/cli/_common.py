@@ -113,41 +113,26 @@ def expand_globs(inputs: Iterable[Any]) -> list[Any]:
 def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
               ) -> tuple[float | None, str | None]:
     """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
-    ``.mrc`` candidate (or archive clip) was compressed within, if it says.
+    ``.mrc`` candidate (or archive clip) was compressed within, if it says
+    (:func:`motionrep.pipeline.bounds.bound_to_draw`).
 
     Raises:
         click.BadParameter: for a ``--max-error`` that does not parse.
     """
     from ..model.bound import parse_max_error
     from ..errors import ParameterError
-    from ..model.kinematics import character_height
-    from ..pipeline.sources import open_source
+    from ..pipeline.bounds import bound_to_draw
 
-    height = character_height(reference.skeleton)
-    units = reference.skeleton.units
-    if max_error is not None:
-        try:
-            parsed = parse_max_error(max_error)
-        except ParameterError as exc:
-            raise click.BadParameter(flagged(exc), param_hint="--max-error") from None
-        if parsed is None:
-            return None, None
-        bound = parsed.bound(height)
-        return bound, f"--max-error {parsed.read_as(height, units)}"
-    for path in candidates:
-        with open_source(path) as src:
-            if src.kind not in ("compressed", "archive"):
-                continue
-            c = src.container(src.resolve(clip if src.kind == "archive" else None))
-        asked = c.extra.get("max_error")
-        parsed = parse_max_error(asked) if asked is not None else None
-        if parsed is None:
-            continue
-        h = character_height(c.skeleton)
-        bound = parsed.bound(h)
-        return bound, f"{parsed.read_as(h, c.skeleton.units)}, as {display_name(str(path))} was " \
-                      "compressed"
-    return None, None
+    try:
+        parsed = None if max_error is None else parse_max_error(max_error)
+    except ParameterError as exc:
+        raise click.BadParameter(flagged(exc), param_hint="--max-error") from None
+    drawn = bound_to_draw(reference, candidates, clip, max_error=parsed, asked=max_error is not None)
+    if drawn is None:
+        return None, None
+    if drawn.source is None:
+        return drawn.distance, f"--max-error {drawn.read_as}"
+    return drawn.distance, f"{drawn.read_as}, as {display_name(str(drawn.source))} was compressed"
 
 
 def parse_params(pairs: Iterable[str]) -> dict[str, str]:

@@ -88,10 +88,8 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
         e = d["evaluation"]
         if e is not None:
             bound = "none" if e.get("bound") is None else _fmt(e["bound"])
-            if e.get("bound") is not None and d.get("max_error"):
-                from ..model.bound import parse_max_error
-
-                bound = f"--max-error {parse_max_error(d['max_error']).read_as(d['height'], d['units'])}"
+            if e.get("bound") is not None and d.get("max_error_read_as"):
+                bound = f"--max-error {d['max_error_read_as']}"
             lines.append(f"L-inf:      {_fmt(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
                          f"{e['frame']}, {e['joint']}; mean {_fmt(e['mean_error'])}; bound {bound} "
                          "(measured on the stored payload when written)")

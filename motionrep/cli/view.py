@@ -42,7 +42,7 @@ def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
                                   num_channels=c.skeleton.num_channels, num_joints=c.skeleton.num_joints,
                                   compressed_bytes=size)
         facts.append(("ratios", fig.summary()))
-    asked = c.extra.get("max_error")
+    asked = None if c.bound is None else c.bound.asked
     if asked is not None:
         facts.append(("compressed within", str(asked)))
     ev = c.evaluation or {}
@@ -61,7 +61,7 @@ def _settings(src: Any, name: str) -> str:
     outcome = describe_outcome(c)
     if outcome:
         words.append(outcome)
-    asked = c.extra.get("max_error")
+    asked = None if c.bound is None else c.bound.asked
     text = " ".join(words)
     return f"{text}, within {asked}" if asked is not None else text
 

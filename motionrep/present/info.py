@@ -124,7 +124,21 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
             "evaluation": None if c.evaluation is None else dict(c.evaluation),
             "figures": figures,
             "motionrep_version": c.extra.get("motionrep_version"), "seed": c.extra.get("seed"),
-            "max_error": c.extra.get("max_error")}
+            "max_error": None if c.bound is None or c.bound.asked is None else str(c.bound.asked),
+            "bound": None if c.bound is None else c.bound.as_json(),
+            "max_error_read_as": _read_as(c)}
+
+
+def _read_as(c: Any) -> str | None:
+    """How the stored bound reads for this clip (:meth:`motionrep.model.bound.MaxError.read_as`), or None."""
+    if c.bound is None or c.bound.asked is None:
+        return None
+    from ..errors import ParameterError
+
+    try:
+        return c.bound.read_as(character_height(c.skeleton), c.skeleton.units)
+    except ParameterError:  # a percentage of a character of height 0: no file motionrep writes says that
+        return None
 
 
 def _archive_row(name: str, c: Any, size: int) -> dict[str, Any]:
