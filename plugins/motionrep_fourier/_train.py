@@ -400,6 +400,22 @@ class _LBFGS:
         return self.f
 
 
+ChunkEnd = Callable[[NDArray[np.float64], float, int, bool], bool]
+
+
+def _minimise(fg: LossAndGrad, x0: NDArray[np.float64], iterations: int, start: Callable[[float], object],
+              chunk_end: ChunkEnd) -> None:
+    """Minimise ``fg`` from ``x0`` for up to ``iterations`` L-BFGS iterations, in chunks of :data:`CHUNK`:
+    ``start(loss)`` at ``x0``, then ``chunk_end(x, loss, iterations so far, converged)`` after each chunk, until
+    it returns True (it does once ``iterations`` are done or the optimiser has converged)."""
+    optimizer = _LBFGS(fg, x0)
+    start(optimizer.f)
+    while True:
+        loss = optimizer.run(min(CHUNK, iterations - optimizer.iterations))
+        if chunk_end(optimizer.x, loss, optimizer.iterations, optimizer.converged):
+            return
+
+
 # -----------------------------------------------------------------------------------------------------------------
 # network construction and growth
 # -----------------------------------------------------------------------------------------------------------------
@@ -574,21 +590,23 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                           x: NDArray[np.float32] = x) -> tuple[float, NDArray[np.float64]]:
             return net.loss_and_grad(x, target, theta)
 
-        optimizer = _LBFGS(loss_and_grad, net.theta[:net.nonlinear_size].astype(np.float64))
-        losses = [optimizer.f]  # the loss after each chunk (and at the start)
+        losses: list[float] = []  # the loss at the start and after each chunk
         stage = unmeasured = 0
-        while True:
-            done = optimizer.iterations
-            loss = optimizer.run(min(CHUNK, params.iters - stage))
-            net.theta = net.weights_at(x, target, optimizer.x)
-            stage += optimizer.iterations - done
-            total_iters += optimizer.iterations - done
+        met: list[Payload] = []  # the payload that met the bound, once one does
+
+        def chunk_end(theta: NDArray[np.float64], loss: float, iterations: int, converged: bool) -> bool:
+            """After a chunk (``iterations`` in this stage so far, at parameters ``theta``): True to end the
+            stage, with the payload in ``met`` if it met the bound."""
+            nonlocal stage, unmeasured, total_iters, payload, best, percent_per_unit, ratio
+            net.theta = net.weights_at(x, target, theta)
+            total_iters += iterations - stage
+            stage = iterations
             losses.append(loss)
             unmeasured += 1
             if not math.isfinite(loss):
                 raise CodecError(f"{name}: training diverged (loss {loss}) at K={K}")
             plateau = len(losses) > WINDOW and loss > losses[-1 - WINDOW] * (1.0 - params.tol)
-            last = stage >= params.iters or optimizer.converged or plateau
+            last = stage >= params.iters or converged or plateau
             fields = {"K": K, "omega": list(omega), "iteration": stage, "loss": loss,
                       # the share of the most training this fit can take (every K up to target_k, every iteration)
                       "done": min((K + min(stage / params.iters, 1.0)) / (target_k + 1), 1.0)}
@@ -606,18 +624,24 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                 fields.update(error=report.max_error, error_percent=report.max_error_percent)
                 context.progress("train", **fields)
                 if report.max_error <= bound and not quantised:
-                    return payload
+                    met.append(payload)
+                    return True
                 # quantised: rounding adds error, so the network is rounded once it is well inside the bound
                 # (or at the last chance: the last stage's end); kept if the rounded one meets the bound
                 if report.max_error <= (1.0 if last_chance(K, last) else HEADROOM) * bound:
                     rounded = quantised_payload(net, x, bound)
                     if rounded is not None:
                         context.progress("quantise", K=K, steps=rounded.info["steps"])
-                        return rounded
+                        met.append(rounded)
+                        return True
             else:
                 context.progress("train", **fields)
-            if last:
-                break
+            return last
+
+        _minimise(loss_and_grad, net.theta[:net.nonlinear_size].astype(np.float64), params.iters,
+                  losses.append, chunk_end)
+        if met:
+            return met[0]
         payload = payload_of(net)
     if bound is None:
         return quantised_payload(net, x, None) if quantised else payload
