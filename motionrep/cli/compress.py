@@ -206,12 +206,12 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
         with open_source(ref.path) as src:
             motion = src.read(ref.clip)
         progress = None if as_json or say.quiet else CodecProgress(pipeline.codec, verbose=say.verbose)
-        from ..errors import UncodableClipError
+        from ..errors import UncodableClipError, naming
 
         try:
             result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
         except UncodableClipError as exc:  # the clip, not the setting: name the file
-            raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
+            raise naming(UncodableClipError(f"{display_name(ref.source)}: {exc}"), *exc.parameters) from None
     from ..formats import CONTAINER_SUFFIX
 
     with stdout_output(output, CONTAINER_SUFFIX) as target:

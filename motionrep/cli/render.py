@@ -159,7 +159,7 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
                       max_frames=max_frames, size=size, up=up, bound=bound, options=options,
                       progress=None if quiet else bar)
     for note in result.notes:
-        click.echo(f"note: {note}", err=True)
+        click.echo(f"note: {flagged(note)}", err=True)
     n = len(result.frames)
     what = (f"{n} frame{'s' if n != 1 else ''} at {result.fps:.3g} fps" if result.fps is not None
             else f"{n} picture{'s' if n != 1 else ''}")

@@ -12,6 +12,7 @@ from typing import Any
 
 import click
 
+from ._flags import flagged
 from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, expand_globs,
                       force_option, is_stdio, match_options, quiet_option, stdin_inputs)
 
@@ -139,7 +140,7 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
         bound, how = bound_for(max_error, clips[0].motion, paths[1:], clip)
     result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up, match=options)
     for note in result.notes:
-        click.echo(f"note: {note}", err=True)
+        click.echo(f"note: {flagged(note)}", err=True)
     line = f"wrote {output}: {result.frames} frames, {len(clips)} clip{'s' if len(clips) > 1 else ''}, " \
            f"{result.bytes / 1e6:.1f} MB"
     if result.errors:

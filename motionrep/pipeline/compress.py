@@ -128,9 +128,10 @@ def _check_codable(codec: Codec, motion: Motion) -> None:
         return
     frames = f"{motion.num_frames} frame{'s' if motion.num_frames != 1 else ''}"
     able = [name for name, c in codecs().items() if int(getattr(c, "min_frames", 1)) <= motion.num_frames]
-    can = (f"; {', '.join(able)} can (--codec {able[0] if 'transform' not in able else 'transform'})" if able
+    can = (f"; {', '.join(able)} can (codec={able[0] if 'transform' not in able else 'transform'})" if able
            else "; no installed codec can")
-    raise UncodableClipError(f"{codec.name} cannot code a clip of {frames}: it needs at least {need} frames{can}")
+    raise naming(UncodableClipError(f"{codec.name} cannot code a clip of {frames}: it needs at least {need} "
+                                    f"frames{can}"), *(("codec=",) if able else ()))
 
 
 @dataclass(frozen=True, eq=False)

@@ -54,7 +54,7 @@ class TransformParams:
 
     step: float | None = field(default=None, metadata={
         "help": "fixed quality instead of a bound: the quantiser step in position units (file units of joint "
-                "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
+                "movement per step, > 0); default: the largest steps that meet the bound (max_error), region by region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
     rounding: float = field(default=0.4, metadata={
