@@ -157,3 +157,15 @@ def test_bench_rows_name_parameters_and_the_command_line_the_flags(walk, tmp_pat
     assert r.exit_code == 0, r.output
     (shown,) = read_csv(tmp_path / "out" / "bench.csv")
     assert "use --codec svd" in shown.message and "codec=" not in shown.message
+
+
+def test_the_facts_of_a_compressed_clip_name_the_bound_parameter_and_info_the_flag(walk, tmp_path):
+    from motionrep.pipeline.compress import compress_file
+    from motionrep.present.info import compressed_facts, info_dict
+
+    mrc = tmp_path / "w.mrc"
+    compress_file(walk, mrc, "svd", max_error="2%")
+    facts = dict(compressed_facts(info_dict(mrc), verbose=True))
+    assert "bound max_error=2% of height" in facts["L-inf"] and facts["L-inf"].parameters == ("max_error=",)
+    r = run("info", mrc)
+    assert r.exit_code == 0 and "bound --max-error 2% of height" in r.output and "max_error" not in r.output

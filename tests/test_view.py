@@ -275,8 +275,9 @@ def test_three_codecs_are_labelled_apart(three_codecs):
     for name, codec in zip(names, ("svd", "naive-fourier", "transform")):
         assert name.startswith(f"{codec}/clip.mrc ({codec} "), name
     assert "rank=3" in names[0] and "K=2" in names[1]
-    params = dict(data["clips"][2]["facts"])["parameters"]
+    params = dict(data["clips"][2]["facts"])["codec"]  # info's facts, every figure
     assert "window=auto" in params and "k=2" in params  # a parameter left to the codec: auto, not None
+    assert {"codec", "outcome", "features", "size", "payload", "ratios", "L-inf"} <= set(dict(data["clips"][2]["facts"]))
     assert "None" not in json.dumps(data) and "NaN" not in json.dumps(data)
 
 

@@ -26,6 +26,7 @@ FLAGS: dict[str, str] = {
     "params window=": "-p window=",
     "units=": "--units",
     "scale=": "--scale",
+    "on_clash=": "--on-clash ",
     "clip=NAME": "--clip NAME",
     "clip=": "--clip",
     "body_model=MODEL.npz": "--body-model MODEL.npz",
