@@ -132,3 +132,24 @@ def test_merge_and_compress_remove_a_dead_writers_temporaries_when_they_start(tm
     result = runner.invoke(cli, args)
     assert result.exit_code == 0, result.output
     assert not stale.exists()
+
+
+@linux
+@pytest.mark.slow
+def test_sigkill_of_a_fourier_encode_with_window_workers_leaves_no_worker(tmp_path):
+    """The Fourier codecs' own window workers (a pebble pool of forked processes) die with the encoder at once,
+    in the middle of a window (long windows, a tight bound: each trains for many seconds)."""
+    motionrep.write(synthetic_motion(frames=900, seed=3), tmp_path / "long.bvh")
+    client = _motionrep("compress", "long.bvh", "-o", "long.mrc", "--codec", "adaptive-fourier", "--max-error",
+                        "0.05%", "-p", "window=300", "-p", "jobs=2", "-p", "max_k=40", cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    workers: list[int] = []
+    while time.monotonic() < deadline and len(workers) < 2:
+        time.sleep(0.2)
+        workers = [c for c in _children(client.pid) if _alive(c)]
+    assert len(workers) >= 2, "the window workers never started"
+    time.sleep(1.0)  # into their windows' training
+    os.kill(client.pid, signal.SIGKILL)
+    client.wait()
+    time.sleep(0.5)
+    assert [w for w in workers if _alive(w)] == []
