@@ -180,7 +180,7 @@ def test_the_command_modules_are_light():
         if module.name == "__init__.py":
             continue
         imported = _imports(module) - {"motionrep.cli._common", "motionrep.cli._stdin", "motionrep.cli._crosstool",
-                                       "motionrep.cli._flags",
+                                       "motionrep.cli._flags", "motionrep.cli._progress",
                                        "motionrep.cli"}
         assert imported <= {"motionrep.errors", "motionrep.formats", "motionrep.defaults"}, \
             f"{module.name} imports {sorted(imported)} at module level"

@@ -98,3 +98,37 @@ def test_worker_progress_pickles_and_is_silent_without_a_relay():
 
     relay = pickle.loads(pickle.dumps(WorkerProgress()))
     relay("c0", "train", {"K": 1})  # no queue in this process: nothing happens, nothing raises
+
+
+def test_on_a_terminal_the_count_is_a_click_progress_bar_with_an_eta():
+    import re
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    with BatchProgress(4, "compressing", lambda x: f"clip {x} failed", every=0.0, stream=term) as bar:
+        bar.done("a")
+        time.sleep(1.1)  # click measures its ETA once a second
+        bar.done("b", failed=True)
+        bar.note("c", "train K=1")
+        bar.done("c")
+        bar.done("d")
+    text = term.getvalue()
+    assert "compressing  [" in text and "1/4" in text and "4/4" in text, text
+    assert re.search(r"2/4  \d\d:\d\d:\d\d  1 failed, [0-9.]+/s", text), text  # position, click's ETA, the tail
+    assert "\r\x1b[Kclip b failed\n" in text  # a failure on its own line above the bar
+    assert text.endswith("\n")  # click ends its bar
+
+
+def test_convert_and_render_share_the_one_mechanism():
+    """Both draw through BatchProgress (no second style): convert's clips and render's frames."""
+    from pathlib import Path
+
+    import motionrep.cli.convert as convert
+    import motionrep.cli.render as render
+
+    for module in (convert, render):
+        source = Path(module.__file__).read_text(encoding="utf-8")
+        assert "BatchProgress(" in source and "progressbar(" not in source, module.__name__
