@@ -94,7 +94,7 @@ def compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
     (:class:`motionrep.io.container.Container`) stored as ``name`` in ``size`` bytes."""
     from ..pipeline import figures as fg
     from ..pipeline.compress import describe_outcome
-    from ..pipeline.evaluate import compression_figures
+    from ..pipeline.figures import compression_figures
     from ..plugin.registry import get_representation
 
     sk = c.skeleton

@@ -38,7 +38,7 @@ def chain_motion():
 # Fourier codecs: the network, warm start, frequency choice
 # ---------------------------------------------------------------------------------------------------------------
 def test_warm_start_growth_leaves_the_function_unchanged():
-    from motionrep_fourier._train import _grow, _initial
+    from motionrep_fourier._trainnet import grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(3)
     net = _initial(gen, 5, 10, 7)
@@ -57,7 +57,7 @@ def test_warm_start_growth_leaves_the_function_unchanged():
 def test_variable_projection_loss_and_gradient():
     """The loss of the first two layers with the output layer solved by ridge least squares: its gradient
     matches central differences (float64 network), and the solved output layer is the least-squares one."""
-    from motionrep_fourier._train import RIDGE, _grow, _initial, _Net
+    from motionrep_fourier._trainnet import RIDGE, Net as _Net, grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(4)
     grown = _grow(_initial(gen, 3, 6, 5), gen)
@@ -97,7 +97,7 @@ def _two_loop_direction(g, pairs):
 
 
 def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
-    from motionrep_fourier._train import _LBFGS
+    from motionrep_fourier._lbfgs import LBFGS as _LBFGS
 
     rng = np.random.default_rng(0)
     n = 40
@@ -120,7 +120,7 @@ def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
 def test_line_search_steps_through_the_float32_noise_of_the_loss():
     """Near a minimum the loss values carry rounding noise larger than the possible decrease; the line search
     must still move to where the slope flattens instead of declaring convergence (the gradient is accurate)."""
-    from motionrep_fourier._train import _LBFGS
+    from motionrep_fourier._lbfgs import LBFGS as _LBFGS
 
     rng = np.random.default_rng(1)
     scales = np.geomspace(1.0, 1e4, 20)  # very uneven curvature
