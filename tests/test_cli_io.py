@@ -10,12 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep import Motion, Skeleton
 
 from motionrep.plugin import registry as plugins
-from motionrep.cli import cli
 from motionrep.errors import ValidationError
 from motionrep.plugin.hookspecs import hookimpl
 from motionrep.io import list_clips, read, read_bvh, read_features, read_stored, write, write_database
@@ -24,13 +22,13 @@ from motionrep.model.kinematics import character_height
 from motionrep.plugin.representation import Representation
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 
-from helpers import HAVE_SHARED, SHARED_DATA, requires_shared
+from helpers import HAVE_SHARED, SHARED_DATA, requires_shared, run_cli_caught
 
 REPO = Path(__file__).resolve().parent.parent
 
 
 def run(*args: str):
-    result = CliRunner().invoke(cli, [str(a) for a in args])
+    result = run_cli_caught(*args)
     assert "Traceback" not in result.output
     assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
     return result

@@ -26,11 +26,6 @@ from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthet
 FAST_FOURIER = {"iters": 200}
 
 
-@pytest.fixture(scope="module")
-def chain_motion():
-    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # svd
 # ---------------------------------------------------------------------------------------------------------------

@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 
 from motionrep.io.archive import read_archive
-from motionrep.cli import cli
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from helpers import run_cli

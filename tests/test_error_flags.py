@@ -8,7 +8,6 @@ import pickle
 import pytest
 
 from motionrep.model.bound import parse_max_error
-from motionrep.cli import cli
 from motionrep.cli._flags import FLAGS, flagged
 from motionrep.errors import FormatError, MotionrepError, ParameterError, TimeLimitError, ValidationError, naming
 from motionrep.io import read, write, write_database

@@ -15,6 +15,7 @@ import pytest
 import motionrep
 from motionrep.io._atomic import remove_stale_files, remove_stale_folders
 from motionrep.model.synthetic import synthetic_motion
+from helpers import run_cli_caught
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG and /proc are Linux's")
 
@@ -118,18 +119,15 @@ def test_sigkill_of_convert_to_database_then_next_run_leaves_no_temporary(tmp_pa
 
 @pytest.mark.parametrize("command", ["merge", "compress"])
 def test_merge_and_compress_remove_a_dead_writers_temporaries_when_they_start(tmp_path, command):
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     _clips(tmp_path / "in", 2, 20)
-    runner = CliRunner()
-    assert runner.invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "a.h5")]).exit_code == 0
+    assert run_cli_caught("compress", str(tmp_path / "in"), "-o", str(tmp_path / "a.h5")).exit_code == 0
     stale = tmp_path / f".out.h5.{_dead_pid()}.abcd_123.tmp.h5"
     stale.write_bytes(b"left by a SIGKILL")
     args = (["merge", str(tmp_path / "a.h5"), "-o", str(tmp_path / "out.h5")] if command == "merge" else
             ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5")])
-    result = runner.invoke(cli, args)
+    result = run_cli_caught(*args)
     assert result.exit_code == 0, result.output
     assert not stale.exists()
 

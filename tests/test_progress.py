@@ -10,6 +10,7 @@ import pytest
 
 from motionrep.cli._common import BatchProgress, CodecProgress
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def test_the_heartbeat_prints_while_no_item_finishes():
@@ -65,17 +66,15 @@ def test_fourier_training_reports_its_progress_through_the_hook():
 
 def _heartbeats(tmp_path, monkeypatch, *extra: str) -> list[str]:
     """The heartbeat lines of a two-clip adaptive-fourier batch (one heartbeat every 0.3 s)."""
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
     from motionrep.io import write
 
     (tmp_path / "in").mkdir()
     for i in range(2):
         write(synthetic_motion(chain_skeleton(4), frames=120, fps=30, seed=i), tmp_path / "in" / f"c{i}.bvh")
     monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
-    r = CliRunner().invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
-                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", *extra])
+    r = run_cli_caught("compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
+                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", *extra)
     assert r.exit_code == 0, r.output
     return [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
 
@@ -85,6 +84,7 @@ def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_p
     assert beats and any("c0: train" in b for b in beats), beats
 
 
+@pytest.mark.slow  # worker processes; the heartbeat of work in this process is the fast test above
 def test_worker_processes_relay_the_codec_progress_to_the_heartbeat(tmp_path, monkeypatch):
     """`--jobs 2`: the workers' codec progress reaches the client through the pool's relay queue."""
     beats = _heartbeats(tmp_path, monkeypatch, "-p", "iters=6000", "--jobs", "2")

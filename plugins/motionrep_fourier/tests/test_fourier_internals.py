@@ -29,11 +29,6 @@ def edges_of(container) -> list[int]:
     return arrays["edges"].tolist() if "edges" in arrays else [0, container.num_frames - 1]
 
 
-@pytest.fixture(scope="module")
-def chain_motion():
-    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # Fourier codecs: the network, warm start, frequency choice
 # ---------------------------------------------------------------------------------------------------------------
@@ -327,7 +322,8 @@ def test_windowed_payload_checks_its_layout(windowed):
             windows_forward({**arrays, name: bad}, [0.5])
 
 
-@pytest.mark.parametrize("jobs", [1, 2, 3])
+# jobs=2 is the fast smoke test of the window workers; three processes only in the slow run
+@pytest.mark.parametrize("jobs", [1, 2, pytest.param(3, marks=pytest.mark.slow)])
 def test_windowed_files_are_byte_identical_for_a_seed_and_any_number_of_processes(jobs, windowed, chain_motion):
     again = compress_motion(chain_motion, "adaptive-fourier", max_error="3%",
                             params={"window": 16, "dtype": "float32", "jobs": jobs, **FAST_FOURIER})
