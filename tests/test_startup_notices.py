@@ -19,6 +19,8 @@ from motionrep.io import write
 from motionrep.jit import COMPILE_NOTICE
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
+from helpers import run_cli_caught
+
 REPO = Path(__file__).resolve().parent.parent
 
 
@@ -137,7 +139,6 @@ _KERNELS_LOADED = """
 import gc, sys
 from motionrep.cli import main
 from motionrep.jit import LazyKernel
-from helpers import run_cli_caught
 try:
     main(sys.argv[1:])
 except SystemExit as exc:
