@@ -1,7 +1,7 @@
-"""What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks, the one
-overwrite policy (``--force``), the one way a run ends on a signal (:class:`Interrupted`), ``-`` for
-standard output (standard input: :mod:`motionrep.cli._stdin`, re-exported here), glob patterns in inputs, and
-how ``--max-error`` was read.
+"""What the command modules share: ``-p`` parsing, progress on stderr (:mod:`motionrep.cli._progress`, re-exported
+here), JSON output, file-type checks, the one overwrite policy (``--force``), the one way a run ends on a signal
+(:class:`Interrupted`), ``-`` for standard output (standard input: :mod:`motionrep.cli._stdin`, re-exported here),
+glob patterns in inputs, and how ``--max-error`` was read.
 
 Overwrite policy, the same for every command: an output that exists is an error (exit 1, naming it and saying
 ``--force``) unless ``--force`` is given; a command that can go on with what an interrupted run left
