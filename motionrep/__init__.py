@@ -13,9 +13,9 @@ motion against another) and :func:`open` (a ``.mrc`` clip for sampling poses at 
 
 from __future__ import annotations
 
-import os
-import sys
-import types
+import os as _os
+import sys as _sys
+import types as _types
 
 from ._version import __version__
 from . import _moved
@@ -98,7 +98,7 @@ def compress(motion: Motion, codec: str = DEFAULT_CODEC, *, max_error: str | flo
                            params=params, seed=seed, progress=progress)
 
 
-def decompress(source: bytes | str | os.PathLike[str] | Container, fps: float | None = None) -> Motion:
+def decompress(source: bytes | str | _os.PathLike[str] | Container, fps: float | None = None) -> Motion:
     """Decode a compressed clip: ``.mrc`` bytes, a ``.mrc`` file's path or a parsed container, to a
     :class:`Motion` of ``num_frames`` frames at its own frame rate, or resampled to ``fps`` (decoded at the new
     frame times).
@@ -109,7 +109,7 @@ def decompress(source: bytes | str | os.PathLike[str] | Container, fps: float | 
     """
     from .pipeline.decode import decompress as decode
 
-    if isinstance(source, (str, os.PathLike)):
+    if isinstance(source, (str, _os.PathLike)):
         from .io.container import read_container
 
         return decode(read_container(source), fps, path=source)
@@ -135,7 +135,7 @@ def evaluate(reference: Motion, candidate: Motion, options: MatchOptions | None 
     return compare(reference, candidate, STRICT if options is None else options)
 
 
-def open(source: str | os.PathLike[str] | bytes | Container) -> Clip:  # noqa: A001 - motionrep.open, like io.open
+def open(source: str | _os.PathLike[str] | bytes | Container) -> Clip:  # noqa: A001 - motionrep.open, like io.open
     """Open a ``.mrc`` clip (path, bytes or container) for sampling poses: a :class:`motionrep.pipeline.runtime.Clip`
     (``clip.pose(t)``, ``clip.poses(times)``, ``clip.positions(times)``; see ``motionrep.pipeline.runtime``)."""
     from .pipeline.runtime import open_clip
@@ -143,19 +143,19 @@ def open(source: str | os.PathLike[str] | bytes | Container) -> Clip:  # noqa: A
     return open_clip(source)
 
 
-class _FrontDoor(types.ModuleType):
+class _FrontDoor(_types.ModuleType):
     """``motionrep`` itself: importing an old flat module name that is also a verb (``import motionrep.compress``,
     ``motionrep.evaluate``; motionrep/_moved.py) still gives that module to the importer, and leaves the verb
     under the package's name (the import system would bind the module there)."""
 
     def __setattr__(self, name: str, value: object) -> None:
-        if name in _VERBS and isinstance(value, types.ModuleType):
+        if name in _VERBS and isinstance(value, _types.ModuleType):
             return
         super().__setattr__(name, value)
 
 
 _VERBS = frozenset({"compress", "decompress", "evaluate", "open"})
-sys.modules[__name__].__class__ = _FrontDoor
+_sys.modules[__name__].__class__ = _FrontDoor
 
 
 def __getattr__(name: str):
