@@ -42,6 +42,7 @@ from os import PathLike
 __all__ = [
     "MotionrepError",
     "naming",
+    "Note",
     "UncodableClipError",
     "ValidationError",
     "FormatError",
@@ -85,6 +86,22 @@ def naming(exc: MotionrepError, *parameters: str) -> MotionrepError:
     and return it: ``raise naming(ParameterError(f"max_error must be > 0, got {v!r}"), "max_error")``."""
     exc.parameters = tuple(parameters)
     return exc
+
+
+class Note(str):
+    """A note for the user (what a report left out, what was assumed) that names parameters as an error does:
+    the text speaks to a Python caller (``"... (max_frames=150)"``) and :attr:`parameters` lists the mentions,
+    which the command line rewrites into flags.  ``Note(text, "max_frames=")``; otherwise a plain ``str``."""
+
+    parameters: tuple[str, ...]
+
+    def __new__(cls, text: str, *parameters: str) -> "Note":
+        note = super().__new__(cls, text)
+        note.parameters = tuple(parameters)
+        return note
+
+    def __reduce__(self):  # notes cross process boundaries with their mentions
+        return (Note, (str(self), *self.parameters))
 
 
 class ValidationError(MotionrepError, ValueError):

@@ -13,6 +13,7 @@ import motionrep
 from motionrep.batch.engine import compress_clips, run_batch
 from motionrep.pipeline.sources import ClipRef
 from motionrep.model.synthetic import synthetic_motion
+from helpers import run_cli_caught
 
 #: frames of a clip -> what compressing it does (module level: worker processes import this module)
 _RAISES = {11: MemoryError, 12: TypeError, 14: RecursionError, 16: KeyError}
@@ -47,7 +48,8 @@ def _clips(tmp_path, frames):
     return refs
 
 
-@pytest.mark.parametrize("jobs", [1, 2])
+# worker processes in the slow run; the fast smoke test of a dying worker is the broken-pool test below
+@pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_every_kind_of_failure_is_one_clips_failure(tmp_path, jobs):
     frames = [10, 11, 12, 13, 14, 15, 16, 17]
     refs = _clips(tmp_path, frames)
@@ -85,15 +87,13 @@ def test_run_batch_without_on_error_still_raises():
 
 
 def test_cli_compress_dir_goes_on_after_a_bad_clip(tmp_path):
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     src = tmp_path / "in"
     src.mkdir()
     _clips(src, [10, 12])
     (src / "bad.bvh").write_text("HIERARCHY\nROOT a\n{\n")
-    result = CliRunner().invoke(cli, ["compress", str(src), "-o", str(tmp_path / "out") + "/", "--jobs", "1"])
+    result = run_cli_caught("compress", str(src), "-o", str(tmp_path / "out") + "/", "--jobs", "1")
     assert result.exit_code == 1, result.output
     assert "1 of 3 clips failed" in result.output
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["clip10.mrc", "clip12.mrc"]

@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 
 from motionrep.io.archive import read_archive
-from motionrep.cli import cli
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from helpers import run_cli
@@ -413,6 +412,24 @@ def test_decompress_and_evaluate_read_directories_and_archives(tmp_path):
     assert r.exit_code == 1 and "holds motions, not compressed clips" in r.output
 
 
+def _merge_in_python(a: Path, other: Path, tmp_path: Path) -> None:
+    """The clash policy is the library's (motionrep.batch.merge): the same outcomes without the command line."""
+    from motionrep.batch.merge import plan_merge
+    from motionrep.errors import FormatError, ValidationError
+    from motionrep.io.archive import Archive
+
+    with pytest.raises(FormatError, match=r"clash with different contents: .*; use on_clash=first\|last\|prefix"):
+        plan_merge([a, other])
+    with pytest.raises(ValidationError, match="on_clash must be one of error, first, last, prefix"):
+        plan_merge([a, other], on_clash="newest")
+    plan = plan_merge([a, other], on_clash="last")
+    assert plan.names == ["c0", "c2"]
+    plan.write(tmp_path / "py.h5")
+    with Archive(tmp_path / "py.h5") as m, Archive(other) as o:
+        assert m.read_bytes("c0") == o.read_bytes("c0")
+    assert plan_merge([a, other], on_clash="prefix").names == ["a__c0", "a__c2", "other__c0", "other__c2"]
+
+
 def test_merge_joins_shards_and_refuses_clashes(tmp_path):
     src = _clips(tmp_path / "clips", count=4)
     a, b, both = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "both.h5"
@@ -436,6 +453,7 @@ def test_merge_joins_shards_and_refuses_clashes(tmp_path):
                "1%").exit_code == 0
     r = run("merge", a, other, "-o", tmp_path / "x.h5")
     assert r.exit_code == 1 and "clash" in r.output and "c0 (" in r.output and not (tmp_path / "x.h5").exists()
+    assert "use --on-clash first|last|prefix" in r.output
     for policy, source in (("first", a), ("last", other)):
         out = tmp_path / f"{policy}.h5"
         assert run("merge", a, other, "-o", out, "--on-clash", policy).exit_code == 0
@@ -444,6 +462,7 @@ def test_merge_joins_shards_and_refuses_clashes(tmp_path):
     out = tmp_path / "prefix.h5"
     assert run("merge", a, other, "-o", out, "--on-clash", "prefix").exit_code == 0
     assert sorted(read_archive(out)) == ["a__c0", "a__c2", "other__c0", "other__c2"]
+    _merge_in_python(a, other, tmp_path)
     mrcdir = tmp_path / "mrcdir"
     assert run("merge", a, b, "-o", mrcdir).exit_code == 0
     assert sorted(p.name for p in mrcdir.iterdir()) == ["c0.mrc", "c1.mrc", "c2.mrc", "c3.mrc"]

@@ -6,7 +6,7 @@ import pytest
 
 from motionrep.pipeline import figures as fg
 from motionrep.errors import ValidationError
-from motionrep.pipeline.evaluate import compression_figures
+from motionrep.pipeline.figures import compression_figures
 from motionrep.batch.totals import BatchTotals
 
 

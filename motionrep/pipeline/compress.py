@@ -44,7 +44,8 @@ from ..io.container import Container, pack
 from ..errors import BoundNotMetError, CodecError, UncodableClipError, naming
 from ..model.bound import MaxError, StoredBound, parse_max_error  # public here too, as before motionrep.model.bound existed
 from .decode import BVH_DECIMALS, decode_at, decompress, decompress_file, write_decoded  # public here too
-from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
+from .evaluate import ErrorReport, MotionContext, ProgressCallback
+from .figures import CompressionFigures, compression_figures
 from ..model.kinematics import character_height
 from ..plugin.representation import Representation
 

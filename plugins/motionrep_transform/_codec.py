@@ -57,7 +57,8 @@ class TransformParams:
 
     step: float | None = field(default=None, metadata={
         "help": "fixed quality instead of a bound: the quantiser step in position units (file units of joint "
-                "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
+                "movement per step, > 0); default: the largest steps that meet the bound (max_error), region by "
+                "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
     rounding: float = field(default=0.4, metadata={
@@ -248,9 +249,13 @@ def _sample_kernel(times, out, rows_t):
             out[d, i] = v if frac[i] == 0.0 else w  # on a frame, its value exactly (v + 0 could turn -0 to 0)
 
 
+#: The stream module of each payload format version.
+_STREAMS = {1: _stream, 2: _stream2}
+
+
 def unpack(data: bytes, version: int) -> Quantised:
     """The quantised content of payload bytes of format ``version`` (1 or 2)."""
-    return (_stream2 if version == 2 else _stream).unpack(data)
+    return _STREAMS[version].unpack(data)
 
 
 class TransformDecoder:
@@ -439,8 +444,7 @@ class TransformCodec(Codec):
         data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        version = self.payload_version(payload)
-        F, D, _ = (_stream2 if version == 2 else _stream).declared(data.tobytes())
+        F, D, _ = _STREAMS[self.payload_version(payload)].declared(data.tobytes())
         check_frames(F, num_frames, "transform payload")
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 

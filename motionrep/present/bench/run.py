@@ -144,10 +144,10 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
                                         f"{best:.4g}" + ("" if pct is None else f" ({pct:.2f}%)"))
         return BenchRow(**base, status="failed", outcome=text, error=best, error_percent=pct,
                         encode_seconds=time.perf_counter() - start, load_average=_load(), message=str(exc),
-                        xz_bytes=xz)
+                        mentions=exc.parameters, xz_bytes=xz)
     except MotionrepError as exc:
         return BenchRow(**base, status="error", outcome=f"error: {type(exc).__name__}",
-                        load_average=_load(), message=str(exc), xz_bytes=xz)
+                        load_average=_load(), message=str(exc), mentions=exc.parameters, xz_bytes=xz)
     speed, features_speed, single = decode_speed(result.container, task.decode_poses, task.seed)
     r, f = result.report, result.figures
     return BenchRow(
