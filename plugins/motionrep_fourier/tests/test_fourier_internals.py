@@ -679,3 +679,25 @@ def test_quantised_without_a_bound_rounds_finely(chain_motion):
     a, b = decompress(q.data), decompress(f.data)
     # the same training; the rounding moves joints by far less than the network's own error
     assert max_joint_error(b, a).max_error < 0.05 * f.report.max_error + 1e-9
+
+
+def test_rounding_compensates_each_column_on_the_inputs():
+    """``_quantise.rounded`` (GPTQ): on correlated inputs the layer's output moves far less than with each
+    weight rounded to its nearest multiple, every integer stays within a few steps of its weight, and columns
+    of inputs that are never non-zero are rounded to the nearest, as nothing can compensate them."""
+    from motionrep_fourier._quantise import rounded
+
+    rng = np.random.default_rng(3)
+    N, n, m = 400, 12, 30
+    mix = rng.normal(size=(n, n))
+    inputsT = np.vstack([(rng.normal(size=(N, n)) @ mix).T[:-2], np.zeros((1, N)), np.ones((1, N))])
+    A = rng.normal(size=(m, n))
+    steps = np.full(n, 0.05)
+    steps[3] = 0.2  # per-column steps
+    Q = rounded(A, inputsT, steps)
+    nearest = np.rint(A / steps)
+    error = lambda q: float(np.sum(((A - q * steps) @ inputsT) ** 2))  # noqa: E731
+    assert error(Q) < 0.5 * error(nearest)
+    assert np.max(np.abs(Q - nearest)) <= 8
+    assert np.array_equal(Q[:, -2], nearest[:, -2])
+    assert np.array_equal(rounded(A, inputsT, steps), Q)  # deterministic
