@@ -49,14 +49,17 @@ def test_warm_start_growth_leaves_the_function_unchanged():
     np.testing.assert_allclose(grown.forward(x_new), before, rtol=0, atol=4 * np.finfo(np.float32).eps)
 
 
-def test_variable_projection_loss_and_gradient():
-    """The loss of the first two layers with the output layer solved by ridge least squares: its gradient
-    matches central differences (float64 network), and the solved output layer is the least-squares one."""
+@pytest.mark.parametrize("decay", [None, 1e-2])
+def test_variable_projection_loss_and_gradient(decay):
+    """The loss of the first two layers with the output layer solved by ridge least squares, plus the weight decay
+    of every layer's weights (not the biases): its gradient matches central differences (float64 network), and
+    the solved output layer is the least-squares one."""
     from motionrep_fourier._trainnet import RIDGE, Net as _Net, grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(4)
     grown = _grow(_initial(gen, 3, 6, 5), gen)
-    net = _Net(grown.inputs, grown.hidden, grown.width, grown.theta, dtype=np.float64)
+    decay = RIDGE if decay is None else decay
+    net = _Net(grown.inputs, grown.hidden, grown.width, grown.theta, dtype=np.float64, decay=decay)
     x, z = gen.random((25, 5)), gen.random((25, 5))
     theta = net.theta[:net.nonlinear_size].astype(np.float64)
     value, grad = net.loss_and_grad(x, z, theta)
@@ -66,14 +69,16 @@ def test_variable_projection_loss_and_gradient():
     np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-9)
     full = net.weights_at(x, z, theta)
     out = net.forward(x, full)
-    W2 = net.views(full)[4]
-    assert value == pytest.approx(np.mean((out - z) ** 2) + RIDGE * np.sum(W2 ** 2), rel=1e-12)
+    W0, _, W1, _, W2, _ = net.views(full)
+    hidden = np.sum(W0 ** 2) + np.sum(W1 ** 2)
+    assert value == pytest.approx(np.mean((out - z) ** 2) + decay * (hidden + np.sum(W2 ** 2)), rel=1e-12)
     # no other output layer does better on the same hidden activations
     for _ in range(5):
         other = full.copy()
         other[net.nonlinear_size:] += 1e-3 * gen.standard_normal(other.size - net.nonlinear_size)
         W2o = net.views(other)[4]
-        assert np.mean((net.forward(x, other) - z) ** 2) + RIDGE * np.sum(W2o ** 2) > value
+        assert np.mean((net.forward(x, other) - z) ** 2) + decay * (hidden + np.sum(W2o ** 2)) > value
+    assert _grow(net, gen).decay == decay
 
 
 def _two_loop_direction(g, pairs):
@@ -701,3 +706,20 @@ def test_rounding_compensates_each_column_on_the_inputs():
     assert np.max(np.abs(Q - nearest)) <= 8
     assert np.array_equal(Q[:, -2], nearest[:, -2])
     assert np.array_equal(rounded(A, inputsT, steps), Q)  # deterministic
+
+
+def test_weight_decay_follows_the_bound_in_normalised_units():
+    """The decay is the same share of the loss at the bound for any units (bound and RMS scaled together), four
+    times smaller at half the bound, and the floor ``RIDGE`` without a bound or at a bound far below the motion."""
+    from motionrep_fourier._train import DECAY, clip_scale, weight_decay
+    from motionrep_fourier._trainnet import RIDGE
+
+    assert weight_decay(0.5, 2.0) == pytest.approx(DECAY * 0.0625)
+    assert weight_decay(50.0, 200.0) == pytest.approx(weight_decay(0.5, 2.0))
+    assert weight_decay(0.25, 2.0) == pytest.approx(weight_decay(0.5, 2.0) / 4)
+    assert weight_decay(None, 2.0) == RIDGE and weight_decay(1e-6, 2.0) == RIDGE
+    rng = np.random.default_rng(2)
+    Y, w = rng.normal(size=(50, 4)) * [1.0, 2.0, 0.0, 3.0], np.array([1.0, 0.5, 2.0, 1.0])
+    scale = clip_scale(Y, w)
+    assert scale.rms == pytest.approx(np.sqrt(np.mean(((Y - Y.mean(axis=0)) * w) ** 2)))
+    assert clip_scale(np.zeros((5, 4)), w).rms == 1.0  # a clip that never moves
