@@ -10,7 +10,8 @@ layer matrices ``A0 = [W0 | b0]``, ``A1 = [W1 | b1]``, ``A2 = [W2 | b2]``.  Each
   ``d_l ~ sqrt(n_l / G_l)``;
 * one offset common to the three is then bisected to the bound (``motionrep.plugin.coding.largest_passing``), each
   candidate measured by the shared evaluator exactly as it would be decoded;
-* then each layer's step, largest layer first, is made coarser one index at a time while the bound holds.
+* then each layer's step, largest layer first, is made coarser while the bound holds, in jumps of 16, 8, 4, 2 and
+  1 indices, in rounds until a round changes nothing.
 
 In every candidate the first two layers are rounded, and the output layer is fitted again by least squares to
 the targets on the rounded layers' activations before it is rounded (the rounding of the earlier layers is
@@ -34,8 +35,13 @@ __all__ = ["quantise_network", "output_scale", "Candidate"]
 
 #: Probes of the Hutchinson estimate of the first layer's sensitivity.
 _PROBES = 8
-#: How far each layer's step is made coarser after the common bisection, at most (index steps of 2^(1/8)).
+#: Half the range (index steps of 2^(1/8)) over which the output layer's step is bisected for each shift.
 _COARSER = 16
+#: The final search: each layer's step index is raised by these jumps in turn, each up to ``_REPEATS`` times while
+#: the bound holds, in at most ``_ROUNDS`` rounds over the layers.
+_JUMPS = (16, 8, 4, 2, 1)
+_REPEATS = 4
+_ROUNDS = 4
 #: Shifts of the hidden layers' step indices tried against the sensitivity-based proportions.
 _SHIFTS = (-24, -16, -8, -4, 4, 8, 16)
 #: Without a bound: the RMS of the rounding's output error, in normalised units (the targets' RMS is 1).
@@ -240,12 +246,20 @@ def quantise_network(layers: list[NDArray[np.float64]], xT: NDArray[np.float64],
         trial_bits = bits(trial)
         if trial_bits < best_bits:
             best, best_bits = trial, trial_bits
+    # then each layer coarser while the bound holds, largest layer first, in jumps of two octaves down to one
+    # index (the error is not monotonic in the steps: a coarser step can pass beyond one that fails), in rounds
+    # until a round changes nothing
     steps = best
-    for layer in np.argsort(-sizes, kind="stable").tolist():  # then each layer coarser, largest layer first
-        for _ in range(_COARSER):
-            trial = steps.copy()
-            trial[layer] += 1
-            if error(trial) > bound:
-                break
-            steps = trial
+    for _ in range(_ROUNDS):
+        before = steps.copy()
+        for layer in np.argsort(-sizes, kind="stable").tolist():
+            for jump in _JUMPS:
+                for _ in range(_REPEATS):
+                    trial = steps.copy()
+                    trial[layer] += jump
+                    if error(trial) > bound:
+                        break
+                    steps = trial
+        if np.array_equal(before, steps):
+            break
     return candidate.network(steps), error(steps)
