@@ -5,9 +5,9 @@ Only ``_FourierCodec.encode`` imports this module.
 Per stage (one value of K): L-BFGS (:class:`._lbfgs.LBFGS`) with a strong-Wolfe line search on the loss of eq. 3
 plus a weight decay relative to the bound (:func:`weight_decay`), in chunks of :data:`CHUNK` iterations.  After
 every chunk the network is written as it would be stored (normalisation folded into the output layer, cast to
-the storage dtype) and, when the bound applies at this K, measured with the shared evaluator; the codec returns as soon as the stored payload meets the bound.  A stage
-ends when the loss improved by less than ``tol`` over the last :data:`WINDOW` chunks, or after ``iters``
-iterations.
+the storage dtype) and, when the bound applies at this K, measured with the shared evaluator; the codec returns
+as soon as the stored payload meets the bound.  A stage ends when the loss improved by less than ``tol`` over the last :data:`WINDOW` chunks, or after ``iters``
+iterations, or after :data:`FAR_ITERS` when the error measured last was above :data:`FAR` times the bound.
 
 Targets are normalised: ``Z = (Y - mean) * s / c`` with ``s`` the weights ``w`` (floored at 1e-3 of the
 largest) and ``c`` the RMS of ``(Y - mean) * s``, so the mean squared error of ``Z`` is eq. 3 up to a constant
@@ -35,7 +35,8 @@ from ._packed import pack
 from ._quantise import output_scale, quantise_network
 from ._trainnet import RIDGE, Net, grow, initial_net
 
-__all__ = ["fit", "next_adaptive_frequency", "CHUNK", "WINDOW", "EVAL_EVERY", "NEAR"]
+__all__ = ["fit", "next_adaptive_frequency", "clip_scale", "weight_decay", "ClipScale", "CHUNK", "WINDOW",
+           "EVAL_EVERY", "NEAR", "FAR", "FAR_ITERS", "DECAY"]
 
 #: L-BFGS iterations between two looks at the loss (and, when the bound applies, maybe at the error).
 CHUNK = 25
@@ -46,6 +47,10 @@ EVAL_EVERY = 4
 #: The payload is measured after every chunk while the predicted error is below ``NEAR`` times the bound.
 NEAR = 1.5
 _DTYPES = {"float32": np.float32, "float16": np.float16}
+#: A stage whose last measured error is above ``FAR`` times the bound ends after ``FAR_ITERS`` iterations: far from
+#: the bound, training to the plateau only delays the next frequency (the next stage trains every weight again).
+FAR = 3.0
+FAR_ITERS = 100
 #: Weight decay per squared bound in normalised units (:func:`weight_decay`).
 DECAY = 3e-5
 #: ``dtype=quantised``: the trained network is rounded once its error is below this fraction of the bound (at
@@ -271,6 +276,8 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                         context.progress("quantise", K=K, steps=rounded.info["steps"])
                         met.append(rounded)
                         return True
+                if report.max_error > FAR * bound and stage >= FAR_ITERS:
+                    return True  # far from the bound: on to the next frequency
             else:
                 context.progress("train", **fields)
             return last

@@ -723,3 +723,22 @@ def test_weight_decay_follows_the_bound_in_normalised_units():
     scale = clip_scale(Y, w)
     assert scale.rms == pytest.approx(np.sqrt(np.mean(((Y - Y.mean(axis=0)) * w) ** 2)))
     assert clip_scale(np.zeros((5, 4)), w).rms == 1.0  # a clip that never moves
+
+
+def test_a_stage_far_from_the_bound_ends_early(chain_motion):
+    """A stage whose measured error is above FAR times the bound ends at its first measurement after FAR_ITERS
+    iterations (measurements come at least every EVAL_EVERY chunks); the stages near the bound train on (to their
+    plateau or ``iters``)."""
+    from motionrep_fourier._train import CHUNK, EVAL_EVERY, FAR, FAR_ITERS
+
+    stages: dict[int, tuple[int, float]] = {}
+
+    def progress(stage, fields):
+        if stage == "train" and "error" in fields:
+            stages[fields["K"]] = (fields["iteration"], fields["error"])
+
+    r = compress_motion(chain_motion, "naive-fourier", max_error="0.3%", params={"window": 0, "iters": 1000},
+                        progress=progress)
+    far = [K for K, (_, error) in stages.items() if error > FAR * r.bound and K < r.container.info["K"]]
+    assert far and all(FAR_ITERS <= stages[K][0] <= FAR_ITERS + EVAL_EVERY * CHUNK for K in far)
+    assert any(iterations > FAR_ITERS for iterations, error in stages.values() if error <= FAR * r.bound)
