@@ -46,8 +46,7 @@ __all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack
 #: Thresholds of the ladder: index ``i`` >= 1 is ``top * 2 ** (-(i - 1) / 2)`` (index 0: nothing moves).
 LADDER = 16
 _TOKENS_DIRECT = 16  # magnitudes below this are their own token (motionrep.plugin.coding, specs/coding.md)
-_POLICY = "drop"
-_SETTLE = 8  # rounds of lowering stretches over the bound before a group's moves are dropped there
+_SETTLE = 8  # rounds of lowering stretches over the bound before a group's moves are given up
 
 
 def _code_lengths(model: Model, magnitudes: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -219,16 +218,12 @@ def spend_slack(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], le
                 accepted = (ints, trial)
                 break
             fails += bad
-            if _POLICY == "drop":
-                index[bad] = np.where(fails[bad] > 1, 0, np.maximum(index[bad] - 2, 0))
-                stuck = bad & (fails > 1)
-                index[1:][stuck[:-1]] = np.maximum(index[1:][stuck[:-1]] - 2, 0)
-                index[:-1][stuck[1:]] = np.maximum(index[:-1][stuck[1:]] - 2, 0)
-                continue
-            index[bad] = np.maximum(index[bad] - np.where(fails[bad] > 2, 2, 1), 0)
-            stuck = bad & (fails > 2)
-            index[1:][stuck[:-1]] = np.maximum(index[1:][stuck[:-1]] - 1, 0)
-            index[:-1][stuck[1:]] = np.maximum(index[:-1][stuck[1:]] - 1, 0)
+            # over the bound: two rungs lower; a second time: nothing moves there, and the neighbours go two
+            # rungs lower (a stretch is mostly pushed over by coarse moves its neighbours allowed)
+            index[bad] = np.where(fails[bad] > 1, 0, np.maximum(index[bad] - 2, 0))
+            stuck = bad & (fails > 1)
+            index[1:][stuck[:-1]] = np.maximum(index[1:][stuck[:-1]] - 2, 0)
+            index[:-1][stuck[1:]] = np.maximum(index[:-1][stuck[1:]] - 2, 0)
         if accepted is None:  # not settled: keep the group's integers as they were (a measured state)
             continue
         ints, trial = accepted
