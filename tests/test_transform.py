@@ -177,11 +177,16 @@ def test_damaged_payloads_give_clean_errors(walk):
 
 
 def test_same_input_gives_identical_bytes_across_processes_and_threads(walk):
+    """The whole search (region exponents, then the slack spent: here it moves coefficients) gives the same bytes
+    in fresh processes with one and two BLAS threads as in this one."""
     code = ("import sys; from motionrep.testing import humanoid_skeleton, synthetic_motion; "
             "from motionrep.pipeline.compress import compress_motion; "
             "m = synthetic_motion(humanoid_skeleton(), frames=150, fps=60, seed=3); "
             "sys.stdout.buffer.write(compress_motion(m, 'transform', max_error='1%').data)")
-    here = compress_motion(walk, "transform", max_error="1%").data
+    events = []
+    here = compress_motion(walk, "transform", max_error="1%",
+                           progress=lambda stage, fields: events.append((stage, dict(fields)))).data
+    assert [f["moved"] for stage, f in events if stage == "slack"][0] > 0
     runs = []
     for threads in ("1", "2"):
         env = dict(__import__("os").environ, OPENBLAS_NUM_THREADS=threads, OMP_NUM_THREADS=threads,

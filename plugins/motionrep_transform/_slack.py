@@ -50,15 +50,19 @@ _SETTLE = 8  # rounds of lowering stretches over the bound before a group's move
 
 
 def _code_lengths(model: Model, magnitudes: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Ideal code length in bits of integers of these magnitudes under ``model`` (token, sign and raw bits)."""
+    """Ideal code length in bits of integers of these magnitudes under ``model`` (token, sign and raw bits), as
+    :meth:`Model.cost` counts them (a token's probability given a non-zero value floored at ``2 ** -24``)."""
     p = model.probabilities
+    z = p[0]
+    tail = p[1:] / (1.0 - z)
     a = np.asarray(magnitudes, dtype=np.int64)
     big = a >= _TOKENS_DIRECT
     e = np.zeros(a.shape, np.int64)
     if big.any():
         e[big] = np.frexp(a[big].astype(np.float64))[1] - 1
     token = np.where(big, _TOKENS_DIRECT + e - 4, a)
-    return -np.log2(p[token]) + (a > 0) + e
+    nonzero = -np.log2(1.0 - z) - np.log2(np.maximum(tail[np.maximum(token, 1) - 1], 2.0 ** -24)) + 1 + e
+    return np.where(a > 0, nonzero, -np.log2(z))
 
 
 def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> list[NDArray[np.float64]]:
