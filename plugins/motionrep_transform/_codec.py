@@ -12,7 +12,10 @@ Encoding (``specs/codecs.md`` has the full description):
 4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
    bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
    neighbour's change pushed over the bound are lowered until all pass);
-5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
+5. the room the frames still have under the bound is spent (:mod:`._slack`): non-zero detail coefficients move one
+   step towards zero where that saves the most bits per error and the frames stay within the bound (the same
+   steps and stream: decoders do not see a difference);
+6. the quantised coefficients are range-coded with context models (:mod:`._stream`).
 
 Decoding (:class:`TransformDecoder`, prepared once per payload): parse and range-decode, multiply by the steps,
 inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames): in
