@@ -61,9 +61,10 @@ class TransformParams:
                 "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
-    slack: int = field(default=4, metadata={
+    slack: int = field(default=3, metadata={
         "help": "with a bound: spend the room frames have under it by moving coefficients towards zero, searched "
-                "in this many feature groups one after the other (0..64; 0 keeps the rounded integers)"})
+                "in this many feature groups one after the other, then again in half as many with fresh "
+                "priorities (0..64; 0 keeps the rounded integers)"})
     rounding: float = field(default=0.4, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
                 "zone around 0, more zeros at a slightly smaller step"})

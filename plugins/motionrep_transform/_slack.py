@@ -3,8 +3,8 @@
 The region search (:mod:`._codec`) gives every region the coarsest step whose frames all stay within the bound,
 so the worst frame of each region sits at the bound, but the other frames do not: on the CMU clips the median
 frame is at about half of it. This module spends that room. It only chooses other integers for the same steps
-(each non-zero detail coefficient may move one step towards zero), so the payload format does not change and any
-decoder reads the result.
+(each non-zero detail coefficient may move one step towards zero per round, two rounds), so the payload format
+does not change and any decoder reads the result.
 
 Which coefficients move is decided by thresholds, searched like the region exponents:
 
@@ -12,18 +12,19 @@ Which coefficients move is decided by thresholds, searched like the region expon
    the fitted context models of :mod:`._stream`, :func:`reduction_savings`) per unit of error the move can add
    (its step times the largest sensitivity of its feature over the frames it reaches);
 2. the clip is cut into short stretches (``stretch`` frames); the features are cut into ``blocks`` contiguous
-   groups (the columns of a representation are in skeleton order, so a group is roughly a part of the body);
+   groups;
 3. for one feature group at a time, every stretch bisects, in lockstep, a threshold index into a fixed ladder of
    thresholds: a coefficient moves when its priority is at least the threshold of its stretch (the most cautious
    threshold over the stretches it reaches); each step of the bisection reconstructs the group's columns and
    measures every frame once (``frame_errors``); a stretch passes when its frames are within the bound;
 4. stretches pushed over the bound by a neighbour are then settled (lowered until all pass; if that does not
-   converge, the group's moves are dropped there), so every group ends on a measured state within the bound,
-   and the last measurement is of exactly the integers returned.
+   converge, the group's integers stay as they were), so every group ends on a measured state within the bound;
+5. a second round does it again with priorities computed from the state the first round left, in half as many
+   groups.
 
-Searching one feature group at a time lets an arm take the room its frames have while a leg is at the bound in
-the same frames (the error of a frame is its worst joint's). A search on every feature at once gains about half
-as much (``benchmarks/results/rate3.md``).
+Searching the features in groups, one after the other, measures more and gains more than one search of every
+feature at once; groups cut at the limbs (where the sensitivity jumps up) gained less than equal contiguous
+groups, and a second round with fresh priorities more than more groups (``benchmarks/results/rate3.md``).
 
 Determinism: numpy only, no BLAS; comparisons of float priorities computed in a fixed order, so the same input
 gives the same integers on the same machine (and, but for a tie within an ulp, on any).
@@ -160,50 +161,40 @@ def spend_slack(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], le
         synthesise: dequantised coefficient arrays (any number of columns) -> features (the inverse wavelet the
             decoder runs, column by column, so a group's columns come out with the same bits as in the whole).
         coefficient_frames: the centre frame of each coefficient row, per array.
-        blocks: feature groups searched one after the other.
+        blocks: feature groups of the first round (a second round, with the priorities of the state the first
+            left, searches ``blocks // 2`` groups).
         stretch: frames per stretch of the thresholds.
 
     Returns:
         The new arrays (the last state measured, within the bound) and figures ``{"evaluations", "moved"}``.
     """
+    from ._codec import window_minimum
+
     F, D = sensitivity.shape
-    savings = reduction_savings(q, levels)
     spans = [levels] + list(range(levels, 0, -1))
     reach = [3 << j for j in spans]
-    priority = [np.full(c.shape, -np.inf) for c in q]
-    for a in range(1, len(q)):
-        if not np.any(q[a]):
-            continue
-        worst = sliding_max(sensitivity, reach[a])[coefficient_frames[a]]  # (n, D): largest over its frames
-        impact = steps[a] * np.maximum(worst, 1e-300)
-        priority[a] = np.where((q[a] != 0) & (savings[a] > 0), savings[a] / impact, -np.inf)
-    finite = [p[np.isfinite(p)] for p in priority]
-    figures = {"evaluations": 0, "moved": 0}
-    if not sum(f.size for f in finite):
-        return q, figures
-    top = max(float(f.max()) for f in finite if f.size)
-    thresholds = np.concatenate([[np.inf], top * np.power(2.0, -np.arange(LADDER) / 2.0)])
+    # the largest sensitivity of each coefficient's feature over the frames it reaches
+    worst = [np.zeros(0)] + [sliding_max(sensitivity, reach[a])[coefficient_frames[a]] for a in range(1, len(q))]
     R = -(-F // stretch)
     stretch_of = [np.minimum(f // stretch, R - 1) for f in coefficient_frames]
     # a coefficient takes the most cautious threshold of the stretches within half its level's reach
     span_of = [int(math.ceil(r / 2 / stretch)) for r in reach]
-    from ._codec import window_minimum
-
+    figures = {"evaluations": 0, "moved": 0}
     current = [c.copy() for c in q]
     features = synthesise([c * s for c, s in zip(current, steps)])
-    groups = [g for g in np.array_split(np.arange(D), max(1, min(blocks, D))) if g.size]
-    for columns in groups:
+
+    def search(columns: NDArray[np.int64], priority: list[NDArray[np.float64]],
+               thresholds: NDArray[np.float64]) -> None:
+        """One feature group: bisect its stretch indices, settle, keep the state if it settled."""
+        nonlocal features
         block = _Block(columns, current, priority)
         if not any(m[1].size for m in block.moves):
-            continue
+            return
         block_steps = [s[:, columns] for s in steps]
 
-        def state(index: NDArray[np.int64]) -> list[NDArray[np.int64]]:
-            minima = [window_minimum(index, span)[rows] for span, rows in zip(span_of, stretch_of)]
-            return block.integers(lambda a, rows: minima[a][rows], thresholds)
-
         def stretch_errors(index: NDArray[np.int64]) -> tuple[NDArray[np.float64], list, NDArray[np.float64]]:
-            ints = state(index)
+            minima = [window_minimum(index, span)[rows] for span, rows in zip(span_of, stretch_of)]
+            ints = block.integers(lambda a, rows: minima[a][rows], thresholds)
             trial = features.copy()
             trial[:, columns] = synthesise([c * s for c, s in zip(ints, block_steps)])
             figures["evaluations"] += 1
@@ -213,14 +204,15 @@ def spend_slack(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], le
             return padded.reshape(R, stretch).max(axis=1), ints, trial
 
         index = _bisect_each(lambda i: stretch_errors(i)[0] <= bound, R, LADDER)
-        accepted = None
         fails = np.zeros(R, np.int64)
         for _ in range(_SETTLE):
             e, ints, trial = stretch_errors(index)
             bad = e > bound
             if not bad.any():
-                accepted = (ints, trial)
-                break
+                for a in range(len(current)):
+                    current[a][:, columns] = ints[a]
+                features = trial
+                return
             fails += bad
             # over the bound: two rungs lower; a second time: nothing moves there, and the neighbours go two
             # rungs lower (a stretch is mostly pushed over by coarse moves its neighbours allowed)
@@ -228,12 +220,22 @@ def spend_slack(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], le
             stuck = bad & (fails > 1)
             index[1:][stuck[:-1]] = np.maximum(index[1:][stuck[:-1]] - 2, 0)
             index[:-1][stuck[1:]] = np.maximum(index[:-1][stuck[1:]] - 2, 0)
-        if accepted is None:  # not settled: keep the group's integers as they were (a measured state)
-            continue
-        ints, trial = accepted
-        for a in range(len(current)):
-            current[a][:, columns] = ints[a]
-        features = trial
+        # not settled: the group's integers stay as they were (a state measured within the bound)
+
+    for count in [c for c in (blocks, blocks // 2) if c > 0]:
+        savings = reduction_savings(current, levels)
+        priority = [np.full(c.shape, -np.inf) for c in current]
+        for a in range(1, len(current)):
+            impact = steps[a] * np.maximum(worst[a], 1e-300)
+            priority[a] = np.where((current[a] != 0) & (savings[a] > 0), savings[a] / impact, -np.inf)
+        finite = [p[np.isfinite(p)] for p in priority]
+        if not any(f.size for f in finite):
+            break
+        top = max(float(f.max()) for f in finite if f.size)
+        thresholds = np.concatenate([[np.inf], top * np.power(2.0, -np.arange(LADDER) / 2.0)])
+        for columns in np.array_split(np.arange(D), max(1, min(count, D))):
+            if columns.size:
+                search(columns, priority, thresholds)
     figures["moved"] = int(sum(int(np.abs(a - b).sum()) for a, b in zip(q, current)))
     return current, figures
 

@@ -1,5 +1,5 @@
 """Spending the bound's slack (``motionrep_transform._slack``): its pieces, and what the search may change in a
-payload (only integers, each at most one step towards zero, the bound kept). Determinism across processes and
+payload (only integers, each at most one step towards zero per round, the bound kept). Determinism across processes and
 thread counts is tested on the whole codec in ``tests/test_transform.py``."""
 
 from __future__ import annotations
@@ -86,9 +86,10 @@ def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, m
     assert np.array_equal(a.coefficients[0], b.coefficients[0])  # nor is the approximation
     moved = 0
     for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
-        assert np.all((np.abs(y) == np.abs(x)) | (np.abs(y) == np.abs(x) - 1))
+        # at most one step per round, two rounds
+        assert np.all((np.abs(y) <= np.abs(x)) & (np.abs(y) >= np.abs(x) - 2))
         assert np.all((y == 0) | (np.sign(y) == np.sign(x)))
-        moved += int(np.sum(x != y))
+        moved += int(np.abs(x - y).sum())
     slack = [fields for stage, fields in events if stage == "slack"]
     assert moved > 0 and slack and slack[0]["moved"] == moved
     assert spent.container.payload_bytes < kept.container.payload_bytes
