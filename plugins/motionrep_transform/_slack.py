@@ -45,7 +45,7 @@ from ._stream import _approx_steps, _contexts, _fit, _parents, _passes
 __all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
 #: Thresholds of the ladder: index ``i`` >= 1 is ``top * 2 ** (-(i - 1) / 2)`` (index 0: nothing moves).
-LADDER = 16
+LADDER = 15
 _TOKENS_DIRECT = 16  # magnitudes below this are their own token (motionrep.plugin.coding, specs/coding.md)
 _SETTLE = 8  # rounds of lowering stretches over the bound before a group's moves are given up
 
@@ -74,28 +74,25 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     mags = [np.abs(c) for c in coefficients]
     mags[0] = _approx_steps(coefficients[0])
     out = [np.zeros(c.shape) for c in coefficients]
-    passes = []
-    for index, odd, group in _passes(levels):
-        ctx = _contexts(_parents(mags, index), mags[index], odd, group)
-        passes.append((index, odd, ctx))
+    passes = [(index, odd, _contexts(_parents(mags, index), mags[index], odd, group))
+              for index, odd, group in _passes(levels)]
     if not passes:
         return out
-    all_ctx = np.concatenate([c.reshape(-1) for _, _, c in passes])
-    all_val = np.concatenate([coefficients[i][int(odd)::2].reshape(-1) for i, odd, _ in passes])
-    lengths = {}
-    for c in np.unique(all_ctx).tolist():
-        m = _fit(all_val[all_ctx == c])
-        top = int(np.abs(all_val[all_ctx == c]).max()) + 1
-        lengths[c] = _code_lengths(m, np.arange(top + 1))
-    for index, odd, ctx in passes:
-        a = mags[index][int(odd)::2]
-        saved = np.zeros(a.shape)
-        for c in np.unique(ctx).tolist():
-            at = (ctx == c) & (a > 0)
-            if at.any():
-                table = lengths[c]
-                saved[at] = table[a[at]] - table[a[at] - 1]
-        out[index][int(odd)::2] = saved
+    ctx = np.concatenate([c.reshape(-1) for _, _, c in passes])
+    val = np.concatenate([coefficients[i][int(odd)::2].reshape(-1) for i, odd, _ in passes])
+    mag = np.abs(val)
+    order = np.argsort(ctx, kind="stable")
+    bounds = np.flatnonzero(np.diff(ctx[order])) + 1
+    saved = np.zeros(ctx.size)
+    for at in np.split(order, bounds):  # the values of one context
+        model = _fit(val[at])
+        moved = at[mag[at] > 0]
+        if moved.size:
+            saved[moved] = _code_lengths(model, mag[moved]) - _code_lengths(model, mag[moved] - 1)
+    start = 0
+    for index, odd, c in passes:
+        out[index][int(odd)::2] = saved[start:start + c.size].reshape(c.shape)
+        start += c.size
     return out
 
 
