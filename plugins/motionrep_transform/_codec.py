@@ -14,10 +14,12 @@ Encoding (``specs/codecs.md`` has the full description):
    neighbour's change pushed over the bound are lowered until all pass);
 5. the room the frames still have under the bound is spent (:mod:`._slack`): non-zero detail coefficients move one
    step towards zero where that saves the most bits per error and the frames stay within the bound (the same
-   steps and stream: decoders do not see a difference);
-6. the quantised coefficients are range-coded with context models (:mod:`._stream`).
+   steps: any decoder of the payload's version reads the result);
+6. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
+   (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
+   read).
 
-Decoding (:class:`TransformDecoder`, prepared once per payload): parse and range-decode, multiply by the steps,
+Decoding (:class:`TransformDecoder`, prepared once per payload): parse and decode the integers, multiply by the steps,
 inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames): in
 numpy (:func:`interpolate_rows`), or in one compiled loop for the runtime decoder (the same arithmetic, so the
 same bits).
@@ -37,8 +39,9 @@ from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_sc
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 from motionrep.jit import jit
 
+from . import _stream, _stream2
 from ._slack import frame_sensitivity, spend_slack
-from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack, unpack
+from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
 from ._wavelet import coefficient_frames, forward, inverse, num_levels
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
@@ -58,7 +61,8 @@ class TransformParams:
 
     step: float | None = field(default=None, metadata={
         "help": "fixed quality instead of a bound: the quantiser step in position units (file units of joint "
-                "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
+                "movement per step, > 0); default: the largest steps that meet the bound (max_error), region by "
+                "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
     slack: int = field(default=3, metadata={
@@ -255,9 +259,19 @@ def _sample_kernel(times, out, rows_t):
             out[d, i] = v if frac[i] == 0.0 else w  # on a frame, its value exactly (v + 0 could turn -0 to 0)
 
 
+#: The stream module of each payload format version.
+_STREAMS = {1: _stream, 2: _stream2}
+
+
+def unpack(data: bytes, version: int) -> Quantised:
+    """The quantised content of payload bytes of format ``version`` (1 or 2)."""
+    return _STREAMS[version].unpack(data)
+
+
 class TransformDecoder:
-    """A payload prepared for decoding many times: range-decoded and transformed back once, to the ``(F, D)``
-    features of its frames; each call only samples them (:func:`interpolate_rows`).
+    """A payload prepared for decoding many times: its integers decoded and transformed back once, to the
+    ``(F, D)`` features of its frames; each call only samples them (:func:`interpolate_rows`).  ``version``: the
+    payload's format (1 or 2; default the current one).
 
     Attributes:
         width, kernel, kernel_args: the compiled sampler for the runtime decoder (``Codec.decoder``):
@@ -267,11 +281,11 @@ class TransformDecoder:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
     """
 
-    def __init__(self, payload: Payload):
+    def __init__(self, payload: Payload, version: int = 2):
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        frames_t = np.ascontiguousarray(reconstruct(unpack(data.tobytes())).T, dtype=np.float64)
+        frames_t = np.ascontiguousarray(reconstruct(unpack(data.tobytes(), version)).T, dtype=np.float64)
         frames_t.flags.writeable = False
         self.frames = frames_t.T  # (F, D), stored feature-major for the compiled sampler
         self.width = self.frames.shape[1]
@@ -329,13 +343,15 @@ class TransformCodec(Codec):
     """Error-bounded transform coding: CDF 9/7 wavelet over frames, steps from the features' FK sensitivity
     and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.plugin.coding``).
 
-    Payload (format version 1): ``data`` ``(n,)`` uint8, the range-coded stream of :mod:`._stream`.
+    Payload (format version 2): ``data`` ``(n,)`` uint8, the stream of :mod:`._stream2` (version 1, the
+    range-coded stream of :mod:`._stream`, is still read).
     Info: ``{"bytes": n, "regions": R, "region_frames": region, "step": [smallest, largest]}`` (the position
     steps ``2 ** (k_r / 8)`` of the regions).
     """
 
     name = "transform"
-    format_version = 1
+    format_version = 2
+    readable_versions = (1, 2)
     description = "error-bounded wavelet coding with FK-sensitivity steps and a range coder (smallest files)"
     Params = TransformParams
 
@@ -444,7 +460,7 @@ class TransformCodec(Codec):
 
     @staticmethod
     def _payload(q: Quantised) -> Payload:
-        data = np.frombuffer(pack(q), dtype=np.uint8).copy()
+        data = np.frombuffer(_stream2.pack(q), dtype=np.uint8).copy()
         steps = step_scale(q.region_exponents)
         info = {"bytes": int(data.size), "regions": int(q.region_exponents.size), "region_frames": q.region_frames,
                 "step": [float(np.min(steps)), float(np.max(steps))]}
@@ -466,12 +482,12 @@ class TransformCodec(Codec):
         data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        F, D, _ = declared(data.tobytes())
+        F, D, _ = _STREAMS[self.payload_version(payload)].declared(data.tobytes())
         check_frames(F, num_frames, "transform payload")
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 
     def decoder(self, payload: Payload) -> TransformDecoder:
-        return TransformDecoder(payload)
+        return TransformDecoder(payload, self.payload_version(payload))
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
-        return TransformDecoder(payload)(times)
+        return self.decoder(payload)(times)

@@ -13,7 +13,7 @@ from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.plugin.coding import Model
 from motionrep_transform._codec import window_minimum
 from motionrep_transform._slack import _bisect_each, _code_lengths, frame_sensitivity, reduction_savings
-from motionrep_transform._stream import unpack
+from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, num_levels
 
 
@@ -82,7 +82,9 @@ def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, m
     b = unpack(spent.container.arrays["data"].tobytes())
     # the same steps: region and feature exponents are not touched
     assert a.region_exponents.tolist() == b.region_exponents.tolist()
-    assert a.feature_exponents.tolist() == b.feature_exponents.tolist()
+    active = [c for c in range(a.num_features) if any(np.any(x[:, c]) for x in b.coefficients)]
+    assert a.feature_exponents[active].tolist() == b.feature_exponents[active].tolist()  # (v2 stores no step
+    # for a feature whose coefficients are all zero)
     assert np.array_equal(a.coefficients[0], b.coefficients[0])  # nor is the approximation
     moved = 0
     for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
