@@ -1,16 +1,17 @@
 """Issue 25, the encoder's decisions: ``transform`` before and after, from two runs of ``benchmarks/acl.py``.
 
-Both runs are ``python benchmarks/acl.py run --codecs transform --clips cmu --runs FILE`` (every CMU clip of
-``../shared/data`` at 2 %, 0.588 % and 0.0588 %; each file compressed, decompressed to BVH and checked with
-``motionrep evaluate``), one from the tree before the change, one from the tree after it. This script reads the
-two JSONL files and prints the tables of ``results/rate3.md``: per bound, the median and worst payload / ACL 2.1
-strict-bound size over the eight CMU-31 clips, the salsa clips' ratio of medians (ACL gives only its median), the
-worst of all clips with an ACL figure, how many files were verified within their bound, and the median encode and
-decode times of each run.
+One run of ``python benchmarks/acl.py run --codecs transform:slack=0,transform --clips cmu --runs FILE`` (every
+CMU clip of ``../shared/data`` at 2 %, 0.588 % and 0.0588 %; each file compressed, decompressed to BVH and
+checked with ``motionrep evaluate``): ``slack=0`` makes the integer choices of the search before this change,
+the default spends the slack; the same coder, the same process, the same load. This script reads the JSONL file
+and prints the tables of ``results/rate3.md``: per bound, the median and worst payload / ACL 2.1 strict-bound
+size over the eight CMU-31 clips, the salsa clips' ratio of medians (ACL gives only its median), how many files
+were verified within their bound, and the median encode and decode times of each setting (in that run, under
+its load: not a timing benchmark; encode times beside main are measured on their own).
 
 Usage::
 
-    python benchmarks/rate3.py BEFORE.jsonl AFTER.jsonl
+    python benchmarks/rate3.py RUNS.jsonl [BEFORE_CODEC] [AFTER_CODEC]   # default: transform:slack=0 transform
 """
 
 from __future__ import annotations
@@ -24,11 +25,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from acl import BOUNDS, acl_figures  # noqa: E402
 
 
-def _rows(path: str) -> dict[tuple[str, float], dict]:
+def _rows(path: str, codec: str) -> dict[tuple[str, float], dict]:
     out = {}
     for line in Path(path).read_text().splitlines():
         r = json.loads(line)
-        if r["codec"] == "transform":
+        if r["codec"] == codec:
             out[(r["clip"], r["bound_percent"])] = r
     return out
 
@@ -37,9 +38,9 @@ def _ratio(r: dict, acl: float) -> float:
     return r["payload_bpbf"] / acl
 
 
-def main(before_path: str, after_path: str) -> None:
+def main(path: str, before: str = "transform:slack=0", after: str = "transform") -> None:
     acl = acl_figures()
-    runs = {"before": _rows(before_path), "after": _rows(after_path)}
+    runs = {"before": _rows(path, before), "after": _rows(path, after)}
     print("| bound | run | CMU-31 median | CMU-31 worst | salsa ratio of medians | files verified | median encode s "
           "| median decode ms |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
@@ -69,4 +70,4 @@ def main(before_path: str, after_path: str) -> None:
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    main(*sys.argv[1:4])
