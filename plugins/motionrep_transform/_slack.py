@@ -9,8 +9,9 @@ does not change and any decoder reads the result.
 Which coefficients move is decided by thresholds, searched like the region exponents:
 
 1. every non-zero detail coefficient gets a priority: the bits its move would save (the ideal code length under
-   the fitted context models of :mod:`._stream`, :func:`reduction_savings`) per unit of error the move can add
-   (its step times the largest sensitivity of its feature over the frames it reaches);
+   the fitted context models of payload version 1, :mod:`._stream`, :func:`reduction_savings`: an estimate that
+   only orders the moves; version 2's adaptive coder writes them in fewer bits still) per unit of error the move
+   can add (its step times the largest sensitivity of its feature over the frames it reaches);
 2. the clip is cut into short stretches (``stretch`` frames); the features are cut into ``blocks`` contiguous
    groups;
 3. for one feature group at a time, every stretch bisects, in lockstep, a threshold index into a fixed ladder of
