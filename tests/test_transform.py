@@ -221,6 +221,20 @@ def test_bound_on_real_clips_through_bvh(rel, max_error, tmp_path):
     assert _verify_through_bvh(SHARED_DATA / rel, tmp_path, max_error) <= float(max_error.rstrip("%"))
 
 
+@requires_shared
+@pytest.mark.realdata
+@pytest.mark.parametrize("max_error", ["2%", "0.0588%"])
+def test_the_slack_saves_bytes_on_a_real_clip_within_the_bound_through_bvh(max_error, tmp_path):
+    """Spending the slack (the default) writes fewer bytes than keeping the rounded integers (slack=0), and the
+    file still meets the bound after a round trip through BVH text."""
+    src = SHARED_DATA / "cmu/pybvh/cmu_12_01_walk.bvh"
+    kept = compress_file(src, None, "transform", max_error=max_error, params={"slack": 0})
+    spent = compress_file(src, tmp_path / "s.mrc", "transform", max_error=max_error)
+    assert spent.container.payload_bytes < kept.container.payload_bytes
+    decompress_file(tmp_path / "s.mrc", tmp_path / "s.bvh")
+    assert max_joint_error(read(src), read(tmp_path / "s.bvh")).max_error <= spent.bound
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not os.environ.get("MOTIONREP_ALL_CLIPS"),
                     reason="every real clip at two bounds takes many minutes: set MOTIONREP_ALL_CLIPS=1 "
