@@ -167,10 +167,10 @@ def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray
 def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
     """``(n, ...)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` along the first axis (the ends
     extended by their nearest value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ...
-    values by doubling, then each window as two overlapping power-of-two windows (scipy's ``minimum_filter1d(values, 2 span + 1,
-    mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up for every process that opens a transform
-    clip; a sliding window view would take O(n span) time, and the coarse levels' spans of a long clip reach
-    thousands of regions)."""
+    values by doubling, then each window as two overlapping power-of-two windows (scipy's
+    ``minimum_filter1d(values, 2 span + 1, mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up
+    for every process that opens a transform clip; a sliding window view would take O(n span) time, and the
+    coarse levels' spans of a long clip reach thousands of regions)."""
     v = np.asarray(values)
     n = v.shape[0]
     if span <= 0 or n == 0:
