@@ -1,5 +1,5 @@
-"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep.jit``), or with
-numpy and Python's ``float`` while a process has not paid numba's start-up (:func:`use_compiled`).
+"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep._ccore``, C), or
+with numpy and Python's ``float`` while a process has not paid numba's start-up (:func:`use_compiled`).
 
 Every value is bit-identical to ``float(token)``:
 
@@ -32,150 +32,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..jit import jit, jit_inline
+from .._ccore import scan as _scan
 
 __all__ = ["BlockScan", "scan_block", "parse_numbers", "first_control_byte"]
 
-_POW10 = 10.0 ** np.arange(23)
-_TWO53 = 2 ** 53
 #: Left-over tokens whose place is recorded in the first pass; more take a second pass.
 _FALLBACK_CAPACITY = 4096
-# info fields written by the kernel
+# info fields written by the kernel (motionrep/_c/numbers.c)
 _ROWS, _FIRST_WRONG, _WRONG_COUNT, _LAST_DATA, _EXTRA, _FIRST_DATA, _FALLBACKS, _TOKENS = range(8)
-
-
-@jit_inline
-def _parse_token(u, s, n):
-    """Parse the token starting at ``u[s]`` (a byte > 32): ``(True, value, end)`` on the fast path,
-    ``(False, 0.0, end)`` otherwise, ``end`` the offset after the token."""
-    i = s
-    negative = False
-    if u[i] == 45 or u[i] == 43:  # '-' or '+'
-        negative = u[i] == 45
-        i += 1
-    mantissa = 0
-    digits = 0
-    decimals = 0
-    exact = True
-    while i < n and 48 <= u[i] <= 57:
-        if mantissa >= 900719925474099:  # one more digit could reach 2**53
-            exact = False
-        else:
-            mantissa = mantissa * 10 + (u[i] - 48)
-        digits += 1
-        i += 1
-    if i < n and u[i] == 46:  # '.'
-        i += 1
-        while i < n and 48 <= u[i] <= 57:
-            if mantissa >= 900719925474099:
-                exact = False
-            else:
-                mantissa = mantissa * 10 + (u[i] - 48)
-            decimals += 1
-            digits += 1
-            i += 1
-    exponent = 0
-    if digits and i < n and (u[i] == 101 or u[i] == 69):  # 'e' or 'E'
-        i += 1
-        negative_exponent = False
-        if i < n and (u[i] == 45 or u[i] == 43):
-            negative_exponent = u[i] == 45
-            i += 1
-        exponent_digits = 0
-        while i < n and 48 <= u[i] <= 57:
-            if exponent < 100000:
-                exponent = exponent * 10 + (u[i] - 48)
-            exponent_digits += 1
-            i += 1
-        if exponent_digits == 0:
-            exact = False
-        if negative_exponent:
-            exponent = -exponent
-    if i < n and u[i] > 32:  # more bytes: not a plain decimal number (Python's float decides)
-        while i < n and u[i] > 32:
-            i += 1
-        return False, 0.0, i
-    power = exponent - decimals
-    if digits == 0 or not exact or power > 22 or power < -22:
-        return False, 0.0, i
-    v = np.float64(mantissa)  # exact: below 2**53
-    v = v * _POW10[power] if power >= 0 else v / _POW10[-power]
-    return True, -v if negative else v, i
-
-
-@jit
-def _scan_kernel(u, width, rows_max, by_line, out, fallback, info):
-    """Tokens of ``u``, parsed into ``out``.
-
-    ``by_line``: rows of ``width`` values, one per line with tokens (token ``k`` of row ``r`` at
-    ``out[r * width + k]``; rows from ``rows_max`` on and tokens past ``width`` are counted, not stored);
-    otherwise every token in order.  A token off the fast path gets NaN and its ``(slot, start, end, line)`` in
-    ``fallback`` (the first ``len(fallback)`` of them).  ``info`` receives the counts (see ``_ROWS``...).
-    """
-    n = u.shape[0]
-    capacity = fallback.shape[0]
-    line = 0
-    rows = 0
-    count = 0
-    row = -1
-    tokens = 0
-    left = 0
-    first_wrong = -1
-    wrong_count = 0
-    last_data = -1
-    extra = -1
-    first_data = -1
-    i = 0
-    while i <= n:
-        if i == n or u[i] == 10:  # end of a line
-            if by_line and count > 0 and count != width and first_wrong < 0:
-                first_wrong = line
-                wrong_count = count
-            count = 0
-            line += 1
-            i += 1
-            continue
-        if u[i] <= 32:
-            i += 1
-            continue
-        s = i
-        slot = -1
-        if by_line:
-            if count == 0:
-                row = rows
-                rows += 1
-                last_data = line
-                if first_data < 0:
-                    first_data = line
-                if row == rows_max:
-                    extra = line
-            if row < rows_max and count < width:
-                slot = row * width + count
-            count += 1
-        elif tokens < out.shape[0]:
-            slot = tokens
-        tokens += 1
-        ok, v, i = _parse_token(u, s, n)
-        if slot < 0:
-            continue
-        if ok:
-            out[slot] = v
-        else:
-            out[slot] = np.nan
-            if left < capacity:
-                fallback[left, 0] = slot
-                fallback[left, 1] = s
-                fallback[left, 2] = i
-                fallback[left, 3] = line
-            left += 1
-    info[_ROWS] = rows
-    info[_FIRST_WRONG] = first_wrong
-    info[_WRONG_COUNT] = wrong_count
-    info[_LAST_DATA] = last_data
-    info[_EXTRA] = extra
-    info[_FIRST_DATA] = first_data
-    info[_FALLBACKS] = left
-    info[_TOKENS] = tokens
 
 
 @dataclass(frozen=True)
@@ -249,10 +113,10 @@ def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line:
     values = np.empty(size)
     info = np.zeros(8, np.int64)
     fallback = np.empty((_FALLBACK_CAPACITY, 4), np.int64)
-    _scan_kernel(u, width, rows_max, by_line, values, fallback, info)
+    _scan(u, width, rows_max, by_line, values, fallback, info)
     if info[_FALLBACKS] > _FALLBACK_CAPACITY:  # many left-over tokens: again, with room for all of them
         fallback = np.empty((int(info[_FALLBACKS]), 4), np.int64)
-        _scan_kernel(u, width, rows_max, by_line, values, fallback, info)
+        _scan(u, width, rows_max, by_line, values, fallback, info)
     if not by_line:
         values = values[:int(info[_TOKENS])]
     bad = nonfinite = None

@@ -1,0 +1,43 @@
+/* motionrep._ccore: the compiled core's kernels, in plain C (no Python in them); module.c is the Python glue.
+ *
+ * Every kernel is scalar IEEE float64 arithmetic, compiled with -ffp-contract=off and without -ffast-math
+ * (setup.py), so a result has the same bits on every x86-64 CPU. */
+#ifndef MR_CCORE_H
+#define MR_CCORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* numbers.c: the whitespace-separated numbers of a byte block (the BVH MOTION block), see scan_block in
+ * motionrep/io/_numbers.py.  info receives MR_SCAN_INFO counts. */
+enum { MR_ROWS, MR_FIRST_WRONG, MR_WRONG_COUNT, MR_LAST_DATA, MR_EXTRA, MR_FIRST_DATA, MR_FALLBACKS, MR_TOKENS,
+       MR_SCAN_INFO };
+void mr_scan(const uint8_t *u, int64_t n, int64_t width, int64_t rows_max, int by_line, double *out,
+             int64_t out_size, int64_t *fallback, int64_t capacity, int64_t *info);
+
+/* shortest.c: float64 values as the shortest decimal text that reads back to them, MR_SHORTEST_WIDTH bytes of
+ * room per value; returns the length written, *left the values left to Python's repr. */
+#define MR_SHORTEST_WIDTH 26
+int64_t mr_format_shortest(const double *flat, int64_t count, int64_t per_line, uint8_t *out, int64_t *fallback,
+                           int64_t capacity, int64_t *left);
+
+/* fk.c: forward kinematics, see motionrep/model/kinematics.py. */
+typedef struct {
+    int64_t F, J, E, P;
+    const void *rot;   /* (F, J, 4) float32 or float64 */
+    int rot_f32;
+    const double *root, *offsets, *joint_t, *site_offsets; /* (F, 3), (J, 3), (F, P, 3), (E, 3) */
+    const int64_t *parents, *translated, *site_parents;    /* (J,), (P,), (E,) */
+    double *out_pos;                                       /* (F, J + E, 3) */
+    double *out_rot;                                       /* (F, J + E, 4) or NULL */
+    double *scratch;                                       /* (J, 7) */
+} mr_fk_args;
+void mr_fk(const mr_fk_args *a);
+
+/* rotations.c: feature columns to quaternions; kinds as motionrep.model.poseplan's. */
+enum { MR_QUAT, MR_AXIS_ANGLE, MR_EULER, MR_EULER_DEGREES, MR_ORTHO6D };
+int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64_t C, const int64_t *columns,
+                       const int64_t *axes, const int64_t *joints, int64_t R, void *out, int out32, int64_t J);
+void mr_axis_angle_continuous(const double *theta, const double *axis, double *out, int64_t F, int64_t N);
+
+#endif
