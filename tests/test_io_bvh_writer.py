@@ -14,7 +14,7 @@ from motionrep.errors import ValidationError
 from motionrep.io import read
 from motionrep.io import _bvh
 from motionrep.io._bvh import _format_shortest, channel_values
-from motionrep.io._shortest import format_shortest_compiled
+from motionrep.io._shortest import format_shortest
 
 
 def _hostile(seed: int) -> np.ndarray:
@@ -38,13 +38,13 @@ def _hostile(seed: int) -> np.ndarray:
 def test_compiled_and_numpy_writers_agree_on_hostile_values(seed, columns):
     v = _hostile(seed)
     v = v[:v.size // columns * columns].reshape(-1, columns)
-    assert format_shortest_compiled(v) == _format_shortest(v)
+    assert format_shortest(v) == _format_shortest(v)
 
 
 def test_compiled_writer_is_shortest_repr_where_numpy_defers_to_it():
     # values with no fixed-point form of at most 17 decimals: the kernel computes repr's digits itself
     v = np.array([[1 / 3, -2 / 3, 0.1 + 0.2, 0.0012345678901234567, 123456.78901234567, 4503599627370495.5]])
-    assert format_shortest_compiled(v) == (" ".join(map(repr, v[0].tolist())) + "\n").encode()
+    assert format_shortest(v) == (" ".join(map(repr, v[0].tolist())) + "\n").encode()
 
 
 def test_the_writer_takes_the_compiled_path_for_large_clips(monkeypatch):
@@ -53,8 +53,8 @@ def test_the_writer_takes_the_compiled_path_for_large_clips(monkeypatch):
     monkeypatch.setattr(_bvh, "COMPILED_WRITE_VALUES", 100)
     import motionrep.io._shortest as shortest
 
-    real = shortest.format_shortest_compiled
-    monkeypatch.setattr(shortest, "format_shortest_compiled", lambda x: calls.append(x.shape) or real(x))
+    real = shortest.format_shortest
+    monkeypatch.setattr(shortest, "format_shortest", lambda x: calls.append(x.shape) or real(x))
     assert _bvh._shortest_text(v) == _format_shortest(v) and calls == [(50, 4)]
 
 
@@ -68,4 +68,4 @@ def test_compiled_and_numpy_writers_agree_on_every_real_clip(path):
         except ValidationError:  # rotations its channel layout cannot hold: not written at all
             continue
         if values.shape[1]:
-            assert format_shortest_compiled(values) == _format_shortest(values)
+            assert format_shortest(values) == _format_shortest(values)

@@ -658,22 +658,21 @@ def _shortest_decimals(a: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArr
     return d, m
 
 
-#: Values from which a process without numba imports it to write them (compiled: about 0.25 us a value against
-#: 0.6-0.8 us for the numpy path on a clip of computed angles, measured 2026-12-02 on the shared 2-core machine at
-#: load 4-5; numba's start-up, 1-2 s, is won back after about 4 million values, a 20-minute 52-joint clip at 60 fps)
+#: Values from which a process writes them with the compiled writer (about 0.25 us a value against 0.6-0.8 us for
+#: the numpy path on a clip of computed angles)
 COMPILED_WRITE_VALUES = 4_000_000
 
 
 def _shortest_text(values: NDArray[np.float64]) -> bytes:
-    """:func:`_format_shortest`'s bytes, by the compiled kernel (``motionrep.io._shortest``) when this process has
+    """:func:`_format_shortest`'s bytes, by the compiled writer (``motionrep.io._shortest``) when this process has
     numba loaded already or the clip is large (:data:`COMPILED_WRITE_VALUES`), else by numpy: the same bytes either
     way (tested), so the choice only changes the time."""
     from ..jit import numba_loaded
 
     if numba_loaded() or values.size >= COMPILED_WRITE_VALUES:
-        from ._shortest import format_shortest_compiled
+        from ._shortest import format_shortest
 
-        return format_shortest_compiled(values)
+        return format_shortest(values)
     return _format_shortest(values)
 
 
