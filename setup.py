@@ -10,12 +10,12 @@ One ``Extension`` per compiled module.
 from setuptools import Extension, setup
 
 #: the flags every extension is compiled with (see above)
-CFLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math"]
+CFLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-trapping-math"]
 
 setup(ext_modules=[
     Extension("motionrep._ccore",
               sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
                        "motionrep/_c/fk.c", "motionrep/_c/rotations.c"],
-              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h"],
+              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h"],
               extra_compile_args=CFLAGS),
 ])

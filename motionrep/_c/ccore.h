@@ -34,6 +34,17 @@ typedef struct {
 } mr_fk_args;
 void mr_fk(const mr_fk_args *a);
 
+/* Loops that vectorise are compiled twice where the compiler can: for the x86-64 baseline and for AVX2, chosen
+ * when the module is loaded (mr_simd: MR_SIMD_AVX2 on a CPU that has it, unless MOTIONREP_CCORE_BASELINE is set).
+ * Both copies run the same IEEE operations (no fused multiply-add): the same bits, AVX2 does more at once. */
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__linux__)
+#define MR_HAVE_AVX2 1
+#else
+#define MR_HAVE_AVX2 0
+#endif
+enum { MR_SIMD_BASELINE, MR_SIMD_AVX2 };
+extern int mr_simd;
+
 /* rotations.c: feature columns to quaternions; kinds as motionrep.model.poseplan's. */
 enum { MR_QUAT, MR_AXIS_ANGLE, MR_EULER, MR_EULER_DEGREES, MR_ORTHO6D };
 int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64_t C, const int64_t *columns,

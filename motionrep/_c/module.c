@@ -313,4 +313,20 @@ static struct PyModuleDef module = {
     -1, methods,
 };
 
-PyMODINIT_FUNC PyInit__ccore(void) { return PyModule_Create(&module); }
+int mr_simd = MR_SIMD_BASELINE;
+
+PyMODINIT_FUNC PyInit__ccore(void)
+{
+#if MR_HAVE_AVX2
+    __builtin_cpu_init();
+    const char *baseline = getenv("MOTIONREP_CCORE_BASELINE");
+    if (__builtin_cpu_supports("avx2") && !(baseline && *baseline && *baseline != '0'))
+        mr_simd = MR_SIMD_AVX2;
+#endif
+    PyObject *m = PyModule_Create(&module);
+    if (m && PyModule_AddStringConstant(m, "simd", mr_simd == MR_SIMD_AVX2 ? "avx2" : "baseline") < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

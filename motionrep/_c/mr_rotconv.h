@@ -23,12 +23,12 @@
 static inline double mr_floor(double x)
 {
     const double two52 = 4503599627370496.0;
-    if (!(fabs(x) < two52))
-        return x; /* already a whole number, or inf, or nan */
-    double r = x >= 0.0 ? (x + two52) - two52 : (x - two52) + two52;
-    if (r > x)
-        r -= 1.0;
-    return r == 0.0 ? copysign(0.0, x) : r; /* floor(-0.0) is -0.0; floor(x in (-1, 0)) is -1, not zero */
+    double big = copysign(two52, x), zero = copysign(0.0, x);
+    double r = (x + big) - big; /* x rounded to a whole number (|x| < 2**52) */
+    double below = r - 1.0;     /* computed whether needed or not: the selects below are then plain moves */
+    r = r > x ? below : r;
+    r = r == 0.0 ? zero : r;        /* floor(-0.0) is -0.0; floor(x in (-1, 0)) is -1, not zero */
+    return fabs(x) < two52 ? r : x; /* else already a whole number, or inf, or nan */
 }
 
 /* rint(x) for x >= 0 (round half to even), exactly: for 0 <= x < 2**52, x + 2**52 has ulp 1, and 2**52 is even. */
@@ -59,13 +59,9 @@ static inline void mr_sincos(double x, double *sin_out, double *cos_out)
     int odd = (quadrant == 1.0) | (quadrant == 3.0);
     double s1 = odd ? c : s;
     double c1 = odd ? -s : c;
-    if (quadrant >= 2.0) {
-        *sin_out = -s1;
-        *cos_out = -c1;
-    } else {
-        *sin_out = s1;
-        *cos_out = c1;
-    }
+    int upper = quadrant >= 2.0;
+    *sin_out = upper ? -s1 : s1; /* selects, no branch: loops over it vectorise */
+    *cos_out = upper ? -c1 : c1;
 }
 
 /* q = a b, the Hamilton product of two xyzw quaternions (q may be a). */
@@ -78,13 +74,18 @@ static inline void mr_product(double ax, double ay, double az, double aw, double
     q[3] = aw * bw - ax * bx - ay * by - az * bz;
 }
 
+/* Half of `degrees` in radians, the angle reduced exactly to about [-360, 360] first (Sterbenz). */
+static inline double mr_half_degrees(double degrees)
+{
+    return (degrees - 720.0 * mr_floor(degrees * (1.0 / 720.0) + 0.5)) * (3.141592653589793 / 360.0);
+}
+
 /* q = q b, b the rotation by `angle` (radians; degrees when `degrees`: reduced exactly to about [-360, 360] first)
  * about axis 0 (X), 1 (Y) or 2 (Z): one factor of an Euler conversion. */
 static inline void mr_euler_factor(double *q, double angle, int axis, int degrees)
 {
     double s, cs;
-    double half = degrees ? (angle - 720.0 * mr_floor(angle * (1.0 / 720.0) + 0.5)) * (3.141592653589793 / 360.0)
-                          : 0.5 * angle;
+    double half = degrees ? mr_half_degrees(angle) : 0.5 * angle;
     mr_sincos(half, &s, &cs);
     double ex = axis == 0 ? 1.0 : 0.0, ey = axis == 1 ? 1.0 : 0.0, ez = axis == 2 ? 1.0 : 0.0;
     mr_product(q[0], q[1], q[2], q[3], s * ex, s * ey, s * ez, cs, q);

@@ -5,52 +5,34 @@
 #include "ccore.h"
 #include "mr_rotconv.h"
 
+#define MR_BLOCK 64 /* rows converted together: each entry's inputs and results for them stay in the L1 cache */
+
+#define MR_FN(name) name##_baseline
+#include "rotations_impl.h"
+#undef MR_FN
+
+#if MR_HAVE_AVX2
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#define MR_FN(name) name##_avx2
+#include "rotations_impl.h"
+#undef MR_FN
+#pragma GCC pop_options
+#endif
+
 /* out[t, joints[r]] = the quaternion of features[t, columns[r]] for every row t of the (T, C) features (float32 or
  * float64, read as float64) and every entry r, by `kind`; out is (T, J, 4) float32 or float64 (float32: the
  * float64 result rounded).  Euler entries read up to three columns, -1 ending them early, each factor about
  * axes[r, k].  Returns 0, or 2 (a quaternion of zero or non-finite length), 3 (a degenerate 6D encoding): the
- * other results are written all the same. */
+ * other results are written all the same.  The AVX2 copy where mr_simd says so (the same bits, faster). */
 int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64_t C, const int64_t *columns,
                        const int64_t *axes, const int64_t *joints, int64_t R, void *out, int out32, int64_t J)
 {
-    int64_t zero = 0, degenerate = 0;
-    const float *X32 = (const float *)features;
-    const double *X64 = (const double *)features;
-    int width = kind == MR_QUAT ? 4 : kind == MR_ORTHO6D ? 6 : 3;
-    for (int64_t t = 0; t < T; t++) {
-        for (int64_t r = 0; r < R; r++) {
-            const int64_t *cols = columns + width * r;
-            double v[6], q[4] = {0.0, 0.0, 0.0, 1.0};
-            int n = width;
-            if (kind == MR_EULER || kind == MR_EULER_DEGREES)
-                for (n = 0; n < 3 && cols[n] >= 0; n++) {
-                }
-            for (int k = 0; k < n; k++)
-                v[k] = f32 ? (double)X32[t * C + cols[k]] : X64[t * C + cols[k]];
-            switch (kind) {
-            case MR_QUAT:
-                zero += !mr_normalized(v[0], v[1], v[2], v[3], q);
-                break;
-            case MR_AXIS_ANGLE:
-                mr_axis_angle(v[0], v[1], v[2], q);
-                break;
-            case MR_ORTHO6D:
-                degenerate += !mr_ortho6d(v[0], v[1], v[2], v[3], v[4], v[5], q);
-                break;
-            default: /* Euler angles, the first factor leftmost */
-                for (int k = 0; k < n; k++)
-                    mr_euler_factor(q, v[k], (int)axes[3 * r + k], kind == MR_EULER_DEGREES);
-            }
-            int64_t o = (t * J + joints[r]) * 4;
-            if (out32)
-                for (int c = 0; c < 4; c++)
-                    ((float *)out)[o + c] = (float)q[c];
-            else
-                for (int c = 0; c < 4; c++)
-                    ((double *)out)[o + c] = q[c];
-        }
-    }
-    return zero ? 2 : degenerate ? 3 : 0;
+#if MR_HAVE_AVX2
+    if (mr_simd == MR_SIMD_AVX2)
+        return columns_to_quat_avx2(kind, features, f32, T, C, columns, axes, joints, R, out, out32, J);
+#endif
+    return columns_to_quat_baseline(kind, features, f32, T, C, columns, axes, joints, R, out, out32, J);
 }
 
 /* out[f, n] = (theta[f, n] + 2 pi k) axis[f, n] for f >= 1, k = rint((axis . out[f - 1, n] - theta) / 2 pi); a
