@@ -509,10 +509,9 @@ _QUAT, _AXIS_ANGLE, _EULER, _EULER_DEGREES, _ORTHO6D = range(5)
 
 
 def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int,
-                     kind: int, axes: ArrayLike | None = None, compiled: bool = True) -> None:
+                     kind: int, axes: ArrayLike | None = None) -> None:
     """Check the arguments of the ``*_columns_*`` functions and run the compiled conversion (``motionrep._ccore``:
-    ``motionrep/_c/mr_rotconv.h``, one entry of ``kind`` per row of ``columns``), or the pose plan's numpy twin of
-    the Euler conversions (``compiled=False``)."""
+    ``motionrep/_c/mr_rotconv.h``, one entry of ``kind`` per row of ``columns``)."""
     f = features if type(features) is np.ndarray else np.asarray(features)
     if f.dtype is not _F64 and f.dtype is not _F32:
         f = f.astype(np.float64)
@@ -545,16 +544,6 @@ def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, o
             raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
         if np.any(used & ((ax < 0) | (ax > 2))):
             raise ValidationError("axes must be 0 (X), 1 (Y) or 2 (Z) for every angle")
-    if not compiled:
-        from .poseplan import PosePlan, decode_euler_numpy
-
-        six = np.full((R, 6), -1, np.int64)
-        six[:, :width] = cols
-        plan = PosePlan(width=f.shape[1], num_joints=J, kinds=np.full(R, kind, np.int64), columns=six, axes=ax,
-                        joints=idx, parents=np.arange(J, dtype=np.int64) - 1,
-                        translation_columns=np.zeros((0, 3), np.int64), translation_values=np.zeros((0, 3)))
-        decode_euler_numpy(f, plan, out)
-        return
     status = _columns_to_quat(kind, np.ascontiguousarray(f), np.ascontiguousarray(cols), ax,
                               np.ascontiguousarray(idx), out)
     if status == 2:
@@ -620,7 +609,7 @@ def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64
 
 
 def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike, joints: ArrayLike, out: NDArray,
-                          degrees: bool = False, compiled: bool = True) -> None:
+                          degrees: bool = False) -> None:
     """``out[:, joints[r]]`` = the product of the rotations about ``axes[r, k]`` by the angles in
     ``features[:, columns[r, k]]`` (``k`` = 0, 1, 2; intrinsic: the first factor leftmost).
 
@@ -631,13 +620,11 @@ def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike
         joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
         degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
-        compiled: False runs the same arithmetic in numpy instead of the compiled kernel (bit-identical, slower
-            per angle, but without numba's start-up: what reading a small BVH file uses).
 
     Raises:
         ValidationError: for columns, axes or joints out of range.
     """
-    _convert_columns(features, columns, joints, out, 3, _EULER_DEGREES if degrees else _EULER, axes, compiled)
+    _convert_columns(features, columns, joints, out, 3, _EULER_DEGREES if degrees else _EULER, axes)
 
 
 def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
