@@ -147,6 +147,7 @@ def side(data: Path, hostile: int) -> dict[str, str]:
     from motionrep.model import rotations as R
     from motionrep.model.kinematics import fk_arrays
 
+    np.seterr(over="ignore")  # float32 copies of the huge inputs are inf: intended
     write = getattr(_shortest, "format_shortest", None) or _shortest.format_shortest_compiled
     scan = _compiled(scan_block)
     euler = _compiled(R.euler_columns_to_quat)
