@@ -16,6 +16,7 @@ setup(ext_modules=[
     Extension("motionrep._ccore",
               sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
                        "motionrep/_c/fk.c", "motionrep/_c/rotations.c"],
-              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h"],
+              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
+                       "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
               extra_compile_args=CFLAGS),
 ])

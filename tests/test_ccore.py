@@ -277,7 +277,7 @@ def test_fk_bit_for_bit(dtype):
     sk = Skeleton(sk.names, sk.parents, sk.offsets, tuple(chans), sk.end_site_parents, sk.end_site_offsets)
     assert sk.translated_joints.size == 2 and sk.num_end_sites
     rng = np.random.default_rng(3)
-    F = 12
+    F = 13  # blocks of frames and a remainder
     rot = (random_unit_quaternions((F, sk.num_joints), seed=2) * rng.uniform(0.999, 1.001, (F, sk.num_joints, 1)))
     rot = rot.astype(dtype)
     root, moved = rng.normal(size=(F, 3)) * 50, rng.normal(size=(F, 2, 3)) * 5
@@ -288,8 +288,8 @@ def test_fk_bit_for_bit(dtype):
 
 
 def test_the_avx2_and_baseline_copies_give_the_same_bits():
-    """The conversions' loops are compiled twice (the x86-64 baseline and AVX2, chosen when the module loads;
-    ``MOTIONREP_CCORE_BASELINE=1`` forces the baseline): the same IEEE operations, so the same bits."""
+    """The conversions' and FK's loops are compiled twice (the x86-64 baseline and AVX2, chosen when the module
+    loads; ``MOTIONREP_CCORE_BASELINE=1`` forces the baseline): the same IEEE operations, so the same bits."""
     if _ccore.simd == "baseline":
         pytest.skip("this CPU (or build) has only the baseline copy: nothing to compare")
     code = """if True:
@@ -307,6 +307,13 @@ def test_the_avx2_and_baseline_copies_give_the_same_bits():
         h.update(R.axis_angle_to_quat(a).tobytes())
         h.update(R.quat_normalize(np.concatenate([a, a[:, :1] + 0.5], axis=1)).tobytes())
         h.update(R.ortho6d_to_quat(np.concatenate([a + 1.0, a[::-1] - 2.0], axis=1)).tobytes())
+        from motionrep.model.kinematics import fk_arrays
+        from motionrep.model.synthetic import humanoid_skeleton, random_unit_quaternions
+        sk = humanoid_skeleton()
+        for F in (1, 3, 4, 5, 203):  # whole blocks of frames and a remainder
+            rot = random_unit_quaternions((F, sk.num_joints), seed=F) * 1.0001
+            pos, out = fk_arrays(sk, rot, rng.normal(size=(F, 3)), np.zeros((F, 0, 3)), True)
+            h.update(pos.tobytes() + out.tobytes())
         print(_ccore.simd, h.hexdigest())
     """
     runs = []

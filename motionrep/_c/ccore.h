@@ -8,6 +8,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* Loops that vectorise are compiled twice where the compiler can: for the x86-64 baseline and for AVX2, chosen
+ * when the module is loaded (mr_simd: MR_SIMD_AVX2 on a CPU that has it, unless MOTIONREP_CCORE_BASELINE is set).
+ * Both copies run the same IEEE operations (no fused multiply-add): the same bits, AVX2 does more at once. */
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__linux__)
+#define MR_HAVE_AVX2 1
+#else
+#define MR_HAVE_AVX2 0
+#endif
+enum { MR_SIMD_BASELINE, MR_SIMD_AVX2 };
+extern int mr_simd;
+
 /* numbers.c: the whitespace-separated numbers of a byte block (the BVH MOTION block), see scan_block in
  * motionrep/io/_numbers.py.  info receives MR_SCAN_INFO counts. */
 enum { MR_ROWS, MR_FIRST_WRONG, MR_WRONG_COUNT, MR_LAST_DATA, MR_EXTRA, MR_FIRST_DATA, MR_FALLBACKS, MR_TOKENS,
@@ -30,20 +41,9 @@ typedef struct {
     const int64_t *parents, *translated, *site_parents;    /* (J,), (P,), (E,) */
     double *out_pos;                                       /* (F, J + E, 3) */
     double *out_rot;                                       /* (F, J + E, 4) or NULL */
-    double *scratch;                                       /* (J, 7) */
 } mr_fk_args;
-void mr_fk(const mr_fk_args *a);
-
-/* Loops that vectorise are compiled twice where the compiler can: for the x86-64 baseline and for AVX2, chosen
- * when the module is loaded (mr_simd: MR_SIMD_AVX2 on a CPU that has it, unless MOTIONREP_CCORE_BASELINE is set).
- * Both copies run the same IEEE operations (no fused multiply-add): the same bits, AVX2 does more at once. */
-#if defined(__x86_64__) && defined(__GNUC__) && defined(__linux__)
-#define MR_HAVE_AVX2 1
-#else
-#define MR_HAVE_AVX2 0
-#endif
-enum { MR_SIMD_BASELINE, MR_SIMD_AVX2 };
-extern int mr_simd;
+int mr_fk(const mr_fk_args *a);
+int mr_max_distances(const double *positions, const double *reference, int64_t N, int64_t M, int64_t P, double *out);
 
 /* rotations.c: feature columns to quaternions; kinds as motionrep.model.poseplan's. */
 enum { MR_QUAT, MR_AXIS_ANGLE, MR_EULER, MR_EULER_DEGREES, MR_ORTHO6D };

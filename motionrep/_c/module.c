@@ -180,19 +180,47 @@ static PyObject *py_fk(PyObject *self, PyObject *args)
             return fail(&bs, "fk: end-site parents out of range");
     if (F > 0 && J == 0)
         return fail(&bs, "fk: no joints");
-    double *scratch = malloc(sizeof(double) * 7 * (size_t)(J ? J : 1));
-    if (!scratch) {
+    mr_fk_args a = {F, J, E, P, rot->buf, rot->itemsize == 4, root->buf, offsets->buf, joint_t->buf, so->buf,
+                    par, tr, spa, pos->buf, orot ? orot->buf : NULL};
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = mr_fk(&a);
+    Py_END_ALLOW_THREADS
+    if (status) {
         release(&bs);
         return PyErr_NoMemory();
     }
-    mr_fk_args a = {F, J, E, P, rot->buf, rot->itemsize == 4, root->buf, offsets->buf, joint_t->buf, so->buf,
-                    par, tr, spa, pos->buf, orot ? orot->buf : NULL, scratch};
-    Py_BEGIN_ALLOW_THREADS
-    mr_fk(&a);
-    Py_END_ALLOW_THREADS
-    free(scratch);
     release(&bs);
     Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(distances_doc, "max_distances(positions, reference, out) -> finite\n--\n\n"
+                            "out[k] = the largest distance between positions[k] (N, P, 3) and reference[k % M]\n"
+                            "(M, P, 3) over the P points (motionrep.pipeline.evaluate); False if one is not finite.");
+
+static PyObject *py_max_distances(PyObject *self, PyObject *args)
+{
+    PyObject *opos, *oref, *oout;
+    if (!PyArg_ParseTuple(args, "OOO", &opos, &oref, &oout))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *pos, *ref, *out;
+    if (!(pos = get(&bs, opos, "positions", 'd', 3, 0)) || !(ref = get(&bs, oref, "reference", 'd', 3, 0))
+        || !(out = get(&bs, oout, "out", 'd', 1, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t N = dim(pos, 0), P = dim(pos, 1), M = dim(ref, 0);
+    if (dim(pos, 2) != 3 || dim(ref, 1) != P || dim(ref, 2) != 3 || dim(out, 0) != N || (M == 0 && N > 0)
+        || (M > 0 && N % M))
+        return fail(&bs, "max_distances: positions (N, P, 3), reference (M, P, 3) with M dividing N, out (N,)");
+    int finite;
+    Py_BEGIN_ALLOW_THREADS
+    finite = mr_max_distances(pos->buf, ref->buf, N, M, P, out->buf);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return PyBool_FromLong(finite);
 }
 
 /* ------------------------------------------------------------------------------------------------------------ */
@@ -300,6 +328,7 @@ static PyMethodDef methods[] = {
     {"scan", py_scan, METH_VARARGS, scan_doc},
     {"format_shortest", py_format_shortest, METH_VARARGS, format_doc},
     {"fk", py_fk, METH_VARARGS, fk_doc},
+    {"max_distances", py_max_distances, METH_VARARGS, distances_doc},
     {"columns_to_quat", py_columns_to_quat, METH_VARARGS, columns_doc},
     {"axis_angle_continuous", py_axis_angle_continuous, METH_VARARGS, continuous_doc},
     {"sincos", py_sincos, METH_O, sincos_doc},

@@ -7,18 +7,8 @@
 
 #define MR_BLOCK 64 /* rows converted together: each entry's inputs and results for them stay in the L1 cache */
 
-#define MR_FN(name) name##_baseline
-#include "rotations_impl.h"
-#undef MR_FN
-
-#if MR_HAVE_AVX2
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#define MR_FN(name) name##_avx2
-#include "rotations_impl.h"
-#undef MR_FN
-#pragma GCC pop_options
-#endif
+#define MR_IMPL "rotations_impl.h"
+#include "mr_twice.h"
 
 /* out[t, joints[r]] = the quaternion of features[t, columns[r]] for every row t of the (T, C) features (float32 or
  * float64, read as float64) and every entry r, by `kind`; out is (T, J, 4) float32 or float64 (float32: the

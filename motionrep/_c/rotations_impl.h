@@ -1,5 +1,5 @@
-/* The column conversions' loops, included twice by rotations.c: once for the x86-64 baseline (SSE2) and once
- * compiled for AVX2 (MR_FN names each copy).  The two give the same bits (the same IEEE operations, no fused
+/* The column conversions' loops, included twice by rotations.c (mr_twice.h: the x86-64
+ * baseline and AVX2).  The two give the same bits (the same IEEE operations, no fused
  * multiply-add: -ffp-contract=off, and FMA is not enabled by target("avx2")); AVX2 only does four values at once.
  * Not a header to include elsewhere. */
 /* The quaternions of m rows (m <= MR_BLOCK) of one entry, from its inputs V[k * MR_BLOCK + i] (input k of row i),
