@@ -11,17 +11,28 @@
  * Anything that converts feature columns to quaternions includes this header, so that there is one implementation
  * of each conversion.
  */
-#ifndef MR_ROTCONV_H
+/* Included once as is (the functions under their own names), and once more by each loop file compiled twice
+ * (mr_twice.h) with MR_RC defined as that copy's MR_FN, so that every copy has its own functions, compiled for its
+ * target: the AVX2 copy's floor is then one instruction (the same value; SSE4.1's roundpd).  The names below are
+ * written MR_RC(name) for that reason. */
+#if defined(MR_RC) || !defined(MR_ROTCONV_H)
+#ifndef MR_RC
 #define MR_ROTCONV_H
+#define MR_RC(name) name
+#define MR_RC_PLAIN
+#endif
 
 #include <math.h>
 #include <stdint.h>
 
-/* floor(x) exactly, for any double (inf and nan are returned as they are, -0.0 stays -0.0): the nearest integer by
- * adding and removing 2**52 (exact below 2**52 in magnitude), one less where that rounded up.  Kept inline: without
- * SSE4.1 (the x86-64 baseline) floor() is a call into libm. */
-static inline double mr_floor(double x)
+/* floor(x) exactly, for any double (inf and nan are returned as they are, -0.0 stays -0.0).  With SSE4.1 (the AVX2
+ * copies) floor() is one instruction; without it (the x86-64 baseline) the nearest integer by adding and removing
+ * 2**52 (exact below 2**52 in magnitude), one less where that rounded up: selects that vectorise, no libm call. */
+static inline double MR_RC(mr_floor)(double x)
 {
+#if defined(__SSE4_1__)
+    return floor(x);
+#else
     const double two52 = 4503599627370496.0;
     double big = copysign(two52, x), zero = copysign(0.0, x);
     double r = (x + big) - big; /* x rounded to a whole number (|x| < 2**52) */
@@ -29,10 +40,11 @@ static inline double mr_floor(double x)
     r = r > x ? below : r;
     r = r == 0.0 ? zero : r;        /* floor(-0.0) is -0.0; floor(x in (-1, 0)) is -1, not zero */
     return fabs(x) < two52 ? r : x; /* else already a whole number, or inf, or nan */
+#endif
 }
 
 /* rint(x) for x >= 0 (round half to even), exactly: for 0 <= x < 2**52, x + 2**52 has ulp 1, and 2**52 is even. */
-static inline double mr_rint_nonneg(double x)
+static inline double MR_RC(mr_rint_nonneg)(double x)
 {
     const double two52 = 4503599627370496.0;
     return x < two52 ? (x + two52) - two52 : x;
@@ -41,9 +53,9 @@ static inline double mr_rint_nonneg(double x)
 /* (sin x, cos x) of a float64 x to within an ulp: Cody-Waite reduction by pi / 2 (three parts, exact products for
  * |x| < 2**20 pi / 2; beyond, the reduction loses accuracy gracefully but stays bounded), then fdlibm's kernels on
  * [-pi/4, pi/4].  motionrep.jit.sincos, operation for operation. */
-static inline void mr_sincos(double x, double *sin_out, double *cos_out)
+static inline void MR_RC(mr_sincos)(double x, double *sin_out, double *cos_out)
 {
-    double n = mr_floor(x * 0.6366197723675814 + 0.5);
+    double n = MR_RC(mr_floor)(x * 0.6366197723675814 + 0.5);
     double r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21;
     double z = r * r;
     double s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
@@ -55,7 +67,7 @@ static inline void mr_sincos(double x, double *sin_out, double *cos_out)
     double hz = 0.5 * z;
     double w = 1.0 - hz;
     double c = w + (((1.0 - w) - hz) + tail);
-    double quadrant = n - 4.0 * mr_floor(n * 0.25);
+    double quadrant = n - 4.0 * MR_RC(mr_floor)(n * 0.25);
     int odd = (quadrant == 1.0) | (quadrant == 3.0);
     double s1 = odd ? c : s;
     double c1 = odd ? -s : c;
@@ -65,7 +77,7 @@ static inline void mr_sincos(double x, double *sin_out, double *cos_out)
 }
 
 /* q = a b, the Hamilton product of two xyzw quaternions (q may be a). */
-static inline void mr_product(double ax, double ay, double az, double aw, double bx, double by, double bz, double bw,
+static inline void MR_RC(mr_product)(double ax, double ay, double az, double aw, double bx, double by, double bz, double bw,
                               double *q)
 {
     q[0] = aw * bx + ax * bw + ay * bz - az * by;
@@ -75,30 +87,30 @@ static inline void mr_product(double ax, double ay, double az, double aw, double
 }
 
 /* Half of `degrees` in radians, the angle reduced exactly to about [-360, 360] first (Sterbenz). */
-static inline double mr_half_degrees(double degrees)
+static inline double MR_RC(mr_half_degrees)(double degrees)
 {
-    return (degrees - 720.0 * mr_floor(degrees * (1.0 / 720.0) + 0.5)) * (3.141592653589793 / 360.0);
+    return (degrees - 720.0 * MR_RC(mr_floor)(degrees * (1.0 / 720.0) + 0.5)) * (3.141592653589793 / 360.0);
 }
 
 /* q = q b, b the rotation by `angle` (radians; degrees when `degrees`: reduced exactly to about [-360, 360] first)
  * about axis 0 (X), 1 (Y) or 2 (Z): one factor of an Euler conversion. */
-static inline void mr_euler_factor(double *q, double angle, int axis, int degrees)
+static inline void MR_RC(mr_euler_factor)(double *q, double angle, int axis, int degrees)
 {
     double s, cs;
-    double half = degrees ? mr_half_degrees(angle) : 0.5 * angle;
-    mr_sincos(half, &s, &cs);
+    double half = degrees ? MR_RC(mr_half_degrees)(angle) : 0.5 * angle;
+    MR_RC(mr_sincos)(half, &s, &cs);
     double ex = axis == 0 ? 1.0 : 0.0, ey = axis == 1 ? 1.0 : 0.0, ez = axis == 2 ? 1.0 : 0.0;
-    mr_product(q[0], q[1], q[2], q[3], s * ex, s * ey, s * ez, cs, q);
+    MR_RC(mr_product)(q[0], q[1], q[2], q[3], s * ex, s * ey, s * ez, cs, q);
 }
 
 /* q = the quaternion of rotation vector (x, y, z): [sin(theta / 2) v / theta, cos(theta / 2)], theta = |v|, with
  * sin(theta / 2) / theta by its series below 1e-3 (no 0 / 0), as scipy's Rotation.from_rotvec. */
-static inline void mr_axis_angle(double x, double y, double z, double *q)
+static inline void MR_RC(mr_axis_angle)(double x, double y, double z, double *q)
 {
     double theta2 = (x * x + y * y) + z * z;
     double theta = sqrt(theta2);
     double s, c;
-    mr_sincos(0.5 * theta, &s, &c);
+    MR_RC(mr_sincos)(0.5 * theta, &s, &c);
     double k = theta > 1e-3 ? s / theta : 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
     q[0] = k * x;
     q[1] = k * y;
@@ -107,7 +119,7 @@ static inline void mr_axis_angle(double x, double y, double z, double *q)
 }
 
 /* q = (x, y, z, w) / |(x, y, z, w)|; 0 if the length is zero or not finite (q then holds inf or nan), else 1. */
-static inline int mr_normalized(double x, double y, double z, double w, double *q)
+static inline int MR_RC(mr_normalized)(double x, double y, double z, double w, double *q)
 {
     double n = sqrt(((x * x + y * y) + z * z) + w * w);
     q[0] = x / n;
@@ -121,7 +133,7 @@ static inline int mr_normalized(double x, double y, double z, double w, double *
  * Gram-Schmidt, the cross product third, then the matrix's quaternion as scipy's Rotation.from_matrix (the largest
  * of the trace and the diagonal picks the formula; where w is zero, the first non-zero component is made
  * positive).  0 if the encoding is degenerate (a column zero or the two parallel), else 1. */
-static inline int mr_ortho6d(double a1x, double a1y, double a1z, double a2x, double a2y, double a2z, double *q)
+static inline int MR_RC(mr_ortho6d)(double a1x, double a1y, double a1z, double a2x, double a2y, double a2z, double *q)
 {
     double n1 = sqrt((a1x * a1x + a1y * a1y) + a1z * a1z);
     double d = n1 > 0.0 ? n1 : 1.0;
@@ -165,4 +177,8 @@ static inline int mr_ortho6d(double a1x, double a1y, double a1z, double a2x, dou
     return (n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < INFINITY);
 }
 
+#ifdef MR_RC_PLAIN
+#undef MR_RC
+#undef MR_RC_PLAIN
+#endif
 #endif

@@ -2,6 +2,10 @@
  * baseline and AVX2).  The two give the same bits (the same IEEE operations, no fused
  * multiply-add: -ffp-contract=off, and FMA is not enabled by target("avx2")); AVX2 only does four values at once.
  * Not a header to include elsewhere. */
+#define MR_RC MR_FN /* this copy's conversions, compiled for its target (mr_rotconv.h) */
+#include "mr_rotconv.h"
+#undef MR_RC
+
 /* The quaternions of m rows (m <= MR_BLOCK) of one entry, from its inputs V[k * MR_BLOCK + i] (input k of row i),
  * into Q[c * MR_BLOCK + i]; every loop over the rows runs the same operations on each (selects, no branches), so it
  * vectorises.  Returns the number of rows whose quaternion has zero length (QUAT) or is degenerate (ORTHO6D). */
@@ -16,19 +20,19 @@ static int64_t MR_FN(convert_block)(int kind, const double *restrict V, int fact
     switch (kind) {
     case MR_QUAT:
         for (int64_t i = 0; i < m; i++) {
-            bad += !mr_normalized(V0[i], V1[i], V2[i], V3[i], q);
+            bad += !MR_FN(mr_normalized)(V0[i], V1[i], V2[i], V3[i], q);
             QX[i] = q[0], QY[i] = q[1], QZ[i] = q[2], QW[i] = q[3];
         }
         break;
     case MR_AXIS_ANGLE:
         for (int64_t i = 0; i < m; i++) {
-            mr_axis_angle(V0[i], V1[i], V2[i], q);
+            MR_FN(mr_axis_angle)(V0[i], V1[i], V2[i], q);
             QX[i] = q[0], QY[i] = q[1], QZ[i] = q[2], QW[i] = q[3];
         }
         break;
     case MR_ORTHO6D:
         for (int64_t i = 0; i < m; i++) {
-            bad += !mr_ortho6d(V0[i], V1[i], V2[i], V3[i], V4[i], V5[i], q);
+            bad += !MR_FN(mr_ortho6d)(V0[i], V1[i], V2[i], V3[i], V4[i], V5[i], q);
             QX[i] = q[0], QY[i] = q[1], QZ[i] = q[2], QW[i] = q[3];
         }
         break;
@@ -42,15 +46,15 @@ static int64_t MR_FN(convert_block)(int kind, const double *restrict V, int fact
             if (kind == MR_EULER_DEGREES)
                 for (int64_t i = 0; i < m; i++) {
                     double sn, cs;
-                    mr_sincos(mr_half_degrees(A[i]), &sn, &cs);
-                    mr_product(QX[i], QY[i], QZ[i], QW[i], sn * ex, sn * ey, sn * ez, cs, q);
+                    MR_FN(mr_sincos)(MR_FN(mr_half_degrees)(A[i]), &sn, &cs);
+                    MR_FN(mr_product)(QX[i], QY[i], QZ[i], QW[i], sn * ex, sn * ey, sn * ez, cs, q);
                     QX[i] = q[0], QY[i] = q[1], QZ[i] = q[2], QW[i] = q[3];
                 }
             else
                 for (int64_t i = 0; i < m; i++) {
                     double sn, cs;
-                    mr_sincos(0.5 * A[i], &sn, &cs);
-                    mr_product(QX[i], QY[i], QZ[i], QW[i], sn * ex, sn * ey, sn * ez, cs, q);
+                    MR_FN(mr_sincos)(0.5 * A[i], &sn, &cs);
+                    MR_FN(mr_product)(QX[i], QY[i], QZ[i], QW[i], sn * ex, sn * ey, sn * ez, cs, q);
                     QX[i] = q[0], QY[i] = q[1], QZ[i] = q[2], QW[i] = q[3];
                 }
         }
