@@ -10,9 +10,15 @@ One ``Extension`` per compiled module.
 from setuptools import Extension, setup
 
 #: the flags every extension is compiled with (see above)
-CFLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math"]
+CFLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-trapping-math"]
 
 setup(ext_modules=[
+    Extension("motionrep._ccore",
+              sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
+                       "motionrep/_c/fk.c", "motionrep/_c/rotations.c"],
+              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
+                       "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
+              extra_compile_args=CFLAGS),
     # the entropy coder of transform payloads of version 2 (integer arithmetic only)
     Extension("motionrep_transform._ccoder",
               sources=["plugins/motionrep_transform/_c/ccoder.c", "plugins/motionrep_transform/_c/mrcoder.c"],

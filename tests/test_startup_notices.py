@@ -70,7 +70,7 @@ def test_a_process_that_compiles_nothing_says_nothing(tmp_path):
     done = subprocess.run([sys.executable, "-m", "motionrep", "info", str(walk)], capture_output=True, text=True,
                           env=env)
     assert done.returncode == 0, done.stderr
-    assert COMPILE_NOTICE not in done.stderr  # info reads BVH with numpy: no kernel, no notice
+    assert COMPILE_NOTICE not in done.stderr  # info reads BVH with the compiled core (C): no kernel, no notice
     assert not (tmp_path / "empty-cache").exists() or not any((tmp_path / "empty-cache").iterdir())
 
 
@@ -159,9 +159,9 @@ def _kernels_loaded(tmp_path: Path, *args) -> list[str]:
 
 
 def test_commands_load_only_the_kernels_they_need(tmp_path, walk):
-    """``info`` of a BVH file runs no kernel (numpy reads it); ``decompress`` to BVH only the pose plan (the
-    transform decoder is numpy; BVH writing is scipy's Euler conversion): a regression here costs numba's
-    start-up (about half a second quiet) or a kernel's cached code."""
+    """``info`` of a BVH file runs no numba kernel (the compiled core, C, reads it); ``decompress`` to BVH only the
+    pose plan (the transform decoder is numpy; BVH writing is scipy's Euler conversion and the C writer): a
+    regression here costs numba's start-up (about half a second quiet) or a kernel's cached code."""
     mrc = tmp_path / "walk.mrc"
     assert run_cli_caught("compress", str(walk), "-o", str(mrc)).exit_code == 0
     assert _kernels_loaded(tmp_path, "info", walk) == []
@@ -170,12 +170,10 @@ def test_commands_load_only_the_kernels_they_need(tmp_path, walk):
 
 
 def test_info_of_a_compact_hdf5_clip_imports_no_numba(tmp_path, walk):
-    """A compact HDF5 clip (channels stored as integers) is decoded by the BVH reader's rule: numpy below the
-    budget, so ``info`` imports neither numba nor scipy (it did, through the compiled Euler conversion)."""
-    import numpy as np
-
+    """A compact HDF5 clip (channels stored as integers) is decoded by the BVH reader's compiled conversion (C), so
+    ``info`` imports neither numba nor scipy (it did, through the compiled Euler conversion), and it is the very
+    clip that was written, bit for bit."""
     from motionrep.io import read
-    from motionrep.io._bvh import _motion_from_channels, channel_values
 
     h5 = tmp_path / "walk.h5"
     write(read(walk), h5)
@@ -184,8 +182,6 @@ def test_info_of_a_compact_hdf5_clip_imports_no_numba(tmp_path, walk):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(tmp_path, tmp_path))
     assert done.returncode == 0, done.stderr
     assert not set(done.stdout.split("TOPS", 1)[1].split()) & {"numba", "scipy", "h5py"}
-    motion = read(walk)  # the numpy path gives the compiled kernel's bits (the same arithmetic, both IEEE)
-    values = np.ascontiguousarray(channel_values(motion), dtype=np.float64)
-    by_numpy = _motion_from_channels(motion.skeleton, values, motion.fps, False)
-    compiled = _motion_from_channels(motion.skeleton, values, motion.fps, True)
-    assert by_numpy.rotations.tobytes() == compiled.rotations.tobytes()
+    a, b = read(walk), read(h5)
+    for name in ("root_translation", "rotations", "joint_translations", "euler_angles", "euler_branch"):
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name

@@ -27,12 +27,11 @@ anywhere in a batch; float32 rotations are the float64 ones rounded.  Conversion
   does not rotate), made local: ``conj(G_parent) r``, ``G`` the world rotations decoded so far (the
   dual-quaternion representation's real parts); a plan with one such joint has one for every joint.
 
-:func:`decode_euler_numpy` is the kernel's Euler conversion in numpy, bit for bit, for reading small BVH files
-without numba (``motionrep.io._numbers.use_compiled``).
+The column conversions of ``motionrep.model.rotations`` (reading BVH, the plain conversion functions) are the same
+arithmetic in C (``motionrep/_c/mr_rotconv.h``), bit for bit (``benchmarks/ccore_equivalence.py``).
 
 Size: one concern, features to poses; the kernel is one function by design (one compiled pass for every kind),
-its inline helpers are one conversion each, and the numpy copy of its Euler branch stands beside the arithmetic it
-must reproduce operation for operation.
+and its inline helpers are one conversion each.
 """
 
 from __future__ import annotations
@@ -43,9 +42,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ValidationError
-from ..jit import jit, jit_inline, sincos, sincos_numpy
+from ..jit import jit, jit_inline, sincos
 
-__all__ = ["PosePlan", "decode_planned", "decode_euler_numpy", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
+__all__ = ["PosePlan", "decode_planned", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
            "WORLD_IDENTITY", "SUB_BLOCK"]
 
 QUAT, AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, WORLD_QUAT, WORLD_IDENTITY = range(7)
@@ -181,58 +180,6 @@ def decode_planned(features: ArrayLike, plan: PosePlan, rotations: NDArray, root
         plan_i[_H_M] = 0
     decode_feature_major(X, f.shape[0], (plan_i, plan_f), rotations, root_translation, joint_translations,
                          check_finite)
-
-
-def decode_euler_numpy(features: ArrayLike, plan: PosePlan, rotations: NDArray) -> None:
-    """The kernel's ``EULER`` / ``EULER_DEGREES`` conversion in numpy, bit for bit (the same operations in the same
-    order, vectorised over poses and entries instead of poses): for a plan of Euler entries only and no
-    translations, run as :func:`decode_planned` with ``check_finite=False, keep_unplanned=True``.  It lets reading
-    a small BVH file skip numba's start-up (``motionrep.io._numbers.use_compiled``)."""
-    if not ((plan.kinds == EULER) | (plan.kinds == EULER_DEGREES)).all() or plan.translation_columns.shape[0]:
-        raise ValidationError("decode_euler_numpy: the plan must hold Euler entries only, without translations")
-    X = np.asarray(features, dtype=np.float64)
-    T, R = X.shape[0], plan.kinds.shape[0]
-    step = max(1, _EULER_BLOCK // max(R, 1))  # poses at a time: the temporaries stay small (in cache, no page faults)
-    for a in range(0, T, step):
-        _decode_euler_block(X[a:a + step], plan, rotations[a:a + step])
-
-
-#: Values (poses x entries) :func:`decode_euler_numpy` converts at a time (measured: 8-16 K fastest)
-_EULER_BLOCK = 1 << 13
-
-
-def _decode_euler_block(X: NDArray, plan: PosePlan, rotations: NDArray) -> None:
-    T, R = X.shape[0], plan.kinds.shape[0]
-    QX, QY, QZ, QW = np.zeros((T, R)), np.zeros((T, R)), np.zeros((T, R)), np.ones((T, R))
-    degrees = plan.kinds == EULER_DEGREES
-    with np.errstate(invalid="ignore", over="ignore"):
-        for k in range(3):
-            rows = np.flatnonzero(plan.columns[:, k] >= 0)
-            if rows.size == 0:
-                break
-            every = rows.size == R  # all entries take part: whole arrays, no gather and scatter (the same values)
-            v = X[:, plan.columns[rows, k]]
-            # as in the kernel: degrees reduced exactly to about [-360, 360], then the half angle in radians
-            in_degrees = degrees[rows]
-            if in_degrees.all():
-                half = (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0)
-            elif not in_degrees.any():
-                half = 0.5 * v
-            else:
-                half = np.where(in_degrees, (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0),
-                                0.5 * v)
-            s, cs = sincos_numpy(half)
-            axis = plan.axes[rows, k]
-            ex, ey, ez = (axis == 0).astype(np.float64), (axis == 1).astype(np.float64), (axis == 2).astype(np.float64)
-            bx, by, bz, bw = s * ex, s * ey, s * ez, cs
-            # the kernel's product helper itself, run by numpy on the arrays: the same expressions
-            if every:
-                QX, QY, QZ, QW = _product.py_func(QX, QY, QZ, QW, bx, by, bz, bw)
-            else:
-                QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows] = _product.py_func(
-                    QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows], bx, by, bz, bw)
-    for c, Q in enumerate((QX, QY, QZ, QW)):
-        rotations[:, plan.joints, c] = Q
 
 
 _NO_ROOT, _NO_MOVED = np.zeros((0, 3)), np.zeros((0, 0, 3))
