@@ -21,6 +21,7 @@ Usage::
                                           [--set _quantise._COARSER=24] [--runs results/fourier_rate_runs.jsonl]
     python benchmarks/fourier_rate.py report [--runs ...] [--labels a,b]   # Markdown tables of the runs
     python benchmarks/fourier_rate.py speed [--label branch] [--repeat 3]  # warm encode times, best of N
+    python benchmarks/fourier_rate.py determinism [--clips cmu31]        # payloads across jobs and threads
 """
 
 from __future__ import annotations
@@ -262,6 +263,40 @@ def speed(args: argparse.Namespace) -> None:
               f"cpu {best['cpu_seconds']:5.2f} load {best['load']:.1f}", flush=True)
 
 
+_ONE_ENCODE = r"""
+import hashlib, json, sys
+import numpy as np
+from motionrep.pipeline.compress import compress_file
+path, codec, bound, jobs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
+params = dict(pair.split("=", 1) for pair in codec.split(":")[1:])
+params.update({} if jobs == "default" else {"jobs": int(jobs)})
+r = compress_file(path, None, codec.split(":")[0], max_error=bound + "%", seed=0, params=params)
+data = b"".join(np.ascontiguousarray(a).tobytes() for a in r.container.arrays.values())
+print(json.dumps({"payload_sha256": hashlib.sha256(data).hexdigest(), "payload_bytes": len(data)}))
+"""
+
+
+def determinism(args: argparse.Namespace) -> None:
+    """Each clip encoded in fresh processes with ``jobs`` 1, 2 and the default, under 1, 2 and 4 BLAS / OpenMP
+    threads (environment): the payloads must be byte-identical."""
+    import subprocess
+
+    same = True
+    for clip in clip_list(args.clips):
+        digests = []
+        for jobs, threads in (("1", "1"), ("2", "2"), ("default", "4")):
+            env = dict(os.environ, OPENBLAS_NUM_THREADS=threads, OMP_NUM_THREADS=threads, MKL_NUM_THREADS=threads)
+            out = subprocess.run([sys.executable, "-c", _ONE_ENCODE, str(DATA / f"{clip}.bvh"), args.codec,
+                                  f"{args.bound:g}", jobs], capture_output=True, text=True, env=env, check=True)
+            digests.append(json.loads(out.stdout.strip().splitlines()[-1]))
+        identical = len({d["payload_sha256"] for d in digests}) == 1
+        same &= identical
+        print(f"{clip:36s} {digests[0]['payload_bytes']:7d} B {digests[0]['payload_sha256'][:16]} "
+              f"{'identical' if identical else 'DIFFERENT: ' + str([d['payload_sha256'][:16] for d in digests])}",
+              flush=True)
+    print("every payload identical" if same else "NOT every payload identical")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -280,13 +315,17 @@ def main() -> None:
     t.add_argument("--bound", type=float, default=2.0)
     t.add_argument("--repeat", type=int, default=3)
     t.add_argument("--out", default=str(RESULTS / "fourier_rate_speed.jsonl"))
+    d = sub.add_parser("determinism")
+    d.add_argument("--codec", default="adaptive-fourier")
+    d.add_argument("--clips", default="cmu31")
+    d.add_argument("--bound", type=float, default=2.0)
     p = sub.add_parser("report")
     p.add_argument("--runs", default=str(RESULTS / "fourier_rate_runs.jsonl"))
     p.add_argument("--labels", default=None)
     args = ap.parse_args()
     if not DATA.is_dir():
         sys.exit(f"no real clips at {DATA}")
-    {"run": run, "report": report, "speed": speed}[args.cmd](args)
+    {"run": run, "report": report, "speed": speed, "determinism": determinism}[args.cmd](args)
 
 
 if __name__ == "__main__":
