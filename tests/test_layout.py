@@ -266,7 +266,7 @@ def test_library_code_validates_without_assert():
 WINGS = [
     ("base", ("motionrep.errors", "motionrep.formats", "motionrep.defaults", "motionrep.limits", "motionrep.jit",
               "motionrep._signals", "motionrep._threads", "motionrep._version", "motionrep._ccore",
-              "motionrep._cpose", "motionrep._moved")),
+              "motionrep._cpose", "motionrep._cplan", "motionrep._moved")),
     ("model", ("motionrep.model",)),
     ("plugin", ("motionrep.plugin",)),
     ("io", ("motionrep.io",)),

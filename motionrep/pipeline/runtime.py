@@ -107,7 +107,8 @@ class Clip:
         self._per_second = self.fps / (self.num_frames - 1) if self.num_frames > 1 else 0.0
         width = representation.width(self.skeleton)
         compiled = all(hasattr(self._decoder, a) for a in ("kernel", "kernel_args", "width"))
-        if compiled and self._decoder.width != width:
+        sampler = getattr(self._decoder, "sampler", None)
+        if (compiled or sampler is not None) and self._decoder.width != width:
             raise ContainerError(f"codec {codec.name!r} decodes {self._decoder.width} features per pose, representation "
                                  f"{representation.name!r} needs {width}", path)
         self._codec_kernel = self._decoder.kernel if compiled else None
@@ -115,12 +116,15 @@ class Clip:
         plan = representation.pose_plan(self.skeleton)
         if plan is not None:
             fixed, values = _fixed_axes(self.skeleton)
-            self._plan: tuple | None = plan.with_fixed_axes(fixed, values).packed()
+            self._plan: Any = plan.with_fixed_axes(fixed, values).compiled()
         else:
             self._plan = None
+        from .._cplan import Runtime
+
+        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one
+        self._runtime = Runtime(self._plan, sampler, width, BLOCK) if sampler is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)
         self._X = np.empty((width, BLOCK))  # one block's features, feature-major (see Codec.decoder)
-        self._kernels: tuple | None = None  # the compiled functions, resolved on the first decode
         self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),
                      np.dtype(np.float32): empty_poses(self.skeleton, 1, np.float32)}
         self._time = np.zeros(1)
@@ -161,11 +165,21 @@ class Clip:
             raise ValidationError(f"t must be a number (seconds), got {t!r}") from None
         if not math.isfinite(u):
             raise ValidationError(f"t must be finite, got {t!r}")
-        self._time[0] = min(max(u, 0.0), 1.0)
+        u = min(max(u, 0.0), 1.0)
         one = self._one[_F64] if dtype is np.float64 else self._one.get(np.dtype(dtype))
         if one is None:
             raise ValidationError(f"rotations can be float64 or float32, not {np.dtype(dtype)}")
-        self._decode_block(self._time, one)
+        runtime = self._runtime
+        if runtime is not None and self._plan is not None:
+            status = runtime.pose(u, one.rotations, one.root_translation, one.joint_translations)
+            if status:
+                raise self._status_error(status)
+        else:
+            self._time[0] = u
+            try:
+                self._decode_block(self._time, one)
+            except ValidationError as exc:  # the payload decodes to no valid pose: damaged
+                raise self._payload_error(exc) from None
         return Pose(one.rotations[0].copy(), one.root_translation[0].copy(), one.joint_translations[0].copy())
 
     def poses(self, times: ArrayLike, dtype: type = np.float64, out: Poses | None = None) -> Poses:
@@ -189,6 +203,11 @@ class Clip:
               or not all(a.flags.c_contiguous for a in (out.rotations, out.root_translation, out.joint_translations))
               or out.rotations.dtype not in (np.float64, np.float32)):
             raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
+        if self._runtime is not None and self._plan is not None:
+            status = self._runtime.poses(u, out.rotations, out.root_translation, out.joint_translations)
+            if status:
+                raise self._status_error(status)
+            return out
         try:
             for a in range(0, u.size, BLOCK):
                 b = min(u.size, a + BLOCK)
@@ -243,34 +262,43 @@ class Clip:
         what = str(exc) if isinstance(exc, (PayloadError, ValidationError)) else f"{type(exc).__name__}: {exc}"
         return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {what}", self._path)
 
+    def _status_error(self, status: int) -> ContainerError:
+        """The error of a non-zero status of the C loop: the plan's (features that are no pose) or the codec's."""
+        from ..model.poseplan import _raise_for
+
+        if status >= 100:
+            return self._payload_error(PayloadError(f"the compiled decoder failed (code {status - 100})"))
+        try:
+            _raise_for(status)
+        except ValidationError as exc:
+            return self._payload_error(exc)
+        return self._payload_error(PayloadError(f"the compiled decoder failed (status {status})"))
+
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
         """Decode at most :data:`BLOCK` normalised times into ``out``: the codec's features into the block's
-        feature-major scratch, then the representation's plan (one compiled call each), or the Python paths of
-        a codec or representation without them."""
-        kernels = self._kernels
-        if kernels is None:
-            from ..model.poseplan import _poses_kernel
-
-            codec = None if self._codec_kernel is None else self._codec_kernel.dispatcher
-            kernels = self._kernels = (codec, _poses_kernel.dispatcher if self._plan is not None else None)
-        codec, poses = kernels
+        feature-major scratch (its C sampler, its compiled kernel, or its Python call), then the representation's
+        plan (the C kernel) or its Python path."""
         m = u.shape[0]
         X = self._X
-        if codec is not None:
-            codec(u, X, *self._codec_args)
+        if self._runtime is not None:
+            status = self._runtime.features(u, X)
+            if status:
+                raise self._status_error(status)
+        elif self._codec_kernel is not None:
+            kernel = self._codec_kernel
+            if hasattr(kernel, "dispatcher"):  # a numba kernel (motionrep.jit): its dispatcher, built on first use
+                kernel = self._codec_kernel = kernel.dispatcher
+            kernel(u, X, *self._codec_args)
         else:
             features = np.asarray(self._features_at(u))
             if features.shape != (m, X.shape[0]):
                 raise self._payload_error(ValueError(f"decoded features of shape {features.shape}, expected "
                                                      f"{(m, X.shape[0])}"))
             X[:, :m] = features.T
-        if poses is not None:
-            status = poses(X, m, self._plan[0], self._plan[1], True, out.rotations, out.root_translation,
-                           out.joint_translations)
-            if status:
-                from ..model.poseplan import _raise_for
+        if self._plan is not None:
+            from ..model.poseplan import _raise_for
 
-                _raise_for(status)
+            _raise_for(self._plan.run(X, m, True, out.rotations, out.root_translation, out.joint_translations))
             return
         self._rep.decode_poses(X[:, :m].T, self.skeleton, out)
         for name, index, values in self._fixed:

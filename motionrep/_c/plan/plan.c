@@ -1,0 +1,356 @@
+/* The pose plan's kernel (see plan.h and motionrep/model/poseplan.py for what each conversion computes).
+ *
+ * Each conversion runs joint by joint over a sub-block of MR_PLAN_SUB poses, its arithmetic written as four
+ * arrays (x, y, z, w) so that gcc vectorises the loops over poses; selects instead of branches.  The operations
+ * and their order are those of the numba kernel this replaced, so the results are the same bits. */
+#include "plan.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "motionrep/mrkernels.h"
+
+/* the packed header (poseplan._H_*) */
+enum { H_R, H_J, H_P, H_M, H_KINDS, H_COLS, H_AXES, H_JOINTS, H_PARENTS, H_IDENT, H_TCOLS, H_WORLD, HEADER };
+
+static int part(const int64_t *plan_i, size_t n_i, int64_t offset, int64_t count, const int64_t **out)
+{
+    if (offset < HEADER || count < 0 || (uint64_t)offset > n_i || (uint64_t)count > n_i - (uint64_t)offset)
+        return -1;
+    *out = plan_i + offset;
+    return 0;
+}
+
+int mr_plan_parse(const int64_t *plan_i, size_t n_i, const double *plan_f, size_t n_f, mr_plan *p)
+{
+    static const int width[7] = {4, 3, 3, 3, 6, 4, 0};
+    memset(p, 0, sizeof *p);
+    if (n_i < HEADER)
+        return -1;
+    p->R = plan_i[H_R];
+    p->J = plan_i[H_J];
+    p->N = plan_i[H_P];
+    p->M = plan_i[H_M];
+    p->world = plan_i[H_WORLD] != 0;
+    if (p->R < 0 || p->J < 0 || p->N < 0 || p->M < 0 || p->R > p->J || p->M > p->J || p->J > ((int64_t)1 << 40)
+        || p->R > ((int64_t)1 << 40) || p->N > ((int64_t)1 << 40))
+        return -1;
+    if (part(plan_i, n_i, plan_i[H_KINDS], p->R, &p->kinds) || part(plan_i, n_i, plan_i[H_COLS], 6 * p->R, &p->cols)
+        || part(plan_i, n_i, plan_i[H_AXES], 3 * p->R, &p->axes)
+        || part(plan_i, n_i, plan_i[H_JOINTS], p->R, &p->joints)
+        || part(plan_i, n_i, plan_i[H_PARENTS], p->J, &p->parents)
+        || part(plan_i, n_i, plan_i[H_IDENT], p->M, &p->ident) || part(plan_i, n_i, plan_i[H_TCOLS], 3 * p->N, &p->tcols))
+        return -1;
+    if ((uint64_t)n_f < 3 * (uint64_t)p->N)
+        return -1;
+    p->tvals = plan_f;
+    int64_t rows = 0;
+    for (int64_t r = 0; r < p->R; r++) {
+        int64_t kind = p->kinds[r], j = p->joints[r];
+        if (kind < 0 || kind > 6 || j < 0 || j >= p->J)
+            return -1;
+        const int64_t *c = p->cols + 6 * r;
+        int n = width[kind];
+        if (kind == MR_EULER || kind == MR_EULER_DEGREES) {
+            for (int k = 0; k < 3; k++) {
+                if (c[k] < 0)
+                    break;
+                if (p->axes[3 * r + k] < 0 || p->axes[3 * r + k] > 2)
+                    return -1;
+                rows = c[k] + 1 > rows ? c[k] + 1 : rows;
+            }
+            continue;
+        }
+        if ((kind == MR_WORLD_QUAT || kind == MR_WORLD_IDENTITY) && (!p->world || j != r))
+            return -1;
+        for (int k = 0; k < n; k++) {
+            if (c[k] < 0)
+                return -1;
+            rows = c[k] + 1 > rows ? c[k] + 1 : rows;
+        }
+    }
+    if (p->world && p->R != p->J)
+        return -1;
+    for (int64_t j = 0; j < p->J; j++)
+        if (p->parents[j] >= j || p->parents[j] < -1)
+            return -1;
+    for (int64_t e = 0; e < p->M; e++)
+        if (p->ident[e] < 0 || p->ident[e] >= p->J)
+            return -1;
+    for (int64_t k = 0; k < 3 * p->N; k++) {
+        if (p->tcols[k] < -1)
+            return -1;
+        rows = p->tcols[k] + 1 > rows ? p->tcols[k] + 1 : rows;
+    }
+    p->rows = rows;
+    return 0;
+}
+
+size_t mr_plan_scratch(const mr_plan *p)
+{
+    return p->world ? (size_t)p->J * 4 * MR_PLAN_SUB : 0;
+}
+
+/* ---- the conversions: Q[i] for i < n from the feature rows ------------------------------------------------- */
+
+MR_INLINE void product(double ax, double ay, double az, double aw, double bx, double by, double bz, double bw,
+                       double *x, double *y, double *z, double *w)
+{
+    *x = aw * bx + ax * bw + ay * bz - az * by;
+    *y = aw * by - ax * bz + ay * bw + az * bx;
+    *z = aw * bz + ax * by - ay * bx + az * bw;
+    *w = aw * bw - ax * bx - ay * by - az * bz;
+}
+
+MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1, const double *MR_RESTRICT x2,
+                          double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
+                          double *MR_RESTRICT QW, ptrdiff_t n)
+{
+    for (ptrdiff_t i = 0; i < n; i++) {
+        double x = x0[i], y = x1[i], z = x2[i];
+        double theta2 = (x * x + y * y) + z * z;
+        double theta = sqrt(theta2);
+        double s, c;
+        mr_sincos(0.5 * theta, &s, &c);
+        /* sin(theta / 2) / theta, by its series below 1e-3 (no 0 / 0), as scipy does */
+        double ratio = s / theta;
+        double series = 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
+        double k = theta > 1e-3 ? ratio : series;
+        QX[i] = k * x;
+        QY[i] = k * y;
+        QZ[i] = k * z;
+        QW[i] = c;
+    }
+}
+
+MR_INLINE ptrdiff_t normalized(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1,
+                               const double *MR_RESTRICT x2, const double *MR_RESTRICT x3, double *MR_RESTRICT QX,
+                               double *MR_RESTRICT QY, double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
+{
+    ptrdiff_t zero = 0;
+    for (ptrdiff_t i = 0; i < n; i++) {
+        double x = x0[i], y = x1[i], z = x2[i], w = x3[i];
+        double norm = sqrt(((x * x + y * y) + z * z) + w * w);
+        QX[i] = x / norm;
+        QY[i] = y / norm;
+        QZ[i] = z / norm;
+        QW[i] = w / norm;
+        zero += ((norm != 0.0) & (norm < INFINITY)) ? 0 : 1;
+    }
+    return zero;
+}
+
+/* one factor of an Euler entry: Q = Q b, b the rotation by `half`'s double about axis (ex, ey, ez) */
+MR_INLINE void euler_factor(const double *MR_RESTRICT v, int degrees, double ex, double ey, double ez,
+                            double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
+                            double *MR_RESTRICT QW, ptrdiff_t n)
+{
+    if (degrees) {
+        for (ptrdiff_t i = 0; i < n; i++) {
+            double a = v[i];
+            double s, cs;
+            /* exact reduction to about [-360, 360] (Sterbenz), then the half angle in radians */
+            mr_sincos((a - 720.0 * floor(a * (1.0 / 720.0) + 0.5)) * (MR_PI / 360.0), &s, &cs);
+            double x, y, z, w;
+            product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, &x, &y, &z, &w);
+            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+        }
+    } else {
+        for (ptrdiff_t i = 0; i < n; i++) {
+            double s, cs;
+            mr_sincos(0.5 * v[i], &s, &cs);
+            double x, y, z, w;
+            product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, &x, &y, &z, &w);
+            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+        }
+    }
+}
+
+MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_RESTRICT QX, double *MR_RESTRICT QY,
+                            double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
+{
+    const double *MR_RESTRICT p0 = c[0] + a, *MR_RESTRICT p1 = c[1] + a, *MR_RESTRICT p2 = c[2] + a;
+    const double *MR_RESTRICT p3 = c[3] + a, *MR_RESTRICT p4 = c[4] + a, *MR_RESTRICT p5 = c[5] + a;
+    ptrdiff_t degenerate = 0;
+    for (ptrdiff_t i = 0; i < n; i++) {
+        double a1x = p0[i], a1y = p1[i], a1z = p2[i], a2x = p3[i], a2y = p4[i], a2z = p5[i];
+        double n1 = sqrt((a1x * a1x + a1y * a1y) + a1z * a1z);
+        double d = n1 > 0.0 ? n1 : 1.0;
+        double b1x = a1x / d, b1y = a1y / d, b1z = a1z / d;
+        double dot = (b1x * a2x + b1y * a2y) + b1z * a2z;
+        double u2x = a2x - dot * b1x, u2y = a2y - dot * b1y, u2z = a2z - dot * b1z;
+        double n2 = sqrt((u2x * u2x + u2y * u2y) + u2z * u2z);
+        double b2x = u2x / n2, b2y = u2y / n2, b2z = u2z / n2;
+        double b3x = b1y * b2z - b1z * b2y, b3y = b1z * b2x - b1x * b2z, b3z = b1x * b2y - b1y * b2x;
+        /* the columns b1, b2, b3 form the matrix m[row, col]; its quaternion as scipy's from_matrix: the largest
+         * of the trace and the diagonal picks the formula */
+        double m00 = b1x, m10 = b1y, m20 = b1z, m01 = b2x, m11 = b2y, m21 = b2z, m02 = b3x, m12 = b3y, m22 = b3z;
+        double trace = (m00 + m11) + m22;
+        int use_t = (trace >= m00) & (trace >= m11) & (trace >= m22);
+        int use_0 = !use_t & (m00 >= m11) & (m00 >= m22);
+        int use_1 = !use_t & !use_0 & (m11 >= m22);
+        double s21 = m21 + m12, d21 = m21 - m12;
+        double s02 = m02 + m20, d02 = m02 - m20;
+        double s10 = m10 + m01, d10 = m10 - m01;
+        double e0 = 1.0 - trace + 2.0 * m00, e1 = 1.0 - trace + 2.0 * m11, e2 = 1.0 - trace + 2.0 * m22;
+        double et = 1.0 + trace;
+        double x1 = use_1 ? s10 : s02;
+        double x0 = use_0 ? e0 : x1;
+        double x = use_t ? d21 : x0;
+        double y1 = use_1 ? e1 : s21;
+        double y0 = use_0 ? s10 : y1;
+        double y = use_t ? d02 : y0;
+        double z1 = use_1 ? s21 : e2;
+        double z0 = use_0 ? s02 : z1;
+        double z = use_t ? d10 : z0;
+        double w1 = use_1 ? d02 : d10;
+        double w0 = use_0 ? d21 : w1;
+        double w = use_t ? et : w0;
+        double norm = sqrt(((x * x + y * y) + z * z) + w * w);
+        norm = w < 0.0 ? -norm : norm;
+        QX[i] = x / norm;
+        QY[i] = y / norm;
+        QZ[i] = z / norm;
+        QW[i] = w / norm;
+        degenerate += ((n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < INFINITY)) ? 0 : 1;
+    }
+    /* where w is zero, the sign that makes the first non-zero component positive (scipy's canonical quaternion);
+     * q / -n is -(q / n) exactly, so this is the sign the formula would have chosen */
+    for (ptrdiff_t i = 0; i < n; i++) {
+        if (QW[i] == 0.0) {
+            double x = QX[i], y = QY[i], z = QZ[i];
+            if (x < 0.0 || (x == 0.0 && (y < 0.0 || (y == 0.0 && z < 0.0)))) {
+                QX[i] = -x; QY[i] = -y; QZ[i] = -z; QW[i] = -QW[i];
+            }
+        }
+    }
+    return degenerate;
+}
+
+/* ---- the kernel ---------------------------------------------------------------------------------------------- */
+
+MR_CLONES
+int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
+                int rot_f32, double *root, double *moved, double *G)
+{
+    const ptrdiff_t R = p->R, J = p->J, N = p->N, M = p->M;
+    double QX[MR_PLAN_SUB], QY[MR_PLAN_SUB], QZ[MR_PLAN_SUB], QW[MR_PLAN_SUB];
+    double *out64 = rot_f32 ? NULL : (double *)rot;
+    float *out32 = rot_f32 ? (float *)rot : NULL;
+    if (check_finite) {  /* every feature column the plan reads must be finite */
+        ptrdiff_t bad = 0;
+        for (ptrdiff_t r = 0; r < R; r++)
+            for (int k = 0; k < 6; k++) {
+                int64_t c = p->cols[6 * r + k];
+                if (c < 0)
+                    continue;
+                const double *x = X + c * ldx;
+                for (ptrdiff_t i = 0; i < count; i++)
+                    bad += fabs(x[i]) < INFINITY ? 0 : 1;
+            }
+        for (ptrdiff_t k = 0; k < 3 * N; k++) {
+            int64_t c = p->tcols[k];
+            if (c < 0)
+                continue;
+            const double *x = X + c * ldx;
+            for (ptrdiff_t i = 0; i < count; i++)
+                bad += fabs(x[i]) < INFINITY ? 0 : 1;
+        }
+        if (bad)
+            return MR_PLAN_NOT_FINITE;
+    }
+    ptrdiff_t zero = 0, degenerate = 0;
+    for (ptrdiff_t a = 0; a < count; a += MR_PLAN_SUB) {
+        ptrdiff_t n = count - a < MR_PLAN_SUB ? count - a : MR_PLAN_SUB;
+        for (ptrdiff_t r = 0; r < R; r++) {
+            int64_t kind = p->kinds[r], j = p->joints[r];
+            const int64_t *cc = p->cols + 6 * r;
+            const double *c[6];
+            for (int k = 0; k < 6; k++)
+                c[k] = cc[k] >= 0 ? X + cc[k] * ldx : NULL;
+            if (kind == MR_AXIS_ANGLE) {
+                axis_angle(c[0] + a, c[1] + a, c[2] + a, QX, QY, QZ, QW, n);
+            } else if (kind == MR_QUAT) {
+                zero += normalized(c[0] + a, c[1] + a, c[2] + a, c[3] + a, QX, QY, QZ, QW, n);
+            } else if (kind == MR_EULER || kind == MR_EULER_DEGREES) {
+                for (ptrdiff_t i = 0; i < n; i++) {
+                    QX[i] = 0.0; QY[i] = 0.0; QZ[i] = 0.0; QW[i] = 1.0;
+                }
+                for (int k = 0; k < 3; k++) {
+                    if (cc[k] < 0)
+                        break;
+                    int64_t axis = p->axes[3 * r + k];
+                    euler_factor(c[k] + a, kind == MR_EULER_DEGREES, axis == 0 ? 1.0 : 0.0, axis == 1 ? 1.0 : 0.0,
+                                 axis == 2 ? 1.0 : 0.0, QX, QY, QZ, QW, n);
+                }
+            } else if (kind == MR_ORTHO6D) {
+                degenerate += ortho6d(c, a, QX, QY, QZ, QW, n);
+            } else {  /* WORLD_QUAT, WORLD_IDENTITY: G_j = r / |r|, or G_parent; local = conj(G_parent) r */
+                int64_t par = p->parents[j];
+                double *gj = G + (size_t)j * 4 * MR_PLAN_SUB;
+                if (kind == MR_WORLD_QUAT) {
+                    zero += normalized(c[0] + a, c[1] + a, c[2] + a, c[3] + a, QX, QY, QZ, QW, n);
+                    for (ptrdiff_t i = 0; i < n; i++) {
+                        gj[i] = QX[i];
+                        gj[MR_PLAN_SUB + i] = QY[i];
+                        gj[2 * MR_PLAN_SUB + i] = QZ[i];
+                        gj[3 * MR_PLAN_SUB + i] = QW[i];
+                    }
+                    if (par >= 0) {
+                        const double *gp = G + (size_t)par * 4 * MR_PLAN_SUB;
+                        for (ptrdiff_t i = 0; i < n; i++) {
+                            double x, y, z, w;
+                            product(-gp[i], -gp[MR_PLAN_SUB + i], -gp[2 * MR_PLAN_SUB + i], gp[3 * MR_PLAN_SUB + i],
+                                    QX[i], QY[i], QZ[i], QW[i], &x, &y, &z, &w);
+                            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+                        }
+                    }
+                } else {
+                    const double *gp = par >= 0 ? G + (size_t)par * 4 * MR_PLAN_SUB : NULL;
+                    for (ptrdiff_t i = 0; i < n; i++) {
+                        QX[i] = 0.0; QY[i] = 0.0; QZ[i] = 0.0; QW[i] = 1.0;
+                        gj[i] = gp ? gp[i] : 0.0;
+                        gj[MR_PLAN_SUB + i] = gp ? gp[MR_PLAN_SUB + i] : 0.0;
+                        gj[2 * MR_PLAN_SUB + i] = gp ? gp[2 * MR_PLAN_SUB + i] : 0.0;
+                        gj[3 * MR_PLAN_SUB + i] = gp ? gp[3 * MR_PLAN_SUB + i] : 1.0;
+                    }
+                }
+            }
+            if (out32) {
+                float *o = out32 + ((size_t)a * J + j) * 4;
+                for (ptrdiff_t i = 0; i < n; i++, o += 4 * J) {
+                    o[0] = (float)QX[i]; o[1] = (float)QY[i]; o[2] = (float)QZ[i]; o[3] = (float)QW[i];
+                }
+            } else {
+                double *o = out64 + ((size_t)a * J + j) * 4;
+                for (ptrdiff_t i = 0; i < n; i++, o += 4 * J) {
+                    o[0] = QX[i]; o[1] = QY[i]; o[2] = QZ[i]; o[3] = QW[i];
+                }
+            }
+        }
+        for (ptrdiff_t i = a; i < a + n; i++) {
+            for (ptrdiff_t e = 0; e < M; e++) {
+                size_t at = ((size_t)i * J + p->ident[e]) * 4;
+                if (out32) {
+                    out32[at] = 0.0f; out32[at + 1] = 0.0f; out32[at + 2] = 0.0f; out32[at + 3] = 1.0f;
+                } else {
+                    out64[at] = 0.0; out64[at + 1] = 0.0; out64[at + 2] = 0.0; out64[at + 3] = 1.0;
+                }
+            }
+            for (ptrdiff_t k = 0; N > 0 && k < 3; k++) {
+                int64_t c = p->tcols[k];
+                root[i * 3 + k] = c >= 0 ? X[c * ldx + i] : p->tvals[k];
+            }
+            for (ptrdiff_t q = 0; q < N - 1; q++)
+                for (ptrdiff_t k = 0; k < 3; k++) {
+                    int64_t c = p->tcols[3 * (q + 1) + k];
+                    moved[(i * (N - 1) + q) * 3 + k] = c >= 0 ? X[c * ldx + i] : p->tvals[3 * (q + 1) + k];
+                }
+        }
+    }
+    if (zero)
+        return MR_PLAN_ZERO_QUAT;
+    if (degenerate)
+        return MR_PLAN_DEGENERATE_6D;
+    return MR_PLAN_OK;
+}
