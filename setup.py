@@ -19,6 +19,11 @@ EXTENSIONS = [
     Extension("motionrep._cplan", sources=["motionrep/_c/plan/plan.c", "motionrep/_c/plan/module.c"],
               include_dirs=INCLUDE + ["motionrep/_c/plan"], depends=["motionrep/_c/plan/plan.h"],
               extra_compile_args=FLAGS),
+    # the transform payload decoder: mrtransform.h/.c (no Python; an engine can embed it) and its binding
+    Extension("motionrep_transform._cdecode",
+              sources=["plugins/motionrep_transform/_c/mrtransform.c", "plugins/motionrep_transform/_c/module.c"],
+              include_dirs=INCLUDE + ["plugins/motionrep_transform/_c"],
+              depends=["plugins/motionrep_transform/_c/mrtransform.h"], extra_compile_args=FLAGS),
 ]
 
 setup(ext_modules=EXTENSIONS)

@@ -14,10 +14,11 @@ Encoding (``specs/codecs.md`` has the full description):
    neighbour's change pushed over the bound are lowered until all pass);
 5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
 
-Decoding (:class:`TransformDecoder`, prepared once per payload): parse and range-decode, multiply by the steps,
-inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames): in
-numpy (:func:`interpolate_rows`), or in one compiled loop for the runtime decoder (the same arithmetic, so the
-same bits).
+Decoding (:class:`TransformDecoder`, prepared once per payload) is the C library ``_c/mrtransform.h`` / ``.c``
+(no Python in it; ``_cdecode`` is its binding): parse and range-decode, multiply by the steps, inverse wavelet;
+then each call samples the decoded frames (linear interpolation for times between frames, the arithmetic of
+:func:`interpolate_rows`), for the runtime decoder through its C sampler.  The encoder measures every candidate
+with that same decoder (:func:`reconstruct`), so the bound it measured is the bound of what decodes.
 """
 
 from __future__ import annotations
@@ -32,10 +33,9 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
 from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
-from motionrep.jit import jit
 
-from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack, unpack
-from ._wavelet import coefficient_frames, forward, inverse, num_levels
+from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack
+from ._wavelet import coefficient_frames, forward, level_sizes, num_levels
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
 
@@ -106,10 +106,6 @@ class _Plan:
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
-        return self._quantise_with_steps(region_exp, rounding)[0]
-
-    def _quantise_with_steps(self, region_exp: NDArray[np.int64], rounding: float
-                             ) -> tuple[list[NDArray[np.int64]], list[NDArray[np.float64]]]:
         out = []
         steps = steps_of(self.exponents(region_exp))
         for c, step in zip(self.coefficients, steps):
@@ -118,13 +114,12 @@ class _Plan:
                 raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
                                               "max_error", None, None), "max_error")
             out.append((np.sign(c) * a).astype(np.int64))
-        return out, steps
+        return out
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
-        """``(F, D)`` features the payload of region exponents ``k`` decodes to: ``reconstruct(self.quantised(k,
-        rounding))`` without computing the steps twice (the same operations, so the same bits)."""
-        q, steps = self._quantise_with_steps(region_exp, rounding)
-        return _synthesised([c * step for c, step in zip(q, steps)], self.levels)
+        """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
+        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
+        return reconstruct(self.quantised(region_exp, rounding))
 
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
@@ -173,27 +168,24 @@ def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
 
 
 def reconstruct(q: Quantised) -> NDArray[np.float64]:
-    """``(F, D)`` features of the frames of a quantised payload."""
-    levels = num_levels(q.num_frames)
-    region_of = [np.minimum(f // q.region_frames, q.region_exponents.size - 1)
-                 for f in coefficient_frames(q.num_frames, levels)]
-    spans = [levels] + list(range(levels, 0, -1))
-    reach = [int(math.ceil(_REACH * 2 ** j / q.region_frames)) for j in spans]
-    exps = coefficient_exponents(q.region_exponents, region_of, reach, q.feature_exponents)
-    if any(c.shape != e.shape for c, e in zip(q.coefficients, exps)) or len(exps) != len(q.coefficients):
+    """``(F, D)`` features of the frames of a quantised payload: dequantised and transformed back by the C
+    decoder (``mrt_reconstruct``), a read-only view.
+
+    Raises:
+        PayloadError: for coefficient arrays that do not fit the clip, a step out of range, or values that are
+            not finite.
+    """
+    from ._cdecode import reconstruct as c_reconstruct
+
+    coefficients = [np.asarray(c, dtype=np.int64) for c in q.coefficients]
+    sizes = level_sizes(q.num_frames, num_levels(q.num_frames))
+    if [c.shape for c in coefficients] != [(n, q.num_features) for n in sizes]:
         raise PayloadError("transform payload: coefficient arrays do not fit the clip")
-    if any(e.size and int(np.abs(e).max()) > MAX_EXPONENT for e in exps):
-        raise PayloadError("transform payload: a step is out of range")
-    with np.errstate(all="ignore"):  # a crafted step overflows to inf: refused below, one line, no warning
-        return _synthesised([c * step for c, step in zip(q.coefficients, steps_of(exps))], levels)
-
-
-def _synthesised(values: list[NDArray[np.float64]], levels: int) -> NDArray[np.float64]:
-    """The inverse wavelet of dequantised coefficients, checked to be finite."""
-    out = inverse(values) if levels else values[0]
-    if not np.all(np.isfinite(out)):
-        raise PayloadError("transform payload: the coefficients decode to values that are not finite")
-    return out
+    frames = c_reconstruct(q.num_frames, q.num_features, q.region_frames,
+                           np.ascontiguousarray(q.feature_exponents, dtype=np.int64),
+                           np.ascontiguousarray(q.region_exponents, dtype=np.int64),
+                           np.ascontiguousarray(np.concatenate(coefficients, axis=0)))
+    return np.asarray(frames).T
 
 
 def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[np.float64] | None = None
@@ -219,58 +211,45 @@ def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[n
     return out
 
 
-@jit
-def _sample_kernel(times, out, rows_t):
-    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = :func:`interpolate_rows` of the frames at
-    ``times (T,)``, given transposed, ``rows_t (D, F)``; value for value (a time on a frame copies its row, a time
-    between frames ``r_i + (r_(i+1) - r_i) a``).  Feature by feature, so the writes are contiguous."""
-    D, F = rows_t.shape
-    T = times.shape[0]
-    first = np.empty(T, np.int64)
-    second = np.empty(T, np.int64)
-    frac = np.empty(T)
-    for i in range(T):
-        t = min(max(times[i], 0.0), 1.0)
-        j, a = 0, 0.0
-        if F > 1:
-            pos = t * (F - 1)
-            j = min(np.int64(np.floor(pos)), F - 1)
-            a = pos - j
-        first[i], second[i], frac[i] = j, min(j + 1, F - 1), a
-    for d in range(D):
-        r = rows_t[d]
-        for i in range(T):
-            v = r[first[i]]
-            w = v + (r[second[i]] - v) * frac[i]
-            out[d, i] = v if frac[i] == 0.0 else w  # on a frame, its value exactly (v + 0 could turn -0 to 0)
-
-
 class TransformDecoder:
-    """A payload prepared for decoding many times: range-decoded and transformed back once, to the ``(F, D)``
-    features of its frames; each call only samples them (:func:`interpolate_rows`).
+    """A payload prepared for decoding many times: range-decoded and transformed back once by the C decoder, to
+    the ``(F, D)`` features of its frames (:attr:`frames`, read-only); each call only samples them (the values of
+    :func:`interpolate_rows`).
 
     Attributes:
-        width, kernel, kernel_args: the compiled sampler for the runtime decoder (``Codec.decoder``):
-            ``kernel(times, out, *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
+        width, kernel, kernel_args: the sampler for the runtime decoder (``Codec.decoder``): ``kernel(times, out,
+            *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
+        sampler: the same sampler for C callers (``motionrep.open``; ``motionrep/_c/include/motionrep/sampler.h``).
 
     Raises:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
     """
 
-    def __init__(self, payload: Payload):
+    def __init__(self, payload: Payload, version: int = 1):
+        from . import _cdecode
+
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        frames_t = np.ascontiguousarray(reconstruct(unpack(data.tobytes())).T, dtype=np.float64)
-        frames_t.flags.writeable = False
-        self.frames = frames_t.T  # (F, D), stored feature-major for the compiled sampler
+        self._decoded = _cdecode.decode(np.ascontiguousarray(data), version)
+        self.frames = np.asarray(self._decoded).T  # (F, D), stored feature-major for the sampler
         self.width = self.frames.shape[1]
-        self.kernel = _sample_kernel
-        self.kernel_args = (frames_t,)
+        self.kernel = _cdecode.sample
+        self.kernel_args = (self._decoded,)
+
+    @property
+    def sampler(self) -> Any:
+        """The C sampler (a capsule) that ``motionrep.open`` calls for each block of poses."""
+        return self._decoded.sampler
 
     def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
-        return interpolate_rows(self.frames, times, out)
+        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+        rows = np.empty((t.size, self.width)) if out is None or not out.flags.c_contiguous else out
+        self._decoded.rows(t, rows)
+        if out is not None and rows is not out:
+            out[...] = rows
+        return rows if out is None else out
 
 
 def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
@@ -433,7 +412,7 @@ class TransformCodec(Codec):
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 
     def decoder(self, payload: Payload) -> TransformDecoder:
-        return TransformDecoder(payload)
+        return TransformDecoder(payload, self.payload_version(payload))
 
     def decode(self, payload: Payload, times: ArrayLike) -> NDArray[np.float64]:
-        return TransformDecoder(payload)(times)
+        return self.decoder(payload)(times)
