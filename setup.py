@@ -24,6 +24,9 @@ EXTENSIONS = [
               sources=["plugins/motionrep_transform/_c/mrtransform.c", "plugins/motionrep_transform/_c/module.c"],
               include_dirs=INCLUDE + ["plugins/motionrep_transform/_c"],
               depends=["plugins/motionrep_transform/_c/mrtransform.h"], extra_compile_args=FLAGS),
+    # the svd codec's decoder
+    Extension("motionrep_svd._csvd", sources=["plugins/motionrep_svd/_c/module.c"], include_dirs=INCLUDE,
+              extra_compile_args=FLAGS),
 ]
 
 setup(ext_modules=EXTENSIONS)

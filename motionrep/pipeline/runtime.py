@@ -119,10 +119,10 @@ class Clip:
             self._plan: Any = plan.with_fixed_axes(fixed, values).compiled()
         else:
             self._plan = None
-        from .._cplan import Runtime
+        from .._cplan import SUB_BLOCK, Runtime
 
         # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one
-        self._runtime = Runtime(self._plan, sampler, width, BLOCK) if sampler is not None else None
+        self._runtime = Runtime(self._plan, sampler, width, SUB_BLOCK) if sampler is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)
         self._X = np.empty((width, BLOCK))  # one block's features, feature-major (see Codec.decoder)
         self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),

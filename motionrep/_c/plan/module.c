@@ -143,10 +143,17 @@ static PyObject *Plan_run(PlanObject *self, PyObject *args)
         return NULL;
     }
     int status;
+    double *stage = NULL;
+    if (count >= MR_PLAN_STREAM && !o.f32 && !(stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)p->J))) {
+        release_outputs(&o);
+        PyBuffer_Release(&bx);
+        return PyErr_NoMemory();
+    }
     Py_BEGIN_ALLOW_THREADS
     status = mr_plan_run(p, bx.buf, bx.shape[1], count, check_finite, o.rot.buf, o.f32, o.root.buf, o.moved.buf,
-                         self->scratch);
+                         self->scratch, stage);
     Py_END_ALLOW_THREADS
+    free(stage);
     release_outputs(&o);
     PyBuffer_Release(&bx);
     return PyLong_FromLong(status);
@@ -178,6 +185,7 @@ typedef struct {
     const mr_sampler *sampler;
     Py_ssize_t width, block;
     double *X;              /* one block's features, feature-major (width, block) */
+    double *stage;          /* one sub-block's rotations, streamed out for large batches (mr_plan_run) */
 } RuntimeObject;
 
 static void Runtime_dealloc(RuntimeObject *self)
@@ -185,6 +193,7 @@ static void Runtime_dealloc(RuntimeObject *self)
     Py_XDECREF(self->plan);
     Py_XDECREF(self->capsule);
     free(self->X);
+    free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -226,6 +235,10 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
     if (plan != Py_None) {
         Py_INCREF(plan);
         self->plan = (PlanObject *)plan;
+        if (!(self->stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)(self->plan->plan.J ? self->plan->plan.J : 1)))) {
+            PyErr_NoMemory();
+            return -1;
+        }
     }
     return 0;
 }
@@ -236,6 +249,7 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, Ou
     const mr_plan *p = &self->plan->plan;
     const mr_sampler *s = self->sampler;
     size_t rstride = (size_t)p->J * 4 * (o->f32 ? sizeof(float) : sizeof(double));
+    double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;
     for (Py_ssize_t a = 0; a < count; a += self->block) {
         Py_ssize_t m = count - a < self->block ? count - a : self->block;
         int e = s->sample(s->state, u + a, (size_t)m, self->X, (size_t)self->block);
@@ -243,7 +257,8 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, Ou
             return 100 + e;
         int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)o->rot.buf + a * rstride, o->f32,
                                  p->N > 0 ? (double *)o->root.buf + 3 * a : NULL,
-                                 p->N > 1 ? (double *)o->moved.buf + 3 * (p->N - 1) * a : NULL, self->plan->scratch);
+                                 p->N > 1 ? (double *)o->moved.buf + 3 * (p->N - 1) * a : NULL, self->plan->scratch,
+                                 stage);
         if (status)
             return status;
     }

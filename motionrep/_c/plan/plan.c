@@ -7,6 +7,9 @@
 
 #include <math.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "motionrep/mrkernels.h"
 
@@ -231,12 +234,16 @@ MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_REST
 
 MR_CLONES
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
-                int rot_f32, double *root, double *moved, double *G)
+                int rot_f32, double *root, double *moved, double *G, double *stage)
 {
     const ptrdiff_t R = p->R, J = p->J, N = p->N, M = p->M;
     double QX[MR_PLAN_SUB], QY[MR_PLAN_SUB], QZ[MR_PLAN_SUB], QW[MR_PLAN_SUB];
-    double *out64 = rot_f32 ? NULL : (double *)rot;
+    double *final64 = rot_f32 ? NULL : (double *)rot;
     float *out32 = rot_f32 ? (float *)rot : NULL;
+    /* with a stage: each sub-block's float64 rotations are gathered there, then streamed to memory past the cache
+     * (a large batch: no cache line of it is read before it is written; only when the plan writes every joint) */
+    int stream = !rot_f32 && stage && ((uintptr_t)rot & 15) == 0 && p->R + p->M == p->J;  /* every joint written */
+    double *out64 = final64;
     if (check_finite) {  /* every feature column the plan reads must be finite */
         ptrdiff_t bad = 0;
         for (ptrdiff_t r = 0; r < R; r++)
@@ -262,6 +269,8 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
     ptrdiff_t zero = 0, degenerate = 0;
     for (ptrdiff_t a = 0; a < count; a += MR_PLAN_SUB) {
         ptrdiff_t n = count - a < MR_PLAN_SUB ? count - a : MR_PLAN_SUB;
+        if (stream)
+            out64 = stage - (size_t)a * J * 4;
         for (ptrdiff_t r = 0; r < R; r++) {
             int64_t kind = p->kinds[r], j = p->joints[r];
             const int64_t *cc = p->cols + 6 * r;
@@ -323,7 +332,18 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                 }
             } else {
                 double *o = out64 + ((size_t)a * J + j) * 4;
-                for (ptrdiff_t i = 0; i < n; i++, o += 4 * J) {
+                ptrdiff_t i = 0;
+#if defined(__SSE2__)
+                for (; i + 2 <= n; i += 2, o += 8 * J) {  /* two poses: x y, z w of each from the four arrays */
+                    __m128d x = _mm_loadu_pd(QX + i), y = _mm_loadu_pd(QY + i);
+                    __m128d z = _mm_loadu_pd(QZ + i), w = _mm_loadu_pd(QW + i);
+                    _mm_storeu_pd(o, _mm_unpacklo_pd(x, y));
+                    _mm_storeu_pd(o + 2, _mm_unpacklo_pd(z, w));
+                    _mm_storeu_pd(o + 4 * J, _mm_unpackhi_pd(x, y));
+                    _mm_storeu_pd(o + 4 * J + 2, _mm_unpackhi_pd(z, w));
+                }
+#endif
+                for (; i < n; i++, o += 4 * J) {
                     o[0] = QX[i]; o[1] = QY[i]; o[2] = QZ[i]; o[3] = QW[i];
                 }
             }
@@ -347,7 +367,21 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                     moved[(i * (N - 1) + q) * 3 + k] = c >= 0 ? X[c * ldx + i] : p->tvals[3 * (q + 1) + k];
                 }
         }
+        if (stream) {
+            double *dst = final64 + (size_t)a * J * 4;
+            size_t len = (size_t)n * J * 4;
+#if defined(__SSE2__)
+            for (size_t e = 0; e < len; e += 2)
+                _mm_stream_pd(dst + e, _mm_loadu_pd(stage + e));
+#else
+            memcpy(dst, stage, len * sizeof(double));
+#endif
+        }
     }
+#if defined(__SSE2__)
+    if (stream)
+        _mm_sfence();
+#endif
     if (zero)
         return MR_PLAN_ZERO_QUAT;
     if (degenerate)

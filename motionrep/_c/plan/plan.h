@@ -33,8 +33,13 @@ size_t mr_plan_scratch(const mr_plan *plan);
 /* Decode `count` poses from feature-major X (feature d of pose i at X[d * ldx + i], p->rows rows) into rot
  * (count, J, 4) float64 (or float32 when rot_f32), root (count, 3) and moved (count, N - 1, 3) (unused when N is 0).
  * `scratch` holds mr_plan_scratch(plan) doubles (NULL when that is 0).  check_finite: refuse features the plan
- * reads that are NaN or infinite.  Returns an MR_PLAN_* status (everything is written whatever it is). */
+ * reads that are NaN or infinite.  `stage` (MR_PLAN_SUB x J x 4 doubles, or NULL): float64 rotations are gathered
+ * there and streamed to memory with non-temporal stores, for batches larger than the cache (the same values).
+ * Returns an MR_PLAN_* status (everything is written whatever it is). */
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
-                int rot_f32, double *root, double *moved, double *scratch);
+                int rot_f32, double *root, double *moved, double *scratch, double *stage);
+
+/* poses from which a batch's float64 rotations are streamed past the cache */
+#define MR_PLAN_STREAM 8192
 
 #endif

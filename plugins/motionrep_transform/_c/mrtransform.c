@@ -846,8 +846,9 @@ int mrt_decode(const uint8_t *data, size_t size, int version, mrt_frames *out, m
 
 /* ---- sampling ------------------------------------------------------------------------------------------------ */
 
-/* frame j, its successor and the fraction between them of each time, as motionrep_transform's sampler */
-static void positions(uint64_t F, const double *times, size_t count, uint64_t *first, uint64_t *second,
+/* frame j, its successor and the fraction between them of each time, as motionrep_transform's sampler (frame
+ * indices below 2^32: F * D values fit in memory) */
+static void positions(uint64_t F, const double *times, size_t count, int32_t *first, int32_t *second,
                       double *frac)
 {
     for (size_t i = 0; i < count; i++) {
@@ -863,43 +864,48 @@ static void positions(uint64_t F, const double *times, size_t count, uint64_t *f
             j = j < F - 1 ? j : F - 1;
             a = pos - (double)j;
         }
-        first[i] = j;
-        second[i] = j + 1 < F - 1 ? j + 1 : F - 1;
+        first[i] = (int32_t)j;
+        second[i] = (int32_t)(j + 1 < F - 1 ? j + 1 : F - 1);
         frac[i] = a;
+    }
+}
+
+/* o[i] = the value between r[j0[i]] and r[j1[i]] at fraction fr[i] (exactly r[j0[i]] at fraction 0) */
+static inline void lerp_gather(const double *MRT_RESTRICT r, const int32_t *MRT_RESTRICT j0,
+                               const int32_t *MRT_RESTRICT j1, const double *MRT_RESTRICT fr, double *MRT_RESTRICT o,
+                               size_t m)
+{
+    for (size_t i = 0; i < m; i++) {
+        double v = r[j0[i]], u = r[j1[i]];
+        double w = v + (u - v) * fr[i];
+        o[i] = fr[i] == 0.0 ? v : w;  /* on a frame, its value exactly (v + 0 could turn -0 to 0) */
     }
 }
 
 MRT_CLONES
 void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
 {
-    uint64_t first[TIMES], second[TIMES];
+    int32_t first[TIMES], second[TIMES];
     double frac[TIMES];
     for (size_t a = 0; a < count; a += TIMES) {
         size_t m = count - a < TIMES ? count - a : TIMES;
         positions(f->frames, times + a, m, first, second, frac);
-        for (uint64_t d = 0; d < f->features; d++) {
-            const double *r = f->values + d * f->frames;
-            double *o = out + d * ldo + a;
-            for (size_t i = 0; i < m; i++) {
-                double v = r[first[i]];
-                double w = v + (r[second[i]] - v) * frac[i];
-                o[i] = frac[i] == 0.0 ? v : w;  /* on a frame, its value exactly (v + 0 could turn -0 to 0) */
-            }
-        }
+        for (uint64_t d = 0; d < f->features; d++)
+            lerp_gather(f->values + d * f->frames, first, second, frac, out + d * ldo + a, m);
     }
 }
 
 MRT_CLONES
 void mrt_sample_rows(const mrt_frames *f, const double *times, size_t count, double *out)
 {
-    uint64_t first[TIMES], second[TIMES];
+    int32_t first[TIMES], second[TIMES];
     double frac[TIMES];
     uint64_t D = f->features, F = f->frames;
     for (size_t a = 0; a < count; a += TIMES) {
         size_t m = count - a < TIMES ? count - a : TIMES;
         positions(F, times + a, m, first, second, frac);
         for (size_t i = 0; i < m; i++) {
-            double *o = out + (a + i) * D;
+            double *MRT_RESTRICT o = out + (a + i) * D;
             const double *r0 = f->values + first[i], *r1 = f->values + second[i];
             double fr = frac[i];
             for (uint64_t d = 0; d < D; d++) {

@@ -1,0 +1,217 @@
+/* motionrep_svd._csvd: the svd codec's decoder in C.
+ *
+ *   Decoder(coefficients, mean, basis_t, basis)   the prepared arrays, all float32 (payload version 2) or all
+ *                                                 float64 (version 1): coefficients (F, r), mean (D,),
+ *                                                 basis_t (D, r), basis (r, D), C-contiguous
+ *   Decoder.sampler                               the C sampler motionrep.open calls (motionrep/sampler.h)
+ *   sample(times, out, decoder)                   the features at times (T,) into a feature-major out (D, >= T)
+ *
+ * The arithmetic of the numba kernel it replaces, in the arrays' dtype: the coefficient rows interpolated linearly
+ * at each time (clamped to [0, 1]), then mean + c(t) @ basis, each sum in a fixed order (mean first, then the
+ * components in order; motionrep/mrkernels.h), so a time decodes to the same bits alone or in a batch. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <stdlib.h>
+
+#include "motionrep/mrkernels.h"
+#include "motionrep/pybuf.h"
+#include "motionrep/sampler.h"
+
+#define ROWS 64  /* times decoded together (the block's coefficients and features stay in the CPU cache) */
+
+typedef struct {
+    size_t F, r, D;
+    const void *coeff, *mean, *basis_t, *basis;
+} svd_arrays;
+
+/* one kernel per dtype: T the arithmetic's type */
+#define SVD_KERNEL(NAME, T, AFFINE_BLOCK, AFFINE_ONE)                                                              \
+    MR_CLONES static int NAME(const void *state, const double *times, size_t count, double *out, size_t ldo)       \
+    {                                                                                                              \
+        const svd_arrays *s = state;                                                                               \
+        const size_t F = s->F, r = s->r, D = s->D;                                                                 \
+        const T *coeff = s->coeff, *mean = s->mean, *basis_t = s->basis_t, *basis = s->basis;                      \
+        T *C = malloc(sizeof(T) * ((r ? r : 1) * ROWS + D * ROWS + r + D + 1));                                    \
+        if (!C)                                                                                                    \
+            return 1;                                                                                              \
+        T *Y = C + (r ? r : 1) * ROWS, *c1 = Y + D * ROWS, *y1 = c1 + r;                                           \
+        for (size_t a = 0; a < count; a += ROWS) {                                                                 \
+            size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
+            for (size_t i = 0; i < m; i++) {                                                                       \
+                double t = MR_PYMIN(MR_PYMAX(times[a + i], 0.0), 1.0);                                             \
+                t = t != t ? 0.0 : t; /* NaN (never from motionrep): the first frame */                            \
+                double pos = t * (double)(F - 1);                                                                  \
+                int64_t last = F >= 2 ? (int64_t)F - 2 : 0, j = (int64_t)floor(pos);                              \
+                j = j < last ? j : last;                                                                           \
+                T frac = (T)(pos - (double)j);                                                                     \
+                T rest = (T)1.0 - frac;                                                                            \
+                size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
+                const T *r0 = coeff + (size_t)j * r, *r1 = coeff + k1 * r;                                         \
+                for (size_t k = 0; k < r; k++)                                                                     \
+                    C[k * ROWS + i] = r0[k] * rest + r1[k] * frac;                                                 \
+            }                                                                                                      \
+            if (m == 1) { /* one time: the same sums, vectorised over the features */                              \
+                for (size_t k = 0; k < r; k++)                                                                     \
+                    c1[k] = C[k * ROWS];                                                                           \
+                AFFINE_ONE(basis, (ptrdiff_t)D, (ptrdiff_t)r, mean, c1, y1);                                       \
+                for (size_t d = 0; d < D; d++)                                                                     \
+                    out[d * ldo + a] = (double)y1[d];                                                              \
+                continue;                                                                                          \
+            }                                                                                                      \
+            AFFINE_BLOCK(basis_t, (ptrdiff_t)D, (ptrdiff_t)r, mean, C, ROWS, Y, ROWS, (ptrdiff_t)m);               \
+            for (size_t d = 0; d < D; d++)                                                                         \
+                for (size_t i = 0; i < m; i++)                                                                     \
+                    out[d * ldo + a + i] = (double)Y[d * ROWS + i];                                                \
+        }                                                                                                          \
+        free(C);                                                                                                   \
+        return 0;                                                                                                  \
+    }
+
+SVD_KERNEL(sample_f32, float, mr_affine_block_f32, mr_affine_one_f32)
+SVD_KERNEL(sample_f64, double, mr_affine_block_f64, mr_affine_one_f64)
+
+/* ---- Decoder -------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    Py_buffer views[4];
+    svd_arrays arrays;
+    mr_sampler sampler;
+} DecoderObject;
+
+static void Decoder_dealloc(DecoderObject *self)
+{
+    for (int k = 0; k < 4; k++)
+        if (self->views[k].obj)
+            PyBuffer_Release(&self->views[k]);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
+{
+    PyObject *o[4];
+    static char *names[] = {"coefficients", "mean", "basis_t", "basis", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOO", names, &o[0], &o[1], &o[2], &o[3]))
+        return -1;
+    if (self->views[0].obj) {
+        PyErr_SetString(PyExc_TypeError, "Decoder is initialised once");
+        return -1;
+    }
+    Py_buffer probe;
+    if (PyObject_GetBuffer(o[1], &probe, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    char code = mr_format_is(&probe, 'f') ? 'f' : 'd';
+    PyBuffer_Release(&probe);
+    Py_ssize_t any2[2] = {-1, -1}, any1[1] = {-1};
+    static const char *labels[4] = {"coefficients", "mean", "basis_t", "basis"};
+    for (int k = 0; k < 4; k++)
+        if (mr_get_buffer(o[k], &self->views[k], code, k == 1 ? 1 : 2, k == 1 ? any1 : any2, 0, labels[k]) < 0)
+            return -1;
+    Py_ssize_t F = self->views[0].shape[0], r = self->views[0].shape[1], D = self->views[1].shape[0];
+    if (F < 1 || self->views[2].shape[0] != D || self->views[2].shape[1] != r || self->views[3].shape[0] != r
+        || self->views[3].shape[1] != D) {
+        PyErr_SetString(PyExc_ValueError, "inconsistent svd arrays");
+        return -1;
+    }
+    self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, self->views[1].buf,
+                                self->views[2].buf, self->views[3].buf};
+    self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays};
+    return 0;
+}
+
+static void capsule_release(PyObject *capsule)
+{
+    Py_XDECREF((PyObject *)PyCapsule_GetContext(capsule));
+}
+
+static PyObject *Decoder_sampler(DecoderObject *self, void *closure)
+{
+    (void)closure;
+    if (!self->views[0].obj) {
+        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
+        return NULL;
+    }
+    PyObject *capsule = PyCapsule_New(&self->sampler, MR_SAMPLER_CAPSULE, capsule_release);
+    if (!capsule)
+        return NULL;
+    Py_INCREF(self);
+    if (PyCapsule_SetContext(capsule, self) < 0) {
+        Py_DECREF(self);
+        Py_DECREF(capsule);
+        return NULL;
+    }
+    return capsule;
+}
+
+static PyGetSetDef Decoder_getset[] = {
+    {"sampler", (getter)Decoder_sampler, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
+    {NULL, NULL, NULL, NULL, NULL}};
+
+static PyTypeObject DecoderType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "motionrep_svd._csvd.Decoder",
+    .tp_basicsize = sizeof(DecoderObject),
+    .tp_dealloc = (destructor)Decoder_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Decoder(coefficients, mean, basis_t, basis): an svd payload's arrays prepared for decoding.",
+    .tp_getset = Decoder_getset,
+    .tp_init = (initproc)Decoder_init,
+    .tp_new = PyType_GenericNew,
+};
+
+static PyObject *py_sample(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    PyObject *ot, *oo, *od;
+    if (!PyArg_ParseTuple(args, "OOO!", &ot, &oo, &DecoderType, &od))
+        return NULL;
+    DecoderObject *dec = (DecoderObject *)od;
+    if (!dec->views[0].obj) {
+        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
+        return NULL;
+    }
+    Py_buffer bt, bo;
+    Py_ssize_t any[1] = {-1}, so[2] = {(Py_ssize_t)dec->arrays.D, -1};
+    if (mr_get_buffer(ot, &bt, 'd', 1, any, 0, "times") < 0)
+        return NULL;
+    if (mr_get_buffer(oo, &bo, 'd', 2, so, 1, "out") < 0 || bo.shape[1] < bt.shape[0]) {
+        if (bo.obj)
+            PyBuffer_Release(&bo);
+        else
+            PyErr_Clear();
+        PyBuffer_Release(&bt);
+        PyErr_SetString(PyExc_ValueError, "out must be a float64 array of shape (D, >= T)");
+        return NULL;
+    }
+    int e;
+    Py_BEGIN_ALLOW_THREADS
+    e = dec->sampler.sample(&dec->arrays, bt.buf, (size_t)bt.shape[0], bo.buf, (size_t)bo.shape[1]);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&bt);
+    PyBuffer_Release(&bo);
+    if (e)
+        return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef functions[] = {
+    {"sample", py_sample, METH_VARARGS, "sample(times, out, decoder): the features at times, feature-major"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "motionrep_svd._csvd", "The svd codec's decoder in C.", -1,
+                                    functions};
+
+PyMODINIT_FUNC PyInit__csvd(void)
+{
+    if (PyType_Ready(&DecoderType) < 0)
+        return NULL;
+    PyObject *m = PyModule_Create(&module);
+    if (!m)
+        return NULL;
+    Py_INCREF(&DecoderType);
+    if (PyModule_AddObject(m, "Decoder", (PyObject *)&DecoderType) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}
