@@ -27,6 +27,9 @@ EXTENSIONS = [
     # the svd codec's decoder
     Extension("motionrep_svd._csvd", sources=["plugins/motionrep_svd/_c/module.c"], include_dirs=INCLUDE,
               extra_compile_args=FLAGS),
+    # the Fourier codecs' network decoder
+    Extension("motionrep_fourier._cfourier", sources=["plugins/motionrep_fourier/_c/module.c"], include_dirs=INCLUDE,
+              extra_compile_args=FLAGS),
 ]
 
 setup(ext_modules=EXTENSIONS)

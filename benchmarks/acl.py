@@ -386,7 +386,7 @@ def speed(args: argparse.Namespace) -> None:
         def sample_all():
             for a in range(0, u.size, BLOCK):
                 if kernel is not None:  # the compiled sampler, as motionrep.open calls it
-                    kernel.dispatcher(u[a:a + BLOCK], block, *decoder.kernel_args)
+                    getattr(kernel, "dispatcher", kernel)(u[a:a + BLOCK], block, *decoder.kernel_args)
                 else:
                     decoder(u[a:a + BLOCK])
 

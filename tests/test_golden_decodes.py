@@ -27,3 +27,20 @@ FILES = json.loads((GOLDEN / "golden.json").read_text())["files"]
 def test_decodes_are_the_stored_bits(name):
     assert make_golden.decodes((GOLDEN / f"{name}.mrc").read_bytes()) == FILES[name]
 
+
+
+def test_decoding_imports_no_numba():
+    """Every decoder of the files above (codec decoders, the pose plan, motionrep.open, decompress) runs without
+    numba: decoding does not import it (issue 24)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, importlib.util\n"
+            f"spec = importlib.util.spec_from_file_location('g', {str(GOLDEN / 'make_golden.py')!r})\n"
+            "g = importlib.util.module_from_spec(spec); spec.loader.exec_module(g)\n"
+            f"for name in {sorted(FILES)!r}:\n"
+            f"    g.decodes(open({str(GOLDEN)!r} + '/' + name + '.mrc', 'rb').read())\n"
+            "print('numba' in sys.modules)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"

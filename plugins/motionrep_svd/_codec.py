@@ -24,6 +24,8 @@ from motionrep.plugin.codec import (Codec, CompiledDecoder, EncodeContext, Paylo
                              check_info_numbers)
 from motionrep.errors import BoundNotMetError, ParameterError, naming
 
+from . import _csvd
+
 __all__ = ["SVDCodec", "SVDParams", "SVDDecoder"]
 
 _DTYPES = {"float32": np.float32, "float16": np.float16}
@@ -152,16 +154,13 @@ class SVDDecoder(CompiledDecoder):
     """
 
     def __init__(self, arrays, dtype: type = np.float32):
-        from . import _csvd
-
         mean, coeff, basis = (np.asarray(arrays[k]) for k in ("mean", "coefficients", "basis"))
         if mean.ndim != 1 or coeff.ndim != 2 or basis.shape != (coeff.shape[1], mean.shape[0]) or coeff.shape[0] < 1:
             raise ValueError(f"inconsistent svd payload shapes: mean {mean.shape}, coefficients {coeff.shape}, "
                              f"basis {basis.shape}")
         self.width, self.dtype = mean.shape[0], np.dtype(dtype)
-        basis = np.ascontiguousarray(basis, dtype=dtype)
         self._decoder = _csvd.Decoder(np.ascontiguousarray(coeff, dtype=dtype), np.ascontiguousarray(mean, dtype=dtype),
-                                      np.ascontiguousarray(basis.T), basis)
+                                      np.ascontiguousarray(basis, dtype=dtype))
         self.kernel = _csvd.sample
         self.kernel_args = (self._decoder,)
 

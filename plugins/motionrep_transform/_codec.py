@@ -34,6 +34,7 @@ from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_w
 from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 
+from . import _cdecode
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack
 from ._wavelet import coefficient_frames, forward, level_sizes, num_levels
 
@@ -175,13 +176,11 @@ def reconstruct(q: Quantised) -> NDArray[np.float64]:
         PayloadError: for coefficient arrays that do not fit the clip, a step out of range, or values that are
             not finite.
     """
-    from ._cdecode import reconstruct as c_reconstruct
-
     coefficients = [np.asarray(c, dtype=np.int64) for c in q.coefficients]
     sizes = level_sizes(q.num_frames, num_levels(q.num_frames))
     if [c.shape for c in coefficients] != [(n, q.num_features) for n in sizes]:
         raise PayloadError("transform payload: coefficient arrays do not fit the clip")
-    frames = c_reconstruct(q.num_frames, q.num_features, q.region_frames,
+    frames = _cdecode.reconstruct(q.num_frames, q.num_features, q.region_frames,
                            np.ascontiguousarray(q.feature_exponents, dtype=np.int64),
                            np.ascontiguousarray(q.region_exponents, dtype=np.int64),
                            np.ascontiguousarray(np.concatenate(coefficients, axis=0)))
@@ -226,8 +225,6 @@ class TransformDecoder:
     """
 
     def __init__(self, payload: Payload, version: int = 1):
-        from . import _cdecode
-
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")

@@ -5,7 +5,7 @@
  *   Runtime(plan, sampler, width, block)       a clip opened for sampling: the codec's C sampler (a capsule, see
  *                                              motionrep/sampler.h) or None, and the plan
  *   Runtime.poses(u, rot, root, moved) -> status     every block of times, codec then plan, without Python
- *   Runtime.pose(u, rot, root, moved) -> status      one time
+ *   Runtime.pose_at(t, per_second, rot, root, moved) -> status   one time in seconds, checked and clamped here
  *   Runtime.features(u, X) -> status                 the codec alone into a feature-major X (D, >= T)
  *
  * A status is 0, a plan status (1 features not finite, 2 a zero quaternion, 3 a degenerate 6D encoding) or 100 +
@@ -14,8 +14,10 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
 
+#include "motionrep/mrkernels.h"
 #include "motionrep/pybuf.h"
 #include "motionrep/sampler.h"
 #include "plan.h"
@@ -296,22 +298,60 @@ static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
     return PyLong_FromLong(status);
 }
 
-static PyObject *Runtime_pose(RuntimeObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* a C-contiguous buffer of `n` items of format `code` (any shape) */
+static int flat_buffer(PyObject *obj, Py_buffer *v, char code, Py_ssize_t n, int writable)
 {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "pose(u, rot, root, moved)");
+    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (!mr_format_is(v, code) || v->len != n * v->itemsize) {
+        PyBuffer_Release(v);
+        PyErr_SetString(PyExc_ValueError, "an output of one pose has the wrong dtype or size");
+        return -1;
+    }
+    return 0;
+}
+
+/* pose_at(t, per_second, rot, root, moved) -> status: the pose at t seconds (a number; t * per_second clamped to
+ * [0, 1]) into rot (J x 4 float64 or float32), root (3) and moved (P x 3); status 201: t is not a number, 202: it
+ * is not finite (t * per_second) */
+static PyObject *Runtime_pose_at(RuntimeObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "pose_at(t, per_second, rot, root, moved)");
         return NULL;
     }
     if (!self->plan) {
         PyErr_SetString(PyExc_TypeError, "this Runtime has no plan");
         return NULL;
     }
-    double u = PyFloat_AsDouble(args[0]);
-    if (u == -1.0 && PyErr_Occurred())
+    double t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        return PyLong_FromLong(201);
+    }
+    double per_second = PyFloat_AsDouble(args[1]);
+    if (per_second == -1.0 && PyErr_Occurred())
         return NULL;
+    double u = t * per_second;
+    if (!(fabs(u) < INFINITY))
+        return PyLong_FromLong(202);
+    u = MR_PYMIN(MR_PYMAX(u, 0.0), 1.0);
+    const mr_plan *p = &self->plan->plan;
     Outputs o;
-    if (get_outputs(&self->plan->plan, 1, args[1], args[2], args[3], &o) < 0)
+    memset(&o, 0, sizeof o);
+    if (PyObject_GetBuffer(args[2], &o.rot, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
         return NULL;
+    o.f32 = mr_format_is(&o.rot, 'f');
+    if ((!o.f32 && !mr_format_is(&o.rot, 'd')) || o.rot.len != p->J * 4 * o.rot.itemsize) {
+        release_outputs(&o);
+        PyErr_SetString(PyExc_ValueError, "rotations of one pose must be float32 or float64 of J x 4 values");
+        return NULL;
+    }
+    if (p->N > 0 && (flat_buffer(args[3], &o.root, 'd', 3, 1) < 0
+                     || flat_buffer(args[4], &o.moved, 'd', 3 * (p->N - 1), 1) < 0)) {
+        release_outputs(&o);
+        return NULL;
+    }
     int status = run_blocks(self, &u, 1, &o);
     release_outputs(&o);
     return PyLong_FromLong(status);
@@ -349,8 +389,9 @@ static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
 static PyMethodDef Runtime_methods[] = {
     {"poses", (PyCFunction)Runtime_poses, METH_VARARGS,
      "poses(u, rot, root, moved) -> status: the poses at normalised times u (T,) float64."},
-    {"pose", (PyCFunction)(void (*)(void))Runtime_pose, METH_FASTCALL,
-     "pose(u, rot, root, moved) -> status: one pose at the normalised time u (a float), into arrays of one row."},
+    {"pose_at", (PyCFunction)(void (*)(void))Runtime_pose_at, METH_FASTCALL,
+     "pose_at(t, per_second, rot, root, moved) -> status: one pose at t seconds (201: t is no number, 202: not "
+     "finite)."},
     {"features", (PyCFunction)Runtime_features, METH_VARARGS,
      "features(u, X) -> status: the codec's features at u (T,) into the feature-major X (D, >= T)."},
     {NULL, NULL, 0, NULL}};

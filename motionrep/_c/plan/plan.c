@@ -169,6 +169,21 @@ MR_INLINE void euler_factor(const double *MR_RESTRICT v, int degrees, double ex,
     }
 }
 
+/* the same with an axis per element (the joints of one pose, side by side) */
+MR_INLINE void euler_factor_each(const double *MR_RESTRICT v, int degrees, const double *MR_RESTRICT ex,
+                                 const double *MR_RESTRICT ey, const double *MR_RESTRICT ez, double *MR_RESTRICT QX,
+                                 double *MR_RESTRICT QY, double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
+{
+    for (ptrdiff_t i = 0; i < n; i++) {
+        double a = v[i];
+        double s, cs;
+        mr_sincos(degrees ? (a - 720.0 * floor(a * (1.0 / 720.0) + 0.5)) * (MR_PI / 360.0) : 0.5 * a, &s, &cs);
+        double x, y, z, w;
+        product(QX[i], QY[i], QZ[i], QW[i], s * ex[i], s * ey[i], s * ez[i], cs, &x, &y, &z, &w);
+        QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+    }
+}
+
 MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_RESTRICT QX, double *MR_RESTRICT QY,
                             double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
 {
@@ -232,6 +247,105 @@ MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_REST
 
 /* ---- the kernel ---------------------------------------------------------------------------------------------- */
 
+/* Most entries the one-pose path takes (its arrays are on the stack). */
+#define ACROSS 256
+
+/* One pose's rotations (pose i of X) with each kind's joints side by side, so that their arithmetic vectorises
+ * across joints instead of poses (the one-pose path of the runtime decoder): the same conversions, element for
+ * element, so the same bits.  Plans of world rotations (which go down the skeleton) do not take it. */
+MR_CLONES
+static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t i, double *o64, float *o32,
+                          ptrdiff_t *zero, ptrdiff_t *degenerate)
+{
+    double in[6][ACROSS], Q[4][ACROSS], axes[3][ACROSS], T[5][ACROSS];
+    int64_t which[ACROSS], at[ACROSS];
+    for (int kind = MR_QUAT; kind <= MR_ORTHO6D; kind++) {
+        ptrdiff_t n = 0;
+        for (ptrdiff_t r = 0; r < p->R; r++)
+            if (p->kinds[r] == kind)
+                which[n++] = r;
+        if (!n)
+            continue;
+        int width = kind == MR_QUAT ? 4 : kind == MR_ORTHO6D ? 6 : 3;
+        for (ptrdiff_t e = 0; e < n; e++)
+            for (int k = 0; k < width; k++) {
+                int64_t c = p->cols[6 * which[e] + k];
+                in[k][e] = c >= 0 ? X[c * ldx + i] : 0.0;
+            }
+        if (kind == MR_AXIS_ANGLE) {
+            axis_angle(in[0], in[1], in[2], Q[0], Q[1], Q[2], Q[3], n);
+        } else if (kind == MR_QUAT) {
+            *zero += normalized(in[0], in[1], in[2], in[3], Q[0], Q[1], Q[2], Q[3], n);
+        } else if (kind == MR_ORTHO6D) {
+            const double *c[6] = {in[0], in[1], in[2], in[3], in[4], in[5]};
+            *degenerate += ortho6d(c, 0, Q[0], Q[1], Q[2], Q[3], n);
+        } else {  /* EULER, EULER_DEGREES: factor k of the entries that have one */
+            for (ptrdiff_t e = 0; e < n; e++) {
+                Q[0][e] = 0.0; Q[1][e] = 0.0; Q[2][e] = 0.0; Q[3][e] = 1.0;
+            }
+            for (int k = 0; k < 3; k++) {
+                ptrdiff_t m = 0;
+                for (ptrdiff_t e = 0; e < n; e++) {
+                    if (p->cols[6 * which[e] + k] < 0)
+                        continue;
+                    int64_t axis = p->axes[3 * which[e] + k];
+                    at[m] = e;
+                    T[0][m] = in[k][e];
+                    axes[0][m] = axis == 0 ? 1.0 : 0.0;
+                    axes[1][m] = axis == 1 ? 1.0 : 0.0;
+                    axes[2][m] = axis == 2 ? 1.0 : 0.0;
+                    for (int q = 0; q < 4; q++)
+                        T[1 + q][m] = Q[q][e];
+                    m++;
+                }
+                if (!m)
+                    break;
+                euler_factor_each(T[0], kind == MR_EULER_DEGREES, axes[0], axes[1], axes[2], T[1], T[2], T[3], T[4],
+                                  m);
+                for (ptrdiff_t f = 0; f < m; f++)
+                    for (int q = 0; q < 4; q++)
+                        Q[q][at[f]] = T[1 + q][f];
+            }
+        }
+        for (ptrdiff_t e = 0; e < n; e++) {
+            int64_t j = p->joints[which[e]];
+            if (o32) {
+                for (int q = 0; q < 4; q++)
+                    o32[4 * j + q] = (float)Q[q][e];
+            } else {
+                for (int q = 0; q < 4; q++)
+                    o64[4 * j + q] = Q[q][e];
+            }
+        }
+    }
+}
+
+/* whether a column of the plan's holds NaN or infinity in its first `count` values (a few poses: plain loops, no
+ * vector set-up per column) */
+MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count)
+{
+    const int64_t *cols[2] = {p->cols, p->tcols};
+    const ptrdiff_t n[2] = {6 * p->R, 3 * p->N};
+    int bad = 0;
+    for (int part = 0; part < 2; part++)
+        for (ptrdiff_t k = 0; k < n[part]; k++) {
+            int64_t c = cols[part][k];
+            if (c < 0)
+                continue;
+            const double *x = X + c * ldx;
+            if (count < 8) {
+                for (ptrdiff_t i = 0; i < count; i++)
+                    bad |= !(fabs(x[i]) < INFINITY);
+            } else {
+                ptrdiff_t found = 0;
+                for (ptrdiff_t i = 0; i < count; i++)
+                    found += fabs(x[i]) < INFINITY ? 0 : 1;
+                bad |= found != 0;
+            }
+        }
+    return bad;
+}
+
 MR_CLONES
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
                 int rot_f32, double *root, double *moved, double *G, double *stage)
@@ -244,34 +358,18 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
      * (a large batch: no cache line of it is read before it is written; only when the plan writes every joint) */
     int stream = !rot_f32 && stage && ((uintptr_t)rot & 15) == 0 && p->R + p->M == p->J;  /* every joint written */
     double *out64 = final64;
-    if (check_finite) {  /* every feature column the plan reads must be finite */
-        ptrdiff_t bad = 0;
-        for (ptrdiff_t r = 0; r < R; r++)
-            for (int k = 0; k < 6; k++) {
-                int64_t c = p->cols[6 * r + k];
-                if (c < 0)
-                    continue;
-                const double *x = X + c * ldx;
-                for (ptrdiff_t i = 0; i < count; i++)
-                    bad += fabs(x[i]) < INFINITY ? 0 : 1;
-            }
-        for (ptrdiff_t k = 0; k < 3 * N; k++) {
-            int64_t c = p->tcols[k];
-            if (c < 0)
-                continue;
-            const double *x = X + c * ldx;
-            for (ptrdiff_t i = 0; i < count; i++)
-                bad += fabs(x[i]) < INFINITY ? 0 : 1;
-        }
-        if (bad)
-            return MR_PLAN_NOT_FINITE;
-    }
+    if (check_finite && check_finite_columns(p, X, ldx, count))  /* every column the plan reads must be finite */
+        return MR_PLAN_NOT_FINITE;
     ptrdiff_t zero = 0, degenerate = 0;
+    int across = count <= 2 && !p->world && p->R <= ACROSS;  /* one pose or two: its joints side by side */
+    for (ptrdiff_t a = 0; across && a < count; a++)
+        across_joints(p, X, ldx, a, out64 ? out64 + (size_t)a * J * 4 : NULL, out32 ? out32 + (size_t)a * J * 4 : NULL,
+                      &zero, &degenerate);
     for (ptrdiff_t a = 0; a < count; a += MR_PLAN_SUB) {
         ptrdiff_t n = count - a < MR_PLAN_SUB ? count - a : MR_PLAN_SUB;
         if (stream)
             out64 = stage - (size_t)a * J * 4;
-        for (ptrdiff_t r = 0; r < R; r++) {
+        for (ptrdiff_t r = 0; r < (across ? 0 : R); r++) {
             int64_t kind = p->kinds[r], j = p->joints[r];
             const int64_t *cc = p->cols + 6 * r;
             const double *c[6];

@@ -1,8 +1,8 @@
 /* motionrep_svd._csvd: the svd codec's decoder in C.
  *
- *   Decoder(coefficients, mean, basis_t, basis)   the prepared arrays, all float32 (payload version 2) or all
- *                                                 float64 (version 1): coefficients (F, r), mean (D,),
- *                                                 basis_t (D, r), basis (r, D), C-contiguous
+ *   Decoder(coefficients, mean, basis)            the payload's arrays, all float32 (payload version 2) or all
+ *                                                 float64 (version 1): coefficients (F, r), mean (D,), basis (r, D),
+ *                                                 C-contiguous (kept; the transposed basis is made here)
  *   Decoder.sampler                               the C sampler motionrep.open calls (motionrep/sampler.h)
  *   sample(times, out, decoder)                   the features at times (T,) into a feature-major out (D, >= T)
  *
@@ -15,8 +15,8 @@
 #include <stdlib.h>
 
 #include "motionrep/mrkernels.h"
-#include "motionrep/pybuf.h"
 #include "motionrep/sampler.h"
+#include "motionrep/pybuf.h"
 
 #define ROWS 64  /* times decoded together (the block's coefficients and features stay in the CPU cache) */
 
@@ -73,56 +73,70 @@ SVD_KERNEL(sample_f64, double, mr_affine_block_f64, mr_affine_one_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 
+#define TRANSPOSE(NAME, T)                                                                                         \
+    static void NAME(const T *a, Py_ssize_t rows, Py_ssize_t cols, T *out)                                         \
+    {                                                                                                              \
+        for (Py_ssize_t i = 0; i < rows; i++)                                                                      \
+            for (Py_ssize_t j = 0; j < cols; j++)                                                                  \
+                out[j * rows + i] = a[i * cols + j];                                                               \
+    }
+
+TRANSPOSE(transpose_f32, float)
+TRANSPOSE(transpose_f64, double)
+
 typedef struct {
     PyObject_HEAD
-    Py_buffer views[4];
+    Py_buffer views[3];
+    void *basis_t;
     svd_arrays arrays;
     mr_sampler sampler;
 } DecoderObject;
 
 static void Decoder_dealloc(DecoderObject *self)
 {
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 3; k++)
         if (self->views[k].obj)
             PyBuffer_Release(&self->views[k]);
+    free(self->basis_t);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
 static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
 {
-    PyObject *o[4];
-    static char *names[] = {"coefficients", "mean", "basis_t", "basis", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOO", names, &o[0], &o[1], &o[2], &o[3]))
+    PyObject *o[3];
+    static char *names[] = {"coefficients", "mean", "basis", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOO", names, &o[0], &o[1], &o[2]))
         return -1;
     if (self->views[0].obj) {
         PyErr_SetString(PyExc_TypeError, "Decoder is initialised once");
         return -1;
     }
-    Py_buffer probe;
-    if (PyObject_GetBuffer(o[1], &probe, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
-        return -1;
-    char code = mr_format_is(&probe, 'f') ? 'f' : 'd';
-    PyBuffer_Release(&probe);
     Py_ssize_t any2[2] = {-1, -1}, any1[1] = {-1};
-    static const char *labels[4] = {"coefficients", "mean", "basis_t", "basis"};
-    for (int k = 0; k < 4; k++)
-        if (mr_get_buffer(o[k], &self->views[k], code, k == 1 ? 1 : 2, k == 1 ? any1 : any2, 0, labels[k]) < 0)
+    static const char *labels[3] = {"coefficients", "mean", "basis"};
+    if (mr_get_buffer(o[1], &self->views[1], mr_format_is_buffer_of(o[1], 'f') ? 'f' : 'd', 1, any1, 0, "mean") < 0)
+        return -1;
+    char code = mr_format_is(&self->views[1], 'f') ? 'f' : 'd';
+    for (int k = 0; k < 3; k += 2)
+        if (mr_get_buffer(o[k], &self->views[k], code, 2, any2, 0, labels[k]) < 0)
             return -1;
     Py_ssize_t F = self->views[0].shape[0], r = self->views[0].shape[1], D = self->views[1].shape[0];
-    if (F < 1 || self->views[2].shape[0] != D || self->views[2].shape[1] != r || self->views[3].shape[0] != r
-        || self->views[3].shape[1] != D) {
+    if (F < 1 || self->views[2].shape[0] != r || self->views[2].shape[1] != D) {
         PyErr_SetString(PyExc_ValueError, "inconsistent svd arrays");
         return -1;
     }
+    size_t item = code == 'f' ? sizeof(float) : sizeof(double);
+    if (!(self->basis_t = malloc(item * (size_t)(r * D > 0 ? r * D : 1)))) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    if (code == 'f')  /* basis_t[d, k] = basis[k, d] */
+        transpose_f32(self->views[2].buf, r, D, self->basis_t);
+    else
+        transpose_f64(self->views[2].buf, r, D, self->basis_t);
     self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, self->views[1].buf,
-                                self->views[2].buf, self->views[3].buf};
+                                self->basis_t, self->views[2].buf};
     self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays};
     return 0;
-}
-
-static void capsule_release(PyObject *capsule)
-{
-    Py_XDECREF((PyObject *)PyCapsule_GetContext(capsule));
 }
 
 static PyObject *Decoder_sampler(DecoderObject *self, void *closure)
@@ -132,16 +146,7 @@ static PyObject *Decoder_sampler(DecoderObject *self, void *closure)
         PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
         return NULL;
     }
-    PyObject *capsule = PyCapsule_New(&self->sampler, MR_SAMPLER_CAPSULE, capsule_release);
-    if (!capsule)
-        return NULL;
-    Py_INCREF(self);
-    if (PyCapsule_SetContext(capsule, self) < 0) {
-        Py_DECREF(self);
-        Py_DECREF(capsule);
-        return NULL;
-    }
-    return capsule;
+    return mr_sampler_capsule((PyObject *)self, &self->sampler);
 }
 
 static PyGetSetDef Decoder_getset[] = {
@@ -153,7 +158,7 @@ static PyTypeObject DecoderType = {
     .tp_basicsize = sizeof(DecoderObject),
     .tp_dealloc = (destructor)Decoder_dealloc,
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "Decoder(coefficients, mean, basis_t, basis): an svd payload's arrays prepared for decoding.",
+    .tp_doc = "Decoder(coefficients, mean, basis): an svd payload's arrays prepared for decoding.",
     .tp_getset = Decoder_getset,
     .tp_init = (initproc)Decoder_init,
     .tp_new = PyType_GenericNew,
@@ -170,28 +175,7 @@ static PyObject *py_sample(PyObject *mod, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
         return NULL;
     }
-    Py_buffer bt, bo;
-    Py_ssize_t any[1] = {-1}, so[2] = {(Py_ssize_t)dec->arrays.D, -1};
-    if (mr_get_buffer(ot, &bt, 'd', 1, any, 0, "times") < 0)
-        return NULL;
-    if (mr_get_buffer(oo, &bo, 'd', 2, so, 1, "out") < 0 || bo.shape[1] < bt.shape[0]) {
-        if (bo.obj)
-            PyBuffer_Release(&bo);
-        else
-            PyErr_Clear();
-        PyBuffer_Release(&bt);
-        PyErr_SetString(PyExc_ValueError, "out must be a float64 array of shape (D, >= T)");
-        return NULL;
-    }
-    int e;
-    Py_BEGIN_ALLOW_THREADS
-    e = dec->sampler.sample(&dec->arrays, bt.buf, (size_t)bt.shape[0], bo.buf, (size_t)bo.shape[1]);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&bt);
-    PyBuffer_Release(&bo);
-    if (e)
-        return PyErr_NoMemory();
-    Py_RETURN_NONE;
+    return mr_run_sampler(&dec->sampler, ot, oo);
 }
 
 static PyMethodDef functions[] = {

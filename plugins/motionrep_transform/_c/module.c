@@ -16,8 +16,8 @@
 
 #include <stdlib.h>
 
-#include "motionrep/pybuf.h"
 #include "motionrep/sampler.h"
+#include "motionrep/pybuf.h"
 #include "mrtransform.h"
 
 static PyObject *PayloadError;
@@ -95,25 +95,10 @@ static int Frames_getbuffer(FramesObject *self, Py_buffer *view, int flags)
 
 static PyBufferProcs Frames_as_buffer = {(getbufferproc)Frames_getbuffer, NULL};
 
-static void capsule_release(PyObject *capsule)
-{
-    PyObject *owner = PyCapsule_GetContext(capsule);
-    Py_XDECREF(owner);
-}
-
 static PyObject *Frames_sampler(FramesObject *self, void *closure)
 {
     (void)closure;
-    PyObject *capsule = PyCapsule_New(&self->sampler, MR_SAMPLER_CAPSULE, capsule_release);
-    if (!capsule)
-        return NULL;
-    Py_INCREF(self);
-    if (PyCapsule_SetContext(capsule, self) < 0) {
-        Py_DECREF(self);
-        Py_DECREF(capsule);
-        return NULL;
-    }
-    return capsule;
+    return mr_sampler_capsule((PyObject *)self, &self->sampler);
 }
 
 static PyObject *Frames_count(FramesObject *self, void *which)
@@ -341,18 +326,9 @@ static PyObject *py_sample(PyObject *mod, PyObject *args)
 {
     (void)mod;
     PyObject *ot, *oo, *of;
-    Py_buffer bt, bo;
     if (!PyArg_ParseTuple(args, "OOO!", &ot, &oo, &FramesType, &of))
         return NULL;
-    FramesObject *f = (FramesObject *)of;
-    if (sample_args(ot, oo, &bt, &bo, f->shape[0], 1) < 0)
-        return NULL;
-    Py_BEGIN_ALLOW_THREADS
-    mrt_sample(&f->frames, bt.buf, (size_t)bt.shape[0], bo.buf, (size_t)bo.shape[1]);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&bt);
-    PyBuffer_Release(&bo);
-    Py_RETURN_NONE;
+    return mr_run_sampler(&((FramesObject *)of)->sampler, ot, oo);
 }
 
 /* segments: a sequence of (bits, 0, count) raw fields or (zero, decay, count) model-coded integers, the first

@@ -890,6 +890,16 @@ void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *
     for (size_t a = 0; a < count; a += TIMES) {
         size_t m = count - a < TIMES ? count - a : TIMES;
         positions(f->frames, times + a, m, first, second, frac);
+        if (m == 1) {  /* one time (a pose alone): down the features, no set-up per feature */
+            const double *r0 = f->values + first[0], *r1 = f->values + second[0];
+            double fr = frac[0];
+            for (uint64_t d = 0; d < f->features; d++) {
+                double v = r0[d * f->frames], u = r1[d * f->frames];
+                double w = v + (u - v) * fr;
+                out[d * ldo + a] = fr == 0.0 ? v : w;
+            }
+            continue;
+        }
         for (uint64_t d = 0; d < f->features; d++)
             lerp_gather(f->values + d * f->frames, first, second, frac, out + d * ldo + a, m);
     }

@@ -6,7 +6,7 @@
 #include <string.h>
 
 /* whether a buffer's struct format is the native `code` ('d' float64, 'f' float32, 'q' int64, 'B' uint8) */
-static int mr_format_is(const Py_buffer *v, char code)
+static inline int mr_format_is(const Py_buffer *v, char code)
 {
     const char *f = v->format ? v->format : "B";
     if (f[0] == '@' || f[0] == '=' || f[0] == '<')
@@ -16,9 +16,22 @@ static int mr_format_is(const Py_buffer *v, char code)
     return f[0] == code && f[1] == 0;
 }
 
+/* whether `obj`'s buffer has the native item format `code` (a probe: no error is left set) */
+static inline int mr_format_is_buffer_of(PyObject *obj, char code)
+{
+    Py_buffer v;
+    if (PyObject_GetBuffer(obj, &v, PyBUF_FORMAT | PyBUF_ND) < 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    int is = mr_format_is(&v, code);
+    PyBuffer_Release(&v);
+    return is;
+}
+
 /* A C-contiguous buffer of `obj` with item format `code`, `ndim` dimensions and these `shape`s (-1: any); a
  * ValueError naming `name` otherwise.  Release it with PyBuffer_Release. */
-static int mr_get_buffer(PyObject *obj, Py_buffer *v, char code, int ndim, const Py_ssize_t *shape, int writable,
+static inline int mr_get_buffer(PyObject *obj, Py_buffer *v, char code, int ndim, const Py_ssize_t *shape, int writable,
                          const char *name)
 {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
@@ -37,5 +50,57 @@ static int mr_get_buffer(PyObject *obj, Py_buffer *v, char code, int ndim, const
     }
     return 0;
 }
+
+/* A capsule of the sampler `s` that lives inside `owner` (motionrep/sampler.h; include it first): the capsule keeps
+ * a reference to its owner, so the sampler stays valid while anyone holds the capsule. */
+#ifdef MOTIONREP_SAMPLER_H
+static inline void mr_capsule_release(PyObject *capsule)
+{
+    Py_XDECREF((PyObject *)PyCapsule_GetContext(capsule));
+}
+
+/* The Python call of a sampler: the features at times (T,) float64 into a feature-major float64 out (width, >= T),
+ * without the GIL; None, or MemoryError when the sampler fails. */
+static inline PyObject *mr_run_sampler(const mr_sampler *s, PyObject *times, PyObject *out)
+{
+    Py_buffer bt, bo;
+    Py_ssize_t any[1] = {-1}, so[2] = {(Py_ssize_t)s->width, -1};
+    if (mr_get_buffer(times, &bt, 'd', 1, any, 0, "times") < 0)
+        return NULL;
+    if (mr_get_buffer(out, &bo, 'd', 2, so, 1, "out") < 0) {
+        PyBuffer_Release(&bt);
+        return NULL;
+    }
+    if (bo.shape[1] < bt.shape[0]) {
+        PyBuffer_Release(&bt);
+        PyBuffer_Release(&bo);
+        PyErr_SetString(PyExc_ValueError, "out must have shape (D, >= T)");
+        return NULL;
+    }
+    int e;
+    Py_BEGIN_ALLOW_THREADS
+    e = s->sample(s->state, bt.buf, (size_t)bt.shape[0], bo.buf, (size_t)bo.shape[1]);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&bt);
+    PyBuffer_Release(&bo);
+    if (e)
+        return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+static inline PyObject *mr_sampler_capsule(PyObject *owner, mr_sampler *s)
+{
+    PyObject *capsule = PyCapsule_New(s, MR_SAMPLER_CAPSULE, mr_capsule_release);
+    if (!capsule)
+        return NULL;
+    Py_INCREF(owner);
+    if (PyCapsule_SetContext(capsule, owner) < 0) {
+        Py_DECREF(owner);
+        Py_DECREF(capsule);
+        return NULL;
+    }
+    return capsule;
+}
+#endif
 
 #endif
