@@ -32,8 +32,9 @@ side), that a process uses until it has read enough text to win back numba's sta
 (``motionrep.io._shortest``, the same bytes, tested side by side) once numba is loaded or for very large clips.
 Plugins (shipped or third-party) may compile their own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
-from Python (the runtime decoder, once per pose) can take :attr:`LazyKernel.dispatcher` once and call it
-directly, which saves the proxy's function call.
+from Python (the runtime decoder, block after block, for a third-party codec's kernel) can take
+:attr:`LazyKernel.dispatcher` once and call it directly, which saves the proxy's function call.  The shipped
+decoders and the pose plan are C (``motionrep/_c``, the plugins' ``_c``) and never import numba.
 """
 
 from __future__ import annotations

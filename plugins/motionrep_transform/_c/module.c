@@ -98,6 +98,8 @@ static PyBufferProcs Frames_as_buffer = {(getbufferproc)Frames_getbuffer, NULL};
 static PyObject *Frames_sampler(FramesObject *self, void *closure)
 {
     (void)closure;
+    if (mrt_frames_rows(&self->frames) != MRT_OK)  /* the runtime decoder samples random times: rows are faster */
+        return PyErr_NoMemory();
     return mr_sampler_capsule((PyObject *)self, &self->sampler);
 }
 

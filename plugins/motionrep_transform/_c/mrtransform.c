@@ -615,7 +615,22 @@ int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, 
 void mrt_frames_free(mrt_frames *f)
 {
     free(f->values);
-    f->values = NULL;
+    free(f->rows);
+    f->values = f->rows = NULL;
+}
+
+int mrt_frames_rows(mrt_frames *f)
+{
+    uint64_t F = f->frames, D = f->features;
+    if (f->rows)
+        return MRT_OK;
+    if (!(f->rows = malloc((F * D > 0 ? F * D : 1) * sizeof(double))))
+        return MRT_NO_MEMORY;
+    for (uint64_t i0 = 0; i0 < F; i0 += 8)  /* eight frames at a time: contiguous reads and writes */
+        for (uint64_t d = 0; d < D; d++)
+            for (uint64_t i = i0; i < i0 + 8 && i < F; i++)
+                f->rows[i * D + d] = f->values[d * F + i];
+    return MRT_OK;
 }
 
 /* out[i] = min(v[max(0, i - span) .. min(n - 1, i + span)]): scipy's minimum_filter1d(v, 2 span + 1,
@@ -882,6 +897,17 @@ static inline void lerp_gather(const double *MRT_RESTRICT r, const int32_t *MRT_
     }
 }
 
+/* o[d] = the value between a[d] and b[d] at fraction fr (exactly a[d] at fraction 0) */
+static inline void lerp_rows(const double *MRT_RESTRICT a, const double *MRT_RESTRICT b, double fr,
+                             double *MRT_RESTRICT o, uint64_t D)
+{
+    for (uint64_t d = 0; d < D; d++) {
+        double v = a[d], u = b[d];
+        double w = v + (u - v) * fr;
+        o[d] = fr == 0.0 ? v : w;
+    }
+}
+
 MRT_CLONES
 void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
 {
@@ -899,6 +925,21 @@ void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *
                 out[d * ldo + a] = fr == 0.0 ? v : w;
             }
             continue;
+        }
+        if (f->rows) {  /* eight times at a time: their rows blended, then stored eight values to a feature */
+            uint64_t D = f->features;
+            double tmp[8 * 512];
+            for (size_t i0 = 0; D <= 512 && i0 < m; i0 += 8) {
+                size_t n = m - i0 < 8 ? m - i0 : 8;
+                for (size_t k = 0; k < n; k++)
+                    lerp_rows(f->rows + (size_t)first[i0 + k] * D, f->rows + (size_t)second[i0 + k] * D,
+                              frac[i0 + k], tmp + k * D, D);
+                for (uint64_t d = 0; d < D; d++)
+                    for (size_t k = 0; k < n; k++)
+                        out[d * ldo + a + i0 + k] = tmp[k * D + d];
+            }
+            if (D <= 512)
+                continue;
         }
         for (uint64_t d = 0; d < f->features; d++)
             lerp_gather(f->values + d * f->frames, first, second, frac, out + d * ldo + a, m);

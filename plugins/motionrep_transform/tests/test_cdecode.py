@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import transform_reference_v1 as reference
+from helpers import SHARED_DATA, requires_shared
 from motionrep.errors import PayloadError
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 from motionrep.pipeline.compress import compress_motion
@@ -247,3 +248,27 @@ def test_the_library_builds_and_decodes_alone_without_python(payloads, tmp_path)
     with pytest.raises(PayloadError) as info:
         _cdecode.decode(payloads[0][:-4], 1)
     assert failed.stdout.strip() == f"error: {info.value}"
+
+
+REAL_CLIPS = ["cmu/bvh11/131_01.bvh", "cmu/bvh-matlab/walk.bvh", "other/bandai_namco/dataset-1_dash_normal_001.bvh",
+              "edge/fairmotion_sinusoidal.bvh"]
+
+
+@requires_shared
+@pytest.mark.realdata
+@pytest.mark.parametrize("rel", REAL_CLIPS)
+def test_real_clips_decode_to_the_python_decoders_bits_within_their_bound(rel):
+    """Real clips coded at 2 %: the C decoder gives the Python decoder's frames bit for bit, and the file decodes
+    within the bound it stores.  (Every real clip, transform and svd, decodes to main's numba decoders' bits:
+    benchmarks/results/c_decode.md.)"""
+    from motionrep.io import read
+    from motionrep.io.container import unpack as unpack_container
+    from motionrep.pipeline.decode import decompress
+    from motionrep.pipeline.evaluate import max_joint_error
+
+    motion = read(SHARED_DATA / rel)
+    result = compress_motion(motion, "transform", max_error="2%")
+    data = result.container.arrays["data"].tobytes()
+    assert np.asarray(_cdecode.decode(data, 1)).T.tobytes() == reference.decode_frames(data).tobytes()
+    decoded = decompress(unpack_container(result.data))
+    assert max_joint_error(motion, decoded).max_error_percent <= 2.0
