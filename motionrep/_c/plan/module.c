@@ -221,6 +221,8 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
         PyErr_SetString(PyExc_ValueError, "the sampler does not fit (ABI, width or block size)");
         return -1;
     }
+    if (s->block > (size_t)block && s->block <= (1 << 20))  /* the codec prefers larger blocks */
+        block = (Py_ssize_t)s->block;
     if (plan != Py_None && ((PlanObject *)plan)->plan.rows > width) {
         PyErr_SetString(PyExc_ValueError, "the plan reads more features than the codec decodes");
         return -1;

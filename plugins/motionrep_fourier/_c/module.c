@@ -264,7 +264,8 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
         return invalid("frequencies");
     self->net = (networks){frames, S, D, kmax, H, windowed, edges, ks, hs, offsets, self->first_omega,
                            self->views[V_OMEGA].buf, self->views[V_WEIGHTS].buf, self->views[V_B2].buf};
-    self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, dbl ? sample_f64 : sample_f32, &self->net};
+    /* the runtime decoder's blocks: GROUP / 2 times, so that times spread over the windows still fill blocks */
+    self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, dbl ? sample_f64 : sample_f32, &self->net, GROUP / 2};
     return 0;
 }
 

@@ -135,7 +135,7 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
         transpose_f64(self->views[2].buf, r, D, self->basis_t);
     self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, self->views[1].buf,
                                 self->basis_t, self->views[2].buf};
-    self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays};
+    self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays, 0};
     return 0;
 }
 

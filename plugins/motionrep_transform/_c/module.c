@@ -65,6 +65,7 @@ static PyObject *frames_new(mrt_frames *f)
     self->sampler.width = (size_t)f->features;
     self->sampler.sample = sample_fn;
     self->sampler.state = &self->frames;
+    self->sampler.block = 0;
     self->shape[0] = (Py_ssize_t)f->features;
     self->shape[1] = (Py_ssize_t)f->frames;
     self->strides[0] = (Py_ssize_t)(f->frames * sizeof(double));

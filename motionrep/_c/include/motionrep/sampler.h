@@ -7,7 +7,8 @@
  * a feature-major block: feature d of time i at out[d * ldo + i], d < width, i < count <= ldo.  It must write the
  * values the decoder's Python call gives, keep no state between calls (several threads may call it with their
  * own `out`), never call into Python, and return 0 (or a non-zero code on failure: the runtime raises a
- * PayloadError).
+ * PayloadError).  `block` asks for that many times per call (the runtime decoder's block; 64 otherwise): a codec
+ * that groups a call's times (the Fourier codecs, by window) works better on larger calls.
  */
 #ifndef MOTIONREP_SAMPLER_H
 #define MOTIONREP_SAMPLER_H
@@ -24,6 +25,7 @@ typedef struct {
     size_t width;        /* features per time, D */
     mr_sample_fn sample;
     const void *state;
+    size_t block;        /* times the sampler prefers per call (a codec that groups its times, say), or 0: any */
 } mr_sampler;
 
 #endif
