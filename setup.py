@@ -9,6 +9,7 @@ that need wider vectors carry their own AVX2 / AVX-512 copies, ``motionrep/_c/in
 One ``Extension`` per item of the list.
 """
 
+import numpy
 from setuptools import Extension, setup
 
 FLAGS = ["-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-math-errno", "-fno-trapping-math"]
@@ -16,8 +17,9 @@ INCLUDE = ["motionrep/_c/include"]
 
 EXTENSIONS = [
     # the pose plan and the runtime decoder's loop (motionrep.model.poseplan, motionrep.pipeline.runtime)
+    # (numpy's C API: the one-pose path makes its fresh arrays in C)
     Extension("motionrep._cplan", sources=["motionrep/_c/plan/plan.c", "motionrep/_c/plan/module.c"],
-              include_dirs=INCLUDE + ["motionrep/_c/plan"], depends=["motionrep/_c/plan/plan.h"],
+              include_dirs=INCLUDE + ["motionrep/_c/plan", numpy.get_include()], depends=["motionrep/_c/plan/plan.h"],
               extra_compile_args=FLAGS),
     # the transform payload decoder: mrtransform.h/.c (no Python; an engine can embed it) and its binding
     Extension("motionrep_transform._cdecode",

@@ -12,9 +12,12 @@ open a ``.mrc`` once and then ask for poses at arbitrary times::
 Opening checks the container, looks up its codec and representation and prepares everything that does not
 depend on the time: the codec's decoder (``Codec.decoder``: arrays checked and converted to their working
 precision), the representation's per-skeleton plan (``Representation.decode_poses``), the axes that have no
-position channel, and the scratch buffers of one block of :data:`BLOCK` poses.  Sampling then runs the codec and
-the representation block by block in compiled loops (``motionrep.jit``) into the caller's arrays, nothing
-decoded is cached: memory is the payload plus a few hundred kB of buffers, whatever the clip's length.
+position channel, and the scratch buffers of one block of poses.  Sampling then runs the codec and the
+representation block by block in one C loop (``motionrep._cplan.Runtime``: the codec decoder's C ``sampler``, then
+the pose plan, ``motionrep/_c/plan``) into the caller's arrays, and one pose is one C call that also makes its
+arrays; a third party's codec without a C sampler is called from Python block by block (its compiled ``kernel``,
+or its ``decoder``).  Nothing else decoded is cached: memory is the prepared payload plus a few hundred kB of
+buffers, whatever the clip's length.
 
 The values are those the core measured when it wrote the file: ``motionrep.pipeline.compress.decode_at``, the one decode
 path, is :meth:`Clip.motion_at` (the same prepared codec decoder, the representation's ``from_features``, whose
@@ -23,8 +26,8 @@ values its ``decode_poses`` gives too), and a time decodes to the same bits alon
 clip, so a frame's time gives that frame's pose (to the rounding of the time itself; :meth:`Clip.motion` decodes
 the frames exactly as ``decompress``).
 
-A :class:`Clip` keeps scratch buffers: use one per thread (the compiled loops release the GIL, so threads with
-their own clips decode in parallel).
+A :class:`Clip` keeps scratch buffers: use one per thread (the C loops release the GIL, so threads with their own
+clips decode in parallel).
 """
 
 from __future__ import annotations
@@ -47,7 +50,8 @@ from ..plugin.representation import Poses, Representation, empty_poses
 
 __all__ = ["Clip", "Pose", "open_clip", "BLOCK"]
 
-#: Poses decoded together: the block's features and poses stay in the CPU cache.
+#: Poses decoded together when the codec has no C sampler (its Python-called kernel or decoder); the C loop takes
+#: 64 at a time (``motionrep._cplan.SUB_BLOCK``, or the block the codec's sampler asks for).
 BLOCK = 512
 _F64 = np.dtype(np.float64)
 #: What a codec may raise on a damaged payload besides PayloadError; it becomes a ContainerError naming the file.
@@ -125,7 +129,6 @@ class Clip:
         self._runtime = Runtime(self._plan, sampler, width, SUB_BLOCK) if sampler is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)
         self._X = np.empty((width, BLOCK))  # one block's features, feature-major (see Codec.decoder)
-        self._rotation_shape = (self.skeleton.num_joints, 4)
         self._moved_shape = (self.skeleton.translated_joints.size, 3)
         self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),
                      np.dtype(np.float32): empty_poses(self.skeleton, 1, np.float32)}
@@ -164,15 +167,13 @@ class Clip:
         runtime = self._runtime
         if runtime is not None and self._plan is not None and (dtype is np.float64 or dtype is np.float32):
             # one C call checks t, clamps it and decodes into the fresh arrays the Pose keeps
-            rot = np.empty(self._rotation_shape, dtype)
-            root, moved = np.empty(3), np.empty(self._moved_shape)
-            status = runtime.pose_at(t, self._per_second, rot, root, moved)
-            if not status:
-                return _new_pose(rot, root, moved)
-            if status == 202:
-                raise self._time_error(status, t)
-            if status != 201:  # 201: not a float; float(t) below decides (a string of a number is one)
-                raise self._status_error(status)
+            got = runtime.pose_new(t, self._per_second, dtype is np.float32, self._moved_shape[0])
+            if type(got) is tuple:
+                return _new_pose(*got)
+            if got == 202:
+                raise self._time_error(got, t)
+            if got != 201:  # 201: not a float; float(t) below decides (a string of a number is one)
+                raise self._status_error(got)
         try:
             u = float(t) * self._per_second
         except (TypeError, ValueError):

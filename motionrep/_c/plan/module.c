@@ -5,7 +5,8 @@
  *   Runtime(plan, sampler, width, block)       a clip opened for sampling: the codec's C sampler (a capsule, see
  *                                              motionrep/sampler.h) or None, and the plan
  *   Runtime.poses(u, rot, root, moved) -> status     every block of times, codec then plan, without Python
- *   Runtime.pose_at(t, per_second, rot, root, moved) -> status   one time in seconds, checked and clamped here
+ *   Runtime.pose_new(t, per_second, f32, P) -> arrays or status    one time in seconds, checked and clamped here,
+ *                                                                    into fresh numpy arrays
  *   Runtime.features(u, X) -> status                 the codec alone into a feature-major X (D, >= T)
  *
  * A status is 0, a plan status (1 features not finite, 2 a zero quaternion, 3 a degenerate 6D encoding) or 100 +
@@ -13,6 +14,8 @@
  * reads or writes out of bounds whatever Python passes. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
 
 #include <math.h>
 #include <stdlib.h>
@@ -247,22 +250,23 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
     return 0;
 }
 
-/* every block of the `count` times u: the codec into X, then the plan into the outputs */
-static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, Outputs *o)
+/* every block of the `count` times u: the codec into X, then the plan into the outputs (rotations float32 or
+ * float64, root and moved translations) */
+static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, void *rot, int f32, double *root,
+                      double *moved)
 {
     const mr_plan *p = &self->plan->plan;
     const mr_sampler *s = self->sampler;
-    size_t rstride = (size_t)p->J * 4 * (o->f32 ? sizeof(float) : sizeof(double));
+    size_t rstride = (size_t)p->J * 4 * (f32 ? sizeof(float) : sizeof(double));
     double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;
     for (Py_ssize_t a = 0; a < count; a += self->block) {
         Py_ssize_t m = count - a < self->block ? count - a : self->block;
         int e = s->sample(s->state, u + a, (size_t)m, self->X, (size_t)self->block);
         if (e)
             return 100 + e;
-        int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)o->rot.buf + a * rstride, o->f32,
-                                 p->N > 0 ? (double *)o->root.buf + 3 * a : NULL,
-                                 p->N > 1 ? (double *)o->moved.buf + 3 * (p->N - 1) * a : NULL, self->plan->scratch,
-                                 stage);
+        int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)rot + a * rstride, f32,
+                                 p->N > 0 ? root + 3 * a : NULL, p->N > 1 ? moved + 3 * (p->N - 1) * a : NULL,
+                                 self->plan->scratch, stage);
         if (status)
             return status;
     }
@@ -290,73 +294,69 @@ static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
     int status;
     if (bu.shape[0] > 16) {
         Py_BEGIN_ALLOW_THREADS
-        status = run_blocks(self, bu.buf, bu.shape[0], &o);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
         Py_END_ALLOW_THREADS
     } else {
-        status = run_blocks(self, bu.buf, bu.shape[0], &o);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
     }
     release_outputs(&o);
     PyBuffer_Release(&bu);
     return PyLong_FromLong(status);
 }
 
-/* a C-contiguous buffer of `n` items of format `code` (any shape) */
-static int flat_buffer(PyObject *obj, Py_buffer *v, char code, Py_ssize_t n, int writable)
+/* pose_new(t, per_second, f32, P) -> (rotations, root_translation, joint_translations) or a status: the pose at t
+ * seconds (a number; t * per_second clamped to [0, 1]) in fresh numpy arrays, (J, 4) float32 or float64, (3,),
+ * (P, 3); status 201: t is not a number, 202: not finite (t * per_second), else a run_blocks status */
+static PyObject *Runtime_pose_new(RuntimeObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (!mr_format_is(v, code) || v->len != n * v->itemsize) {
-        PyBuffer_Release(v);
-        PyErr_SetString(PyExc_ValueError, "an output of one pose has the wrong dtype or size");
-        return -1;
-    }
-    return 0;
-}
-
-/* pose_at(t, per_second, rot, root, moved) -> status: the pose at t seconds (a number; t * per_second clamped to
- * [0, 1]) into rot (J x 4 float64 or float32), root (3) and moved (P x 3); status 201: t is not a number, 202: it
- * is not finite (t * per_second) */
-static PyObject *Runtime_pose_at(RuntimeObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "pose_at(t, per_second, rot, root, moved)");
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "pose_new(t, per_second, f32, P)");
         return NULL;
     }
     if (!self->plan) {
         PyErr_SetString(PyExc_TypeError, "this Runtime has no plan");
         return NULL;
     }
+    const mr_plan *p = &self->plan->plan;
     double t = PyFloat_AsDouble(args[0]);
     if (t == -1.0 && PyErr_Occurred()) {
         PyErr_Clear();
         return PyLong_FromLong(201);
     }
     double per_second = PyFloat_AsDouble(args[1]);
-    if (per_second == -1.0 && PyErr_Occurred())
+    int f32 = PyObject_IsTrue(args[2]);
+    Py_ssize_t P = PyLong_AsSsize_t(args[3]);
+    if ((per_second == -1.0 || P == -1) && PyErr_Occurred())
         return NULL;
+    if (f32 < 0 || P < 0 || (p->N > 0 && P != p->N - 1)) {
+        PyErr_SetString(PyExc_ValueError, "pose_new: P must be the plan's translated joints");
+        return NULL;
+    }
     double u = t * per_second;
     if (!(fabs(u) < INFINITY))
         return PyLong_FromLong(202);
     u = MR_PYMIN(MR_PYMAX(u, 0.0), 1.0);
-    const mr_plan *p = &self->plan->plan;
-    Outputs o;
-    memset(&o, 0, sizeof o);
-    if (PyObject_GetBuffer(args[2], &o.rot, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
-        return NULL;
-    o.f32 = mr_format_is(&o.rot, 'f');
-    if ((!o.f32 && !mr_format_is(&o.rot, 'd')) || o.rot.len != p->J * 4 * o.rot.itemsize) {
-        release_outputs(&o);
-        PyErr_SetString(PyExc_ValueError, "rotations of one pose must be float32 or float64 of J x 4 values");
-        return NULL;
-    }
-    if (p->N > 0 && (flat_buffer(args[3], &o.root, 'd', 3, 1) < 0
-                     || flat_buffer(args[4], &o.moved, 'd', 3 * (p->N - 1), 1) < 0)) {
-        release_outputs(&o);
+    npy_intp drot[2] = {(npy_intp)p->J, 4}, droot[1] = {3}, dmoved[2] = {(npy_intp)P, 3};
+    PyObject *rot = PyArray_SimpleNew(2, drot, f32 ? NPY_FLOAT32 : NPY_FLOAT64);
+    PyObject *root = p->N > 0 ? PyArray_SimpleNew(1, droot, NPY_FLOAT64) : PyArray_ZEROS(1, droot, NPY_FLOAT64, 0);
+    PyObject *moved = p->N > 1 ? PyArray_SimpleNew(2, dmoved, NPY_FLOAT64) : PyArray_ZEROS(2, dmoved, NPY_FLOAT64, 0);
+    PyObject *out = rot && root && moved ? PyTuple_New(3) : NULL;
+    if (!out) {
+        Py_XDECREF(rot);
+        Py_XDECREF(root);
+        Py_XDECREF(moved);
         return NULL;
     }
-    int status = run_blocks(self, &u, 1, &o);
-    release_outputs(&o);
-    return PyLong_FromLong(status);
+    PyTuple_SET_ITEM(out, 0, rot);
+    PyTuple_SET_ITEM(out, 1, root);
+    PyTuple_SET_ITEM(out, 2, moved);
+    int status = run_blocks(self, &u, 1, PyArray_DATA((PyArrayObject *)rot), f32,
+                            PyArray_DATA((PyArrayObject *)root), PyArray_DATA((PyArrayObject *)moved));
+    if (status) {
+        Py_DECREF(out);
+        return PyLong_FromLong(status);
+    }
+    return out;
 }
 
 static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
@@ -391,9 +391,9 @@ static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
 static PyMethodDef Runtime_methods[] = {
     {"poses", (PyCFunction)Runtime_poses, METH_VARARGS,
      "poses(u, rot, root, moved) -> status: the poses at normalised times u (T,) float64."},
-    {"pose_at", (PyCFunction)(void (*)(void))Runtime_pose_at, METH_FASTCALL,
-     "pose_at(t, per_second, rot, root, moved) -> status: one pose at t seconds (201: t is no number, 202: not "
-     "finite)."},
+    {"pose_new", (PyCFunction)(void (*)(void))Runtime_pose_new, METH_FASTCALL,
+     "pose_new(t, per_second, f32, P) -> (rotations, root, moved) or status: one pose at t seconds in fresh arrays "
+     "(201: t is no number, 202: not finite)."},
     {"features", (PyCFunction)Runtime_features, METH_VARARGS,
      "features(u, X) -> status: the codec's features at u (T,) into the feature-major X (D, >= T)."},
     {NULL, NULL, 0, NULL}};
@@ -415,6 +415,7 @@ static struct PyModuleDef module = {
 
 PyMODINIT_FUNC PyInit__cplan(void)
 {
+    import_array();
     if (PyType_Ready(&PlanType) < 0 || PyType_Ready(&RuntimeType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);

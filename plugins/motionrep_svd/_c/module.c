@@ -32,10 +32,14 @@ typedef struct {
         const svd_arrays *s = state;                                                                               \
         const size_t F = s->F, r = s->r, D = s->D;                                                                 \
         const T *coeff = s->coeff, *mean = s->mean, *basis_t = s->basis_t, *basis = s->basis;                      \
-        T *C = malloc(sizeof(T) * ((r ? r : 1) * ROWS + D * ROWS + r + D + 1));                                    \
+        /* one time (a pose alone): its two vectors on the stack, no allocation */                                 \
+        T small[1024];                                                                                             \
+        size_t need = count == 1 ? r + D + 1 : (r ? r : 1) * ROWS + D * ROWS + r + D + 1;                          \
+        T *C = need <= 1024 ? small : malloc(sizeof(T) * need);                                                    \
         if (!C)                                                                                                    \
             return 1;                                                                                              \
-        T *Y = C + (r ? r : 1) * ROWS, *c1 = Y + D * ROWS, *y1 = c1 + r;                                           \
+        T *Y = count == 1 ? C : C + (r ? r : 1) * ROWS, *c1 = count == 1 ? C : Y + D * ROWS, *y1 = c1 + r;         \
+        const size_t stride = count == 1 ? 1 : ROWS; /* of C's rows: one time writes c1 straight away */           \
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
             for (size_t i = 0; i < m; i++) {                                                                       \
@@ -49,11 +53,12 @@ typedef struct {
                 size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
                 const T *r0 = coeff + (size_t)j * r, *r1 = coeff + k1 * r;                                         \
                 for (size_t k = 0; k < r; k++)                                                                     \
-                    C[k * ROWS + i] = r0[k] * rest + r1[k] * frac;                                                 \
+                    C[k * stride + i] = r0[k] * rest + r1[k] * frac;                                               \
             }                                                                                                      \
             if (m == 1) { /* one time: the same sums, vectorised over the features */                              \
-                for (size_t k = 0; k < r; k++)                                                                     \
-                    c1[k] = C[k * ROWS];                                                                           \
+                if (count > 1)                                                                                     \
+                    for (size_t k = 0; k < r; k++)                                                                 \
+                        c1[k] = C[k * ROWS];                                                                       \
                 AFFINE_ONE(basis, (ptrdiff_t)D, (ptrdiff_t)r, mean, c1, y1);                                       \
                 for (size_t d = 0; d < D; d++)                                                                     \
                     out[d * ldo + a] = (double)y1[d];                                                              \
@@ -64,7 +69,8 @@ typedef struct {
                 for (size_t i = 0; i < m; i++)                                                                     \
                     out[d * ldo + a + i] = (double)Y[d * ROWS + i];                                                \
         }                                                                                                          \
-        free(C);                                                                                                   \
+        if (C != small)                                                                                            \
+            free(C);                                                                                               \
         return 0;                                                                                                  \
     }
 
