@@ -1,6 +1,7 @@
 """pytest set-up for every test of the repository (``tests/`` and the shipped plugins' ``plugins/*/tests/``):
-isolation from installed third-party plugins, and a fresh plugin registry for each test.  Helpers that tests
-import (paths to the real clips in ``../shared/data``) are in ``tests/helpers.py``."""
+isolation from installed third-party plugins, a fresh plugin registry for each test, and the fixtures tests of
+both share.  Helpers that tests import (the CLI runner, paths to the real clips in ``../shared/data``) are in
+``tests/helpers.py``."""
 
 from __future__ import annotations
 
@@ -21,3 +22,12 @@ def _fresh_plugins():
     reset_plugins()
     yield
     reset_plugins()
+
+
+@pytest.fixture(scope="session")
+def chain_motion():
+    """A three-joint chain, 48 frames at 30 fps swinging twice by 20 degrees: small enough for any codec's tests
+    (a Motion is immutable, so one for the session)."""
+    from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+
+    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)

@@ -415,7 +415,7 @@ def entropy(args: argparse.Namespace) -> None:
 
     from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
-    from motionrep_transform._stream import unpack
+    from motionrep_transform._codec import unpack
 
     try:
         import zstandard
@@ -431,7 +431,7 @@ def entropy(args: argparse.Namespace) -> None:
     for bound in BOUNDS:
         for path in cmu_clips("cmu31"):
             result = compress_motion(read(path), "transform", max_error=f"{bound:g}%")
-            q = unpack(result.container.arrays["data"].tobytes())
+            q = unpack(result.container.arrays["data"].tobytes(), result.container.codec_version)
             side = [q.feature_exponents, q.region_exponents]
             layouts = {"levels": as_bytes(side + q.coefficients),
                        "features": as_bytes(side + [c.T for c in q.coefficients])}

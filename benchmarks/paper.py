@@ -320,9 +320,9 @@ def with_bone_figures(row: dict, refs: dict) -> dict:
     ``motionrep.present.bench`` wrote them lacks them.  Its payload is then derived from its stored numbers: every
     array of those runs' layouts is float32 (svd: ``mean``, ``coefficients``, ``basis``; a Fourier network with
     ``dtype=float32``: ``omega``, ``W0`` ... ``b2``), so it is 4 bytes per parameter; the figure itself comes
-    from :func:`motionrep.pipeline.evaluate.compression_figures` with the clip's skeleton. Rows of other layouts are
+    from :func:`motionrep.pipeline.figures.compression_figures` with the clip's skeleton. Rows of other layouts are
     left without it."""
-    from motionrep.pipeline.evaluate import compression_figures
+    from motionrep.pipeline.figures import compression_figures
 
     if row.get("payload_bytes") is not None or row["status"] != "ok" or not _all_float32(row):
         return row
@@ -406,7 +406,7 @@ def report() -> None:
            "be the paper's); other parameters are the codec defaults unless stated (adaptive-fourier: max_k 24, "
            "seed 0). Sizes: `bytes` is the `.mrc` file, `payload bytes` the codec's arrays without the skeleton "
            "and metadata every file has, and bits/bone/frame is `8 x payload bytes / (frames x (joints + end "
-           "sites))` (`motionrep.pipeline.evaluate.compression_figures`, ACL's bone count, as `motionrep info` and "
+           "sites))` (`motionrep.pipeline.figures.compression_figures`, ACL's bone count, as `motionrep info` and "
            "`motionrep bench` report it). Runs recorded before `motionrep bench` wrote the payload size (code "
            + ", ".join(sorted(RAW_DEFAULT_CODES)) + ") have it derived: every array of their layouts is float32, "
            "so their payload is 4 bytes per stored parameter (checked against `Container.payload_bytes` for "

@@ -7,7 +7,7 @@ read it from here.
 
 from __future__ import annotations
 
-__all__ = ["DEFAULT_CODEC", "DEFAULT_REPRESENTATION", "DEFAULT_MAX_ERROR"]
+__all__ = ["DEFAULT_CODEC", "DEFAULT_REPRESENTATION", "DEFAULT_MAX_ERROR", "CLASH_POLICIES", "DEFAULT_ON_CLASH"]
 
 #: Codec used when none is named.
 DEFAULT_CODEC = "transform"
@@ -15,3 +15,8 @@ DEFAULT_CODEC = "transform"
 DEFAULT_REPRESENTATION = "root-quat-axis-angle"
 #: The default bound: 2 % of the character height.
 DEFAULT_MAX_ERROR = "2%"
+#: How a merge resolves clips of one name in two inputs (:mod:`motionrep.batch.merge`): refuse, keep the first
+#: or the last input's, or keep both under prefixed names; identical bytes never clash.
+CLASH_POLICIES = ("error", "first", "last", "prefix")
+#: The default of those.
+DEFAULT_ON_CLASH = "error"

@@ -24,12 +24,14 @@ Hierarchy::
     │   └── UnknownPluginError   no plugin provides the representation or codec asked for
     └── CodecError               a codec failed
         ├── ParameterError       (also a ValueError) a codec parameter is invalid
+        │   └── SettingChangedError  resume=True over clips compressed with another setting
         ├── PayloadError         (also a ValueError) a codec payload is damaged or inconsistent
         ├── BoundNotMetError     the requested error bound could not be reached
         └── TimeLimitError       a clip took longer than its time limit (``--timeout``)
 
     KeyboardInterrupt
     └── Interrupted              a command was stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP (``motionrep._signals``)
+        └── BatchInterrupted     ... while a batch ran; says how many clips were finished and kept
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from os import PathLike
 __all__ = [
     "MotionrepError",
     "naming",
+    "Note",
     "UncodableClipError",
     "ValidationError",
     "FormatError",
@@ -61,6 +64,8 @@ __all__ = [
     "TimeLimitError",
     "PayloadError",
     "Interrupted",
+    "SettingChangedError",
+    "BatchInterrupted",
 ]
 
 
@@ -81,6 +86,22 @@ def naming(exc: MotionrepError, *parameters: str) -> MotionrepError:
     and return it: ``raise naming(ParameterError(f"max_error must be > 0, got {v!r}"), "max_error")``."""
     exc.parameters = tuple(parameters)
     return exc
+
+
+class Note(str):
+    """A note for the user (what a report left out, what was assumed) that names parameters as an error does:
+    the text speaks to a Python caller (``"... (max_frames=150)"``) and :attr:`parameters` lists the mentions,
+    which the command line rewrites into flags.  ``Note(text, "max_frames=")``; otherwise a plain ``str``."""
+
+    parameters: tuple[str, ...]
+
+    def __new__(cls, text: str, *parameters: str) -> "Note":
+        note = super().__new__(cls, text)
+        note.parameters = tuple(parameters)
+        return note
+
+    def __reduce__(self):  # notes cross process boundaries with their mentions
+        return (Note, (str(self), *self.parameters))
 
 
 class ValidationError(MotionrepError, ValueError):
@@ -233,3 +254,34 @@ class Interrupted(KeyboardInterrupt):
     @property
     def exit_code(self) -> int:
         return 128 + self.signum
+
+
+class SettingChangedError(ParameterError):
+    """``resume=True`` over an output holding clips compressed with another setting (without
+    ``recompress_changed=True``); nothing was touched.
+
+    Attributes:
+        changed: ``{clip name: [what differs, one phrase each]}``.
+    """
+
+    def __init__(self, message: str, changed: dict[str, list[str]] | None = None):
+        self.changed = dict(changed or {})
+        super().__init__(message)
+
+    def __reduce__(self):
+        return (type(self), (self.args[0] if self.args else "", self.changed), self.__dict__)
+
+
+class BatchInterrupted(Interrupted):
+    """A batch was stopped by a signal; every finished clip is kept in its output.
+
+    Attributes:
+        finished: clips finished (and kept) before the signal.
+        total: clips of the run.
+        output: the output they are kept in.
+    """
+
+    def __init__(self, signum: int = signal.SIGINT, note: str = "", finished: int = 0, total: int = 0,
+                 output: str = ""):
+        super().__init__(signum, note)
+        self.finished, self.total, self.output = int(finished), int(total), str(output)

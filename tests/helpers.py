@@ -64,20 +64,21 @@ def convert_fails_naming(args: list, named: Path, out: Path) -> None:
     assert not out.exists()
 
 
-def run_cli(*args, input: bytes | str | None = None, env: dict | None = None, catch: bool = False):
+def run_cli(*args, input: bytes | str | None = None, env: dict | None = None, catch: bool = False, **invoke):
     """``motionrep ARGS...`` in this process through click's test runner (arguments turned into strings). With
     ``catch=False`` an exception the CLI's error funnel did not turn into an exit code fails the test with its
-    traceback; ``catch=True`` keeps it on the result (``result.exception``)."""
+    traceback; ``catch=True`` keeps it on the result (``result.exception``).  ``invoke``: more of
+    ``CliRunner.invoke``'s options (``terminal_width``)."""
     from click.testing import CliRunner
 
     from motionrep.cli import cli
 
-    return CliRunner().invoke(cli, [str(a) for a in args], input=input, env=env, catch_exceptions=catch)
+    return CliRunner().invoke(cli, [str(a) for a in args], input=input, env=env, catch_exceptions=catch, **invoke)
 
 
-def run_cli_caught(*args, input: bytes | str | None = None, env: dict | None = None):
+def run_cli_caught(*args, input: bytes | str | None = None, env: dict | None = None, **invoke):
     """:func:`run_cli` keeping any exception on the result."""
-    return run_cli(*args, input=input, env=env, catch=True)
+    return run_cli(*args, input=input, env=env, catch=True, **invoke)
 
 
 def one_line_error(result, *needles: str, code: int = 1, in_line: bool = True) -> str:
@@ -93,3 +94,58 @@ def one_line_error(result, *needles: str, code: int = 1, in_line: bool = True) -
         else:
             assert needle in result.stderr, result.stderr
     return lines[0]
+
+
+def mrc_version_1(data: bytes, **extra) -> bytes:
+    """A version-1 ``.mrc`` file made from the bytes of a current one, as motionrep 0.1 wrote it: the bound as the
+    text ``extra.max_error`` (from ``bound``), no ``bound`` object, the setting digest not stored; ``extra`` keys
+    given here replace the file's (``max_error="abc"`` crafts a bad one).  The preamble, CRC and payload layout
+    are those of both versions (``specs/container.md``)."""
+    import json
+    import struct
+    import zlib
+
+    from motionrep.model.bound import MaxError
+
+    _, _, flags, _, meta_len = struct.unpack_from("<8sHHII", data, 0)
+    meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    bound = meta.pop("bound", None)
+    old = dict(meta.get("extra") or {})
+    old.pop("setting_sha256", None)
+    if bound is not None:
+        old["max_error"] = None if bound["kind"] == "none" else str(MaxError(bound["value"], bound["kind"] == "percent"))
+    old.update(extra)
+    meta["extra"] = old
+    text = zlib.compress(json.dumps(meta, sort_keys=True, separators=(",", ":")).encode(), 9)
+    payload = data[20 + meta_len:-4]
+    body = data[:8] + struct.pack("<HHII", 1, flags, 20 + len(text) + len(payload) + 4, len(text)) + text + payload
+    return body + struct.pack("<I", zlib.crc32(body))
+
+
+def refused_mrc(container, *words: str) -> str:
+    """A crafted container (:class:`motionrep.io.container.Container`) is refused when decoded, with one line
+    naming the file (``crafted.mrc``) and each of ``words``; returns the line."""
+    from motionrep.errors import ContainerError
+    from motionrep.io.container import pack
+    from motionrep.pipeline.decode import decompress
+
+    with pytest.raises(ContainerError) as info:
+        decompress(pack(container), path="crafted.mrc")
+    text = str(info.value)
+    assert "crafted.mrc" in text and "\n" not in text
+    for w in words:
+        assert w in text, text
+    return text
+
+
+def representation_alone(monkeypatch, plugin: str, name: str):
+    """The representation ``name``, looked up through the plugin registry with only ``plugin`` loaded."""
+    from motionrep.plugin import registry
+
+    monkeypatch.setattr(registry, "DEFAULT_PLUGINS", (plugin,))
+    return registry.get_representation(name)
+
+
+def mutant(obj, **methods):
+    """An instance of a subclass of ``obj``'s class with ``methods`` replaced: a broken plugin for a check to catch."""
+    return type("Mutant", (type(obj),), methods)()

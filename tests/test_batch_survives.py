@@ -13,6 +13,7 @@ import motionrep
 from motionrep.batch.engine import compress_clips, run_batch
 from motionrep.pipeline.sources import ClipRef
 from motionrep.model.synthetic import synthetic_motion
+from helpers import run_cli_caught
 
 #: frames of a clip -> what compressing it does (module level: worker processes import this module)
 _RAISES = {11: MemoryError, 12: TypeError, 14: RecursionError, 16: KeyError}
@@ -47,7 +48,8 @@ def _clips(tmp_path, frames):
     return refs
 
 
-@pytest.mark.parametrize("jobs", [1, 2])
+# worker processes in the slow run; the fast smoke test of a dying worker is the broken-pool test below
+@pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_every_kind_of_failure_is_one_clips_failure(tmp_path, jobs):
     frames = [10, 11, 12, 13, 14, 15, 16, 17]
     refs = _clips(tmp_path, frames)
@@ -85,15 +87,52 @@ def test_run_batch_without_on_error_still_raises():
 
 
 def test_cli_compress_dir_goes_on_after_a_bad_clip(tmp_path):
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     src = tmp_path / "in"
     src.mkdir()
     _clips(src, [10, 12])
     (src / "bad.bvh").write_text("HIERARCHY\nROOT a\n{\n")
-    result = CliRunner().invoke(cli, ["compress", str(src), "-o", str(tmp_path / "out") + "/", "--jobs", "1"])
+    result = run_cli_caught("compress", str(src), "-o", str(tmp_path / "out") + "/", "--jobs", "1")
     assert result.exit_code == 1, result.output
     assert "1 of 3 clips failed" in result.output
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["clip10.mrc", "clip12.mrc"]
+
+
+def test_the_outcome_of_a_clip_is_typed(tmp_path):
+    """What crosses the process boundary is a ClipOutcome carrying the CompressResult (or a ClipFailure), read
+    through its fields; ``summary`` is the one place it becomes JSON."""
+    from motionrep.batch.engine import ClipFailure, ClipOutcome
+    from motionrep.pipeline.compress import CompressResult, Pipeline
+
+    refs = _clips(tmp_path, [10, 11])
+    done, failed = compress_clips(refs, FlakyPipeline(crash=False))
+    assert isinstance(done, ClipOutcome) and isinstance(done.result, CompressResult) and done.failure is None
+    assert done.data == done.result.data and done.source == refs[0].source and len(done.source_sha256) == 64
+    assert done.summary["bytes"] == len(done.data) and done.summary["source_sha256"] == done.source_sha256
+    assert failed.result is None and failed.failure == ClipFailure(failed.failure.message, "MemoryError")
+    assert failed.summary["type"] == "MemoryError" and failed.data is None
+    unbounded = compress_clips(refs[:1], Pipeline.build("svd", max_error=None))[0]
+    assert unbounded.failure.type == "ParameterError" and unbounded.failure.parameters == ("max_error=None",)
+    assert "max_error=None" in unbounded.failure.message  # a library error names the parameter; the CLI, the flag
+
+
+def _sleeps(x):
+    import time
+
+    if x == 1:
+        time.sleep(120)  # one call, in C: no exception raised in this thread could stop it before it returns
+    return x
+
+
+@pytest.mark.slow  # starts worker processes
+def test_a_worker_over_its_time_limit_is_killed_even_inside_compiled_code():
+    import time
+
+    from motionrep.errors import TimeLimitError
+
+    start = time.monotonic()
+    out = run_batch(_sleeps, [0, 1, 2, 3], jobs=2, timeout=1.0, on_error=lambda item, exc: exc)
+    assert out[0] == 0 and out[2:] == [2, 3]
+    assert isinstance(out[1], TimeLimitError) and "time limit of 1 s (timeout=)" in str(out[1])
+    assert time.monotonic() - start < 60  # the sleeping worker was killed, not waited for

@@ -13,7 +13,6 @@ import pytest
 from motionrep.present.bench import (COLUMNS, BenchRow, BenchTask, bench_tasks, csv_text, format_table, is_sweep,
                              parse_sweep, plot_series, read_csv, run_bench, run_task, summarize, write_csv,
                              write_json)
-from motionrep.cli import cli
 from motionrep.pipeline.compress import compress_motion, decompress
 from motionrep.errors import FormatError, ParameterError, UnknownPluginError
 from motionrep.pipeline.evaluate import max_joint_error
@@ -33,7 +32,7 @@ def _one_line_error(result, code: int, *needles: str) -> None:
 
 
 @pytest.fixture
-def chain_motion():
+def short_chain():
     return synthetic_motion(chain_skeleton(3), frames=30, fps=30, seed=5)
 
 
@@ -109,9 +108,9 @@ def test_grid_validates_before_any_work(tmp_path):
 
 
 # ---- one run: the table's arithmetic -----------------------------------------------------------------------------
-def test_row_arithmetic_against_hand_computed_values(tmp_path, chain_motion):
+def test_row_arithmetic_against_hand_computed_values(tmp_path, short_chain):
     path = tmp_path / "chain.bvh"
-    write(chain_motion, path)
+    write(short_chain, path)
     motion = read(path)
     F, J, r = 30, 3, 2
     D = 3 + 4 + 3 * (J - 1)  # root translation, root quaternion, axis-angle of the two other joints
@@ -139,9 +138,9 @@ def test_row_arithmetic_against_hand_computed_values(tmp_path, chain_motion):
     assert 0 < row.decode_pose_seconds < 1 and row.encode_seconds > 0
 
 
-def test_bound_not_met_is_a_failed_row_with_the_best_error(chain_motion, tmp_path):
+def test_bound_not_met_is_a_failed_row_with_the_best_error(short_chain, tmp_path):
     path = tmp_path / "chain.bvh"
-    write(chain_motion, path)
+    write(short_chain, path)
     clip = collect_clips([path])[0]
     row = run_task(BenchTask(0, clip, "svd", "root-quat-axis-angle", "0.0001%", (("rank", "1"),)))
     height = character_height(read(path).skeleton)
@@ -154,9 +153,9 @@ def test_bound_not_met_is_a_failed_row_with_the_best_error(chain_motion, tmp_pat
     assert "did not meet" in row.message or "bound" in row.message
 
 
-def test_an_invalid_setting_for_a_clip_is_an_error_row(chain_motion, tmp_path):
+def test_an_invalid_setting_for_a_clip_is_an_error_row(short_chain, tmp_path):
     path = tmp_path / "chain.bvh"
-    write(chain_motion, path)
+    write(short_chain, path)
     clip = collect_clips([path])[0]
     row = run_task(BenchTask(0, clip, "svd", "root-quat-axis-angle", None, (("rank", "500"),)))
     assert row.status == "error" and "exceeds" in row.message and row.error is None
@@ -328,6 +327,7 @@ def test_cli_sweep_with_an_explicit_bound_and_failures(database, tmp_path):
     assert re.search(r"svd\s+3%\s+rank=1\s+0/2\s+2\s+-", r.stdout)
 
 
+@pytest.mark.slow  # worker processes (the batch pool's fast smoke test: test_batch_survives.py, the broken pool)
 def test_jobs_give_the_same_rows_as_one_process(database, tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     assert run("bench", database, "-c", "svd", "--max-error", "2%", "--out", a, "--decode-poses", "0",

@@ -4,12 +4,11 @@ for every column, the plot on payload bits per bone per frame with ACL's anchors
 from __future__ import annotations
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.present.bench.anchors import acl_anchors_for, acl_strict
-from motionrep.cli import cli
 from motionrep.io import write
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def test_acl_anchors_match_by_source_path_never_by_a_bare_name():
@@ -28,13 +27,13 @@ def test_default_table_fits_120_columns_and_wide_has_every_column(tmp_path):
     write(synthetic_motion(chain_skeleton(4), frames=20, seed=2), clips / "short.bvh")
     args = ["bench", str(clips), "-c", "svd", "-c", "transform", "--max-error", "1%", "--max-error", "2%",
             "--decode-poses", "0", "-q"]
-    r = CliRunner().invoke(cli, args)
+    r = run_cli_caught(*args)
     assert r.exit_code == 0, r.output
     lines = [line for line in r.stdout.splitlines() if not line.startswith("totals: ")]
     assert max(len(line) for line in lines) <= 120
     assert "payload" in lines[0] and "file" in lines[0] and lines[1].count("bits/bone/frame") == 2
     assert "paper ratio" not in r.stdout
-    wide = CliRunner().invoke(cli, args + ["--wide"])
+    wide = run_cli_caught(*args + ["--wide"])
     assert wide.exit_code == 0 and "paper ratio" in wide.stdout and "decode poses/s" in wide.stdout
     assert max(len(line) for line in wide.stdout.splitlines()) > 120
 
@@ -44,8 +43,8 @@ def test_plot_is_drawn_on_payload_bits_with_acl_where_known(tmp_path):
     cmu.mkdir(parents=True)
     write(synthetic_motion(humanoid_skeleton(), frames=30, seed=1), cmu / "131_01.bvh")
     plot = tmp_path / "rd.png"
-    r = CliRunner().invoke(cli, ["bench", str(cmu / "131_01.bvh"), "-c", "transform", "--max-error", "2%",
-                                 "--decode-poses", "0", "--plot", str(plot)])
+    r = run_cli_caught("bench", str(cmu / "131_01.bvh"), "-c", "transform", "--max-error", "2%",
+                                 "--decode-poses", "0", "--plot", str(plot))
     assert r.exit_code == 0, r.output
     assert plot.read_bytes()[:4] == b"\x89PNG" and f"wrote {plot}" in r.stdout
     from motionrep.present.bench.plot import DEFAULT_X
@@ -57,8 +56,8 @@ def test_plot_is_drawn_on_payload_bits_with_acl_where_known(tmp_path):
 def test_bench_quiet_keeps_the_table_and_drops_wrote(tmp_path, flag):
     path = tmp_path / "c.bvh"
     write(synthetic_motion(chain_skeleton(3), frames=20, seed=3), path)
-    r = CliRunner().invoke(cli, ["bench", str(path), "-c", "svd", "--decode-poses", "0", "--out",
-                                 str(tmp_path / "res"), flag])
+    r = run_cli_caught("bench", str(path), "-c", "svd", "--decode-poses", "0", "--out",
+                                 str(tmp_path / "res"), flag)
     assert r.exit_code == 0 and "wrote" not in r.output and "svd" in r.stdout and r.stderr == ""
 
 
@@ -67,7 +66,7 @@ def test_bench_is_not_silent_while_a_run_takes_long(tmp_path, monkeypatch):
     path = tmp_path / "c.bvh"
     write(synthetic_motion(chain_skeleton(4), frames=120, seed=3), path)
     monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.05")
-    r = CliRunner().invoke(cli, ["bench", str(path), "-c", "adaptive-fourier", "-p", "k=6", "-p", "iters=4000",
-                                 "--max-error", "none", "--decode-poses", "0"])
+    r = run_cli_caught("bench", str(path), "-c", "adaptive-fourier", "-p", "k=6", "-p", "iters=4000",
+                                 "--max-error", "none", "--decode-poses", "0")
     assert r.exit_code == 0, r.output
     assert any(line.startswith("[0/1] working, ") and "ETA" in line for line in r.stderr.splitlines()), r.stderr

@@ -22,11 +22,9 @@ import numpy as np
 import pytest
 
 from blender import ROUND_TRIPS, run_blender
-from click.testing import CliRunner
-from helpers import HAVE_SHARED, SHARED_DATA
+from helpers import HAVE_SHARED, SHARED_DATA, run_cli_caught
 
 from motionrep import Motion, Skeleton
-from motionrep.cli import cli
 from motionrep.io import gltf_scale, read, write
 from motionrep.model.kinematics import character_height
 
@@ -48,7 +46,7 @@ real_clips = pytest.mark.parametrize("name", [
 
 
 def _cli(*args: str | Path):
-    run = CliRunner().invoke(cli, [str(a) for a in args])
+    run = run_cli_caught(*args)
     assert run.exit_code == 0, run.output
     return run
 
@@ -149,7 +147,7 @@ def test_blender_at_another_time_base_compares_with_resample(tmp_path):
     the reference's times and says how (3e-3 % of the height: 4 ppm of time, not geometry)."""
     src, out = SHARED_DATA / "cmu/BvhToDeepMimic/02_01.bvh", tmp_path / "blender.glb"
     run_blender(ROUND_TRIPS, "bvh", src, out)
-    refused = CliRunner().invoke(cli, ["evaluate", str(src), str(out), "--match", "names"])
+    refused = run_cli_caught("evaluate", str(src), str(out), "--match", "names")
     assert refused.exit_code == 1 and "120.0005 vs 120 fps" in refused.output and "--resample" in refused.output
     report = json.loads(_cli("evaluate", src, out, "--match", "names", "--resample", "--json").stdout)
     assert report["comparison"]["method"].startswith("candidate sampled at the reference's frame times")

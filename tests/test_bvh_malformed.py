@@ -4,12 +4,11 @@ from the command line (exit code 1, one line, no traceback, no output file)."""
 from __future__ import annotations
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.errors import BVHFormatError, MotionrepError
 from motionrep.io import parse_bvh, read_bvh
 
-from helpers import SHARED_DATA, requires_shared
+from helpers import SHARED_DATA, requires_shared, run_cli_caught
 
 # line numbers of VALID, for reading the cases below
 VALID = """HIERARCHY
@@ -182,13 +181,12 @@ def test_real_malformed_files(name, line, words):
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_malformed_from_the_command_line(name, tmp_path):
-    from motionrep.cli import cli
 
     content, line, words = CASES[name]
     src = tmp_path / "in.bvh"
     src.write_bytes(_as_bytes(content))
     out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(src), str(out)])
+    result = run_cli_caught("convert", str(src), str(out))
     assert result.exit_code == 1, result.output
     assert "Traceback" not in result.output
     errors = [ln for ln in result.output.splitlines() if ln.startswith("Error: ")]

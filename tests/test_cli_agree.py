@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from motionrep.cli import cli
 from motionrep.io import write
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from helpers import run_cli_caught

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from motionrep.io._demo import demo_path, demo_walk
-from motionrep.cli import cli
 from motionrep.io.archive import is_archive, read_archive
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion

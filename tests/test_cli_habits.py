@@ -11,15 +11,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep.cli import cli
 from motionrep.io import read, write
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def run(*args, input: bytes | None = None):
-    return CliRunner().invoke(cli, [str(a) for a in args], input=input)
+    return run_cli_caught(*args, input=input)
 
 
 def error_line(result) -> str:
@@ -211,7 +211,7 @@ def test_f_is_force_in_every_command_that_writes(tmp_path, walk):
 def test_debug_anywhere_on_the_line(tmp_path):
     missing = tmp_path / "missing.bvh"
     for args in (["--debug", "info", missing], ["info", missing, "--debug"], ["info", "--debug", missing]):
-        r = CliRunner().invoke(cli, [str(a) for a in args])
+        r = run_cli_caught(*args)
         assert r.exit_code != 0 and r.exception is not None and not isinstance(r.exception, SystemExit), args
     r = run("info", missing)
     assert r.exit_code == 1 and isinstance(r.exception, SystemExit)

@@ -8,15 +8,14 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from motionrep.cli import cli
+from helpers import run_cli_caught
 
 REPO = Path(__file__).resolve().parent.parent
 
 
 def _help(*command: str) -> str:
-    r = CliRunner().invoke(cli, [*command, "--help"], terminal_width=200)
+    r = run_cli_caught(*command, "--help", terminal_width=200)
     assert r.exit_code == 0, r.output
     return " ".join(r.output.split())  # one line: click rewraps
 

@@ -13,17 +13,16 @@ import time
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep import read
-from motionrep.cli import cli
 from motionrep.io import atomic_path, list_clips, write
 from motionrep.model.ops import resample_times, resampled_count
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def run(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args])
+    return run_cli_caught(*args)
 
 
 def one_error_line(result, *needles):

@@ -26,11 +26,6 @@ from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthet
 FAST_FOURIER = {"iters": 200}
 
 
-@pytest.fixture(scope="module")
-def chain_motion():
-    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # svd
 # ---------------------------------------------------------------------------------------------------------------
@@ -185,10 +180,10 @@ def test_fourier_fails_cleanly_and_writes_nothing(chain_motion, tmp_path):
     assert info.value.best_error is not None and info.value.best_error > info.value.bound
     assert not out.exists() and list(tmp_path.iterdir()) == [src]
     # every failure names what else to do; one network for the whole clip names windows first
-    assert "raise max_k or the bound, or use --codec svd (it meets any bound)" in str(info.value)
+    assert "raise max_k or the bound, or use codec=svd (it meets any bound)" in str(info.value)
     with pytest.raises(BoundNotMetError, match=r"max_k=1 .*raise max_k, or code the clip in windows \(leave "
-                                               r"window unset to let the codec choose, or -p window=125\), or "
-                                               r"use --codec svd"):
+                                               r"window unset to let the codec choose, or params window=125\), or "
+                                               r"use codec=svd"):
         compress_motion(chain_motion, "adaptive-fourier", max_error="0.01%",
                         params={"max_k": 1, "iters": 50, "window": 0})
     with pytest.raises(BoundNotMetError, match="K=1"):  # a fixed size plus a bound fails the same way

@@ -93,8 +93,54 @@ def _reseal(body: bytes) -> bytes:
 def test_unknown_container_version_is_refused(small):
     data = small[1].data
     edited = _reseal(data[:8] + struct.pack("<H", CONTAINER_VERSION + 1) + data[10:-4])
-    with pytest.raises(ContainerError, match="unsupported .mrc container version 2"):
+    with pytest.raises(ContainerError, match=f"unsupported .mrc container version {CONTAINER_VERSION + 1} "
+                                             r"\(this motionrep reads 1, 2\)"):
         unpack(edited)
+
+
+@pytest.mark.parametrize("max_error", ["2%", "1.5", None])
+def test_a_version_1_file_still_reads_with_its_bound_structured(max_error):
+    """Version 1 stated the bound as text (``extra.max_error``); it reads as the same structured bound a version-2
+    file stores, and decodes to the same motion."""
+    from helpers import mrc_version_1
+    from motionrep.model.bound import MaxError
+
+    motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+    result = compress_motion(motion, "svd", params={"rank": 2} if max_error is None else {}, max_error=max_error)
+    old = mrc_version_1(result.data)
+    assert struct.unpack_from("<H", old, 8) == (1,) and struct.unpack_from("<H", result.data, 8) == (2,)
+    assert b"max_error" in zlib.decompress(old[20:20 + struct.unpack_from("<I", old, 16)[0]])
+    c_old, c_new = unpack(old), unpack(result.data)
+    assert c_old.bound == c_new.bound and "max_error" not in c_old.extra  # one home: the structured bound
+    if max_error is None:
+        assert c_new.bound.kind == "none" and c_new.bound.distance is None
+    else:
+        assert c_new.bound.asked == MaxError(float(max_error.rstrip("%")), max_error.endswith("%"))
+        assert c_new.bound.distance == result.bound == c_new.evaluation["bound"]
+    assert np.array_equal(decompress(old).rotations, decompress(result.data).rotations)
+
+
+def test_a_version_1_file_without_a_bound_says_none():
+    """A version-1 file whose writer stated no bound at all (another tool): the bound is unknown, not 'none'."""
+    from helpers import mrc_version_1
+
+    motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+    data = compress_motion(motion, "svd", params={"rank": 2}, max_error=None).data
+    meta_len = struct.unpack_from("<I", data, 16)[0]
+    meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    meta.pop("bound")
+    text = zlib.compress(json.dumps(meta, sort_keys=True, separators=(",", ":")).encode(), 9)
+    v2 = _reseal(data[:16] + struct.pack("<I", len(text)) + text + data[20 + meta_len:-4])
+    assert unpack(v2).bound is None  # version 2 without the key
+    assert unpack(mrc_version_1(v2)).bound is None  # version 1 without extra.max_error
+
+
+def test_the_bound_is_stored_structured():
+    motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+    result = compress_motion(motion, "svd", max_error="2%")
+    meta = json.loads(zlib.decompress(result.data[20:20 + struct.unpack_from("<I", result.data, 16)[0]]))
+    assert meta["bound"] == {"kind": "percent", "value": 2.0, "distance": result.bound}
+    assert "max_error" not in meta["extra"]
 
 
 def test_unknown_codec_names_codec_and_plugin(small):
@@ -139,11 +185,12 @@ def test_spec_describes_the_bytes(small):
         assert needle in spec
     data = small[1].data
     magic, version, flags, total, meta_len = struct.unpack_from("<8sHHII", data, 0)
-    assert magic == b"\x89MRC\r\n\x1a\n" == MAGIC and version == 1 and flags == 0 and total == len(data)
+    assert magic == b"\x89MRC\r\n\x1a\n" == MAGIC and version == 2 and flags == 0 and total == len(data)
     (crc,) = struct.unpack_from("<I", data, total - 4)
     assert crc == zlib.crc32(data[:-4])
     meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
-    assert set(meta) == {"codec", "representation", "skeleton", "fps", "num_frames", "evaluation", "arrays", "extra"}
+    assert set(meta) == {"codec", "representation", "skeleton", "fps", "num_frames", "evaluation", "arrays", "extra",
+                         "bound"}
     assert meta["codec"]["name"] == "svd" and meta["num_frames"] == 12
     offset = 20 + meta_len
     sizes = {"f2": 2, "f4": 4, "f8": 8}

@@ -9,18 +9,17 @@ import signal
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 distributed = pytest.importorskip("distributed")
 
 from motionrep.io.archive import Archive  # noqa: E402
-from motionrep.cli import cli  # noqa: E402
 from motionrep.io import write, write_database  # noqa: E402
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion  # noqa: E402
+from helpers import run_cli, run_cli_caught
 
 
 def run(*args: str, env: dict | None = None):
-    return CliRunner(env=env).invoke(cli, [str(a) for a in args], catch_exceptions=False)
+    return run_cli(*args, env=env)
 
 
 @pytest.fixture(scope="module")
@@ -91,8 +90,8 @@ def test_standard_input_is_sent_to_the_cluster(cluster, tmp_path):
     _, db = _inputs(tmp_path)
     local = tmp_path / "local.h5"
     assert run("compress", db, "-o", local, "--codec", "svd").exit_code == 0
-    r = CliRunner().invoke(cli, ["compress", "-", "-o", str(tmp_path / "piped.h5"), "--codec", "svd", "--json",
-                                 "--scheduler", cluster.scheduler_address], input=db.read_bytes())
+    r = run_cli_caught("compress", "-", "-o", str(tmp_path / "piped.h5"), "--codec", "svd", "--json",
+                                 "--scheduler", cluster.scheduler_address, input=db.read_bytes())
     assert r.exit_code == 0, r.output
     assert r.stderr.splitlines()[0] == ("note: <stdin> is read here and its clips sent to the Dask workers (as "
                                         "--send-clips does)")

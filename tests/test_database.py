@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 
 from motionrep.io.archive import read_archive
-from motionrep.cli import cli
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from helpers import run_cli
@@ -120,6 +119,57 @@ def test_resume_keeps_unchanged_clips_and_redoes_the_others(tmp_path, suffix):
     r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume", "--max-error", "1%")
     assert set(_statuses(r.output).values()) == {"skipped"}
     _no_temp_files(tmp_path)
+
+
+def test_a_setting_is_identified_by_the_digest_of_its_spec():
+    """``Pipeline.digest()``: the SHA-256 of the canonical setting; the same for the same setting however it was
+    given, another for any change, and stored in every container."""
+    import hashlib
+
+    from motionrep.model.bound import MaxError
+    from motionrep.pipeline.compress import Pipeline, setting_digest
+
+    a = Pipeline.build("svd", params={"rank": "3"}, max_error="2%", seed=1)
+    same = Pipeline.build("svd", "root-quat-axis-angle", {"rank": 3}, MaxError(2.0, True), 1)
+    assert a.digest() == same.digest() == setting_digest(dict(reversed(list(a.setting().items()))))
+    canonical = json.dumps(a.setting(), sort_keys=True, separators=(",", ":"))
+    assert a.digest() == hashlib.sha256(canonical.encode()).hexdigest()
+    others = [Pipeline.build("svd", params={"rank": 4}, max_error="2%", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2.5%", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2", seed=1),
+              Pipeline.build("svd", params={"rank": 3}, max_error="2%", seed=2),
+              Pipeline.build("transform", max_error="2%", seed=1)]
+    assert len({a.digest()} | {p.digest() for p in others}) == 6
+    free = Pipeline.build("svd", max_error="2%")
+    motion = synthetic_motion(chain_skeleton(3), frames=12, seed=2)
+    assert free.compress(motion).container.extra["setting_sha256"] == free.digest()
+
+
+@pytest.mark.parametrize("suffix", [".h5", ""])
+def test_resume_keeps_the_clips_of_an_output_written_before_the_digest(tmp_path, suffix):
+    """An output of version-1 containers (no stored digest, the bound as text) resumes: their digest is derived from
+    the setting they state; a changed setting is still refused naming what changed."""
+    from helpers import mrc_version_1
+    from motionrep.io.archive import write_archive
+
+    src = _clips(tmp_path / "clips", count=3)
+    out = tmp_path / f"out{suffix}"
+    r = run("compress", src, "-o", out, "--codec", "svd", "--json")
+    assert r.exit_code == 0, r.output
+    if suffix:
+        from motionrep.io.archive import Archive
+
+        with Archive(out) as archive:
+            old = {name: mrc_version_1(archive.read_bytes(name)) for name in archive.names}
+        write_archive(sorted(old.items()), out)
+    else:
+        for p in out.iterdir():
+            p.write_bytes(mrc_version_1(p.read_bytes()))
+    r = run("compress", src, "-o", out, "--codec", "svd", "--json", "--resume")
+    assert r.exit_code == 0, r.output
+    assert set(_statuses(r.output).values()) == {"skipped"}
+    r = run("compress", src, "-o", out, "--codec", "svd", "--resume", "--seed", "3")
+    assert r.exit_code == 2 and "seed 0 stored, 3 now" in r.output and "--recompress-changed" in r.output, r.output
 
 
 def test_a_killed_run_leaves_a_journal_that_resume_finishes(tmp_path):
@@ -362,6 +412,24 @@ def test_decompress_and_evaluate_read_directories_and_archives(tmp_path):
     assert r.exit_code == 1 and "holds motions, not compressed clips" in r.output
 
 
+def _merge_in_python(a: Path, other: Path, tmp_path: Path) -> None:
+    """The clash policy is the library's (motionrep.batch.merge): the same outcomes without the command line."""
+    from motionrep.batch.merge import plan_merge
+    from motionrep.errors import FormatError, ValidationError
+    from motionrep.io.archive import Archive
+
+    with pytest.raises(FormatError, match=r"clash with different contents: .*; use on_clash=first\|last\|prefix"):
+        plan_merge([a, other])
+    with pytest.raises(ValidationError, match="on_clash must be one of error, first, last, prefix"):
+        plan_merge([a, other], on_clash="newest")
+    plan = plan_merge([a, other], on_clash="last")
+    assert plan.names == ["c0", "c2"]
+    plan.write(tmp_path / "py.h5")
+    with Archive(tmp_path / "py.h5") as m, Archive(other) as o:
+        assert m.read_bytes("c0") == o.read_bytes("c0")
+    assert plan_merge([a, other], on_clash="prefix").names == ["a__c0", "a__c2", "other__c0", "other__c2"]
+
+
 def test_merge_joins_shards_and_refuses_clashes(tmp_path):
     src = _clips(tmp_path / "clips", count=4)
     a, b, both = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "both.h5"
@@ -385,6 +453,7 @@ def test_merge_joins_shards_and_refuses_clashes(tmp_path):
                "1%").exit_code == 0
     r = run("merge", a, other, "-o", tmp_path / "x.h5")
     assert r.exit_code == 1 and "clash" in r.output and "c0 (" in r.output and not (tmp_path / "x.h5").exists()
+    assert "use --on-clash first|last|prefix" in r.output
     for policy, source in (("first", a), ("last", other)):
         out = tmp_path / f"{policy}.h5"
         assert run("merge", a, other, "-o", out, "--on-clash", policy).exit_code == 0
@@ -393,6 +462,7 @@ def test_merge_joins_shards_and_refuses_clashes(tmp_path):
     out = tmp_path / "prefix.h5"
     assert run("merge", a, other, "-o", out, "--on-clash", "prefix").exit_code == 0
     assert sorted(read_archive(out)) == ["a__c0", "a__c2", "other__c0", "other__c2"]
+    _merge_in_python(a, other, tmp_path)
     mrcdir = tmp_path / "mrcdir"
     assert run("merge", a, b, "-o", mrcdir).exit_code == 0
     assert sorted(p.name for p in mrcdir.iterdir()) == ["c0.mrc", "c1.mrc", "c2.mrc", "c3.mrc"]

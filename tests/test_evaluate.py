@@ -9,7 +9,8 @@ import pytest
 
 from motionrep import Motion
 from motionrep.errors import ValidationError
-from motionrep.pipeline.evaluate import Evaluator, compression_figures, max_joint_error
+from motionrep.pipeline.evaluate import Evaluator, max_joint_error
+from motionrep.pipeline.figures import compression_figures
 from motionrep.model.kinematics import character_height
 from motionrep.model.rotations import euler_to_quat
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion

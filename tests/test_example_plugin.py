@@ -24,14 +24,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep.plugin import registry as plugins
-from motionrep.cli import cli
 from motionrep.plugin.codec import frame_times
 from motionrep.errors import DuplicateNameError, ParameterError, PluginError
 from motionrep.model.synthetic import synthetic_motion
 from motionrep.testing import ConformanceContext, check_codec, check_representation
+from helpers import run_cli_caught
 
 tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
 
@@ -163,7 +162,7 @@ def test_duplicate_name_names_both_plugins(on_path, duplicate_site, monkeypatch)
         plugins.load_plugins()
     assert "representation name 'local-quaternion' is registered twice" in str(info.value)
     assert "'keyframe'" in str(info.value) and "'dupe'" in str(info.value)
-    result = CliRunner().invoke(cli, ["plugins"])
+    result = run_cli_caught("plugins")
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "'keyframe'" in lines[0] and "'dupe'" in lines[0]
@@ -222,19 +221,18 @@ def test_example_is_usable_from_every_command(on_path, tmp_path, monkeypatch):
     motion = synthetic_motion(frames=40)
     src, mrc, back = tmp_path / "walk.bvh", tmp_path / "walk.mrc", tmp_path / "back.bvh"
     write(motion, src)
-    runner = CliRunner()
-    result = runner.invoke(cli, ["compress", str(src), "-o", str(mrc), "--codec", "keyframe", "-r",
-                                 "local-quaternion", "--max-error", "2%", "-p", "step=4"])
+    result = run_cli_caught("compress", str(src), "-o", str(mrc), "--codec", "keyframe", "-r",
+                                 "local-quaternion", "--max-error", "2%", "-p", "step=4")
     assert result.exit_code == 0, result.output
     assert re.search(r"codec keyframe: \d+ keyframes, step \d", result.output)  # the outcome in its own words
-    result = runner.invoke(cli, ["decompress", str(mrc), "-o", str(back)])
+    result = run_cli_caught("decompress", str(mrc), "-o", str(back))
     assert result.exit_code == 0, result.output
     original = read(src)
     error = np.linalg.norm(global_positions(read(back)) - global_positions(original), axis=-1).max()
     assert error <= 0.02 * character_height(original.skeleton)
     monkeypatch.setenv("MOTIONREP_LOAD_PLUGINS", "")
     plugins.reset_plugins()
-    result = runner.invoke(cli, ["decompress", str(mrc), "-o", str(tmp_path / "again.bvh")])
+    result = run_cli_caught("decompress", str(mrc), "-o", str(tmp_path / "again.bvh"))
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "'keyframe'" in lines[0] and "motionrep-keyframe" in lines[0]

@@ -6,7 +6,7 @@ import pytest
 
 from motionrep.pipeline import figures as fg
 from motionrep.errors import ValidationError
-from motionrep.pipeline.evaluate import compression_figures
+from motionrep.pipeline.figures import compression_figures
 from motionrep.batch.totals import BatchTotals
 
 
@@ -30,9 +30,13 @@ def test_compression_figures_and_totals_use_the_same_names_and_definitions():
     line = f.summary()  # the first size line: short, the three named figures only
     assert "payload bits/bone/frame" in line and "file bits/bone/frame" in line and "smaller than source" in line
     assert "paper" not in line and "float32" not in line and "paper ratio" in f.details()
-    summary = {"frames": 450, "joints": 15, "end_sites": 5, "channels": 51, "bytes": 1655, "source_bytes": 204_000,
-               "figures": d, "evaluation": None}
-    outcome = type("O", (), {"name": "walk", "summary": summary, "failed": False, "skipped": False})()
+    from types import SimpleNamespace as NS
+
+    from motionrep.batch.engine import ClipOutcome
+
+    container = NS(num_frames=450, skeleton=NS(num_joints=15, num_end_sites=5, num_channels=51), payload_bytes=960,
+                   evaluation=None)
+    outcome = ClipOutcome("walk", "walk.bvh", result=NS(container=container, data=b"\0" * 1655, figures=f))
     t = BatchTotals.of([outcome, outcome]).as_dict()
     assert t[fg.PAYLOAD_BPBF] == pytest.approx(d[fg.PAYLOAD_BPBF])  # two equal clips: the same figures
     assert t[fg.FILE_BPBF] == pytest.approx(d[fg.FILE_BPBF])

@@ -9,11 +9,9 @@ import struct
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from helpers import real_params
+from helpers import real_params, run_cli_caught
 from motionrep import Motion, Skeleton
-from motionrep.cli import cli
 from motionrep.errors import ValidationError
 from motionrep.io import gltf_scale, read, read_bvh, write
 from motionrep.model.kinematics import character_height
@@ -57,40 +55,38 @@ def test_the_guess_scales_to_1_8_m_when_no_unit_fits_and_stated_units_win():
 def test_convert_units_scale_and_the_one_line_note(tmp_path):
     src = tmp_path / "walk.bvh"
     write(_clip(170.0), src)
-    runner = CliRunner()
-    guessed = runner.invoke(cli, ["convert", str(src), str(tmp_path / "a.glb")])
+    guessed = run_cli_caught("convert", str(src), str(tmp_path / "a.glb"))
     assert guessed.exit_code == 0, guessed.output
     notes = [line for line in guessed.stderr.splitlines() if line.startswith("note:")]
     assert len(notes) == 1 and "assumed units cm" in notes[0]
     assert _armature_scale(tmp_path / "a.glb") == 0.01
-    given = runner.invoke(cli, ["convert", str(src), str(tmp_path / "b.glb"), "--units", "in"])
+    given = run_cli_caught("convert", str(src), str(tmp_path / "b.glb"), "--units", "in")
     assert given.exit_code == 0 and "note:" not in given.stderr
     assert _armature_scale(tmp_path / "b.glb") == 0.0254
-    runner.invoke(cli, ["convert", str(src), str(tmp_path / "c.glb"), "--scale", "0.5"])
+    run_cli_caught("convert", str(src), str(tmp_path / "c.glb"), "--scale", "0.5")
     assert _armature_scale(tmp_path / "c.glb") == 0.5
     for path in ("a.glb", "b.glb", "c.glb"):  # read back in the clip's own numbers, whatever the scale
         back = read(tmp_path / path)
         assert math.isclose(character_height(back.skeleton), 170.0, rel_tol=1e-12)
     for bad, message in ((["--units", "cm", "--scale", "1"], "not both"), (["--scale", "-1"], "positive"),):
-        run = runner.invoke(cli, ["convert", str(src), str(tmp_path / "d.glb"), *bad])
+        run = run_cli_caught("convert", str(src), str(tmp_path / "d.glb"), *bad)
         assert run.exit_code == 2 and message in run.output
         assert not (tmp_path / "d.glb").exists()
-    run = runner.invoke(cli, ["convert", str(src), str(tmp_path / "d.npz"), "--units", "cm"])
+    run = run_cli_caught("convert", str(src), str(tmp_path / "d.npz"), "--units", "cm")
     assert run.exit_code == 2 and "applies only to glTF output" in run.output
 
 
 def test_decompress_takes_the_same_options(tmp_path):
     src = tmp_path / "walk.bvh"
     write(_clip(170.0), src)
-    runner = CliRunner()
-    assert runner.invoke(cli, ["compress", str(src), "-o", str(tmp_path / "w.mrc")]).exit_code == 0
-    run = runner.invoke(cli, ["decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "w.glb"), "--units",
-                              "cm"])
+    assert run_cli_caught("compress", str(src), "-o", str(tmp_path / "w.mrc")).exit_code == 0
+    run = run_cli_caught("decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "w.glb"), "--units",
+                              "cm")
     assert run.exit_code == 0, run.output
     assert _armature_scale(tmp_path / "w.glb") == 0.01
-    run = runner.invoke(cli, ["decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "g.glb")])
+    run = run_cli_caught("decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "g.glb"))
     assert "assumed units cm" in run.stderr and _armature_scale(tmp_path / "g.glb") == 0.01
-    run = runner.invoke(cli, ["decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "w.bvh"), "--scale", "2"])
+    run = run_cli_caught("decompress", str(tmp_path / "w.mrc"), "-o", str(tmp_path / "w.bvh"), "--scale", "2")
     assert run.exit_code == 2 and "applies only to glTF output" in run.output
 
 

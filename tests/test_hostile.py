@@ -12,10 +12,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from motionrep import Motion, Skeleton, limits
-from motionrep.cli import cli
 from motionrep.errors import BVHFormatError, FormatError, HDF5FormatError, NPZFormatError, ValidationError
 from motionrep.io import format_bvh, parse_bvh, read, write
 from motionrep.io._bvh import channel_values
@@ -23,6 +21,7 @@ from motionrep.io._h5read import shutdown_worker
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 
 from fuzz.crafted import build, check_leak, small_motion, write_v1_hdf5
+from helpers import run_cli_caught
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +51,7 @@ def test_crafted_case(crafted, tmp_path, name):
     command = [a.replace("{out}", str(out)) for a in case.command]
     start = time.monotonic()
     with limits.override(read_timeout=5):  # the damaged HDF5 file: the watchdog ends it (the default is 60 s)
-        result = CliRunner().invoke(cli, command)
+        result = run_cli_caught(*command)
     assert time.monotonic() - start < 60
     assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
     assert "Traceback" not in result.output

@@ -14,6 +14,8 @@ from motionrep.io.container import pack, unpack
 from motionrep.errors import ContainerError
 from motionrep.model.synthetic import synthetic_motion
 
+from helpers import refused_mrc
+
 
 @pytest.fixture(scope="module")
 def motion():
@@ -31,38 +33,18 @@ def windows(motion):
                           max_error=None).compress(motion).container
 
 
-def _refused(container, *words):
-    with pytest.raises(ContainerError) as info:
-        decompress(pack(container), path="crafted.mrc")
-    text = str(info.value)
-    assert "crafted.mrc" in text and "\n" not in text
-    for w in words:
-        assert w in text, text
-    return text
-
-
 @pytest.mark.parametrize("frames", [120, 2, 59])
 def test_metadata_frames_disagree_with_transform_payload(transform, frames):
     bad = dataclasses.replace(transform, num_frames=frames, evaluation=dict(transform.evaluation, num_frames=frames,
                                                                           frame=0))
-    _refused(bad, "60 frames", str(frames))
+    refused_mrc(bad, "60 frames", str(frames))
 
 
 @pytest.mark.parametrize("frames", [120, 2, 59])
 def test_metadata_frames_disagree_with_fourier_window_edges(windows, frames):
     bad = dataclasses.replace(windows, num_frames=frames, evaluation=dict(windows.evaluation, num_frames=frames,
                                                                         frame=0))
-    _refused(bad, "frame 59", str(frames))
-
-
-@pytest.mark.parametrize("change", ["doubled", "short"])
-def test_fourier_window_edges_doubled_or_short(windows, change):
-    from motionrep_fourier._packed import pack as pack_data, unpack as unpack_data
-
-    edges, scale, networks = unpack_data(windows.arrays["data"])
-    edges = edges * 2 if change == "doubled" else np.concatenate([edges[:-1], [edges[-1] - 3]])
-    bad = dataclasses.replace(windows, arrays={"data": pack_data(edges, scale, networks)})
-    _refused(bad, "window edges end at frame", "60 frames")
+    refused_mrc(bad, "frame 59", str(frames))
 
 
 def test_stored_evaluation_disagrees_with_metadata(transform):
@@ -74,22 +56,27 @@ def test_stored_evaluation_disagrees_with_metadata(transform):
         unpack(pack(bad), "crafted.mrc")
 
 
-def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform):
+@pytest.mark.parametrize("version", [1, 2])
+def test_transform_payload_declaring_a_million_frames_is_refused_before_decoding(transform, version):
     from motionrep.plugin.coding import IntegerEncoder
 
-    enc = IntegerEncoder()
-    enc.encode_raw([999_999], 32)
-    enc.encode_raw([50], 20)
-    enc.encode_raw([63], 16)
-    data = np.frombuffer(enc.to_bytes() + bytes(9000), np.uint8)
-    bad = dataclasses.replace(transform, arrays={"data": data})
-    _refused(bad, "1000000 frames", "has 60")
+    if version == 1:
+        enc = IntegerEncoder()
+        enc.encode_raw([999_999], 32)
+        enc.encode_raw([50], 20)
+        enc.encode_raw([63], 16)
+        head = enc.to_bytes()
+    else:  # frames - 1, features - 1, region - 1 as LEB128
+        head = bytes([0xBF, 0x84, 0x3D, 50, 63])
+    data = np.frombuffer(head + bytes(9000), np.uint8)
+    bad = dataclasses.replace(transform, arrays={"data": data}, codec_version=version)
+    refused_mrc(bad, "1000000 frames", "has 60")
 
 
 def test_decode_work_beyond_the_limit_is_refused(transform, monkeypatch):
     monkeypatch.setattr(limits, "DECODE_FREE_WORK", 1000)
     with limits.override(max_decode_work=1):
-        text = _refused(transform, "MOTIONREP_MAX_DECODE_WORK", "decode work")
+        text = refused_mrc(transform, "MOTIONREP_MAX_DECODE_WORK", "decode work")
     assert "60 frames" in text
     decompress(pack(transform))  # within the default limit
 
@@ -101,18 +88,49 @@ def test_decode_work_limit_from_the_environment(monkeypatch):
 
 @pytest.mark.parametrize("value", ["abc", [1], True, "-2%"])
 def test_stored_max_error_that_is_no_bound_names_the_file(transform, value):
-    bad = dataclasses.replace(transform, extra=dict(transform.extra, max_error=value))
+    """A version-1 file's bound is the text ``extra.max_error``."""
+    from helpers import mrc_version_1
+
     with pytest.raises(ContainerError) as info:
-        unpack(pack(bad), "crafted.mrc")
+        unpack(mrc_version_1(pack(transform), max_error=value), "crafted.mrc")
     assert "crafted.mrc" in str(info.value) and "extra.max_error" in str(info.value)
     assert "--max-error" not in str(info.value)
 
 
+@pytest.mark.parametrize("bound, words", [
+    ({"kind": "abc", "value": 2.0, "distance": 1.0}, "'kind' is 'abc'"),
+    ({"kind": "percent", "value": "2%", "distance": 1.0}, "'value' must be a finite number > 0"),
+    ({"kind": "percent", "value": 0, "distance": 1.0}, "'value' must be a finite number > 0"),
+    ({"kind": "distance", "value": 2.0, "distance": None}, "'distance' must be a finite number >= 0"),
+    ({"kind": "none", "value": 2.0, "distance": None}, "'value' must be null"),
+    ([1], "must be an object"),
+    ({"kind": "distance", "value": 2.0, "distance": 2.5}, "the stored evaluation enforced"),
+])
+def test_stored_bound_that_is_no_bound_names_the_file(transform, bound, words):
+    """A version-2 file's bound is the object ``bound``: a crafted one is the file's fault, named."""
+    import json
+    import struct
+    import zlib
+
+    data = pack(transform)
+    meta_len = struct.unpack_from("<I", data, 16)[0]
+    meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    meta["bound"] = bound
+    text = zlib.compress(json.dumps(meta, sort_keys=True).encode(), 9)
+    body = data[:12] + struct.pack("<II", 20 + len(text) + len(data) - 24 - meta_len + 4, len(text)) + text + \
+        data[20 + meta_len:-4]
+    with pytest.raises(ContainerError) as info:
+        unpack(body + struct.pack("<I", zlib.crc32(body)), "crafted.mrc")
+    text = str(info.value)
+    assert "crafted.mrc" in text and words in text and "--max-error" not in text, text
+
+
 def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
+    from helpers import mrc_version_1
     from motionrep.cli import main
 
     path = tmp_path / "bad.mrc"
-    path.write_bytes(pack(dataclasses.replace(transform, extra=dict(transform.extra, max_error="abc"))))
+    path.write_bytes(mrc_version_1(pack(transform), max_error="abc"))
     with pytest.raises(SystemExit) as info:
         main(["info", str(path)])
     assert info.value.code == 1
@@ -120,21 +138,8 @@ def test_cli_info_of_stored_max_error_abc(transform, tmp_path, capsys):
     assert "bad.mrc" in err and "extra.max_error" in err and len(err.splitlines()) == 1, err
 
 
-def test_transform_step_that_overflows_is_one_error_without_warnings(transform):
-    import warnings
-
-    from motionrep_transform._stream import pack as pack_data, unpack as unpack_data
-
-    q = unpack_data(np.asarray(transform.arrays["data"]).tobytes())
-    q = dataclasses.replace(q, region_exponents=np.full_like(q.region_exponents, 32_000))
-    bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(pack_data(q), np.uint8)})
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a numpy overflow warning printed before the error is the bug
-        _refused(bad, "not finite")
-
-
 def test_fourier_decode_work_beyond_the_limit_is_refused(windows, monkeypatch):
     monkeypatch.setattr(limits, "DECODE_FREE_WORK", 1000)
     with limits.override(max_decode_work=1):
-        _refused(windows, "MOTIONREP_MAX_DECODE_WORK", "3 window(s) over 60 frames")
+        refused_mrc(windows, "MOTIONREP_MAX_DECODE_WORK", "3 window(s) over 60 frames")
     decompress(pack(windows))

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from scipy.spatial.transform import Rotation
 
 from motionrep import character_height, global_positions
@@ -17,7 +16,7 @@ from motionrep.errors import AMASSFormatError
 from motionrep.io import read, write
 from motionrep.io._amass import BODY_MODEL_ENV, SMPLH_JOINT_NAMES
 
-from helpers import convert_fails_naming
+from helpers import convert_fails_naming, run_cli_caught
 
 #: SMPL-H's tree: 22 body joints, then five three-joint fingers on each wrist (left: 20, right: 21).
 SMPLH_PARENTS = np.array([-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19]
@@ -155,12 +154,11 @@ def test_motionrep_npz_still_reads_as_motionrep(tmp_path):
 def test_cli_converts_two_minutes_at_120_fps_to_bvh(tmp_path):
     """A 2-minute 120 fps clip (14,400 frames) through `convert --body-model` to BVH: the BVH's FK is the body
     model's posed joints (BVH's shortest decimals read back: 1e-9 m).  Its time: benchmarks/amass.py."""
-    from motionrep.cli import cli
 
     c, m = amass_clip(frames=120 * 120, seed=2), smplh_model()
     clip, model = write_files(tmp_path, c, m)
     out = tmp_path / "clip.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(clip), str(out), "--body-model", str(model)])
+    result = run_cli_caught("convert", str(clip), str(out), "--body-model", str(model))
     assert result.exit_code == 0, result.output
     back = read(out)
     assert back.num_frames == 14400 and back.fps == pytest.approx(120.0)
@@ -221,11 +219,10 @@ def test_damaged_files(damage, tmp_path):
 
 
 def test_no_body_model_on_the_command_line(tmp_path):
-    from motionrep.cli import cli
 
     clip, _ = write_files(tmp_path)
     out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(clip), str(out)])
+    result = run_cli_caught("convert", str(clip), str(out))
     assert result.exit_code == 1 and f"Error: {clip}: is an AMASS clip" in result.output and "--body-model" in \
         result.output
     assert not out.exists()
@@ -246,11 +243,10 @@ def test_real_body_model(tmp_path):
 
 def test_other_commands_take_the_body_model(tmp_path):
     """`info` and `evaluate` read AMASS clips with --body-model too (the option every reading command has)."""
-    from motionrep.cli import cli
 
     clip, model = write_files(tmp_path)
-    result = CliRunner().invoke(cli, ["info", str(clip), "--body-model", str(model), "--json"])
+    result = run_cli_caught("info", str(clip), "--body-model", str(model), "--json")
     assert result.exit_code == 0, result.output
     assert '"joints": 52' in result.output
-    result = CliRunner().invoke(cli, ["evaluate", str(clip), str(clip), "--body-model", str(model)])
+    result = run_cli_caught("evaluate", str(clip), str(clip), "--body-model", str(model))
     assert result.exit_code == 0, result.output

@@ -8,7 +8,6 @@ import os
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from scipy.spatial.transform import Rotation
 
 from motionrep import Motion, Skeleton
@@ -21,7 +20,7 @@ from motionrep.model.kinematics import character_height, global_positions
 from motionrep.model.rotations import euler_to_quat
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 
-from helpers import real_params
+from helpers import real_params, run_cli_caught
 
 
 # ---- helpers ---------------------------------------------------------------------------------------------------
@@ -515,13 +514,12 @@ def test_offsets_and_frame_time_are_written_exactly():
 
 # ---- the command line ------------------------------------------------------------------------------------------
 def test_cli_convert_bvh_to_bvh(tmp_path):
-    from motionrep.cli import cli
 
     values = everything_values(frames=20, seed=3)
     src = tmp_path / "in.bvh"
     src.write_text(bvh_text(EVERYTHING_HEADER, values, eol="\r\n"))
     out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(src), str(out)])
+    result = run_cli_caught("convert", str(src), str(out))
     assert result.exit_code == 0, result.output
     m = read_bvh(out)
     assert_channels_match(m.skeleton, channel_values(m), values, atol=1e-6)

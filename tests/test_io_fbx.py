@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from scipy.spatial.transform import Rotation
 
 from motionrep import Motion, Skeleton, character_height, global_positions
@@ -20,7 +19,7 @@ from motionrep.model.kinematics import point_names
 from motionrep.model.synthetic import synthetic_motion
 
 from blender import run_blender
-from helpers import SHARED_DATA, convert_fails_naming, real_params
+from helpers import SHARED_DATA, convert_fails_naming, real_params, run_cli_caught
 
 pytest.importorskip("ufbx")
 
@@ -301,15 +300,14 @@ def test_ascii_fbx_rotation_orders_and_pre_rotations(tmp_path):
 
 
 def test_cli_converts_fbx(tmp_path):
-    from motionrep.cli import cli
 
     path = tmp_path / "chain.fbx"
     path.write_text(ascii_fbx())
     out = tmp_path / "take2.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(path), str(out), "--clip", "Take2"])
+    result = run_cli_caught("convert", str(path), str(out), "--clip", "Take2")
     assert result.exit_code == 0, result.output
     assert np.abs(global_positions(read(out)) - global_positions(read(path, clip="Take2"))).max() < 1e-4
-    result = CliRunner().invoke(cli, ["convert", str(out), str(tmp_path / "x.fbx")])
+    result = run_cli_caught("convert", str(out), str(tmp_path / "x.fbx"))
     assert result.exit_code == 2 and "does not write it" in result.output
     with pytest.raises(FBXFormatError, match="does not write"):
         write(read(out), tmp_path / "x.fbx")

@@ -19,7 +19,7 @@ from motionrep.io import gltf_bytes, list_clips, read, read_clips, read_stored, 
 from motionrep.io._bvh import channel_values
 from motionrep.model.synthetic import humanoid_skeleton, odd_skeleton, synthetic_motion
 
-from helpers import real_params
+from helpers import real_params, run_cli_caught
 
 #: glTF stores float32: a round trip agrees within float32 rounding; the promise is 1e-6 of the height.
 TOLERANCE = 1e-6
@@ -630,12 +630,10 @@ def test_blender_opens_what_motionrep_writes(tmp_path):
 # on the command line
 # ---------------------------------------------------------------------------------------------------------------
 def test_command_line_converts_evaluates_and_describes_gltf(tmp_path):
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     def run(*args):
-        return CliRunner().invoke(cli, [str(a) for a in args])
+        return run_cli_caught(*args)
 
     write(synthetic_motion(humanoid_skeleton(), frames=30), tmp_path / "walk.bvh")
     r = run("convert", tmp_path / "walk.bvh", tmp_path / "walk.glb")

@@ -15,6 +15,7 @@ import pytest
 import motionrep
 from motionrep.io._atomic import remove_stale_files, remove_stale_folders
 from motionrep.model.synthetic import synthetic_motion
+from helpers import run_cli_caught
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG and /proc are Linux's")
 
@@ -118,17 +119,35 @@ def test_sigkill_of_convert_to_database_then_next_run_leaves_no_temporary(tmp_pa
 
 @pytest.mark.parametrize("command", ["merge", "compress"])
 def test_merge_and_compress_remove_a_dead_writers_temporaries_when_they_start(tmp_path, command):
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     _clips(tmp_path / "in", 2, 20)
-    runner = CliRunner()
-    assert runner.invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "a.h5")]).exit_code == 0
+    assert run_cli_caught("compress", str(tmp_path / "in"), "-o", str(tmp_path / "a.h5")).exit_code == 0
     stale = tmp_path / f".out.h5.{_dead_pid()}.abcd_123.tmp.h5"
     stale.write_bytes(b"left by a SIGKILL")
     args = (["merge", str(tmp_path / "a.h5"), "-o", str(tmp_path / "out.h5")] if command == "merge" else
             ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5")])
-    result = runner.invoke(cli, args)
+    result = run_cli_caught(*args)
     assert result.exit_code == 0, result.output
     assert not stale.exists()
+
+
+@linux
+@pytest.mark.slow
+def test_sigkill_of_a_fourier_encode_with_window_workers_leaves_no_worker(tmp_path):
+    """The Fourier codecs' own window workers (a pebble pool of forked processes) die with the encoder at once,
+    in the middle of a window (long windows, a tight bound: each trains for many seconds)."""
+    motionrep.write(synthetic_motion(frames=900, seed=3), tmp_path / "long.bvh")
+    client = _motionrep("compress", "long.bvh", "-o", "long.mrc", "--codec", "adaptive-fourier", "--max-error",
+                        "0.05%", "-p", "window=300", "-p", "jobs=2", "-p", "max_k=40", cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    workers: list[int] = []
+    while time.monotonic() < deadline and len(workers) < 2:
+        time.sleep(0.2)
+        workers = [c for c in _children(client.pid) if _alive(c)]
+    assert len(workers) >= 2, "the window workers never started"
+    time.sleep(1.0)  # into their windows' training
+    os.kill(client.pid, signal.SIGKILL)
+    client.wait()
+    time.sleep(0.5)
+    assert [w for w in workers if _alive(w)] == []

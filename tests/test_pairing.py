@@ -7,11 +7,9 @@ import json
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from helpers import HAVE_SHARED, SHARED_DATA
+from helpers import HAVE_SHARED, SHARED_DATA, run_cli_caught
 from motionrep import Motion, Skeleton
-from motionrep.cli import cli as main
 from motionrep.errors import ValidationError
 from motionrep.pipeline.evaluate import compare, max_joint_error
 from motionrep.io import read, write
@@ -156,21 +154,20 @@ def _write(tmp_path, name, motion):
 def test_cli_evaluate_match_names_reports_what_it_compared(tmp_path):
     ref = _write(tmp_path, "ref.bvh", _clip())
     cand = _write(tmp_path, "cand.bvh", _clip(prefix="mixamorig:", order=[0, 5, 6, 3, 4, 1, 2], sites=False))
-    runner = CliRunner()
-    strict = runner.invoke(main, ["evaluate", ref, cand])
+    strict = run_cli_caught("evaluate", ref, cand)
     assert strict.exit_code == 1 and "--match names" in strict.output
-    run = runner.invoke(main, ["evaluate", ref, cand, "--match", "names", "--strip-prefix", "mixamorig:"])
+    run = run_cli_caught("evaluate", ref, cand, "--match", "names", "--strip-prefix", "mixamorig:")
     assert run.exit_code == 0, run.output
     assert "compared: 7 joints by name (prefix 'mixamorig:' removed), 0 end sites, frames 0-39 (40)" in run.output
     assert "left out: end sites only the reference has (3): Head/End Site" in run.output
-    data = json.loads(runner.invoke(main, ["evaluate", ref, cand, "--match", "names", "--strip-prefix",
-                                           "mixamorig:", "--json"]).output)
+    data = json.loads(run_cli_caught("evaluate", ref, cand, "--match", "names", "--strip-prefix",
+                                           "mixamorig:", "--json").output)
     assert data["comparison"]["left_out"]["reference_end_sites"] == ["Head/End Site", "LeftFoot/End Site",
                                                                       "RightFoot/End Site"]
     assert data["comparison"]["frames"] == [0, 39] and data["num_points"] == 7
-    plain = json.loads(runner.invoke(main, ["evaluate", ref, ref, "--json"]).output)
+    plain = json.loads(run_cli_caught("evaluate", ref, ref, "--json").output)
     assert plain["comparison"]["match"] == "order" and len(plain["comparison"]["end_sites"]) == 3
-    usage = runner.invoke(main, ["evaluate", ref, cand, "--ignore-extra"])
+    usage = run_cli_caught("evaluate", ref, cand, "--ignore-extra")
     assert usage.exit_code == 2 and "needs --match names" in usage.output
 
 
@@ -182,17 +179,16 @@ def test_cli_evaluate_common_compares_the_clips_both_have(tmp_path):
     for name in ("walk", "jump"):
         _write(b, f"{name}.bvh", _clip())
     _write(a, "sit.bvh", _clip())
-    runner = CliRunner()
-    refused = runner.invoke(main, ["evaluate", str(a), str(b)])
+    refused = run_cli_caught("evaluate", str(a), str(b))
     assert refused.exit_code == 1 and "--common" in refused.output
     # one clip in common: one report, and the others listed
-    run = runner.invoke(main, ["evaluate", str(a), str(b), "--common", "--json"])
+    run = run_cli_caught("evaluate", str(a), str(b), "--common", "--json")
     assert run.exit_code == 0, run.output
     _write(b, "sit.bvh", _clip())
-    data = json.loads(runner.invoke(main, ["evaluate", str(a), str(b), "--common", "--json"]).output)
+    data = json.loads(run_cli_caught("evaluate", str(a), str(b), "--common", "--json").output)
     assert [c["clip"] for c in data["clips"]] == ["sit", "walk"]
     assert data["only_in_reference"] == ["run"] and data["only_in_candidate"] == ["jump"]
-    text = runner.invoke(main, ["evaluate", str(a), str(b), "--common"]).output
+    text = run_cli_caught("evaluate", str(a), str(b), "--common").output
     assert "only in the reference, not compared (1): run" in text
     assert "only in the candidate, not compared (1): jump" in text
 
@@ -200,15 +196,14 @@ def test_cli_evaluate_common_compares_the_clips_both_have(tmp_path):
 def test_cli_render_and_view_take_the_comparison_options(tmp_path):
     ref = _write(tmp_path, "ref.bvh", _clip(frames=20))
     cand = _write(tmp_path, "cand.bvh", resample(_clip(frames=20, prefix="m:", sites=False), 15.0))
-    runner = CliRunner()
     args = ["--match", "names", "--strip-prefix", "m:", "--resample"]
-    run = runner.invoke(main, ["render", ref, cand, "-o", str(tmp_path / "r.png"), "--count", "2", *args])
+    run = run_cli_caught("render", ref, cand, "-o", str(tmp_path / "r.png"), "--count", "2", *args)
     assert run.exit_code == 0, run.output
     assert "left out: end sites only the reference has (3)" in run.output
-    page = runner.invoke(main, ["view", ref, cand, "-o", str(tmp_path / "v.html"), *args])
+    page = run_cli_caught("view", ref, cand, "-o", str(tmp_path / "v.html"), *args)
     assert page.exit_code == 0, page.output
     assert "compared: 7 joints by name" in page.output
-    strict = runner.invoke(main, ["view", ref, cand, "-o", str(tmp_path / "w.html")])
+    strict = run_cli_caught("view", ref, cand, "-o", str(tmp_path / "w.html"))
     assert strict.exit_code == 1 and "--match names" in strict.output
 
 
@@ -238,10 +233,9 @@ def test_cli_evaluate_common_between_two_databases(tmp_path):
 
     write_database([("walk", _clip()), ("run", _clip(frames=30))], tmp_path / "a.h5")
     write_database([("walk", _clip()), ("jump", _clip(frames=20)), ("run", _clip(frames=30))], tmp_path / "b.h5")
-    runner = CliRunner()
-    refused = runner.invoke(main, ["evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5")])
+    refused = run_cli_caught("evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5"))
     assert refused.exit_code == 1 and "only in" in refused.output and "--common" in refused.output
-    run = runner.invoke(main, ["evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "--common", "--json"])
+    run = run_cli_caught("evaluate", str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "--common", "--json")
     assert run.exit_code == 0, run.output
     data = json.loads(run.output)
     assert sorted(c["clip"] for c in data["clips"]) == ["run", "walk"]

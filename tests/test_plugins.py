@@ -12,17 +12,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 import motionrep
 from motionrep.plugin import registry as plugins
-from motionrep.cli import cli
 from motionrep.plugin.codec import Codec, Payload
 from motionrep.errors import DuplicateNameError, PluginError, UnknownPluginError
 from motionrep.plugin.representation import Representation
 from motionrep.plugin.hookspecs import hookimpl
 
 from motionrep_ortho6d import Ortho6D
+from helpers import run_cli_caught
 
 REPRESENTATION_PLUGINS = ("motionrep_rootquat", "motionrep_dualquat", "motionrep_ortho6d", "motionrep_euler")
 
@@ -215,7 +214,7 @@ def test_duplicate_codec_names_both_plugins(installed):
 
 def test_duplicate_name_from_the_command_line(installed):
     installed.append(_EntryPoint("mylab", _module("mylab", reps=[_representation("ortho6d")]), "mylab-reps"))
-    result = CliRunner().invoke(cli, ["plugins"], env={"MOTIONREP_LOAD_PLUGINS": "mylab"})
+    result = run_cli_caught("plugins", env={"MOTIONREP_LOAD_PLUGINS": "mylab"})
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "'motionrep_ortho6d'" in lines[0] and "'mylab'" in lines[0]
@@ -263,7 +262,7 @@ def test_misspelt_hook_fails_loudly(installed):
 
     module.register_representation = register_representation
     installed.append(_EntryPoint("typo", module, "typo-dist"))
-    result = CliRunner().invoke(cli, ["plugins"], env={"MOTIONREP_LOAD_PLUGINS": "typo"})
+    result = run_cli_caught("plugins", env={"MOTIONREP_LOAD_PLUGINS": "typo"})
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1
@@ -300,7 +299,7 @@ def test_unknown_names_list_what_is_available(installed):
 
 # ---- motionrep plugins ----------------------------------------------------------------------------------------
 def test_plugins_command_json(lab):
-    result = CliRunner().invoke(cli, ["plugins", "--json"])
+    result = run_cli_caught("plugins", "--json")
     assert result.exit_code == 0, result.output
     listed = json.loads(result.output)
     assert [p["name"] for p in listed] == ["alpha", "beta"] + sorted(REPRESENTATION_PLUGINS)
@@ -316,12 +315,11 @@ def test_plugins_command_json(lab):
 
 
 def test_plugins_command_filters_and_table(lab):
-    runner = CliRunner()
-    codecs_only = json.loads(runner.invoke(cli, ["plugins", "--json", "--hook", "register_codecs"]).output)
+    codecs_only = json.loads(run_cli_caught("plugins", "--json", "--hook", "register_codecs").output)
     assert [p["name"] for p in codecs_only] == ["beta"]
-    third = json.loads(runner.invoke(cli, ["plugins", "--json", "--third-party"]).output)
+    third = json.loads(run_cli_caught("plugins", "--json", "--third-party").output)
     assert [p["name"] for p in third] == ["alpha", "beta"]
-    table = runner.invoke(cli, ["plugins"])
+    table = run_cli_caught("plugins")
     assert table.exit_code == 0
     lines = table.output.splitlines()
     assert lines[0].split() == ["NAME", "VERSION", "SOURCE", "REGISTERS"]
@@ -330,13 +328,13 @@ def test_plugins_command_filters_and_table(lab):
     assert lines[3].split() == ["motionrep_dualquat", motionrep.__version__, "shipped", "representations:",
                                 "dual-quaternion"]
     assert len(lines) == 1 + 2 + len(REPRESENTATION_PLUGINS)
-    bad = runner.invoke(cli, ["plugins", "--hook", "register_formats"])
+    bad = run_cli_caught("plugins", "--hook", "register_formats")
     assert bad.exit_code == 2  # a usage error
 
 
 def test_plugins_command_with_no_third_party_plugins(lab, monkeypatch):
     monkeypatch.setenv("MOTIONREP_LOAD_PLUGINS", "")  # installed, but none loads
-    result = CliRunner().invoke(cli, ["plugins", "--third-party"])
+    result = run_cli_caught("plugins", "--third-party")
     assert result.exit_code == 0 and result.output.strip() == "No loaded plugin matches."
 
 
@@ -382,20 +380,19 @@ def test_shipped_codecs_conform(name):
 
 
 def test_plugins_describe_lists_a_codecs_parameters():
-    from motionrep.cli import cli
 
-    r = CliRunner().invoke(cli, ["plugins", "--describe", "adaptive-fourier"])
+    r = run_cli_caught("plugins", "--describe", "adaptive-fourier")
     assert r.exit_code == 0, r.output
     assert "codec adaptive-fourier (plugin motionrep_fourier), format version 4, reads 1, 2, 3, 4" in r.output
     for line in ("  window  int | None, default None:", "  dtype   quantised | float32 | float16, default quantised:",
                  "  k       int | None, default None:"):
         assert line in r.output, r.output
-    d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "svd", "--json"]).output)
+    d = json.loads(run_cli_caught("plugins", "--describe", "svd", "--json").output)
     assert (d["kind"], d["plugin"], d["version"]) == ("codec", "motionrep_svd", 2)
     assert [p["name"] for p in d["params"]] == ["rank", "dtype"]
-    d = json.loads(CliRunner().invoke(cli, ["plugins", "--describe", "dual-quaternion", "--json"]).output)
+    d = json.loads(run_cli_caught("plugins", "--describe", "dual-quaternion", "--json").output)
     assert (d["kind"], d["plugin"], d["params"]) == ("representation", "motionrep_dualquat", [])
-    r = CliRunner().invoke(cli, ["plugins", "--describe", "nope"])
+    r = run_cli_caught("plugins", "--describe", "nope")
     assert r.exit_code == 1 and r.output.count("\n") == 1 and "'nope'" in r.output and "svd" in r.output
 
 

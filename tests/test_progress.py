@@ -10,6 +10,7 @@ import pytest
 
 from motionrep.cli._common import BatchProgress, CodecProgress
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def test_the_heartbeat_prints_while_no_item_finishes():
@@ -65,17 +66,15 @@ def test_fourier_training_reports_its_progress_through_the_hook():
 
 def _heartbeats(tmp_path, monkeypatch, *extra: str) -> list[str]:
     """The heartbeat lines of a two-clip adaptive-fourier batch (one heartbeat every 0.3 s)."""
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
     from motionrep.io import write
 
     (tmp_path / "in").mkdir()
     for i in range(2):
         write(synthetic_motion(chain_skeleton(4), frames=120, fps=30, seed=i), tmp_path / "in" / f"c{i}.bvh")
     monkeypatch.setenv("MOTIONREP_PROGRESS_SECONDS", "0.3")
-    r = CliRunner().invoke(cli, ["compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
-                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", *extra])
+    r = run_cli_caught("compress", str(tmp_path / "in"), "-o", str(tmp_path / "out.h5"), "--codec",
+                                 "adaptive-fourier", "--max-error", "none", "-p", "k=6", *extra)
     assert r.exit_code == 0, r.output
     return [line for line in r.stderr.splitlines() if "working" in line and "elapsed" in line]
 
@@ -85,6 +84,7 @@ def test_a_batch_in_this_process_shows_the_codec_progress_in_its_heartbeat(tmp_p
     assert beats and any("c0: train" in b for b in beats), beats
 
 
+@pytest.mark.slow  # worker processes; the heartbeat of work in this process is the fast test above
 def test_worker_processes_relay_the_codec_progress_to_the_heartbeat(tmp_path, monkeypatch):
     """`--jobs 2`: the workers' codec progress reaches the client through the pool's relay queue."""
     beats = _heartbeats(tmp_path, monkeypatch, "-p", "iters=6000", "--jobs", "2")
@@ -98,3 +98,37 @@ def test_worker_progress_pickles_and_is_silent_without_a_relay():
 
     relay = pickle.loads(pickle.dumps(WorkerProgress()))
     relay("c0", "train", {"K": 1})  # no queue in this process: nothing happens, nothing raises
+
+
+def test_on_a_terminal_the_count_is_a_click_progress_bar_with_an_eta():
+    import re
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    term = Terminal()
+    with BatchProgress(4, "compressing", lambda x: f"clip {x} failed", every=0.0, stream=term) as bar:
+        bar.done("a")
+        time.sleep(1.1)  # click measures its ETA once a second
+        bar.done("b", failed=True)
+        bar.note("c", "train K=1")
+        bar.done("c")
+        bar.done("d")
+    text = term.getvalue()
+    assert "compressing  [" in text and "1/4" in text and "4/4" in text, text
+    assert re.search(r"2/4  \d\d:\d\d:\d\d  1 failed, [0-9.]+/s", text), text  # position, click's ETA, the tail
+    assert "\r\x1b[Kclip b failed\n" in text  # a failure on its own line above the bar
+    assert text.endswith("\n")  # click ends its bar
+
+
+def test_convert_and_render_share_the_one_mechanism():
+    """Both draw through BatchProgress (no second style): convert's clips and render's frames."""
+    from pathlib import Path
+
+    import motionrep.cli.convert as convert
+    import motionrep.cli.render as render
+
+    for module in (convert, render):
+        source = Path(module.__file__).read_text(encoding="utf-8")
+        assert "BatchProgress(" in source and "progressbar(" not in source, module.__name__

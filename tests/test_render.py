@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 pytest.importorskip("matplotlib")
 Image = pytest.importorskip("PIL.Image")
@@ -19,7 +18,6 @@ Image = pytest.importorskip("PIL.Image")
 from motionrep.present import render as rmod  # noqa: E402
 from motionrep.present.render import draw as render_draw, frames as render_frames, scene as render_scene  # noqa: E402
 from motionrep.present.render import strip as render_strip  # noqa: E402
-from motionrep.cli import cli  # noqa: E402
 from motionrep.errors import FormatError, MotionrepError, ValidationError  # noqa: E402
 from motionrep.pipeline.evaluate import max_joint_error  # noqa: E402
 from motionrep.io import read, write  # noqa: E402
@@ -27,7 +25,7 @@ from motionrep.model.kinematics import global_positions  # noqa: E402
 from motionrep.model.rotations import axis_angle_to_quat, quat_multiply  # noqa: E402
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion  # noqa: E402
 
-from helpers import SHARED_DATA, one_line_error, requires_shared, run_cli  # noqa: E402
+from helpers import SHARED_DATA, one_line_error, requires_shared, run_cli, run_cli_caught  # noqa: E402
 
 FRAMES, FPS, BUMP_FRAME, JOINT = 40, 30.0, 23, "LeftForeArm"
 SMALL = (240, 200)
@@ -515,8 +513,8 @@ def test_progress_bar_only_on_a_terminal(tmp_path, files, monkeypatch):
     from motionrep.cli import render as cli_render
 
     ref_path, cand_path = files
-    r = CliRunner().invoke(cli, ["render", str(ref_path), str(cand_path), "-o", str(tmp_path / "a.gif"),
-                                 "--frames", "0:6"])
+    r = run_cli_caught("render", str(ref_path), str(cand_path), "-o", str(tmp_path / "a.gif"),
+                                 "--frames", "0:6")
     assert r.exit_code == 0 and "drawing" not in r.output  # not a terminal: no bar
 
     class Terminal(io.StringIO):

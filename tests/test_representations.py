@@ -5,24 +5,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 import motionrep
 from motionrep import Motion
 from motionrep.plugin import registry as plugins
-from motionrep.cli import cli
 from motionrep.errors import ValidationError
 from motionrep.io import FeatureClip, read, read_bvh, read_features, write, write_features
 from motionrep.io._bvh import channel_values
 from motionrep.model.kinematics import character_height, forward_kinematics, global_positions
 from motionrep.plugin.representation import joint_reach
-from motionrep.model.rotations import (axis_angle_to_quat, euler_to_quat, quat_conjugate, quat_multiply,
-                                 quat_to_axis_angle, quat_to_matrix)
+from motionrep.model.rotations import axis_angle_to_quat, euler_to_quat, quat_conjugate, quat_multiply, quat_to_matrix
 from motionrep.model.synthetic import (chain_skeleton, humanoid_skeleton, odd_skeleton, random_unit_quaternions,
                                  spinning_motion, synthetic_motion)
 from motionrep.testing import check_representation
 
-from helpers import real_params
+from helpers import mutant, real_params, run_cli_caught
 
 #: Every shipped representation and the plugin module that registers it.
 SHIPPED = {
@@ -62,51 +59,7 @@ def test_registered_by_their_plugins_through_the_hook(reps):
 
 # ---- the conformance suite catches broken representations ------------------------------------------------
 def _mutant(reps, name, **methods):
-    base = type(reps[name])
-    return type("Mutant", (base,), methods)()
-
-
-def test_suite_catches_root_quaternion_sign_flips(reps):
-    from motionrep_rootquat._rep import _layout
-
-    def to_features(self, motion):  # canonical sign per frame instead of continuity
-        f = type(reps["root-quat-axis-angle"]).to_features(self, motion)
-        cols = _layout(motion.skeleton).rotation_columns[0]
-        q = f[:, cols]
-        f[:, cols] = q * np.where(q[:, 3:] < 0, -1.0, 1.0)
-        return f
-
-    with pytest.raises(AssertionError, match="Hips/q.' is not continuous"):
-        check_representation(_mutant(reps, "root-quat-axis-angle", to_features=to_features), [spinning_motion()])
-
-
-def test_suite_catches_axis_angle_wrap_jumps(reps):
-    from motionrep_rootquat._rep import _layout
-
-    def to_features(self, motion):  # every rotation vector with its angle in [0, pi], frame by frame
-        f = type(reps["root-quat-axis-angle"]).to_features(self, motion)
-        lay = _layout(motion.skeleton)
-        for j, cols in zip(lay.rotation_joints.tolist(), lay.rotation_columns):
-            if j:
-                f[:, cols] = quat_to_axis_angle(motion.rotations[:, j])
-        return f
-
-    with pytest.raises(AssertionError, match="aa_.' is not continuous"):
-        check_representation(_mutant(reps, "root-quat-axis-angle", to_features=to_features), [spinning_motion()])
-
-
-def test_suite_catches_dependence_on_quaternion_signs(reps):
-    def to_features(self, motion):  # dual quaternions built from the input's signs, no continuity step
-        from motionrep_dualquat._rep import _global_rotations, _layout
-        from motionrep_dualquat import dualquat_from_rotation_translation
-
-        pos = global_positions(motion)[:, :motion.num_joints]
-        dq = dualquat_from_rotation_translation(_global_rotations(motion), pos - pos[:, :1])
-        return _layout(motion.skeleton).assemble(motion.root_translation, dq, motion.joint_translations)
-
-    with pytest.raises(AssertionError, match="depend on quaternion signs"):
-        check_representation(_mutant(reps, "dual-quaternion", to_features=to_features),
-                             [synthetic_motion(frames=20)])
+    return mutant(reps[name], **methods)
 
 
 def test_suite_catches_a_lossy_round_trip(reps):
@@ -120,7 +73,7 @@ def test_suite_catches_a_lossy_round_trip(reps):
 
 
 def test_suite_catches_missing_validation(reps):
-    from motionrep_euler._rep import Euler
+    Euler = type(reps["euler"])
 
     def from_features(self, features, skeleton, fps):
         f = np.asarray(features, float)
@@ -478,32 +431,6 @@ def test_dualquat_features_are_current_coordinates(reps):
     assert dq[0, :, 3].min() >= 0  # frame 0: real w >= 0
 
 
-def test_dualquat_decoding_uses_only_real_parts(reps):
-    from motionrep_dualquat._rep import _global_rotations
-
-    rep = reps["dual-quaternion"]
-    m = synthetic_motion(frames=12)
-    f = rep.to_features(m)
-    names = rep.feature_names(m.skeleton)
-    dual = [i for i, n in enumerate(names) if "/dual_" in n]
-    g = f.copy()
-    g[:, dual] += np.random.default_rng(0).normal(size=(12, len(dual)))
-    np.testing.assert_allclose(global_positions(rep.from_features(g, m.skeleton, m.fps)), global_positions(m),
-                               atol=1e-9)
-    # a lossy real part of one joint: that joint's decoded world rotation is its normalised real part, and the
-    # world rotations of every other joint are untouched (no accumulation down the chain)
-    arm = m.skeleton.index("LeftArm")
-    cols = [names.index(f"LeftArm/real_{c}") for c in "xyzw"]
-    g = f.copy()
-    g[:, cols] += 0.05
-    world = _global_rotations(rep.from_features(g, m.skeleton, m.fps))
-    expected = g[:, cols] / np.linalg.norm(g[:, cols], axis=-1, keepdims=True)
-    np.testing.assert_allclose(np.abs(np.sum(world[:, arm] * expected, axis=-1)), 1.0, atol=1e-12)
-    others = [j for j in range(m.num_joints) if j != arm]
-    np.testing.assert_allclose(np.abs(np.sum(world[:, others] * _global_rotations(m)[:, others], axis=-1)), 1.0,
-                               atol=1e-12)
-
-
 def test_dual_part_offset_error(reps):
     from motionrep_dualquat import dual_part_offset_error, dual_part_offsets
 
@@ -563,9 +490,8 @@ def test_convert_stores_features_and_decodes_them(reps, tmp_path, name, suffix):
     src = tmp_path / "walk.bvh"
     write(m, src)
     original = read(src)
-    runner = CliRunner()
     stored = tmp_path / f"walk{suffix}"
-    result = runner.invoke(cli, ["convert", str(src), str(stored), "--representation", name])
+    result = run_cli_caught("convert", str(src), str(stored), "--representation", name)
     assert result.exit_code == 0, result.output
     clip = read_features(stored)
     assert clip.representation == name and clip.representation_version == reps[name].version
@@ -573,7 +499,7 @@ def test_convert_stores_features_and_decodes_them(reps, tmp_path, name, suffix):
     np.testing.assert_array_equal(clip.features, reps[name].to_features(original))
     assert list(clip.feature_names) == reps[name].feature_names(original.skeleton)
     back = tmp_path / "walk2.bvh"
-    result = runner.invoke(cli, ["convert", str(stored), str(back)])
+    result = run_cli_caught("convert", str(stored), str(back))
     assert result.exit_code == 0, result.output
     err = np.linalg.norm(global_positions(read(back)) - global_positions(original), axis=-1).max()
     assert err <= 1e-6 * character_height(original.skeleton)
@@ -581,14 +507,13 @@ def test_convert_stores_features_and_decodes_them(reps, tmp_path, name, suffix):
 
 @pytest.mark.parametrize("path", real_params("cmu/pybvh"))
 def test_convert_real_clip_through_dual_quaternions(reps, tmp_path, path):
-    runner = CliRunner()
     original = read_bvh(path)
     for suffix in (".npz", ".h5"):
         stored = tmp_path / f"walk{suffix}"
         back = tmp_path / f"walk2{suffix}.bvh"
-        assert runner.invoke(cli, ["convert", str(path), str(stored), "--representation",
-                                   "dual-quaternion"]).exit_code == 0
-        assert runner.invoke(cli, ["convert", str(stored), str(back)]).exit_code == 0
+        assert run_cli_caught("convert", str(path), str(stored), "--representation",
+                                   "dual-quaternion").exit_code == 0
+        assert run_cli_caught("convert", str(stored), str(back)).exit_code == 0
         err = np.linalg.norm(global_positions(read(back)) - global_positions(original), axis=-1).max()
         assert err <= 1e-6 * character_height(original.skeleton)
 
@@ -596,7 +521,7 @@ def test_convert_real_clip_through_dual_quaternions(reps, tmp_path, path):
 def test_unknown_representation_is_a_one_line_error(reps, tmp_path):
     src = tmp_path / "walk.bvh"
     write(synthetic_motion(frames=3), src)
-    result = CliRunner().invoke(cli, ["convert", str(src), str(tmp_path / "x.npz"), "--representation", "quatz"])
+    result = run_cli_caught("convert", str(src), str(tmp_path / "x.npz"), "--representation", "quatz")
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "unknown representation 'quatz'" in lines[0]
@@ -614,7 +539,7 @@ def test_features_of_the_wrong_width_are_a_one_line_error(reps, tmp_path, suffix
     path = tmp_path / f"bad{suffix}"
     write_features(bad, path)
     out = tmp_path / "out.bvh"
-    result = CliRunner().invoke(cli, ["convert", str(path), str(out)])
+    result = run_cli_caught("convert", str(path), str(out))
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
     assert len(lines) == 1

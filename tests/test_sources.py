@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from motionrep.io.archive import read_archive
-from motionrep.cli import cli
 from motionrep.errors import FormatError, ParameterError, ValidationError
 from motionrep.io import list_clips, write, write_database
 from motionrep.model.ops import resample, resample_times

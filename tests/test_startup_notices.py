@@ -12,14 +12,14 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from motionrep.cli import cli
 from motionrep.cli._common import CodecProgress
 from motionrep.plugin.codec import describe_progress
 from motionrep.io import write
 from motionrep.jit import COMPILE_NOTICE
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+
+from helpers import run_cli_caught
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -101,11 +101,11 @@ def walk(tmp_path) -> Path:
 
 
 def test_bisect_lines_only_with_verbose(tmp_path, walk):
-    plain = CliRunner().invoke(cli, ["compress", str(walk), "-o", str(tmp_path / "a.mrc")])
+    plain = run_cli_caught("compress", str(walk), "-o", str(tmp_path / "a.mrc"))
     assert plain.exit_code == 0, plain.output
     assert "bisect regions=" not in plain.output and "settle regions=" not in plain.output
     assert "wrote" in plain.output
-    verbose = CliRunner().invoke(cli, ["compress", str(walk), "-o", str(tmp_path / "b.mrc"), "--verbose"])
+    verbose = run_cli_caught("compress", str(walk), "-o", str(tmp_path / "b.mrc"), "--verbose")
     assert verbose.exit_code == 0, verbose.output
     assert "bisect regions=" in verbose.output and "settle regions=" in verbose.output
     assert "diagnostic" not in verbose.output  # the marker is not shown as a field
@@ -163,7 +163,7 @@ def test_commands_load_only_the_kernels_they_need(tmp_path, walk):
     import numba (the transform decoder and the pose plan are C, BVH writing is scipy's Euler conversion): a
     regression here costs numba's start-up (about half a second quiet) or a kernel's cached code."""
     mrc = tmp_path / "walk.mrc"
-    assert CliRunner().invoke(cli, ["compress", str(walk), "-o", str(mrc)]).exit_code == 0
+    assert run_cli_caught("compress", str(walk), "-o", str(mrc)).exit_code == 0
     assert _kernels_loaded(tmp_path, "info", walk) == []
     assert _kernels_loaded(tmp_path, "info", mrc) == []
     assert _kernels_loaded(tmp_path, "decompress", mrc, "-o", tmp_path / "out.bvh") == []

@@ -17,18 +17,17 @@ import time
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 from motionrep.io.archive import Archive
-from motionrep.cli import cli
 from motionrep.cli._stdin import sniff, stdin_inputs
 from motionrep.errors import FormatError, Interrupted
 from motionrep.io import read, write, write_database
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
+from helpers import run_cli_caught
 
 
 def run(*args, input: bytes | None = None, env: dict | None = None):
-    return CliRunner(env=env).invoke(cli, [str(a) for a in args], input=input)
+    return run_cli_caught(*args, input=input, env=env)
 
 
 def error_line(result) -> str:

@@ -8,6 +8,7 @@ from motionrep.errors import ValidationError
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 from motionrep.model.timefmt import (duration, duration_text, fps_text, frame_time, frame_time_text, rate_text,
                                seconds_text)
+from helpers import run_cli_caught
 
 
 def test_duration_is_frames_times_frame_time_everywhere():
@@ -58,19 +59,17 @@ def test_info_and_compress_show_the_stated_frame_time(tmp_path):
     """A BVH with `Frame Time: 0.008333`: info says 120 fps and the duration to the millisecond, as does compress."""
     import re
 
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
     from motionrep.io import write
 
     path = tmp_path / "clip.bvh"
     write(synthetic_motion(humanoid_skeleton(), frames=885, fps=120.0), path)
     path.write_text(re.sub(r"Frame Time:.*", "Frame Time: 0.008333", path.read_text()))
-    r = CliRunner().invoke(cli, ["info", str(path)])
+    r = run_cli_caught("info", str(path))
     assert r.exit_code == 0, r.output
     lines = r.output.splitlines()
     assert "fps:        120 (frame time 0.008333 s)" in lines and "duration:   7.375 s" in lines
-    r = CliRunner().invoke(cli, ["compress", str(path), "-o", str(tmp_path / "c.mrc"), "--codec", "svd",
-                                 "-p", "rank=2", "--max-error", "none"])
+    r = run_cli_caught("compress", str(path), "-o", str(tmp_path / "c.mrc"), "--codec", "svd",
+                                 "-p", "rank=2", "--max-error", "none")
     assert r.exit_code == 0, r.output
     assert "885 frames at 120 fps (7.375 s)" in r.output and "120.005" not in r.output

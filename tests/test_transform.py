@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import SHARED_DATA, real_params, requires_shared
+from helpers import SHARED_DATA, real_params, requires_shared, run_cli_caught
 from motionrep.plugin.codec import Payload, frame_times
 from motionrep.pipeline.compress import compress_file, compress_motion, decompress, decompress_file
 from motionrep.errors import BoundNotMetError, ContainerError, MotionrepError, ParameterError, PayloadError
@@ -231,9 +231,7 @@ def test_bound_on_every_real_clip(src, max_error, tmp_path):
 def test_payload_bytes_and_bits_per_bone_frame_in_info_and_figures(walk, tmp_path):
     import json
 
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     r = compress_motion(walk, "transform", max_error="2%")
     payload = r.container.arrays["data"].nbytes
@@ -244,7 +242,7 @@ def test_payload_bytes_and_bits_per_bone_frame_in_info_and_figures(walk, tmp_pat
     assert "bits/bone/frame" in r.figures.summary()
     path = tmp_path / "w.mrc"
     path.write_bytes(r.data)
-    out = CliRunner().invoke(cli, ["info", str(path), "--json"])
+    out = run_cli_caught("info", str(path), "--json")
     d = json.loads(out.output)
     assert d["payload_bytes"] == payload and d["bits_per_bone_frame"] == pytest.approx(r.figures.bits_per_bone_frame)
     assert d["figures"]["bits_per_bone_frame"] == pytest.approx(d["bits_per_bone_frame"])
@@ -252,5 +250,5 @@ def test_payload_bytes_and_bits_per_bone_frame_in_info_and_figures(walk, tmp_pat
     assert d["payload_bits_per_bone_frame"] == pytest.approx(d["figures"]["payload_bits_per_bone_frame"])
     assert d["file_bits_per_bone_frame"] == pytest.approx(8 * len(r.data) / (walk.num_frames * bones))
     assert d["figures"]["file_bits_per_bone_frame"] == pytest.approx(d["file_bits_per_bone_frame"])
-    text = CliRunner().invoke(cli, ["info", str(path), "--verbose"]).output
+    text = run_cli_caught("info", str(path), "--verbose").output
     assert f"payload:    {payload} bytes" in text and "payload bits/bone/frame" in text

@@ -19,6 +19,7 @@ from motionrep.io import read, write
 from motionrep.model.rotations import euler_to_quat, quat_multiply
 from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthetic_motion
 from motionrep.present.view import CANDIDATE_COLORS, REFERENCE_COLOR, ViewClip, view_html, write_view
+from helpers import run_cli_caught
 
 
 def perturbed(motion, joint: int, first: int, count: int, radians: float = 0.4):
@@ -243,9 +244,7 @@ def test_page_states_rate_and_one_duration(walk):
 @pytest.fixture(scope="module")
 def three_codecs(tmp_path_factory):
     """A clip and three .mrc files of it from three codecs, each named clip.mrc in its own folder."""
-    from click.testing import CliRunner
 
-    from motionrep.cli import cli
 
     root = tmp_path_factory.mktemp("codecs")
     reference = synthetic_motion(humanoid_skeleton(), frames=60, fps=30.0)
@@ -256,12 +255,12 @@ def three_codecs(tmp_path_factory):
     for codec, params in runs.items():
         (root / codec).mkdir()
         out = root / codec / "clip.mrc"
-        r = CliRunner().invoke(cli, ["compress", str(root / "clip.bvh"), "-o", str(out), "--codec", codec,
-                                     "--max-error", "none", *params])
+        r = run_cli_caught("compress", str(root / "clip.bvh"), "-o", str(out), "--codec", codec,
+                                     "--max-error", "none", *params)
         assert r.exit_code == 0, r.output
         paths.append(out)
     page = root / "view.html"
-    r = CliRunner().invoke(cli, ["view", str(root / "clip.bvh"), *map(str, paths), "-o", str(page)])
+    r = run_cli_caught("view", str(root / "clip.bvh"), *map(str, paths), "-o", str(page))
     assert r.exit_code == 0, r.output
     return reference, paths, page
 
@@ -275,8 +274,9 @@ def test_three_codecs_are_labelled_apart(three_codecs):
     for name, codec in zip(names, ("svd", "naive-fourier", "transform")):
         assert name.startswith(f"{codec}/clip.mrc ({codec} "), name
     assert "rank=3" in names[0] and "K=2" in names[1]
-    params = dict(data["clips"][2]["facts"])["parameters"]
+    params = dict(data["clips"][2]["facts"])["codec"]  # info's facts, every figure
     assert "window=auto" in params and "k=2" in params  # a parameter left to the codec: auto, not None
+    assert {"codec", "outcome", "features", "size", "payload", "ratios", "L-inf"} <= set(dict(data["clips"][2]["facts"]))
     assert "None" not in json.dumps(data) and "NaN" not in json.dumps(data)
 
 

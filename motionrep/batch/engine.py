@@ -4,8 +4,9 @@ two databases), with one worker pool and one thread policy.
 :func:`run_batch` runs ``work(item)`` for every item and returns the results in item order:
 
 * ``jobs=1`` (and no executor): in this process, one item after the other;
-* ``jobs=N``: in ``N`` worker processes (a ``ProcessPoolExecutor`` with the ``spawn`` start method, the same on
-  every platform, its workers started with Ctrl-C ignored and stopped at once when the run is interrupted);
+* ``jobs=N``: in ``N`` worker processes (a ``pebble.ProcessPool`` with the ``spawn`` start method, the same on
+  every platform, its workers started with Ctrl-C ignored and stopped at once when the run is interrupted; an item
+  over its time limit has its worker killed and replaced);
 * ``executor=``: on any :class:`concurrent.futures.Executor` the caller owns (a Dask cluster's
   ``Client.get_executor()``, :func:`motionrep.batch.executors.dask_executor`; a pool shared by several runs); it is
   not shut down.
@@ -26,8 +27,10 @@ how many threads computed it.
 bench`` runs :func:`motionrep.present.bench.run_bench` on the same engine.
 
 A batch survives its worst clip: with ``on_error`` (``compress_clips`` passes one), whatever one item raises,
-in this process or a worker, is that item's result, and a worker process that dies breaks only its item (the
-pool is started again and the items that were running are run again one at a time to find the one).
+in this process or a worker, is that item's result, and a worker process that dies breaks only its item (pebble
+starts another worker; should the whole pool break, it is started again and the items that were running are run
+again one at a time to find the one).  The per-clip result of :func:`compress_clips` is typed, a
+:class:`ClipOutcome` carrying the :class:`~motionrep.pipeline.compress.CompressResult`.
 
 Size: one concern, running many clips' work; the pool supervision (failures, a broken pool, interrupts, the
 progress relay) and the batch jobs built on it stay together because each job's failure outcome is what the
@@ -39,18 +42,22 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+from concurrent.futures.process import BrokenProcessPool
 import os
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Collection, Iterable, Iterator, Sequence, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, Collection, Iterable, Iterator, Sequence, TypeVar
 
 from ..model._pose import Motion
 from ..errors import FormatError, MotionrepError, ParameterError, naming
 from .executors import (THREAD_VARIABLES, WorkerProgress, _ignore_interrupts, _process_pool, _stop_pool, dask_executor,
-                        progress_relay, time_limit, worker_threads)
+                        progress_relay, time_limit, time_limit_error, worker_threads)
 from ..pipeline.sources import ClipRef, Source, listing
 
-__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipJob", "compress_clips", "pair_clips",
+if TYPE_CHECKING:
+    from ..pipeline.compress import CompressResult
+
+__all__ = ["run_batch", "worker_threads", "read_clip", "ClipOutcome", "ClipFailure", "ClipJob", "compress_clips", "pair_clips",
            "pair_refs", "clip_sets", "evaluate_clips", "evaluate_refs",
            "THREAD_VARIABLES", "dask_executor", "time_limit"]
 
@@ -84,17 +91,31 @@ def _prepare_worker(parent: int, warm_up: tuple[str, ...]) -> None:
             _WORKER["warmed"].add(name)
 
 
-def _call(work: Callable[[Any], Any], item: Any, parent: int, warm_up: tuple[str, ...]) -> Any:
-    """Worker entry point (module level, so it pickles)."""
+def _call(work: Callable[[Any], Any], item: Any, parent: int, warm_up: tuple[str, ...],
+          timeout: float | None = None) -> Any:
+    """Worker entry point (module level, so it pickles); ``timeout``: the item's limit, raised in this thread
+    (:func:`~motionrep.batch.executors.time_limit`; on an executor whose workers cannot be killed for it)."""
     _prepare_worker(parent, warm_up)
-    return work(item)
+    with time_limit(timeout):
+        return work(item)
+
+
+class _WorkerDied(Exception):
+    """A pool worker died while running an item (``pebble.ProcessExpired``); reported as a ``BrokenProcessPool``,
+    the one exception a batch gives for a dead worker, for that item only."""
+
+
+def _worker_died(exc: BaseException) -> _WorkerDied:
+    code = getattr(exc, "exitcode", None)
+    return _WorkerDied(f"its worker process died{'' if code is None else f' (exit code {code})'}")
 
 
 def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs: int = 1,
               executor: cf.Executor | None = None, warm_up: Iterable[str] = (),
               on_done: Callable[[int, _Item, _Result], None] | None = None,
               window: int | None = None, relay: Any = None,
-              on_error: Callable[[_Item, Exception], _Result] | None = None) -> list[_Result]:
+              on_error: Callable[[_Item, Exception], _Result] | None = None,
+              timeout: float | None = None) -> list[_Result]:
     """``[work(item) for item in items]``, in this process, in ``jobs`` worker processes, or on ``executor``.
 
     Args:
@@ -109,10 +130,13 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
             from ``items`` only as they are submitted, so large items (clip bytes) are not all in memory.
         relay: the queue of :func:`motionrep.batch.executors.progress_relay` the pool's workers report progress on.
         on_error: with it, an item whose work raises (any ``Exception``, in this process or a worker) or whose
-            worker process dies gives ``on_error(item, exception)`` as its result and the others go on.  When a
-            worker of the embedded pool dies (a crash, the kernel's out-of-memory killer), the pool is started
-            again and the items that were running are run again one at a time, so that only the one that kills
-            its worker fails.
+            worker process dies gives ``on_error(item, exception)`` as its result and the others go on (a dead
+            worker's exception is a ``BrokenProcessPool``).  When the whole pool breaks, it is started again and
+            the items that were running are run again one at a time, so that only the one that breaks it fails.
+        timeout: seconds each item may take, raising :class:`~motionrep.errors.TimeLimitError` (its ``on_error``
+            result) when over: in worker processes the item's worker is killed (and another started); in this
+            process and on an executor, the limit is raised in the thread doing the work
+            (:func:`~motionrep.batch.executors.time_limit`).
 
     Returns:
         The results, in item order.
@@ -139,7 +163,8 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
                 get_codec(name).warm_up()
         for index, item in enumerate(source):
             try:
-                results[index] = result = work(item)
+                with time_limit(timeout):
+                    results[index] = result = work(item)
             except Exception as exc:
                 if on_error is None:
                     raise
@@ -147,27 +172,32 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
             if on_done is not None:
                 on_done(index, item, result)
         return [results[i] for i in range(len(results))]
-    from concurrent.futures.process import BrokenProcessPool
+    from pebble import ProcessExpired
 
+    parent = os.getpid()
     with contextlib.ExitStack() as stack:
         pool = None
         if executor is None:
             stack.enter_context(worker_threads(1))
             pools = stack.enter_context(contextlib.ExitStack())
-            pool = executor = pools.enter_context(_process_pool(workers, relay))
-        parent = os.getpid()
+            pool = pools.enter_context(_process_pool(workers, relay, _prepare_worker, (parent, warm)))
         pending: dict[cf.Future, tuple[int, Any]] = {}
-        suspects: list[tuple[int, Any]] = []  # items running when a worker died: run again one at a time
+        suspects: list[tuple[int, Any]] = []  # items running when the pool broke: run again one at a time
         next_index = 0
 
         alone = False  # the one item pending is a suspect running alone
+
+        def submit(item: Any) -> cf.Future:
+            if pool is not None:  # the pool kills a worker over its limit
+                return pool.schedule(_call, (work, item, parent, warm), timeout=timeout)
+            return executor.submit(_call, work, item, parent, warm, timeout)
 
         def submit_more() -> None:
             nonlocal next_index, alone
             if suspects:
                 if not pending:
                     index, item = suspects.pop(0)
-                    pending[executor.submit(_call, work, item, parent, warm)] = (index, item)
+                    pending[submit(item)] = (index, item)
                     alone = True
                 return
             alone = False
@@ -176,14 +206,14 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
                     item = next(source)
                 except StopIteration:
                     return
-                pending[executor.submit(_call, work, item, parent, warm)] = (next_index, item)
+                pending[submit(item)] = (next_index, item)
                 next_index += 1
 
         def restart() -> None:
-            nonlocal pool, executor, pools
-            pools.close()  # the broken pool: its surviving workers are shut down
+            nonlocal pool, pools
+            pools.close()  # the broken pool: its surviving workers are stopped
             pools = stack.enter_context(contextlib.ExitStack())
-            pool = executor = pools.enter_context(_process_pool(workers, relay))
+            pool = pools.enter_context(_process_pool(workers, relay, _prepare_worker, (parent, warm)))
 
         try:
             submit_more()
@@ -193,12 +223,23 @@ def run_batch(work: Callable[[_Item], _Result], items: Iterable[_Item], *, jobs:
                 for future in finished:
                     index, item = pending.pop(future)
                     try:
-                        result = future.result()
-                    except BrokenProcessPool as exc:
+                        try:
+                            result = future.result()
+                        except ProcessExpired as exc:  # its worker died: this item's failure only
+                            raise _worker_died(exc) from None
+                        except TimeoutError:  # the pool killed its worker, over the limit
+                            if pool is None or not timeout:
+                                raise
+                            raise time_limit_error(timeout) from None
+                    except _WorkerDied as exc:
+                        if on_error is None:
+                            raise BrokenProcessPool(str(exc)) from None
+                        result = on_error(item, BrokenProcessPool(str(exc)))
+                    except BrokenProcessPool as exc:  # the whole pool broke
                         if on_error is None or pool is None:
                             raise
                         broken = True
-                        if not alone:  # several ran: find the one that kills its worker, running them alone
+                        if not alone:  # several ran: find the one that breaks it, running them alone
                             suspects.append((index, item))
                             continue
                         result = on_error(item, exc)  # it ran alone: it is the one
@@ -246,23 +287,43 @@ def read_clip(ref: ClipRef) -> Motion:
 # compress many clips
 # ---------------------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
+class ClipFailure:
+    """Why one clip of a batch failed.
+
+    Attributes:
+        message: one line naming the clip's source and what happened (a library error names parameters, not
+            flags: ``parameters`` lists its mentions, which the command line rewrites).
+        type: the exception's class name (``"BoundNotMetError"``, ``"BrokenProcessPool"`` for a dead worker).
+        parameters: the parameter mentions the message holds (:attr:`motionrep.errors.MotionrepError.parameters`).
+    """
+
+    message: str
+    type: str
+    parameters: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class ClipOutcome:
-    """What compressing one clip of a batch gave.
+    """What compressing one clip of a batch gave: what crosses the process boundary back to the client, typed.
 
     Attributes:
         name: the clip's name.
-        data: the ``.mrc`` bytes; None when it failed, or was skipped (``status``).
-        summary: ``CompressResult.as_dict()`` plus ``source``, ``source_sha256`` and ``cpu_seconds``; for a
-            failure ``{"error": message, "type": exception class name, "source": ...}``; for a skipped clip
-            ``{"skipped": True, "source": ...}``.
+        source: where it was read (``path`` or ``path[clip]``).
         status: ``"done"``, ``"failed"`` or ``"skipped"`` (``--resume``: the output already holds this clip,
             compressed from the same source with the same setting).
+        result: the :class:`~motionrep.pipeline.compress.CompressResult` (``"done"`` only).
+        failure: why it failed (``"failed"`` only).
+        source_sha256: the checksum of its source, when read.
+        cpu_seconds: the processor time the clip took in its worker.
     """
 
     name: str
-    data: bytes | None
-    summary: dict[str, Any]
+    source: str | None
     status: str = "done"
+    result: CompressResult | None = field(default=None, repr=False)
+    failure: ClipFailure | None = None
+    source_sha256: str | None = None
+    cpu_seconds: float = 0.0
 
     @property
     def failed(self) -> bool:
@@ -272,6 +333,26 @@ class ClipOutcome:
     def skipped(self) -> bool:
         return self.status == "skipped"
 
+    @property
+    def data(self) -> bytes | None:
+        """The ``.mrc`` bytes (``"done"`` only)."""
+        return None if self.result is None else self.result.data
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """The outcome as JSON data, what ``compress --json`` prints per clip (the one place it is spelled out):
+        ``CompressResult.as_dict()`` plus ``source``, ``source_sha256`` and ``cpu_seconds``; for a failure
+        ``{"error", "type", "source", "cpu_seconds"}`` (and ``"parameters"`` when the message names some); for a
+        skipped clip ``{"skipped": True, "source"}``."""
+        if self.failure is not None:
+            return {"error": self.failure.message, "type": self.failure.type, "source": self.source,
+                    "cpu_seconds": self.cpu_seconds,
+                    **({"parameters": list(self.failure.parameters)} if self.failure.parameters else {})}
+        if self.result is None:
+            return {"skipped": True, "source": self.source}
+        return dict(self.result.as_dict(), source=self.source, source_sha256=self.source_sha256,
+                    cpu_seconds=self.cpu_seconds)
+
 
 @dataclass(frozen=True)
 class ClipJob:
@@ -279,10 +360,9 @@ class ClipJob:
 
     Attributes:
         ref: the clip.
-        pipeline: the :class:`motionrep.pipeline.compress.Pipeline`.
+        pipeline: the :class:`motionrep.pipeline.compress.Pipeline` (it travels with its ``MaxError``).
         expect: with ``--resume``, the source checksum of the copy the output holds: the worker skips the clip
             when its source still has it.
-        timeout: seconds the clip may take (None: no limit).
         data: the bytes of the clip's file, sent by the client to workers that cannot read its path (None: the
             worker reads ``ref.path``).
         read: for a clip of a database or archive sent that way, ``(motion, source checksum)`` as the client read
@@ -293,7 +373,6 @@ class ClipJob:
     ref: ClipRef
     pipeline: Any
     expect: str | None = None
-    timeout: float | None = None
     data: bytes | None = field(default=None, repr=False)
     read: tuple[Motion, str] | MotionrepError | None = field(default=None, repr=False)
     progress: Callable[[str, str, Any], None] | None = field(default=None, repr=False, compare=False)
@@ -318,43 +397,46 @@ def _read_job(job: ClipJob) -> tuple[Motion, str]:
     with tempfile.TemporaryDirectory(prefix=f"{_CLIP_PREFIX}{os.getpid()}-") as tmp:
         local = Path(tmp) / f"clip{suffix}"
         local.write_bytes(job.data)
-        motion, checksum = ClipRef(job.ref.name, str(local), job.ref.clip, job.ref.source_bytes).read_with_checksum()
+        try:
+            motion, checksum = ClipRef(job.ref.name, str(local), job.ref.clip,
+                                       job.ref.source_bytes).read_with_checksum()
+        except FormatError as exc:  # name the user's file, not the worker's copy
+            try:
+                named = type(exc)(exc.message, job.ref.source, exc.line)
+            except TypeError:  # a subclass made otherwise
+                named = FormatError(exc.message, job.ref.source, exc.line)
+            raise naming(named, *exc.parameters) from None
     return motion, checksum
 
 
 def _compress_one(job: ClipJob | tuple[ClipRef, Any]) -> ClipOutcome:
-    from .store import SOURCE_CHECKSUM_KEY
+    """A worker's job: read the clip, skip it when ``--resume`` keeps it, else compress it
+    (:func:`motionrep.pipeline.compress.compress_clip`, the one path); whatever fails is this clip's outcome."""
+    from ..pipeline.compress import compress_clip
 
     if isinstance(job, tuple):
         job = ClipJob(*job)
     ref = job.ref
     cpu = time.process_time()
     try:
-        with time_limit(job.timeout):
-            motion, checksum = _read_job(job)
-            if job.expect is not None and checksum == job.expect:
-                return ClipOutcome(ref.name, None, {"skipped": True, "source": ref.source}, "skipped")
-            on = job.progress
-            result = job.pipeline.compress(motion, source_bytes=ref.source_bytes, extra={SOURCE_CHECKSUM_KEY: checksum},
-                                           progress=on and (lambda stage, fields: on(ref.name, stage, fields)))
-    except MotionrepError as exc:
-        message = str(exc)
-        if isinstance(exc, FormatError) and job.data is not None:  # name the user's file, not the worker's copy
-            message = FormatError(exc.message, ref.source, exc.line).args[0]
-        return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
-                                            "cpu_seconds": time.process_time() - cpu,
-                                            **({"parameters": list(exc.parameters)} if exc.parameters else {})},
-                           "failed")
-    except Exception as exc:  # a bug or a resource (MemoryError, RecursionError): this clip's failure only
+        motion, checksum = _read_job(job)
+        if job.expect is not None and checksum == job.expect:
+            return ClipOutcome(ref.name, ref.source, "skipped")
+        on = job.progress
+        result = compress_clip(job.pipeline, ref, read=(motion, checksum),
+                               progress=on and (lambda stage, fields: on(ref.name, stage, fields)))
+    except Exception as exc:  # a bug or a resource (MemoryError, RecursionError) too: this clip's failure only
         return _failed(ref, exc, time.process_time() - cpu)
-    summary = dict(result.as_dict(), source=ref.source, source_sha256=checksum,
-                   cpu_seconds=time.process_time() - cpu)
-    return ClipOutcome(ref.name, result.data, summary)
+    return ClipOutcome(ref.name, ref.source, result=result, source_sha256=checksum,
+                       cpu_seconds=time.process_time() - cpu)
 
 
 def _failed(ref: ClipRef, exc: BaseException, cpu_seconds: float = 0.0) -> ClipOutcome:
-    """The failed outcome of a clip whose compression raised something other than motionrep's own errors (or
-    whose worker process died): one line naming the clip's source and what happened."""
+    """The failed outcome of a clip: a motionrep error's message (and the parameters it names), or for anything
+    else (a bug, a resource, a worker process that died) one line naming the clip's source and what happened."""
+    if isinstance(exc, MotionrepError):
+        failure = ClipFailure(str(exc), type(exc).__name__, tuple(exc.parameters))
+        return ClipOutcome(ref.name, ref.source, "failed", failure=failure, cpu_seconds=cpu_seconds)
     if isinstance(exc, MemoryError):
         what = "not enough memory to compress it"
     elif isinstance(exc, RecursionError):
@@ -364,8 +446,8 @@ def _failed(ref: ClipRef, exc: BaseException, cpu_seconds: float = 0.0) -> ClipO
     else:
         what = f"internal error {type(exc).__name__}: {exc}"
     message = " ".join(f"{ref.source}: {what}".split())[:500]
-    return ClipOutcome(ref.name, None, {"error": message, "type": type(exc).__name__, "source": ref.source,
-                                        "cpu_seconds": cpu_seconds}, "failed")
+    return ClipOutcome(ref.name, ref.source, "failed", failure=ClipFailure(message, type(exc).__name__),
+                       cpu_seconds=cpu_seconds)
 
 
 def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, executor: cf.Executor | None = None,
@@ -382,7 +464,7 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
         on_done: called as ``on_done(outcome)`` in this process as each clip finishes (to commit it).
         expect: ``{name: source checksum}`` of clips the output already holds with this setting: such a clip is
             skipped when its source is unchanged (``--resume``).
-        timeout: seconds each clip may take.
+        timeout: seconds each clip may take (:func:`run_batch`: in worker processes the clip's worker is killed).
         send_data: read clips here and send them to the workers (workers that do not share this file system):
             True for every clip, or the paths (``ref.path``) of the files whose clips are sent; a file of one clip
             is sent as its bytes, a clip of a database or archive as the clip read here and its source checksum.
@@ -419,13 +501,14 @@ def compress_clips(refs: Sequence[ClipRef], pipeline: Any, *, jobs: int = 1, exe
                     read = exc
                 except (OSError, MemoryError) as exc:  # this clip's failure; the others go on
                     read = FormatError(f"cannot read it: {type(exc).__name__}: {exc}", ref.path)
-            yield ClipJob(ref, pipeline, expect.get(ref.name), timeout, data, read, here)
+            yield ClipJob(ref, pipeline, expect.get(ref.name), data, read, here)
 
     window = None if not send_data else (64 if executor is not None else 4 * jobs)
     with progress_relay(progress) if pooled else contextlib.nullcontext() as relay:
         return run_batch(_compress_one, jobs_of(), jobs=jobs, executor=executor, warm_up=[pipeline.codec.name],
                          on_done=None if on_done is None else (lambda i, item, outcome: on_done(outcome)),
-                         window=window, relay=relay, on_error=lambda job, exc: _failed(job.ref, exc))
+                         window=window, relay=relay, on_error=lambda job, exc: _failed(job.ref, exc),
+                         timeout=timeout)
 
 
 # ---------------------------------------------------------------------------------------------------------------

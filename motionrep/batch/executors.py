@@ -1,11 +1,14 @@
 """Where batch work runs, and for how long: the embedded local process pool, a Dask distributed cluster, and a
 time limit for one item (:mod:`motionrep.batch.engine` runs its work through these).
 
-* :func:`_process_pool`: ``jobs`` spawned worker processes that start with Ctrl-C ignored (the parent stops them,
-  :func:`_stop_pool`, so no worker prints a traceback);
+* :func:`_process_pool`: ``jobs`` spawned worker processes (a ``pebble.ProcessPool``) that start with Ctrl-C
+  ignored (the parent stops them, :func:`_stop_pool`, so no worker prints a traceback); a task over its time
+  limit (``--timeout``) has its worker killed, whatever it is doing (compiled code included), and another started;
 * :func:`dask_executor`: a ``concurrent.futures`` executor on a Dask cluster (``Client.get_executor``), for
   ``--scheduler ADDRESS`` or ``MOTIONREP_SCHEDULER``; ``dask[distributed]`` is the optional extra ``dask``;
-* :func:`time_limit`: ``--timeout``, raised in the thread doing the work, in any process;
+* :func:`time_limit`: ``--timeout`` where no worker process can be killed for it: in this process (``--jobs 1``:
+  the process is the run) and in a Dask worker's task threads (Dask has no per-task limit, and its worker
+  processes, daemonic, cannot start a child to kill); raised in the thread doing the work;
 * :func:`progress_relay` and :class:`WorkerProgress`: a codec's progress inside a clip, from the pool's
   workers to a callback in the parent (a queue the workers get when they start, drained by a thread);
 * :func:`worker_threads`: the BLAS thread count spawned workers start with.
@@ -24,7 +27,7 @@ from typing import Any, Callable, Iterator
 
 from ..errors import ParameterError, TimeLimitError, naming
 
-__all__ = ["dask_executor", "time_limit", "die_with_parent", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT",
+__all__ = ["dask_executor", "time_limit", "time_limit_error", "die_with_parent", "SCHEDULER_VARIABLE", "CONNECT_TIMEOUT",
            "THREAD_VARIABLES", "worker_threads", "progress_relay", "WorkerProgress"]
 
 #: Environment variables that set the thread count of the BLAS libraries numpy and scipy may use.
@@ -62,12 +65,21 @@ def die_with_parent(parent: int | None = None) -> None:
         os._exit(1)
 
 
-def _start_worker(parent: int, queue: Any = None) -> None:
+def _start_worker(parent: int, queue: Any = None, initializer: Callable[..., None] | None = None,
+                  initargs: tuple = ()) -> None:
     """Initializer of the embedded pool's workers: die with the client, leave Ctrl-C to it, report progress on
-    ``queue`` (:func:`progress_relay`; None: no progress)."""
+    ``queue`` (:func:`progress_relay`; None: no progress), then ``initializer(*initargs)`` (the engine's thread
+    policy and codec warm-up; an error there is left for the first task to meet again, named, not a dead worker)."""
     die_with_parent(parent)
     _ignore_interrupts()
+    if queue is not None:
+        queue.cancel_join_thread()  # a worker killed for its time limit must not wait to flush its progress
     _RELAY["queue"] = queue
+    if initializer is not None:
+        try:
+            initializer(*initargs)
+        except Exception:  # noqa: BLE001 - the task meets it again, and fails with it
+            pass
 
 
 @contextlib.contextmanager
@@ -110,7 +122,9 @@ def progress_relay(callback: Callable[[str, str, Any], None]) -> Iterator[Any]:
     passes to ``callback(name, stage, fields)`` here until the block ends."""
     import multiprocessing
 
-    queue = multiprocessing.get_context("spawn").SimpleQueue()
+    # a Queue, not a SimpleQueue: a worker writes through a feeder thread, so a worker killed for its time limit
+    # while it held the queue's lock cannot block the others' work (only their progress)
+    queue = multiprocessing.get_context("spawn").Queue()
 
     def drain() -> None:
         while (message := queue.get()) is not None:
@@ -129,39 +143,45 @@ def progress_relay(callback: Callable[[str, str, Any], None]) -> Iterator[Any]:
 
 
 @contextlib.contextmanager
-def _process_pool(workers: int, relay: Any = None) -> Iterator[cf.ProcessPoolExecutor]:
-    """A spawn-method process pool whose workers all start at once with Ctrl-C ignored (a signal disposition
-    set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a traceback) and
-    die with this process (:func:`die_with_parent`: a SIGKILL of the client leaves no orphan); ``relay``: the
-    :func:`progress_relay` queue its workers report progress on."""
+def _process_pool(workers: int, relay: Any = None, initializer: Callable[..., None] | None = None,
+                  initargs: tuple = ()) -> Iterator[Any]:
+    """A ``pebble.ProcessPool`` of ``workers`` spawned processes, all started at once with Ctrl-C ignored (a signal
+    disposition set to 'ignore' is inherited by the spawned interpreters, so not even their start-up prints a
+    traceback), each dying with this process (:func:`die_with_parent`: a SIGKILL of the client leaves no orphan),
+    reporting progress on ``relay`` (:func:`progress_relay`), then running ``initializer(*initargs)``.
+
+    Submit with ``pool.schedule(function, args, timeout=seconds)``: a task over its time limit has its worker
+    killed (pebble starts another) and its future raises ``concurrent.futures.TimeoutError``; a worker that dies
+    fails only the task it ran (``pebble.ProcessExpired``).  :func:`_stop_pool` stops the workers at once."""
     import multiprocessing
 
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_start_worker, initargs=(os.getpid(), relay))
+    from pebble import ProcessPool
+
+    pool = ProcessPool(max_workers=workers, context=multiprocessing.get_context("spawn"),
+                       initializer=_start_worker, initargs=(os.getpid(), relay, initializer, tuple(initargs)))
     try:
         main = threading.current_thread() is threading.main_thread()
         saved = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
         try:
-            for f in [pool.submit(os.getpid) for _ in range(workers)]:  # one submission starts one worker
-                f.cancel()
+            pool.schedule(os.getpid)  # the first submission starts every worker, here, with signals ignored
         finally:
             if main:
                 signal.signal(signal.SIGINT, saved)
         yield pool
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException:
+        _stop_pool(pool)
+        raise
+    else:
+        pool.close()
+        pool.join()
 
 
-def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+def _stop_pool(pool: Any) -> None:
     """Stop a pool's workers now (an interrupted run must not wait for the clips in progress)."""
-    processes = list(getattr(pool, "_processes", {}).values())  # no public way to stop running tasks
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in processes:
-        with contextlib.suppress(Exception):
-            p.terminate()
-    for p in processes:
-        with contextlib.suppress(Exception):
-            p.join(5)
+    with contextlib.suppress(Exception):
+        pool.stop()
+    with contextlib.suppress(Exception):
+        pool.join(timeout=10)
 
 
 @contextlib.contextmanager
@@ -230,7 +250,7 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
     if not seconds:
         yield
         return
-    import ctypes
+    import ctypes  # no maintained library stops a thread; a pool kills its worker instead (_process_pool)
 
     _drop_time_up_reports()
 
@@ -258,5 +278,10 @@ def time_limit(seconds: float | None, what: str = "clip") -> Iterator[None]:
                 state["done"] = True
             stop.set()
     except _TimeUp:
-        raise naming(TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (timeout=)",
-                                    seconds), "timeout=") from None
+        raise time_limit_error(seconds, what) from None
+
+
+def time_limit_error(seconds: float, what: str = "clip") -> TimeLimitError:
+    """The error of work over its time limit, however it was stopped (:func:`time_limit`, a killed worker)."""
+    return naming(TimeLimitError(f"{what} took longer than the time limit of {seconds:g} s (timeout=)", seconds),
+                  "timeout=")

@@ -15,10 +15,12 @@ finishes and :meth:`ClipStore.close` at the end, however the run ends (finished,
   reads it, ``--force`` discards it.
 
 Resume: every container ``motionrep compress`` writes records the SHA-256 of the clip's source
-(``extra.source_sha256``, see :func:`motionrep.pipeline.checksum.clip_checksum`) next to the codec, its version and
-parameters, the representation and its version, the bound and the seed.  :func:`resume_key` gives the stored
-checksum of a container written with the same setting as a pipeline (None otherwise); a worker skips the clip
-when its source still has that checksum.
+(``extra.source_sha256``, see :func:`motionrep.pipeline.checksum.clip_checksum`) and the SHA-256 of its setting
+(``extra.setting_sha256``, :meth:`motionrep.pipeline.compress.Pipeline.digest`: codec, version and parameters,
+representation and version, bound, seed).  :func:`resume_key` gives the stored source checksum of a container
+written with the same setting digest as a pipeline (None otherwise); a worker skips the clip when its source still
+has that checksum.  A container written before the digest was stored gets it from the setting it states
+(:func:`stored_digest`), so older outputs keep resuming; :func:`setting_changes` names what differs.
 """
 
 from __future__ import annotations
@@ -35,10 +37,16 @@ from ..io.container import SUFFIX, Container
 from ..errors import ContainerError, FormatError, OutputExistsError, naming
 
 __all__ = ["ClipStore", "DirectoryStore", "ArchiveStore", "open_store", "journal_path", "resume_key",
-           "setting_changes", "stored_spec", "pipeline_spec", "SOURCE_CHECKSUM_KEY"]
+           "setting_changes", "stored_spec", "pipeline_spec", "stored_digest", "SOURCE_CHECKSUM_KEY",
+           "SETTING_DIGEST_KEY"]
 
-#: Key of ``Container.extra`` holding the SHA-256 (hex) of the clip's source, written by batch compression.
-SOURCE_CHECKSUM_KEY = "source_sha256"
+from ..pipeline.checksum import SOURCE_CHECKSUM_KEY  # noqa: E402 - named here too, as before
+
+
+#: Key of ``Container.extra`` holding the SHA-256 (hex) of the setting a clip was compressed with
+#: (:meth:`motionrep.pipeline.compress.Pipeline.digest`); containers written before it derive it
+#: (:func:`stored_digest`).
+SETTING_DIGEST_KEY = "setting_sha256"
 
 
 def _plain(value: Any) -> Any:
@@ -47,26 +55,39 @@ def _plain(value: Any) -> Any:
 
 
 def stored_spec(container: Container) -> dict[str, Any]:
-    """The setting ``container`` was written with, as :meth:`motionrep.pipeline.compress.Pipeline.spec` states one, with
-    the payload and representation versions."""
-    extra = container.extra
+    """The setting ``container`` was written with, as :meth:`motionrep.pipeline.compress.Pipeline.setting` states
+    one (``Pipeline.spec()`` with the payload and representation versions)."""
+    bound = container.bound
     return {"codec": container.codec, "codec_version": container.codec_version,
             "representation": container.representation, "representation_version": container.representation_version,
-            "params": _plain(dict(container.params)), "max_error": extra.get("max_error"), "seed": extra.get("seed")}
+            "params": _plain(dict(container.params)),
+            "max_error": None if bound is None or bound.asked is None else str(bound.asked),
+            "seed": container.extra.get("seed")}
 
 
 def pipeline_spec(pipeline: Any) -> dict[str, Any]:
-    """``pipeline.spec()`` with the versions :func:`stored_spec` records, in the same plain form."""
-    spec = dict(pipeline.spec())
+    """``pipeline.setting()`` in the plain form of :func:`stored_spec`."""
+    spec = dict(pipeline.setting())
     spec["params"] = _plain(spec["params"])
-    spec["codec_version"] = pipeline.codec.format_version
-    spec["representation_version"] = pipeline.representation.version
     return spec
+
+
+def stored_digest(container: Container) -> str:
+    """The digest of the setting ``container`` was written with: the one it stores (``extra.setting_sha256``), or,
+    for a container written before motionrep stored it, the digest of the setting it states (:func:`stored_spec`;
+    the same digest when the setting is the same)."""
+    from ..pipeline.compress import setting_digest
+
+    stored = container.extra.get(SETTING_DIGEST_KEY)
+    return stored if isinstance(stored, str) else setting_digest(stored_spec(container))
 
 
 def setting_changes(container: Container, pipeline: Any) -> list[str]:
     """What differs between the setting ``container`` was written with and ``pipeline``'s, one phrase each
-    (``"max_error '1%' stored, '2%' now"``); empty when they are the same."""
+    (``"max_error '1%' stored, '2%' now"``); empty when the two settings have the same digest
+    (:meth:`motionrep.pipeline.compress.Pipeline.digest`)."""
+    if stored_digest(container) == pipeline.digest():
+        return []
     stored, now = stored_spec(container), pipeline_spec(pipeline)
     if stored["codec"] != now["codec"]:  # another codec: its versions and parameters differ too, say only that
         return [f"codec {stored['codec']!r} stored, {now['codec']!r} now"]
@@ -78,14 +99,16 @@ def setting_changes(container: Container, pipeline: Any) -> list[str]:
         a, b = stored["params"], now["params"]
         diff = [f"{k}={a.get(k)!r} stored, {b.get(k)!r} now" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
         out.append("parameters " + "; ".join(diff))
+    if not out:  # the same fields under another digest: a digest this motionrep does not make
+        out.append(f"setting digest {stored_digest(container)[:12]}... stored, {pipeline.digest()[:12]}... now")
     return out
 
 
 def resume_key(container: Container, pipeline: Any) -> str | None:
-    """The source checksum ``container`` records when it was written with ``pipeline``'s setting (codec and
-    payload version, parameters, representation and version, bound, seed), else None (it must be redone)."""
+    """The source checksum ``container`` records when it was written with ``pipeline``'s setting (the same
+    :func:`stored_digest` as ``pipeline.digest()``), else None (it must be redone)."""
     key = container.extra.get(SOURCE_CHECKSUM_KEY)
-    return key if not setting_changes(container, pipeline) and isinstance(key, str) else None
+    return key if isinstance(key, str) and stored_digest(container) == pipeline.digest() else None
 
 
 def journal_path(archive: str | os.PathLike[str]) -> Path:

@@ -14,21 +14,35 @@ bytes.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, Mapping
 
-__all__ = ["BatchTotals", "container_summary", "MB"]
+__all__ = ["BatchTotals", "StoredClip", "container_summary", "MB"]
 
 #: Bytes in the megabytes reported (10^6, as file sizes are shown).
 MB = 1_000_000
 
 
+@dataclass(frozen=True)
+class StoredClip:
+    """A clip the output already held and a run kept (``--resume``): its stored container and sizes.
+
+    Attributes:
+        container: the stored container.
+        bytes: its size in the output.
+        source: where its source is.
+        source_bytes: the size of its source, when known.
+    """
+
+    container: Any
+    bytes: int
+    source: str | None = None
+    source_bytes: int | None = None
+
+
 def container_summary(container: Any, nbytes: int, source: str | None = None,
-                      source_bytes: int | None = None) -> dict[str, Any]:
-    """The figures the totals need, from a stored container (a clip kept by ``--resume``)."""
-    sk = container.skeleton
-    return {"frames": container.num_frames, "joints": sk.num_joints, "end_sites": sk.num_end_sites,
-            "channels": sk.num_channels, "bytes": int(nbytes), "payload_bytes": int(container.payload_bytes),
-            "evaluation": container.evaluation, "source": source, "source_bytes": source_bytes}
+                      source_bytes: int | None = None) -> StoredClip:
+    """What the totals need of a stored container (a clip kept by ``--resume``)."""
+    return StoredClip(container, int(nbytes), source, source_bytes)
 
 
 @dataclass
@@ -61,47 +75,41 @@ class BatchTotals:
     cpu_seconds: float = 0.0
 
     @classmethod
-    def of(cls, outcomes: Iterable[Any], kept: dict[str, dict[str, Any]] | None = None, *,
-           wall_seconds: float = 0.0, client_cpu_seconds: float = 0.0) -> "BatchTotals":
-        """Totals of :class:`motionrep.batch.engine.ClipOutcome` s; ``kept`` gives the :func:`container_summary` of
-        every skipped clip."""
+    def of(cls, outcomes: Iterable[Any], kept: Mapping[str, StoredClip] | None = None, *,
+           wall_seconds: float = 0.0, client_cpu_seconds: float = 0.0,
+           reason: Callable[[Any], str] | None = None) -> "BatchTotals":
+        """Totals of :class:`motionrep.batch.engine.ClipOutcome` s; ``kept`` gives the :class:`StoredClip` of every
+        skipped clip; ``reason(failure)`` words a failure (default: its message; the command line shows flags)."""
         kept = kept or {}
         t = cls(wall_seconds=float(wall_seconds), cpu_seconds=float(client_cpu_seconds))
         for o in outcomes:
             t.clips += 1
-            s = o.summary
-            t.cpu_seconds += float(s.get("cpu_seconds") or 0.0)
+            t.cpu_seconds += float(o.cpu_seconds or 0.0)
             if o.failed:
-                t.failures.append({"clip": o.name, "source": s.get("source"), "reason": s.get("error"),
-                                   "type": s.get("type")})
+                f = o.failure
+                t.failures.append({"clip": o.name, "source": o.source,
+                                   "reason": reason(f) if reason is not None else f.message, "type": f.type})
                 continue
             if o.skipped:
                 t.kept += 1
-                s = kept.get(o.name)
-                if s is None:
+                stored = kept.get(o.name)
+                if stored is None:
                     continue
+                t._add(o.name, stored.container, stored.bytes, stored.source_bytes)
             else:
                 t.compressed += 1
-            t._add(o.name, s)
+                r = o.result
+                t._add(o.name, r.container, len(r.data), r.figures.source_bytes)
         return t
 
-    def _add(self, name: str, s: dict[str, Any]) -> None:
-        frames = int(s["frames"])
-        channels = s.get("channels")
-        if channels is None:
-            channels = (s.get("figures") or {}).get("num_channels", 0)
-        self.raw_bytes += frames * int(channels) * 4
-        self.compressed_bytes += int(s["bytes"])
-        payload = s.get("payload_bytes")
-        if payload is None:
-            payload = (s.get("figures") or {}).get("payload_bytes")
-        self.payload_bytes += int(payload or 0)
-        self.bone_frames += frames * (int(s["joints"]) + int(s["end_sites"]))
-        src = s.get("source_bytes")
-        if src is None:
-            src = (s.get("figures") or {}).get("source_bytes")
-        self.source_bytes += int(src or 0)
-        ev = s.get("evaluation")
+    def _add(self, name: str, c: Any, nbytes: int, source_bytes: int | None) -> None:
+        frames, sk = int(c.num_frames), c.skeleton
+        self.raw_bytes += frames * int(sk.num_channels) * 4
+        self.compressed_bytes += int(nbytes)
+        self.payload_bytes += int(c.payload_bytes)
+        self.bone_frames += frames * (int(sk.num_joints) + int(sk.num_end_sites))
+        self.source_bytes += int(source_bytes or 0)
+        ev = c.evaluation
         if ev and (self.worst is None or ev["max_error_percent"] > self.worst["max_error_percent"]):
             self.worst = {"clip": name, "max_error": ev["max_error"], "max_error_percent": ev["max_error_percent"],
                           "frame": ev.get("frame"), "joint": ev.get("joint"), "units": ev.get("units")}

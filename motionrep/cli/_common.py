@@ -1,7 +1,7 @@
-"""What the command modules share: ``-p`` parsing, progress on stderr, JSON output, file-type checks, the one
-overwrite policy (``--force``), the one way a run ends on a signal (:class:`Interrupted`), ``-`` for
-standard output (standard input: :mod:`motionrep.cli._stdin`, re-exported here), glob patterns in inputs, and
-how ``--max-error`` was read.
+"""What the command modules share: ``-p`` parsing, progress on stderr (:mod:`motionrep.cli._progress`, re-exported
+here), JSON output, file-type checks, the one overwrite policy (``--force``), the one way a run ends on a signal
+(:class:`Interrupted`), ``-`` for standard output (standard input: :mod:`motionrep.cli._stdin`, re-exported here),
+glob patterns in inputs, and how ``--max-error`` was read.
 
 Overwrite policy, the same for every command: an output that exists is an error (exit 1, naming it and saying
 ``--force``) unless ``--force`` is given; a command that can go on with what an interrupted run left
@@ -24,15 +24,15 @@ import signal
 import sys
 import tempfile
 import threading
-import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import click
 
 from ..errors import Interrupted
 from .. import formats
 from ._flags import FLAGS, flag_text, flagged
+from ._progress import BatchProgress, CodecProgress
 from ._stdin import MOTION_FORMATS, STDIN_NAME, STDIO, display_name, is_stdio, stdin_inputs
 from ._crosstool import (body_model_option, check_gltf_units, comparison_options, gltf_unit_options, gltf_write_options,
                          match_options)
@@ -113,41 +113,26 @@ def expand_globs(inputs: Iterable[Any]) -> list[Any]:
 def bound_for(max_error: str | None, reference: Any, candidates: Sequence[Any], clip: str | None
               ) -> tuple[float | None, str | None]:
     """The bound to draw (file units) and how it was read: ``--max-error`` when given, else the bound the first
-    ``.mrc`` candidate (or archive clip) was compressed within, if it says.
+    ``.mrc`` candidate (or archive clip) was compressed within, if it says
+    (:func:`motionrep.pipeline.bounds.bound_to_draw`).
 
     Raises:
         click.BadParameter: for a ``--max-error`` that does not parse.
     """
     from ..model.bound import parse_max_error
     from ..errors import ParameterError
-    from ..model.kinematics import character_height
-    from ..pipeline.sources import open_source
+    from ..pipeline.bounds import bound_to_draw
 
-    height = character_height(reference.skeleton)
-    units = reference.skeleton.units
-    if max_error is not None:
-        try:
-            parsed = parse_max_error(max_error)
-        except ParameterError as exc:
-            raise click.BadParameter(flagged(exc), param_hint="--max-error") from None
-        if parsed is None:
-            return None, None
-        bound = parsed.bound(height)
-        return bound, f"--max-error {parsed.read_as(height, units)}"
-    for path in candidates:
-        with open_source(path) as src:
-            if src.kind not in ("compressed", "archive"):
-                continue
-            c = src.container(src.resolve(clip if src.kind == "archive" else None))
-        asked = c.extra.get("max_error")
-        parsed = parse_max_error(asked) if asked is not None else None
-        if parsed is None:
-            continue
-        h = character_height(c.skeleton)
-        bound = parsed.bound(h)
-        return bound, f"{parsed.read_as(h, c.skeleton.units)}, as {display_name(str(path))} was " \
-                      "compressed"
-    return None, None
+    try:
+        parsed = None if max_error is None else parse_max_error(max_error)
+    except ParameterError as exc:
+        raise click.BadParameter(flagged(exc), param_hint="--max-error") from None
+    drawn = bound_to_draw(reference, candidates, clip, max_error=parsed, asked=max_error is not None)
+    if drawn is None:
+        return None, None
+    if drawn.source is None:
+        return drawn.distance, f"--max-error {drawn.read_as}"
+    return drawn.distance, f"{drawn.read_as}, as {display_name(str(drawn.source))} was compressed"
 
 
 def parse_params(pairs: Iterable[str]) -> dict[str, str]:
@@ -257,181 +242,3 @@ def interrupt_line(exc: BaseException) -> tuple[str, int]:
     return f"Interrupted ({name})" + (f": {note}" if note else ""), 128 + signum
 
 
-class CodecProgress:
-    """A codec's progress on stderr, in the codec's words (``Codec.describe_progress``): the first report of
-    every stage, then at most one line every ``every`` seconds.  A codec's internal diagnostics (reports with
-    ``diagnostic=True``, such as the transform codec's ``bisect regions=...``) only when ``verbose``."""
-
-    def __init__(self, codec: Any, every: float = 0.5, verbose: bool = False):
-        self.codec, self.every, self.verbose = codec, every, verbose
-        self.last = -float("inf")
-        self.stage: str | None = None
-        self.start: float | None = None
-        self.done = 0.0
-
-    def text(self, stage: str, fields: Mapping[str, Any]) -> str:
-        """The codec's line, with an ETA when the codec says how much of its most work is ``done`` (an upper
-        bound: a codec that meets the bound early stops sooner)."""
-        now = time.monotonic()
-        line = self.codec.describe_progress(stage, fields)
-        done = fields.get("done")
-        if not isinstance(done, (int, float)):
-            return line
-        if self.start is None or done < self.done:  # the first report, or a new fit (a window) began
-            self.start = now
-        self.done = float(done)
-        if 0.05 <= done < 1 and now > self.start:  # below 5 %, too little measured to say
-            line += f", ETA at most {_duration((now - self.start) * (1 - done) / done)}"
-        return line
-
-    def shows(self, fields: Mapping[str, Any]) -> bool:
-        """Whether a report with these fields is shown (a diagnostic only when verbose)."""
-        return self.verbose or not fields.get("diagnostic")
-
-    def __call__(self, stage: str, fields: Mapping[str, Any]) -> None:
-        if not self.shows(fields):
-            return
-        now = time.monotonic()
-        line = self.text(stage, fields)
-        if stage == self.stage and now - self.last < self.every:
-            return
-        self.last, self.stage = now, stage
-        click.echo("  " + line, err=True)
-
-
-class BatchProgress:
-    """Progress of many items on stderr; nothing when ``quiet``.  Use as a context manager; call
-    ``done(result, failed=...)`` as each item finishes (``skipped`` items, kept from an earlier run, are counted
-    apart and left out of the rate).
-
-    On a terminal: one line redrawn in place, ``label [####    ] 120/2534, 2 failed, 3.1/s, ETA 13m02s``.
-    Otherwise: ``[120/2534] <describe(result)>; 2 failed, ETA 13m02s`` at most once every ``every`` seconds
-    (and for the first and last item); a failed item is always named on its own line.
-
-    Heartbeat: while no item finishes, a line every ``every`` seconds all the same (on a terminal the line is
-    redrawn every second), ``[0/9] working, 1m02s elapsed, ETA ?; c0: train K=3 loss=2.1e-03``, with the
-    latest :meth:`note` (a codec's progress inside the clip, when the work runs in this process), from a daemon
-    thread started by ``__enter__`` and stopped by ``__exit__``.
-    """
-
-    def __init__(self, total: int, label: str, describe: Callable[[Any], str] | None = None, quiet: bool = False,
-                 every: float | None = None, stream: Any = None):
-        self.total, self.label, self.describe, self.quiet = total, label, describe, quiet
-        self.count = self.failed = self.skipped = 0
-        self.stream = stream if stream is not None else sys.stderr
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        if every is None:
-            every = float(os.environ.get("MOTIONREP_PROGRESS_SECONDS", "0.2" if self.tty else "10"))
-        self.every = every
-        self.start = time.monotonic()
-        self.last = -float("inf")
-        self.activity: str | None = None
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._beat: threading.Thread | None = None
-        self._drawn = False
-
-    def __enter__(self) -> "BatchProgress":
-        if not self.quiet:
-            self._beat = threading.Thread(target=self._heartbeat, name="motionrep-progress", daemon=True)
-            self._beat.start()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self._stop.set()
-        if self._beat is not None:
-            self._beat.join(timeout=5)
-        if self.tty and not self.quiet and (self.count or self.activity is not None or self._drawn):
-            self.stream.write("\n")
-            self.stream.flush()
-
-    def note(self, name: str, text: str) -> None:
-        """The latest activity inside an item (``name: text``), shown by the heartbeat."""
-        self.activity = f"{name}: {text}"
-
-    def _heartbeat(self) -> None:
-        while not self._stop.wait(0.25):
-            now = time.monotonic()
-            with self._lock:
-                if self.count >= self.total:
-                    return
-                if self.tty:
-                    if now - self.last >= 1.0:
-                        self._draw(now)
-                elif now - self.last >= self.every and now - self.start >= self.every:
-                    parts = [f"working, {_duration(now - self.start)} elapsed"] + self._details()
-                    line = ", ".join(parts) + (f"; {self.activity}" if self.activity else "")
-                    self.stream.write(f"[{self.count}/{self.total}] {line}\n")
-                    self.stream.flush()
-                    self.last = now
-
-    def _draw(self, now: float) -> None:
-        width = 24
-        filled = int(width * self.count / max(self.total, 1))
-        tail = f" {self.activity}" if self.activity and self.count < self.total else ""
-        self.stream.write(f"\r\033[K{self.label} [{'#' * filled}{' ' * (width - filled)}] {self.status()}{tail}")
-        self.stream.flush()
-        self.last = now
-        self._drawn = True
-
-    def eta(self) -> str:
-        """Time left at the rate so far (skipped items excluded), as ``1h02m``, ``3m05s`` or ``12s``."""
-        worked = self.count - self.skipped
-        elapsed = time.monotonic() - self.start
-        if worked <= 0 or elapsed <= 0:
-            return "?"
-        left = (self.total - self.count) * elapsed / worked
-        return _duration(left)
-
-    def status(self) -> str:
-        """``120/2534, 2 failed, 3.1/s, ETA 13m02s``."""
-        return ", ".join([f"{self.count}/{self.total}"] + self._details())
-
-    def _details(self) -> list[str]:
-        parts = []
-        if self.skipped:
-            parts.append(f"{self.skipped} kept")
-        if self.failed:
-            parts.append(f"{self.failed} failed")
-        elapsed = time.monotonic() - self.start
-        worked = self.count - self.skipped
-        if worked and elapsed > 0:
-            parts.append(f"{worked / elapsed:.3g}/s")
-        if self.count < self.total:
-            parts.append(f"ETA {self.eta()}")
-        return parts
-
-    def done(self, result: Any, failed: bool = False, skipped: bool = False) -> None:
-        with self._lock:
-            self._done(result, failed, skipped)
-
-    def _done(self, result: Any, failed: bool, skipped: bool) -> None:
-        self.activity = None
-        self.count += 1
-        self.failed += bool(failed)
-        self.skipped += bool(skipped)
-        if self.quiet:
-            return
-        now = time.monotonic()
-        last_item = self.count == self.total
-        if self.tty:
-            if failed and self.describe is not None:
-                self.stream.write("\r\033[K" + self.describe(result) + "\n")
-            if now - self.last >= self.every or last_item or failed:
-                self._draw(now)
-            return
-        if failed or last_item or self.count == 1 or now - self.last >= self.every:
-            what = [self.describe(result)] if self.describe is not None else []
-            line = "; ".join(what + [", ".join(self._details())] if self._details() else what)
-            self.stream.write(f"[{self.count}/{self.total}] {line}".rstrip() + "\n")
-            self.stream.flush()
-            self.last = now
-
-
-def _duration(seconds: float) -> str:
-    seconds = int(round(seconds))
-    if seconds >= 3600:
-        return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
-    if seconds >= 60:
-        return f"{seconds // 60}m{seconds % 60:02d}s"
-    return f"{seconds}s"

@@ -67,7 +67,9 @@ def gltf_write_options(motion: Any, path: Any, scale: float | None, units: str |
         return {}
     value, note = gltf_scale(motion, scale, units)
     if note:
-        click.echo(f"note: {shown if shown is not None else path}: {note}", err=True)
+        from ._flags import flagged
+
+        click.echo(f"note: {shown if shown is not None else path}: {flagged(note)}", err=True)
     return {"scale": value}
 
 

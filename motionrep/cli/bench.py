@@ -110,8 +110,10 @@ def bench(inputs: tuple[Path, ...], codecs: tuple[str, ...], representations: tu
         motions = {}  # workers read the clips themselves
     with BatchProgress(len(tasks), f"benchmarking {len(tasks)} runs", _describe_row, quiet) as bar:
         rows = run_bench(tasks, jobs=jobs, motions=motions, on_done=bar.done)
+    rows = [_flag_row(r) for r in rows]  # messages name the command line's flags, not Python parameters
     summaries = summarize(rows)
-    click.echo((format_table if wide else format_compact)(rows, summaries), nl=False)
+    click.echo(format_table(rows, summaries) if wide else format_compact(rows, summaries, every_column="--wide"),
+               nl=False)
     settings: dict[str, Any] = {
         "inputs": [str(p) for p in inputs], "codecs": chosen, "representations": reps, "max_errors": bounds,
         "params": {k: v for k, v in sweep.items()}, "seed": seed, "jobs": jobs, "decode_poses": poses}
@@ -141,6 +143,15 @@ def _write_text(path: Path, text: str) -> None:
 
     with atomic_path(path) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
+
+
+def _flag_row(row: Any) -> Any:
+    """A row whose message names parameters (``max_error=2%``) as the flags (``--max-error 2%``)."""
+    import dataclasses
+
+    from ._flags import flag_text
+
+    return dataclasses.replace(row, message=flag_text(row.message, row.mentions)) if row.mentions else row
 
 
 def _describe_row(row: Any) -> str:

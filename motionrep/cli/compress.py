@@ -18,7 +18,7 @@ from typing import Any
 
 import click
 
-from ._common import flag_text
+from ._common import flag_text, flagged
 from ._common import (MOTION_FORMATS, STDIN_NAME, STDOUT_NAME, BatchProgress, CodecProgress, Interrupted,
                       body_model_option, check_overwrite, collect, display_name, echo_json, force_option, is_stdio,
                       parse_params, quiet_compile_notice, stdin_inputs, stdout_output)
@@ -199,19 +199,16 @@ def journal_of(output: Path) -> Path:
 
 def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout: float | None, say: _Say) -> None:
     from ..batch.engine import time_limit
+    from ..errors import UncodableClipError, naming
     from ..io.container import write_container
-    from ..pipeline.sources import open_source
+    from ..pipeline.compress import compress_clip
 
-    with time_limit(timeout, display_name(ref.source)):
-        with open_source(ref.path) as src:
-            motion = src.read(ref.clip)
-        progress = None if as_json or say.quiet else CodecProgress(pipeline.codec, verbose=say.verbose)
-        from ..errors import UncodableClipError
-
-        try:
-            result = pipeline.compress(motion, progress=progress, source_bytes=ref.source_bytes)
-        except UncodableClipError as exc:  # the clip, not the setting: name the file
-            raise UncodableClipError(f"{display_name(ref.source)}: {exc}") from None
+    progress = None if as_json or say.quiet else CodecProgress(pipeline.codec, verbose=say.verbose)
+    try:
+        with time_limit(timeout, display_name(ref.source)):
+            result = compress_clip(pipeline, ref, progress=progress)
+    except UncodableClipError as exc:  # the clip, not the setting: name the file
+        raise naming(UncodableClipError(f"{display_name(ref.source)}: {exc}"), *exc.parameters) from None
     from ..formats import CONTAINER_SUFFIX
 
     with stdout_output(output, CONTAINER_SUFFIX) as target:
@@ -225,109 +222,68 @@ def _compress_one(ref: Any, output: Path, pipeline: Any, as_json: bool, timeout:
             click.echo(line, err=to_stdout)
 
 
+def _error_text(failure: Any) -> str:
+    """A failed clip's message, its parameter mentions shown as flags."""
+    return display_name(flag_text(failure.message, failure.parameters))
+
+
 def _clip_line(o: Any) -> str:
-    s = o.summary
     if o.failed:
-        return f"{o.name}: FAILED: {display_name(s['error'])}"
+        return f"{o.name}: FAILED: {_error_text(o.failure)}"
     if o.skipped:
         return f"{o.name}: kept (compressed by an earlier run from the same source and setting)"
-    ev, fig = s["evaluation"], s["figures"]
-    how = s.get("max_error_read_as")
+    r = o.result
+    how = r.bound_read_as()
     bound = "none" if how is None else f"--max-error {how}"
     from ..pipeline.figures import LABELS, PAYLOAD_BPBF
 
-    bpbf = fig.get(PAYLOAD_BPBF)
+    bpbf = r.figures.payload_bits_per_bone_frame
     size = "" if bpbf is None else f" ({bpbf:.3f} {LABELS[PAYLOAD_BPBF]})"
-    return (f"{o.name}: {s['bytes']} bytes{size}, L-inf {ev['max_error']:.4g} ({ev['max_error_percent']:.3g}%), "
-            f"bound {bound}, {s['outcome']}")
+    return (f"{o.name}: {len(r.data)} bytes{size}, L-inf {r.report.max_error:.4g} "
+            f"({r.report.max_error_percent:.3g}%), bound {bound}, {r.outcome}")
 
 
 def _compress_many(refs: list, output: Path, pipeline: Any, as_json: bool, *, jobs: int, scheduler: str | None,
                    send_clips: bool | list[str], resume: bool, force: bool, timeout: float | None,
                    say: _Say) -> None:
-    import contextlib
-    import time
+    from ..batch.many import compress_into
+    from ..errors import BatchInterrupted, SettingChangedError
 
-    from ..batch.engine import compress_clips, dask_executor
-    from ..errors import OutputExistsError
-    from ..pipeline.sources import listing
-    from ..batch.store import open_store, resume_key, setting_changes
-    from ..batch.totals import BatchTotals, container_summary
-
-    start, cpu = time.monotonic(), time.process_time()
-    store = open_store(output, force=force, resume=resume)
-    names = [r.name for r in refs]
-    if not (force or resume):
-        clash = store.conflicts(names)
-        if clash:
-            raise OutputExistsError(f"already holds {len(clash)} of these clips ({listing(clash)}); use --force "
-                                    "to overwrite them or --resume to keep them and add the rest", output)
-    expect: dict[str, str] = {}
-    kept: dict[str, dict[str, Any]] = {}
-    if resume:
-        existing = store.existing()
-        changed = {ref.name: setting_changes(existing[ref.name], pipeline) for ref in refs
-                   if existing.get(ref.name) is not None}
-        changed = {k: v for k, v in changed.items() if v}
-        if changed and not say.recompress_changed:
-            store.close()
-            first = next(iter(changed))
-            raise click.UsageError(
-                f"--resume: {len(changed)} clip(s) in {output} were compressed with another setting ({first}: "
-                f"{'; '.join(changed[first])}); give the same setting to keep them, or add --recompress-changed "
-                "to recompress and replace them")
-        for ref in refs:
-            container = existing.get(ref.name)
-            key = None if container is None else resume_key(container, pipeline)
-            if key is not None:
-                expect[ref.name] = key
-                kept[ref.name] = container_summary(container, store.sizes[ref.name], ref.source, ref.source_bytes)
     if scheduler and send_clips and send_clips is not True:  # '-': Dask workers cannot read this machine's stdin
         click.echo(f"note: {STDIN_NAME} is read here and its clips sent to the Dask workers (as --send-clips does)",
                    err=True)
-    outcomes: list = []
-    with contextlib.ExitStack() as stack:
-        executor = stack.enter_context(dask_executor(scheduler)) if scheduler else None
-        bar = stack.enter_context(BatchProgress(len(refs), f"compressing {len(refs)} clips", _clip_line,
-                                                quiet=as_json or say.quiet))
+    with BatchProgress(len(refs), f"compressing {len(refs)} clips", _clip_line, quiet=as_json or say.quiet) as bar:
+        clocks: dict[str, CodecProgress] = {}
 
-        def done(outcome: Any) -> None:
-            if outcome.status == "done":
-                store.commit(outcome.name, outcome.data)
-            outcomes.append(outcome)
-            bar.done(outcome, failed=outcome.failed, skipped=outcome.skipped)
+        def progress(name: str, stage: str, fields: Any) -> None:  # inside a clip
+            clock = clocks.setdefault(name, CodecProgress(pipeline.codec, verbose=say.verbose))
+            if clock.shows(fields):
+                bar.note(name, clock.text(stage, fields))
 
         try:
-            clocks: dict[str, CodecProgress] = {}
-
-            def progress(name: str, stage: str, fields: Any) -> None:  # inside a clip (jobs=1: this process)
-                clock = clocks.setdefault(name, CodecProgress(pipeline.codec, verbose=say.verbose))
-                if clock.shows(fields):
-                    bar.note(name, clock.text(stage, fields))
-
-            compress_clips(refs, pipeline, jobs=jobs, executor=executor, on_done=done, expect=expect,
-                           timeout=timeout, send_data=send_clips if scheduler else False, progress=progress)
-        except KeyboardInterrupt as exc:
-            store.close()
-            finished = sum(1 for o in outcomes if not o.failed)
-            signum = exc.signum if isinstance(exc, Interrupted) else 2
-            if not finished:
-                raise Interrupted(signum, f"no clip had finished; nothing was written to {output}") from None
-            raise Interrupted(signum, f"{finished} of {len(refs)} clips finished and kept in {output}; run the "
-                                      "same command with --resume to compress the rest") from None
-        finally:
-            store.close()
-    order = {n: i for i, n in enumerate(names)}
-    outcomes.sort(key=lambda o: order[o.name])
-    for o in outcomes:  # a failed clip's library error names parameters: the command line shows the flags
-        if o.failed and "parameters" in o.summary:
-            o.summary["error"] = flag_text(o.summary["error"], o.summary.pop("parameters"))
-    totals = BatchTotals.of(outcomes, kept, wall_seconds=time.monotonic() - start,
-                            client_cpu_seconds=time.process_time() - cpu)
-    failed = [o for o in outcomes if o.failed]
+            run = compress_into(refs, output, pipeline, jobs=jobs, scheduler=scheduler, send_clips=send_clips,
+                                resume=resume, force=force, recompress_changed=say.recompress_changed,
+                                timeout=timeout, progress=progress,
+                                on_done=lambda o: bar.done(o, failed=o.failed, skipped=o.skipped))
+        except SettingChangedError as exc:
+            raise click.UsageError(flagged(exc)) from None
+        except BatchInterrupted as exc:
+            if not exc.finished:
+                raise Interrupted(exc.signum, f"no clip had finished; nothing was written to {output}") from None
+            raise Interrupted(exc.signum, f"{exc.finished} of {exc.total} clips finished and kept in {output}; run "
+                                          "the same command with --resume to compress the rest") from None
+    outcomes = run.outcomes
+    totals = run.totals(reason=_error_text)
+    failed = run.failed
     if as_json:
-        echo_json({"input": [display_name(r.source) for r in refs], "output": str(output),
-                   "clips": {o.name: dict(o.summary, status=o.status) for o in outcomes},
+        clips = {}
+        for o in outcomes:  # a failed clip's library error names parameters: the command line shows the flags
+            summary = dict(o.summary, status=o.status)
+            if o.failed:
+                summary.pop("parameters", None)
+                summary["error"] = flag_text(o.failure.message, o.failure.parameters)
+            clips[o.name] = summary
+        echo_json({"input": [display_name(r.source) for r in refs], "output": str(output), "clips": clips,
                    "totals": totals.as_dict()})
     elif not say.quiet:
         for o in outcomes:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import shutil
-import sys
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -18,8 +17,8 @@ import click
 
 from ..errors import naming
 from ..formats import BY_SUFFIX, MOTION_SUFFIXES
-from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, body_model_option, check_gltf_units,
-                      check_outputs, collect, expand_globs, force_option, gltf_unit_options, gltf_write_options,
+from ._common import (MOTION_FORMATS, OUT_FORMATS, STDIO, STDOUT_NAME, BatchProgress, body_model_option,
+                      check_gltf_units, check_outputs, collect, expand_globs, force_option, gltf_unit_options, gltf_write_options,
                       is_stdio, quiet_option, stdin_inputs, stdout_output)
 
 __all__ = ["convert"]
@@ -101,12 +100,22 @@ def _write_one(item: Any, path: Path, decimals: int | None, clip_name: str | Non
         raise naming(FormatError(f"cannot write: {exc}", path), *exc.parameters) from None
 
 
-def _bar(items: Iterator, total: int, label: str) -> Any:
-    """A progress bar on stderr when converting several clips; a plain pass-through otherwise."""
-    if total > 1:
-        return click.progressbar(items, length=total, label=label, file=sys.stderr,
-                                 item_show_func=lambda x: x[0].name if x is not None else None)
-    return contextlib.nullcontext(items)
+@contextlib.contextmanager
+def _bar(items: Iterator, total: int, label: str) -> Iterator[Iterator]:
+    """The ``(ref, item)`` pairs of ``items`` with progress on stderr when converting several clips (the one
+    progress mechanism, :class:`BatchProgress`: a bar on a terminal, a heartbeat otherwise); a plain
+    pass-through for one."""
+    if total <= 1:
+        yield items
+        return
+    with BatchProgress(total, label, lambda pair: f"converted {pair[0].name}") as bar:
+        def counted() -> Iterator:
+            for pair in items:
+                bar.note(pair[0].name, "writing")
+                yield pair
+                bar.done(pair)
+
+        yield counted()
 
 
 @click.command("convert")

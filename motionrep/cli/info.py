@@ -6,13 +6,13 @@ suffix, ``--clip`` on a file of one clip).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import click
 
-from ._common import STDIN_NAME, body_model_option, echo_json, expand_globs, is_stdio, stdin_inputs, usage_suffix
+from ._common import (STDIN_NAME, body_model_option, echo_json, expand_globs, flagged, is_stdio, stdin_inputs,
+                      usage_suffix)
 
 __all__ = ["info"]
 
@@ -70,31 +70,9 @@ def _info_text(d: dict[str, Any], verbose: bool = False) -> str:
         r = d["representation"]
         lines.append(f"features:   {r['name']} version {r['version']}, width {r['width']}")
     if d["kind"] == "compressed":
-        c, r = d["codec"], d["representation"]
-        lines.append(f"codec:      {c['name']} (payload version {c['version']})"
-                     + (f", parameters {json.dumps(c['params'])}" if c["params"] else ""))
-        lines.append(f"outcome:    {c['description']}")
-        lines.append(f"features:   {r['name']} version {r['version']}"
-                     + (f", width {r['width']}" if r["width"] is not None else ""))
-        from ..pipeline.figures import FILE_BPBF, PAYLOAD_BPBF, size_line
+        from ..present.info import compressed_facts
 
-        lines.append(f"size:       {size_line(d['bytes'], d[PAYLOAD_BPBF], d[FILE_BPBF], None)}")
-        f = d["figures"]
-        if verbose:
-            lines.append(f"payload:    {d['payload_bytes']} bytes, {d['parameters']} stored numbers")
-            if f is not None:
-                lines.append(f"ratios:     paper {f['paper_ratio']:.2f}x, vs float32 channels "
-                             f"{f['float32_ratio']:.2f}x, {f['bits_per_joint_frame']:.2f} file bits/joint/frame")
-        e = d["evaluation"]
-        if e is not None:
-            bound = "none" if e.get("bound") is None else _fmt(e["bound"])
-            if e.get("bound") is not None and d.get("max_error"):
-                from ..model.bound import parse_max_error
-
-                bound = f"--max-error {parse_max_error(d['max_error']).read_as(d['height'], d['units'])}"
-            lines.append(f"L-inf:      {_fmt(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
-                         f"{e['frame']}, {e['joint']}; mean {_fmt(e['mean_error'])}; bound {bound} "
-                         "(measured on the stored payload when written)")
+        lines += [f"{label + ':':<12}{flagged(text)}" for label, text in compressed_facts(d, verbose)]
     lines += [
         f"joints:     {d['joints']}",
         f"end sites:  {d['end_sites']}",

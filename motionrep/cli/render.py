@@ -8,16 +8,14 @@ one line on stderr and no output file left behind; 2 for a usage error (unknown 
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any, Callable
 
 import click
 
 from ..errors import ValidationError
-from ._common import flagged
-from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, force_option,
-                      is_stdio, match_options, quiet_option, stdin_inputs)
+from ._common import (STDIN_NAME, BatchProgress, body_model_option, bound_for, check_outputs, comparison_options,
+                      flagged, force_option, is_stdio, match_options, quiet_option, stdin_inputs)
 
 __all__ = ["render"]
 
@@ -48,22 +46,18 @@ def _parsed_by(parser: str) -> Callable[[click.Context, click.Parameter, str | N
 
 
 class _Bar:
-    """``render``'s progress as a click progress bar with an ETA on stderr, only when stderr is a terminal (a
-    script or a log gets nothing but the ``wrote ...`` line)."""
+    """``render``'s progress (``progress(done, total)`` from the drawing): the one progress mechanism,
+    :class:`BatchProgress` over the frames, once the drawing says how many (a bar with an ETA on a terminal, a
+    heartbeat line every 10 s otherwise)."""
 
     def __init__(self, label: str):
-        self.label, self.bar, self.done = label, None, 0
-        self.shown = bool(getattr(sys.stderr, "isatty", lambda: False)())
+        self.label = label
+        self.bar: BatchProgress | None = None
 
     def __call__(self, done: int, total: int) -> None:
-        if not self.shown:
-            return
         if self.bar is None:
-            self.bar = click.progressbar(length=total, label=self.label, file=sys.stderr, show_eta=True,
-                                         show_pos=True)
-            self.bar.__enter__()
-        self.bar.update(done - self.done)
-        self.done = done
+            self.bar = BatchProgress(total, self.label).__enter__()
+        self.bar.count_to(done)
 
     def __enter__(self) -> "_Bar":
         return self
@@ -159,7 +153,7 @@ def render(reference: Path, candidate: Path | None, output: Path, frames: slice 
                       max_frames=max_frames, size=size, up=up, bound=bound, options=options,
                       progress=None if quiet else bar)
     for note in result.notes:
-        click.echo(f"note: {note}", err=True)
+        click.echo(f"note: {flagged(note)}", err=True)
     n = len(result.frames)
     what = (f"{n} frame{'s' if n != 1 else ''} at {result.fps:.3g} fps" if result.fps is not None
             else f"{n} picture{'s' if n != 1 else ''}")

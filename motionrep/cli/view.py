@@ -12,6 +12,7 @@ from typing import Any
 
 import click
 
+from ._flags import flagged
 from ._common import (STDIN_NAME, body_model_option, bound_for, check_outputs, comparison_options, expand_globs,
                       force_option, is_stdio, match_options, quiet_option, stdin_inputs)
 
@@ -19,37 +20,12 @@ __all__ = ["view"]
 
 
 def _clip_facts(src: Any, name: str) -> list[tuple[str, str]]:
-    """What a compressed clip says about itself: codec and outcome, representation, sizes, ratios, the bound it
-    was made for and the error stored with it."""
-    from ..pipeline.compress import describe_outcome
-    from ..pipeline.evaluate import compression_figures
-    from ..plugin.registry import get_representation
+    """What a compressed clip says about itself: ``info``'s facts (:func:`motionrep.present.info.compressed_facts`,
+    every figure), with the flags the command line names."""
+    from ..present.info import compressed_facts, compressed_info
 
-    c = src.container(name)
-    size = src.size(name)
-    facts = [("codec", f"{c.codec} (payload format {c.codec_version}): {describe_outcome(c, detail=True)}"),
-             ("representation", f"{c.representation} (version {c.representation_version})")]
-    if c.params:  # a parameter left to the codec is stored as null: the outcome above says what it chose
-        facts.append(("parameters", ", ".join(f"{k}={'auto' if v is None else v}"
-                                              for k, v in sorted(c.params.items()))))
-    facts.append(("size", f"{size:,} bytes" if size is not None else "unknown"))
-    try:
-        width = get_representation(c.representation).width(c.skeleton)
-    except Exception:  # noqa: BLE001 - the representation's plugin is not installed: no figures need it
-        width = None
-    if width is not None and size:
-        fig = compression_figures(num_frames=c.num_frames, feature_width=width, num_parameters=c.num_parameters,
-                                  num_channels=c.skeleton.num_channels, num_joints=c.skeleton.num_joints,
-                                  compressed_bytes=size)
-        facts.append(("ratios", fig.summary()))
-    asked = c.extra.get("max_error")
-    if asked is not None:
-        facts.append(("compressed within", str(asked)))
-    ev = c.evaluation or {}
-    if "max_error" in ev:
-        facts.append(("stored error", f"{ev['max_error']:.4g} ({ev.get('max_error_percent', float('nan')):.3g}% of "
-                                      "height), measured when the file was written"))
-    return facts
+    return [(label, flagged(text))
+            for label, text in compressed_facts(compressed_info(src.container(name), name, src.size(name)), True)]
 
 
 def _settings(src: Any, name: str) -> str:
@@ -61,7 +37,7 @@ def _settings(src: Any, name: str) -> str:
     outcome = describe_outcome(c)
     if outcome:
         words.append(outcome)
-    asked = c.extra.get("max_error")
+    asked = None if c.bound is None else c.bound.asked
     text = " ".join(words)
     return f"{text}, within {asked}" if asked is not None else text
 
@@ -139,7 +115,7 @@ def view(reference: str, candidates: tuple[str, ...], output: Path, clip: str | 
         bound, how = bound_for(max_error, clips[0].motion, paths[1:], clip)
     result = write_view(output, clips[0], clips[1:], bound=bound, bound_text=how, up=up, match=options)
     for note in result.notes:
-        click.echo(f"note: {note}", err=True)
+        click.echo(f"note: {flagged(note)}", err=True)
     line = f"wrote {output}: {result.frames} frames, {len(clips)} clip{'s' if len(clips) > 1 else ''}, " \
            f"{result.bytes / 1e6:.1f} MB"
     if result.errors:

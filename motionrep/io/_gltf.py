@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model._pose import Motion
-from ..errors import ValidationError, naming
+from ..errors import Note, ValidationError, naming
 from ..formats import BY_NAME
 from ._atomic import atomic_path
 from ._clipfile import ClipFile
@@ -106,11 +106,12 @@ def gltf_scale(motion: Motion, scale: float | None = None, units: str | None = N
     low, high, fallback = HUMAN_HEIGHT
     for unit in GLTF_UNITS:
         if low <= height * UNIT_METRES[unit] <= high:
-            return UNIT_METRES[unit], (f"assumed units {unit} (the character is {height:.4g} units tall: "
-                                       f"{height * UNIT_METRES[unit]:.3g} m); --units or --scale to choose")
+            return UNIT_METRES[unit], Note(f"assumed units {unit} (the character is {height:.4g} units tall: "
+                                           f"{height * UNIT_METRES[unit]:.3g} m); units= or scale= to choose",
+                                           "units=", "scale=")
     s = fallback / height
-    return s, (f"no unit puts the character ({height:.4g} units tall) at {low:g}-{high:g} m: scaled by {s:.4g} m "
-               f"per unit to {fallback:g} m; --units or --scale to choose")
+    return s, Note(f"no unit puts the character ({height:.4g} units tall) at {low:g}-{high:g} m: scaled by "
+                   f"{s:.4g} m per unit to {fallback:g} m; units= or scale= to choose", "units=", "scale=")
 
 
 def _check_write_options(motion: Motion, scale: float | None, up: str) -> tuple[float, str]:

@@ -7,7 +7,7 @@ written, and the payload arrays.  Layout::
 
     offset  size  field
     0       8     magic b"\\x89MRC\\r\\n\\x1a\\n"
-    8       2     container version, uint16 little-endian (1)
+    8       2     container version, uint16 little-endian (2; 1 is still read)
     10      2     flags, uint16 little-endian (0; any other value is refused)
     12      4     total file length in bytes, uint32 little-endian
     16      4     metadata length M, uint32 little-endian
@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 from ..limits import ENVIRONMENT, check_clip
 from ..limits import current as current_limits
 from ..model._pose import Skeleton
+from ..model.bound import StoredBound
 from ..errors import ContainerError, ValidationError
 from ..formats import CONTAINER_SUFFIX
 
@@ -68,9 +69,10 @@ __all__ = [
 #: transfers and truncated downloads are caught early).
 MAGIC = b"\x89MRC\r\n\x1a\n"
 #: Container layout version written by this motionrep.  Versions are never reused.
-CONTAINER_VERSION = 1
-#: Versions this motionrep reads.
-READABLE_VERSIONS = (1,)
+CONTAINER_VERSION = 2
+#: Versions this motionrep reads (version 1 stated the bound as the text ``extra.max_error``; version 2 states it
+#: structured, ``bound``; ``specs/container.md``).
+READABLE_VERSIONS = (1, 2)
 #: The file suffix (:data:`motionrep.formats.CONTAINER_SUFFIX`).
 SUFFIX = CONTAINER_SUFFIX
 
@@ -103,6 +105,8 @@ class Container:
         evaluation: the shared evaluation measured on this very payload when the file was written
             (:meth:`motionrep.pipeline.evaluate.ErrorReport.as_dict` plus ``"bound"``), or None.
         extra: other metadata (``motionrep_version``, ``seed``...); readers ignore keys they do not know.
+        bound: the bound the clip was compressed within (the requested bound and the distance in file units it
+            resolved to, or "none"), or None when the file does not say (a container written by another tool).
     """
 
     codec: str
@@ -119,6 +123,7 @@ class Container:
     arrays: Mapping[str, NDArray[Any]]
     evaluation: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    bound: StoredBound | None = None
 
     @property
     def num_parameters(self) -> int:
@@ -237,6 +242,7 @@ def pack(container: Container) -> bytes:
         "evaluation": None if container.evaluation is None else dict(container.evaluation),
         "arrays": table,
         "extra": dict(container.extra),
+        "bound": None if container.bound is None else container.bound.as_json(),
     }
     text = json.dumps(_json_safe(meta, "metadata"), sort_keys=True, separators=(",", ":"), allow_nan=False)
     metadata = zlib.compress(text.encode("utf-8"), 9)
@@ -298,7 +304,7 @@ def unpack(data: bytes, path: str | os.PathLike[str] | None = None) -> Container
         raise ContainerError("invalid .mrc file: metadata length exceeds the file", path)
     meta = _metadata(data[start:start + meta_len], path)
     try:
-        return _from_meta(meta, memoryview(data)[start + meta_len: n - _CRC.size], path, n)
+        return _from_meta(meta, memoryview(data)[start + meta_len: n - _CRC.size], path, n, version)
     except ContainerError:
         raise
     except (ValidationError, KeyError, TypeError, ValueError, AttributeError, OverflowError, RecursionError) as exc:
@@ -444,26 +450,57 @@ def _check_evaluation_counts(ev: Mapping[str, Any], num_frames: int, skeleton: S
                              f"of the {num_frames} frames", path)
 
 
-def _check_max_error(extra: Mapping[str, Any], path) -> None:
-    """``extra.max_error``, the bound asked for when the file was written, is what ``--max-error`` accepts (or
-    null): commands that show it parse it, and a crafted value must be refused as the file's, not as an option."""
-    from ..model.bound import parse_max_error
+def _stored_bound(meta: Mapping[str, Any], extra: dict[str, Any], evaluation: Mapping[str, Any] | None,
+                  skeleton: Skeleton, version: int, path) -> StoredBound | None:
+    """The bound the clip was compressed within: ``bound`` (version 2), or in a version-1 file the text
+    ``extra.max_error`` (taken out of ``extra``: the bound has one home) with the distance the stored evaluation
+    enforced.  A crafted value is refused as the file's (``'bound.kind' is 'abc'``), never reported later as an
+    option nobody gave."""
+    from ..model.bound import parse_max_error  # the one parse of a bound's text; here only for version-1 files
     from ..errors import ParameterError
 
-    value = extra.get("max_error")
-    if value is None:
-        return
-    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' must be a string, a number or null, got "
-                             f"{_json_name(value)}", path)
-    try:
-        parse_max_error(value)
-    except ParameterError:
-        raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' is {str(value)[:80]!r}, not a bound "
-                             "('2%', '1.5' or 'none')", path) from None
+    enforced = None if evaluation is None else evaluation.get("bound")
+    if version >= 2:
+        obj = meta.get("bound")
+        if obj is None:
+            return None
+        try:
+            stored = StoredBound.from_json(obj)
+        except ValueError as exc:
+            raise ContainerError(f"invalid .mrc metadata: 'bound': {exc}", path) from None
+    else:
+        if "max_error" not in extra:
+            return None
+        value = extra.pop("max_error")
+        if value is None:
+            return StoredBound(None, None)
+        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+            raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' must be a string, a number or null, "
+                                 f"got {_json_name(value)}", path)
+        try:
+            asked = parse_max_error(value)
+        except ParameterError:
+            raise ContainerError(f"invalid .mrc metadata: 'extra.max_error' is {str(value)[:80]!r}, not a bound "
+                                 "('2%', '1.5' or 'none')", path) from None
+        if asked is None:
+            return StoredBound(None, None)
+        distance = enforced
+        if distance is None:  # no stored evaluation says it: resolve it as the writer did
+            from ..model.kinematics import character_height
+
+            height = character_height(skeleton)
+            distance = None if asked.percent and height <= 0 else asked.bound(height)
+        stored = StoredBound(asked, None if distance is None else float(distance))
+    if (stored.distance is None) != (enforced is None) and evaluation is not None and "bound" in evaluation:
+        raise ContainerError(f"inconsistent .mrc file: the bound is {stored.kind!r}, the stored evaluation "
+                             f"enforced {enforced!r}", path)
+    if stored.distance is not None and enforced is not None and stored.distance != enforced:
+        raise ContainerError(f"inconsistent .mrc file: the bound resolved to {stored.distance!r} file units, the "
+                             f"stored evaluation enforced {enforced!r}", path)
+    return stored
 
 
-def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) -> Container:
+def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int, version: int) -> Container:
     """The container described by ``meta`` (parsed, untrusted JSON) over ``payload``; every field is type-checked
     and the sizes checked against the payload and the limits before any array is made."""
     table = _get(meta, "arrays", (list,), "")
@@ -521,7 +558,8 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
     if evaluation is not None:
         _check_evaluation(evaluation)
         _check_evaluation_counts(evaluation, num_frames, skeleton, path)
-    _check_max_error(extra, path)
+    extra = dict(extra)
+    bound = _stored_bound(meta, extra, evaluation, skeleton, version, path)
     codec_name = _get(codec, "name", (str,), "codec")
     _check_outcome(codec_name, info, path)
     arrays: dict[str, NDArray[Any]] = {}
@@ -543,7 +581,8 @@ def _from_meta(meta: dict[str, Any], payload: memoryview, path, file_size: int) 
         num_frames=num_frames,
         arrays=arrays,
         evaluation=evaluation,
-        extra=dict(extra),
+        extra=extra,
+        bound=bound,
     )
 
 

@@ -1,5 +1,11 @@
 """The requested bound on the L-infinity joint error (``--max-error``): a percentage of the character height or
 a distance in file units, parsed one way, and said one way in every report (:meth:`MaxError.read_as`).
+
+The text of a bound is parsed in one place, :func:`parse_max_error`, at the door: the command line's options and
+the public functions that take a string (:meth:`motionrep.pipeline.compress.Pipeline.build`).  From there on a
+:class:`MaxError` travels (to worker processes and Dask workers too, pickled as it is), and a compressed clip
+stores its bound structured (:class:`StoredBound`: the kind, the value and the distance in file units it
+resolved to), so nothing reads the bound back from text except the reader of version-1 ``.mrc`` files.
 """
 
 from __future__ import annotations
@@ -10,7 +16,10 @@ from dataclasses import dataclass
 
 from ..errors import ParameterError, naming
 
-__all__ = ["MaxError", "parse_max_error"]
+__all__ = ["MaxError", "StoredBound", "parse_max_error", "BOUND_KINDS"]
+
+#: The kinds of a stored bound (:attr:`StoredBound.kind`).
+BOUND_KINDS = ("percent", "distance", "none")
 
 
 @dataclass(frozen=True)
@@ -47,8 +56,74 @@ class MaxError:
         pct = f" = {100 * bound / height:.3g}% of height" if height > 0 else ""
         return f"{bound:.4g} {unit}{pct} (read as a distance in file units; write {self}% for a percentage)"
 
+    @property
+    def kind(self) -> str:
+        """``"percent"`` (of the character height) or ``"distance"`` (in file units)."""
+        return "percent" if self.percent else "distance"
+
     def __str__(self) -> str:
-        return f"{self.value:g}%" if self.percent else f"{self.value:g}"
+        """The bound as ``--max-error`` takes it (``2%``, ``1.5``), every digit kept: it parses back to this very
+        bound (the shortest text that does, as ``repr`` of a float, without a trailing ``.0``)."""
+        text = repr(float(self.value))
+        if text.endswith(".0"):
+            text = text[:-2]
+        return f"{text}%" if self.percent else text
+
+
+@dataclass(frozen=True)
+class StoredBound:
+    """The bound a clip was compressed within, as its ``.mrc`` container states it (``specs/container.md``).
+
+    Attributes:
+        asked: the requested bound, or None when the clip was compressed without one (``--max-error none``).
+        distance: the bound in file units it resolved to for this clip (None without a bound).
+    """
+
+    asked: MaxError | None
+    distance: float | None
+
+    @property
+    def kind(self) -> str:
+        """``"percent"``, ``"distance"`` or ``"none"`` (:data:`BOUND_KINDS`)."""
+        return "none" if self.asked is None else self.asked.kind
+
+    def read_as(self, height: float, units: str | None) -> str | None:
+        """:meth:`MaxError.read_as` of the requested bound (None without one)."""
+        return None if self.asked is None else self.asked.read_as(height, units)
+
+    def as_json(self) -> dict[str, object]:
+        """``{"kind": "percent", "value": 2.0, "distance": 3.04}``; ``{"kind": "none", "value": null, "distance":
+        null}`` without a bound."""
+        return {"kind": self.kind, "value": None if self.asked is None else float(self.asked.value),
+                "distance": None if self.distance is None else float(self.distance)}
+
+    @classmethod
+    def from_json(cls, obj: object) -> "StoredBound":
+        """The bound :meth:`as_json` wrote, from untrusted JSON.
+
+        Raises:
+            ValueError: naming the key that is not what :meth:`as_json` writes.
+        """
+        if not isinstance(obj, dict):
+            raise ValueError("must be an object with 'kind', 'value' and 'distance'")
+        kind = obj.get("kind")
+        if kind not in BOUND_KINDS:
+            raise ValueError(f"'kind' is {str(kind)[:40]!r}, not one of {', '.join(BOUND_KINDS)}")
+        numbers = {}
+        for key in ("value", "distance"):
+            v = obj.get(key)
+            if kind == "none":
+                if v is not None:
+                    raise ValueError(f"'{key}' must be null for a bound of kind 'none'")
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 or \
+                    (key == "value" and v == 0):
+                raise ValueError(f"'{key}' must be a finite number {'> 0' if key == 'value' else '>= 0'}, got "
+                                 f"{str(v)[:40]}")
+            numbers[key] = float(v)
+        if kind == "none":
+            return cls(None, None)
+        return cls(MaxError(numbers["value"], kind == "percent"), numbers["distance"])
 
 
 _MAX_ERROR_RE = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(%?)\s*$")

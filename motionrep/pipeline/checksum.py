@@ -5,7 +5,11 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["clip_checksum", "content_digest"]
+__all__ = ["clip_checksum", "content_digest", "SOURCE_CHECKSUM_KEY"]
+
+#: Key of ``Container.extra`` holding the SHA-256 (hex) of the clip's source (:func:`clip_checksum`), written when
+#: it is known (batch compression); what ``--resume`` compares.
+SOURCE_CHECKSUM_KEY = "source_sha256"
 
 
 def content_digest(value: Any, hasher: Any = None) -> Any:

@@ -28,6 +28,8 @@ then representation, then :func:`~motionrep.model.ops.fixed_axes_restored`), at 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import os
 import time
 from dataclasses import dataclass
@@ -40,9 +42,10 @@ from .._threads import one_blas_thread
 from ..plugin.codec import Codec, Payload
 from ..io.container import Container, pack
 from ..errors import BoundNotMetError, CodecError, UncodableClipError, naming
-from ..model.bound import MaxError, parse_max_error  # public here too, as before motionrep.model.bound existed
+from ..model.bound import MaxError, StoredBound, parse_max_error  # public here too, as before motionrep.model.bound existed
 from .decode import BVH_DECIMALS, decode_at, decompress, decompress_file, write_decoded  # public here too
-from .evaluate import CompressionFigures, ErrorReport, MotionContext, ProgressCallback, compression_figures
+from .evaluate import ErrorReport, MotionContext, ProgressCallback
+from .figures import CompressionFigures, compression_figures
 from ..model.kinematics import character_height
 from ..plugin.representation import Representation
 
@@ -56,7 +59,10 @@ __all__ = [
     "parse_max_error",
     "Pipeline",
     "CompressResult",
+    "SETTING_KEYS",
+    "setting_digest",
     "compress_motion",
+    "compress_clip",
     "compress_file",
     "decode_at",
     "decompress",
@@ -69,6 +75,21 @@ from ..defaults import DEFAULT_CODEC, DEFAULT_MAX_ERROR, DEFAULT_REPRESENTATION 
 
 #: Codecs are given ``bound * (1 - BOUND_MARGIN)`` as ``context.bound``; the core enforces ``bound`` itself.
 BOUND_MARGIN = 1e-6
+
+#: What identifies a compression setting (:meth:`Pipeline.setting`): what ``Pipeline.spec()`` states, with the
+#: codec's payload version and the representation's version.
+SETTING_KEYS = ("codec", "codec_version", "representation", "representation_version", "params", "max_error", "seed")
+
+
+def setting_digest(setting: Mapping[str, Any]) -> str:
+    """The SHA-256 (hex) of a compression setting: its :data:`SETTING_KEYS` as canonical JSON (sorted keys, no
+    whitespace, tuples as lists, the bound as ``str(MaxError)``).  Two settings that give the same bytes for the
+    same clip have the same digest; what ``--resume`` compares (``specs/databases.md``)."""
+    plain = json.loads(json.dumps({k: setting.get(k) for k in SETTING_KEYS},
+                                  default=lambda v: v.item() if hasattr(v, "item") else str(v)))
+    text = json.dumps(plain, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # compress
@@ -99,10 +120,10 @@ class CompressResult:
 
     def bound_read_as(self) -> str | None:
         """How ``--max-error`` was read for this clip (:meth:`MaxError.read_as`); None without a bound."""
-        asked = parse_max_error(self.container.extra.get("max_error"))
-        if asked is None or self.bound is None:
+        stored = self.container.bound
+        if stored is None or self.bound is None:
             return None
-        return asked.read_as(self.report.height, self.report.units)
+        return stored.read_as(self.report.height, self.report.units)
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-serialisable summary (what ``motionrep compress --json`` prints)."""
@@ -112,7 +133,8 @@ class CompressResult:
             "outcome": self.outcome,
             "representation": c.representation, "representation_version": c.representation_version,
             "frames": c.num_frames, "joints": c.skeleton.num_joints, "end_sites": c.skeleton.num_end_sites,
-            "fps": c.fps, "bound": self.bound, "max_error_request": c.extra.get("max_error"),
+            "fps": c.fps, "bound": self.bound,
+            "max_error_request": None if c.bound is None or c.bound.asked is None else str(c.bound.asked),
             "max_error_read_as": self.bound_read_as(),
             "evaluation": self.report.as_dict(), "figures": self.figures.as_dict(), "bytes": len(self.data),
             "seconds": self.seconds, "evaluations": self.evaluations,
@@ -128,9 +150,10 @@ def _check_codable(codec: Codec, motion: Motion) -> None:
         return
     frames = f"{motion.num_frames} frame{'s' if motion.num_frames != 1 else ''}"
     able = [name for name, c in codecs().items() if int(getattr(c, "min_frames", 1)) <= motion.num_frames]
-    can = (f"; {', '.join(able)} can (--codec {able[0] if 'transform' not in able else 'transform'})" if able
+    can = (f"; {', '.join(able)} can (codec={able[0] if 'transform' not in able else 'transform'})" if able
            else "; no installed codec can")
-    raise UncodableClipError(f"{codec.name} cannot code a clip of {frames}: it needs at least {need} frames{can}")
+    raise naming(UncodableClipError(f"{codec.name} cannot code a clip of {frames}: it needs at least {need} "
+                                    f"frames{can}"), *(("codec=",) if able else ()))
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,8 +207,20 @@ class Pipeline:
                 "params": dataclasses.asdict(self.params), "max_error": None if self.max_error is None else
                 str(self.max_error), "seed": self.seed}
 
+    def setting(self) -> dict[str, Any]:
+        """:meth:`spec` with the codec's payload version and the representation's version: everything that makes
+        the bytes of a clip (:data:`SETTING_KEYS`)."""
+        return dict(self.spec(), codec_version=self.codec.format_version,
+                    representation_version=self.representation.version)
+
+    def digest(self) -> str:
+        """The SHA-256 (hex) identifying this setting (:func:`setting_digest` of :meth:`setting`); stored in every
+        container as ``extra.setting_sha256``."""
+        return setting_digest(self.setting())
+
     def __reduce__(self):
-        return (_pipeline_from_spec, (self.spec(),))
+        # the bound travels as the MaxError it is (a worker never parses it again)
+        return (_pipeline_from_spec, (dict(self.spec(), max_error=self.max_error),))
 
     def bound_for(self, motion: Motion) -> float | None:
         """The bound in file units for ``motion`` (None without one).
@@ -204,7 +239,7 @@ class Pipeline:
             progress: called as ``progress(stage, fields)`` while the codec works.
             source_bytes: size of the source file, for compression figure (d).
             extra: more keys for the container's ``extra`` metadata (a batch records the source's checksum,
-                ``motionrep.batch.store.SOURCE_CHECKSUM_KEY``); they cannot replace the keys written here.
+                ``motionrep.pipeline.checksum.SOURCE_CHECKSUM_KEY``); they cannot replace the keys written here.
 
         Raises:
             ParameterError: a bound in % of a character of height 0, or parameters the codec refuses.
@@ -243,7 +278,8 @@ class Pipeline:
             skeleton=motion.skeleton, fps=motion.fps, num_frames=motion.num_frames,
             arrays=dict(payload.arrays), evaluation=None,
             extra={**dict(extra or {}), "motionrep_version": __version__, "seed": self.seed,
-                   "max_error": None if self.max_error is None else str(self.max_error)},
+                   "setting_sha256": self.digest()},
+            bound=StoredBound(self.max_error, bound),
         )
         evaluator = context.evaluator
         report = evaluator(decompress(pack(container), codec=codec, representation=rep))
@@ -313,6 +349,38 @@ def compress_motion(motion: Motion, codec: str | Codec = DEFAULT_CODEC, *,
     return pipeline.compress(motion, progress=progress, source_bytes=source_bytes)
 
 
+def compress_clip(pipeline: Pipeline, ref: Any, *, read: tuple[Motion, str | None] | None = None,
+                  progress: ProgressCallback | None = None) -> CompressResult:
+    """The one path that compresses one clip of a file (:func:`compress_file`, ``motionrep compress``, every batch
+    worker): read it, then :meth:`Pipeline.compress` it with its source's size, and its source checksum when
+    known.
+
+    Args:
+        pipeline: the setting.
+        ref: the clip, a :class:`motionrep.pipeline.sources.ClipRef` (its ``source_bytes``, when None, are read
+            from the file).
+        read: ``(motion, source checksum or None)`` already read (a batch worker reads them first, to skip a clip
+            ``--resume`` keeps); None: read ``ref`` here, its file opened once.
+        progress: as for :meth:`Pipeline.compress`.
+
+    Raises:
+        FormatError: the clip cannot be read.
+        and what :meth:`Pipeline.compress` raises.
+    """
+    from .checksum import SOURCE_CHECKSUM_KEY
+
+    size = ref.source_bytes
+    if read is None:
+        with ref.open() as src:
+            motion, checksum = src.read(ref.clip), None
+            if size is None:
+                size = src.size(ref.clip)
+    else:
+        motion, checksum = read
+    return pipeline.compress(motion, progress=progress, source_bytes=size,
+                             extra=None if checksum is None else {SOURCE_CHECKSUM_KEY: checksum})
+
+
 def compress_file(source: str | os.PathLike[str], target: str | os.PathLike[str] | None,
                   codec: str | Codec | Pipeline = DEFAULT_CODEC, *, clip: str | None = None,
                   progress: ProgressCallback | None = None, **options: Any) -> CompressResult:
@@ -330,13 +398,11 @@ def compress_file(source: str | os.PathLike[str], target: str | os.PathLike[str]
         **options: as for :meth:`Pipeline.build` (``representation``, ``max_error``, ``params``, ``seed``).
     """
     from ..io.container import write_container
-    from .sources import open_source
+    from .sources import ClipRef
 
     pipeline = codec if isinstance(codec, Pipeline) else Pipeline.build(codec, **options)
-    with open_source(source) as src:
-        motion = src.read(clip)
-        size = src.size(clip)
-    result = pipeline.compress(motion, progress=progress, source_bytes=size)
+    result = compress_clip(pipeline, ClipRef(str(clip or os.fspath(source)), os.fspath(source), clip),
+                           progress=progress)
     if target is not None:
         write_container(result.data, target)
     return result

@@ -1,7 +1,7 @@
-"""The shared evaluation: one FK-based L-infinity joint-position error and the compression figures.
+"""The shared evaluation: one FK-based L-infinity joint-position error.
 
 Every codec, shipped or third-party, is judged by these functions and by nothing else: codecs never measure
-their own error or compression ratio.
+their own error (nor their compression ratio: :func:`motionrep.pipeline.figures.compression_figures`).
 
 Error
     Both motions are run through forward kinematics (:func:`motionrep.model.kinematics.global_positions`); the error
@@ -14,24 +14,7 @@ Error
 Codecs ask for this error while they search, through the :class:`MotionContext` they are given (the
 :class:`~motionrep.plugin.codec.EncodeContext` of ``motionrep compress`` and of the conformance suite alike).
 
-Compression figures (:func:`compression_figures`), always reported together:
-
-(a) ``paper_ratio``: ``frames x feature width`` of the representation divided by the number of stored
-    parameters (every stored number, frequencies and normalisation included) -- the ratio of Tojo et al. 2022.
-(b) ``float32_ratio``: bytes of the source's channel data stored as float32 (``frames x channels x 4``) divided
-    by the bytes of the compressed file.
-(c) ``bits_per_joint_frame``: compressed file bits divided by ``frames x joints`` (end sites excluded).
-(d) ``file_ratio``: source file bytes divided by compressed file bytes (None when the motion did not come from
-    a file).
-(e) ``bits_per_bone_frame``: the codec's payload bits (``payload_bytes``: its arrays, without the skeleton and
-    metadata every ``.mrc`` file has) divided by ``frames x (joints + end sites)``, ACL's count, so that sizes
-    compare with ACL's and between codecs whatever the container adds (None when the payload size is not
-    given).  The same figure as (f); kept under this name for older readers.
-(f) ``payload_bits_per_bone_frame``, ``file_bits_per_bone_frame`` and ``ratio_vs_source``: the size vocabulary of
-    :mod:`motionrep.pipeline.figures`, the figures every report shows first (the others behind ``--verbose`` and in JSON).
-
-Size: one concern, the shared measure; the error, the encode context built on it and the compression figures
-reported beside it are what every codec is judged by, kept in one place.
+The compression figures reported beside it are :mod:`motionrep.pipeline.figures`'s.
 """
 
 from __future__ import annotations
@@ -55,8 +38,7 @@ if TYPE_CHECKING:
     from ..plugin.representation import Representation
 
 __all__ = ["ErrorReport", "Evaluator", "max_joint_error", "compare", "skeleton_difference", "MotionContext",
-           "ProgressCallback", "CompressionFigures",
-           "compression_figures"]
+           "ProgressCallback"]
 
 
 @dataclass(frozen=True)
@@ -376,104 +358,3 @@ def compare(reference: Motion, candidate: Motion, options: MatchOptions = STRICT
     """
     ev = evaluator if evaluator is not None else Evaluator(reference)
     return ev(candidate, options)
-
-
-@dataclass(frozen=True)
-class CompressionFigures:
-    """The four compression figures, reported together (see the module docstring).
-
-    Attributes:
-        paper_ratio: (a) ``num_frames * feature_width / num_parameters``.
-        float32_ratio: (b) ``num_frames * num_channels * 4 / compressed_bytes``.
-        bits_per_joint_frame: (c) ``8 * compressed_bytes / (num_frames * num_joints)``.
-        file_ratio: (d) ``source_bytes / compressed_bytes``, or None without a source file.
-        bits_per_bone_frame: (e) ``8 * payload_bytes / (num_frames * (num_joints + num_end_sites))``, or None
-            without ``payload_bytes``.
-        num_frames, feature_width, num_parameters, num_channels, num_joints, compressed_bytes, source_bytes,
-        num_end_sites, payload_bytes: the inputs.
-    """
-
-    paper_ratio: float
-    float32_ratio: float
-    bits_per_joint_frame: float
-    file_ratio: float | None
-    num_frames: int
-    feature_width: int
-    num_parameters: int
-    num_channels: int
-    num_joints: int
-    compressed_bytes: int
-    source_bytes: int | None
-    bits_per_bone_frame: float | None = None
-    num_end_sites: int = 0
-    payload_bytes: int | None = None
-    payload_bits_per_bone_frame: float | None = None
-    file_bits_per_bone_frame: float | None = None
-    ratio_vs_source: float | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        """A JSON-serialisable dict of every field."""
-        return asdict(self)
-
-    def summary(self) -> str:
-        """The short line: file bytes, the payload's and the file's bits per bone per frame, the ratio against
-        the source (:func:`motionrep.pipeline.figures.size_line`)."""
-        from .figures import size_line
-
-        return size_line(self.compressed_bytes, self.payload_bits_per_bone_frame, self.file_bits_per_bone_frame,
-                         self.ratio_vs_source)
-
-    def details(self) -> str:
-        """The other figures, for ``--verbose``: the paper's parameter ratio, the float32-channel ratio, bits per
-        joint per frame of the file, the payload's bytes."""
-        payload = "" if self.payload_bytes is None else f", payload {self.payload_bytes} bytes"
-        return (f"paper ratio {self.paper_ratio:.1f}x ({self.num_parameters} stored numbers), "
-                f"vs float32 channels {self.float32_ratio:.1f}x, {self.bits_per_joint_frame:.2f} file "
-                f"bits/joint/frame{payload}")
-
-
-def compression_figures(*, num_frames: int, feature_width: int, num_parameters: int, num_channels: int,
-                        num_joints: int, compressed_bytes: int, source_bytes: int | None = None,
-                        num_end_sites: int = 0, payload_bytes: int | None = None) -> CompressionFigures:
-    """Compute the compression figures.
-
-    Args:
-        num_frames: frames of the clip ``F``.
-        feature_width: columns ``D`` of the representation the codec compressed.
-        num_parameters: every number the codec stored (all payload array elements).
-        num_channels: BVH channel values per frame of the source skeleton.
-        num_joints: joints ``J`` (end sites excluded).
-        compressed_bytes: size of the compressed file.
-        source_bytes: size of the source file, or None.
-        num_end_sites: end sites of the skeleton (bones = joints + end sites, for ``bits_per_bone_frame``).
-        payload_bytes: bytes of the codec's payload arrays (``Container.payload_bytes``), or None.
-
-    Raises:
-        ValidationError: for non-positive sizes.
-    """
-    if num_frames < 1 or num_joints < 1 or compressed_bytes < 1:
-        raise ValidationError("compression figures need at least one frame, one joint and one compressed byte")
-    from . import figures as fg
-
-    params = max(int(num_parameters), 1)
-    bone_frames = num_frames * fg.bones(num_joints, num_end_sites)
-    payload_bpbf = None if payload_bytes is None else fg.payload_bits_per_bone_frame(payload_bytes, bone_frames)
-    return CompressionFigures(
-        paper_ratio=num_frames * feature_width / params,
-        float32_ratio=num_frames * num_channels * 4 / compressed_bytes,
-        bits_per_joint_frame=8.0 * compressed_bytes / (num_frames * num_joints),
-        file_ratio=None if source_bytes is None else source_bytes / compressed_bytes,
-        num_frames=int(num_frames),
-        feature_width=int(feature_width),
-        num_parameters=int(num_parameters),
-        num_channels=int(num_channels),
-        num_joints=int(num_joints),
-        compressed_bytes=int(compressed_bytes),
-        source_bytes=None if source_bytes is None else int(source_bytes),
-        bits_per_bone_frame=payload_bpbf,
-        num_end_sites=int(num_end_sites),
-        payload_bytes=None if payload_bytes is None else int(payload_bytes),
-        payload_bits_per_bone_frame=payload_bpbf,
-        file_bits_per_bone_frame=fg.file_bits_per_bone_frame(compressed_bytes, bone_frames),
-        ratio_vs_source=fg.ratio_vs_source(source_bytes, compressed_bytes),
-    )

@@ -14,12 +14,12 @@ from pathlib import Path
 from typing import Any
 
 from ..model._pose import Skeleton
-from ..errors import FormatError, MotionrepError, naming
+from ..errors import FormatError, MotionrepError, Note, naming
 from ..formats import BY_SUFFIX
 from ..model.kinematics import character_height
 from ..model.timefmt import duration
 
-__all__ = ["INFO_JSON_VERSION", "FORMAT_NAMES", "info_dict", "skeleton_info"]
+__all__ = ["INFO_JSON_VERSION", "FORMAT_NAMES", "info_dict", "skeleton_info", "compressed_info", "compressed_facts"]
 
 #: Version of the ``motionrep info --json`` object (``specs/formats/info-json.md``); bumped when a key changes
 #: meaning or disappears (adding keys does not bump it).
@@ -75,7 +75,7 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
                     "clips": [_archive_row(name, src.container(name), src.size(name)) for name in names]}
         if src.kind in ("compressed", "archive"):
             name = src.resolve(clip)
-            return {**base, **_compressed_info(src.container(name), name, src.size(name))}
+            return {**base, **compressed_info(src.container(name), name, src.size(name))}
         if src.kind == "database" and clip is None and len(names) != 1:
             return {**base, "kind": "database", "clips": src.summaries()}
         name, item = src.read_stored(clip)
@@ -89,11 +89,12 @@ def info_dict(path: str | os.PathLike[str], clip: str | None = None) -> dict[str
     return out
 
 
-def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
-    """``info`` of one compressed clip (a ``.mrc`` file or a clip of an archive)."""
+def compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
+    """``info`` of one compressed clip (a ``.mrc`` file or a clip of an archive): container ``c``
+    (:class:`motionrep.io.container.Container`) stored as ``name`` in ``size`` bytes."""
     from ..pipeline import figures as fg
     from ..pipeline.compress import describe_outcome
-    from ..pipeline.evaluate import compression_figures
+    from ..pipeline.figures import compression_figures
     from ..plugin.registry import get_representation
 
     sk = c.skeleton
@@ -124,7 +125,58 @@ def _compressed_info(c: Any, name: str, size: int) -> dict[str, Any]:
             "evaluation": None if c.evaluation is None else dict(c.evaluation),
             "figures": figures,
             "motionrep_version": c.extra.get("motionrep_version"), "seed": c.extra.get("seed"),
-            "max_error": c.extra.get("max_error")}
+            "max_error": None if c.bound is None or c.bound.asked is None else str(c.bound.asked),
+            "bound": None if c.bound is None else c.bound.as_json(),
+            "max_error_read_as": _read_as(c)}
+
+
+def _read_as(c: Any) -> str | None:
+    """How the stored bound reads for this clip (:meth:`motionrep.model.bound.MaxError.read_as`), or None."""
+    if c.bound is None or c.bound.asked is None:
+        return None
+    from ..errors import ParameterError
+
+    try:
+        return c.bound.read_as(character_height(c.skeleton), c.skeleton.units)
+    except ParameterError:  # a percentage of a character of height 0: no file motionrep writes says that
+        return None
+
+
+def _number(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def compressed_facts(d: dict[str, Any], verbose: bool = False) -> list[tuple[str, Note]]:
+    """The facts of one compressed clip, from its :func:`compressed_info`, as ``(label, text)`` lines: codec and
+    parameters, outcome, features, sizes, (``verbose``: the payload and the other ratios,) the error stored with
+    it and the bound it was made for.  What ``motionrep info`` prints and the viewer shows; a text that names
+    the bound's parameter (``max_error=2% ...``) carries the mention (:class:`motionrep.errors.Note`).
+    """
+    from ..pipeline.figures import FILE_BPBF, PAYLOAD_BPBF, size_line
+
+    c, r = d["codec"], d["representation"]
+    params = ", ".join(f"{k}={'auto' if v is None else v}" for k, v in sorted(c["params"].items()))
+    facts = [("codec", f"{c['name']} (payload version {c['version']})" + (f", parameters {params}" if params else "")),
+             ("outcome", c["description"]),
+             ("features", f"{r['name']} version {r['version']}" + (f", width {r['width']}" if r["width"] is not None
+                                                                    else "")),
+             ("size", size_line(d["bytes"], d[PAYLOAD_BPBF], d[FILE_BPBF], None))]
+    f = d["figures"]
+    if verbose:
+        facts.append(("payload", f"{d['payload_bytes']} bytes, {d['parameters']} stored numbers"))
+        if f is not None:
+            facts.append(("ratios", f"paper {f['paper_ratio']:.2f}x, vs float32 channels {f['float32_ratio']:.2f}x, "
+                                    f"{f['bits_per_joint_frame']:.2f} file bits/joint/frame"))
+    e = d["evaluation"]
+    if e is not None:
+        bound, mentions = ("none" if e.get("bound") is None else _number(e["bound"])), ()
+        if e.get("bound") is not None and d.get("max_error_read_as"):
+            bound = f"max_error={d['max_error_read_as']}"
+            mentions = ("max_error=",)
+        facts.append(("L-inf", Note(f"{_number(e['max_error'])} ({e['max_error_percent']:.3g}% of height) at frame "
+                                    f"{e['frame']}, {e['joint']}; mean {_number(e['mean_error'])}; bound {bound} "
+                                    "(measured on the stored payload when written)", *mentions)))
+    return [(label, text if isinstance(text, Note) else Note(text)) for label, text in facts]
 
 
 def _archive_row(name: str, c: Any, size: int) -> dict[str, Any]:

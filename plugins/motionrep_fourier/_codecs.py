@@ -31,7 +31,7 @@ AUTO_LONGEST = 250
 AUTO_MAX_K = 10
 AUTO_WINDOW = 125
 
-_SVD_HINT = "or use --codec svd (it meets any bound)"
+_SVD_HINT = "or use codec=svd (it meets any bound)"
 #: Integer outcome keys and the levels of arrays each may have (per window in windows): ``Codec.check_info``.
 _INFO_INTEGERS = {"K": (0, 1), "hidden": (0, 1), "windows": (0, 0), "iterations": (0, 0), "parameters": (0, 0),
                   "steps": (1, 2)}
@@ -42,7 +42,7 @@ class FourierParams:
     """Parameters shared by ``adaptive-fourier`` and ``naive-fourier``."""
 
     k: int | None = field(default=None, metadata={
-        "help": "number of frequencies K (>= 0); default: the smallest K that meets --max-error, up to max_k"})
+        "help": "number of frequencies K (>= 0); default: the smallest K that meets the bound (max_error), up to max_k"})
     max_k: int = field(default=24, metadata={
         "help": "largest K tried when k is not given; the codec fails cleanly if the bound is not met by then"})
     dtype: Literal["quantised", "float32", "float16"] = field(default="quantised", metadata={
@@ -62,7 +62,7 @@ class FourierParams:
                 "a window that misses it is split in two (payload version 2)"})
     jobs: int = field(default=0, metadata={
         "help": "processes that code windows side by side (the result is the same for any number); 0: one per "
-                "CPU this process may use (1 inside a worker of motionrep compress --jobs)"})
+                "CPU this process may use (1 inside a worker process of a batch)"})
 
     def __post_init__(self) -> None:
         if self.k is not None and (not isinstance(self.k, int) or self.k < 0):
@@ -108,9 +108,10 @@ class _FourierCodec(Codec):
             except BoundNotMetError as exc:
                 if params.k is not None:
                     raise
-                raise BoundNotMetError(f"{exc}; raise max_k, or code the clip in windows (leave window unset to "
-                                       f"let the codec choose, or -p window={AUTO_WINDOW}), {_SVD_HINT}",
-                                       exc.best_error, exc.bound) from None
+                raise naming(BoundNotMetError(
+                    f"{exc}; raise max_k, or code the clip in windows (leave window unset to let the codec choose, "
+                    f"or params window={AUTO_WINDOW}), {_SVD_HINT}", exc.best_error, exc.bound),
+                    "params window=", "codec=") from None
         if params.window is None:  # chosen by measurement: long windows where few frequencies do, else halves
             steps = features.shape[0] - 1
             edges = window_edges(features.shape[0], steps if steps <= 2 * AUTO_LONGEST else AUTO_LONGEST)
@@ -258,8 +259,8 @@ class _Plan:
                     run.submit([self.task(first, middle), self.task(middle, last)])
         if final:
             exc = final[min(final)]
-            raise BoundNotMetError(f"{exc}; raise max_k or the bound, {_SVD_HINT}", exc.best_error,
-                                   exc.bound) from None
+            raise naming(BoundNotMetError(f"{exc}; raise max_k or the bound, {_SVD_HINT}", exc.best_error,
+                                          exc.bound), "codec=") from None
         return [done[first] for first in sorted(done)]
 
 

@@ -1,8 +1,9 @@
 """Coding windows side by side in forked worker processes (numpy only; training is imported by the caller).
 
 A :class:`Task` is one span of frames to code with at most ``max_k`` frequencies.  :class:`Runner` runs tasks
-one at a time in this process, or ``jobs`` at a time in processes forked from it (the job, with the features and
-the encode context, is shared with them by memory, so nothing is pickled but the spans and the results).  Each
+one at a time in this process, or ``jobs`` at a time in processes forked from it by a ``pebble.ProcessPool`` (the
+job, with the features and the encode context, is shared with them by memory, so nothing is pickled but the spans
+and the results; each worker dies with this process).  Each
 task's outcome depends only on its frames, the parameters and the seed, so the results are the same for any
 number of processes; they are yielded as tasks end, and the caller orders them.
 """
@@ -170,9 +171,11 @@ class Runner:
             while (task := self._next()) is not None:
                 yield task, self.job(task)  # the context counted this task's evaluations itself
             return
-        # imported here: concurrent.futures.process (and multiprocessing's connections) cost start-up time that a
-        # process which only describes or decodes a file (`motionrep info clip.mrc`) should not pay
-        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+        # imported here: the pool (and multiprocessing's connections) cost start-up time that a process which only
+        # describes or decodes a file (`motionrep info clip.mrc`) should not pay
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        from pebble import ProcessPool
 
         from motionrep.batch.executors import die_with_parent  # a killed encoder leaves no worker behind
 
@@ -180,8 +183,11 @@ class Runner:
         fork = multiprocessing.get_context("fork")
         self.job.relay = relay = fork.SimpleQueue()  # the workers' progress, passed on here
         _JOB = self.job
-        pool = ProcessPoolExecutor(self.jobs, mp_context=fork, initializer=die_with_parent, initargs=(os.getpid(),))
+        # forked workers (the job is shared with them by memory, set just above); a pool that ends early (an error,
+        # the caller stops reading) stops its workers instead of waiting for their windows
+        pool = ProcessPool(self.jobs, initializer=die_with_parent, initargs=(os.getpid(),), context=fork)
         running: dict[Future, Task] = {}
+        finished_normally = False
 
         def pass_on() -> None:
             while not relay.empty():
@@ -191,7 +197,7 @@ class Runner:
         try:
             while True:
                 while len(running) < self.jobs and (task := self._next()) is not None:
-                    running[pool.submit(_run_forked, task)] = task
+                    running[pool.schedule(_run_forked, (task,))] = task
                 if not running:
                     break
                 finished, _ = wait(running, timeout=PROGRESS_SECONDS, return_when=FIRST_COMPLETED)
@@ -201,9 +207,14 @@ class Runner:
                     outcome = future.result()
                     _count_evaluations(self.job.context, outcome.evaluations)
                     yield task, outcome
+            finished_normally = True
         finally:
             _JOB = self.job.relay = None
-            pool.shutdown(wait=True, cancel_futures=True)
+            if finished_normally:
+                pool.close()
+            else:
+                pool.stop()
+            pool.join()
             relay.close()
 
 

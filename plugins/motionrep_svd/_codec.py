@@ -37,7 +37,7 @@ class SVDParams:
 
     rank: int | None = field(default=None, metadata={
         "help": "number of singular vectors kept (>= 0; 0 stores only the mean); default: the smallest rank that "
-                "meets --max-error, found by bisection"})
+                "meets the bound (max_error), found by bisection"})
     dtype: Literal["float32", "float16"] = field(default="float32", metadata={
         "help": "storage type of coefficients and basis (the mean is always float32)"})
 

@@ -12,13 +12,16 @@ Encoding (``specs/codecs.md`` has the full description):
 4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
    bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
    neighbour's change pushed over the bound are lowered until all pass);
-5. the quantised coefficients are range-coded with context models (:mod:`._stream`).
+5. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
+   (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
+   read).
 
 Decoding (:class:`TransformDecoder`, prepared once per payload) is the C library ``_c/mrtransform.h`` / ``.c``
-(no Python in it; ``_cdecode`` is its binding): parse and range-decode, multiply by the steps, inverse wavelet;
-then each call samples the decoded frames (linear interpolation for times between frames, the arithmetic of
-:func:`interpolate_rows`), for the runtime decoder through its C sampler.  The encoder measures every candidate
-with that same decoder (:func:`reconstruct`), so the bound it measured is the bound of what decodes.
+(no Python in it; ``_cdecode`` is its binding; version 2's integers through ``_c/mrcoder.c``): decode the integers,
+multiply by the steps, inverse wavelet; then each call samples the decoded frames (linear interpolation for times
+between frames, the arithmetic of :func:`interpolate_rows`), for the runtime decoder through its C sampler.  The
+encoder measures every candidate with that same decoder (:func:`reconstruct`), so the bound it measured is the
+bound of what decodes.
 """
 
 from __future__ import annotations
@@ -34,8 +37,8 @@ from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_w
 from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 
-from . import _cdecode
-from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised, declared, pack
+from . import _cdecode, _stream, _stream2
+from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
 from ._wavelet import coefficient_frames, forward, level_sizes, num_levels
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
@@ -55,7 +58,8 @@ class TransformParams:
 
     step: float | None = field(default=None, metadata={
         "help": "fixed quality instead of a bound: the quantiser step in position units (file units of joint "
-                "movement per step, > 0); default: the largest steps that meet --max-error, region by region"})
+                "movement per step, > 0); default: the largest steps that meet the bound (max_error), region by "
+                "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
     rounding: float = field(default=0.4, metadata={
@@ -210,10 +214,19 @@ def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[n
     return out
 
 
+#: The stream module of each payload format version (encoding; the head a payload declares).
+_STREAMS = {1: _stream, 2: _stream2}
+
+
+def unpack(data: bytes, version: int) -> Quantised:
+    """The quantised content of payload bytes of format ``version`` (1 or 2)."""
+    return _STREAMS[version].unpack(data)
+
+
 class TransformDecoder:
-    """A payload prepared for decoding many times: range-decoded and transformed back once by the C decoder, to
-    the ``(F, D)`` features of its frames (:attr:`frames`, read-only); each call only samples them (the values of
-    :func:`interpolate_rows`).
+    """A payload prepared for decoding many times: its integers decoded and transformed back once by the C
+    decoder, to the ``(F, D)`` features of its frames (:attr:`frames`, read-only); each call only samples them (the
+    values of :func:`interpolate_rows`).  ``version``: the payload's format (1 or 2; default the current one).
 
     Attributes:
         width, kernel, kernel_args: the sampler for the runtime decoder (``Codec.decoder``): ``kernel(times, out,
@@ -224,7 +237,7 @@ class TransformDecoder:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
     """
 
-    def __init__(self, payload: Payload, version: int = 1):
+    def __init__(self, payload: Payload, version: int = 2):
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
@@ -292,13 +305,15 @@ class TransformCodec(Codec):
     """Error-bounded transform coding: CDF 9/7 wavelet over frames, steps from the features' FK sensitivity
     and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.plugin.coding``).
 
-    Payload (format version 1): ``data`` ``(n,)`` uint8, the range-coded stream of :mod:`._stream`.
+    Payload (format version 2): ``data`` ``(n,)`` uint8, the stream of :mod:`._stream2` (version 1, the
+    range-coded stream of :mod:`._stream`, is still read).
     Info: ``{"bytes": n, "regions": R, "region_frames": region, "step": [smallest, largest]}`` (the position
     steps ``2 ** (k_r / 8)`` of the regions).
     """
 
     name = "transform"
-    format_version = 1
+    format_version = 2
+    readable_versions = (1, 2)
     description = "error-bounded wavelet coding with FK-sensitivity steps and a range coder (smallest files)"
     Params = TransformParams
 
@@ -382,7 +397,7 @@ class TransformCodec(Codec):
 
     @staticmethod
     def _payload(q: Quantised) -> Payload:
-        data = np.frombuffer(pack(q), dtype=np.uint8).copy()
+        data = np.frombuffer(_stream2.pack(q), dtype=np.uint8).copy()
         steps = step_scale(q.region_exponents)
         info = {"bytes": int(data.size), "regions": int(q.region_exponents.size), "region_frames": q.region_frames,
                 "step": [float(np.min(steps)), float(np.max(steps))]}
@@ -404,7 +419,7 @@ class TransformCodec(Codec):
         data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        F, D, _ = declared(data.tobytes())
+        F, D, _ = _STREAMS[self.payload_version(payload)].declared(data.tobytes())
         check_frames(F, num_frames, "transform payload")
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 

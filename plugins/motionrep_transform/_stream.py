@@ -182,7 +182,7 @@ def declared(data: bytes) -> tuple[int, int, int]:
     """
     from ._cdecode import declared as c_declared
 
-    return c_declared(data)
+    return c_declared(data, 1)
 
 
 def unpack(data: bytes, version: int = 1) -> Quantised:

@@ -111,10 +111,11 @@ def write_v1_npz(motion: Motion, path: Path) -> None:
 
 
 def mrc_parts(motion: Motion | None = None, codec: str = "svd",
-              params: dict[str, str] | None = None) -> tuple[dict, bytes]:
+              params: dict[str, str] | None = None, version: int = 2) -> tuple[dict, bytes]:
     """``(metadata, payload)`` of a real, small ``.mrc`` container: ``svd`` (rank 2), or any other codec (e.g.
     ``transform``, the default codec of ``motionrep compress``, or ``adaptive-fourier``) with ``params`` at its
-    default bound."""
+    default bound; ``version=1``: the metadata as container version 1 had it (the bound as ``extra.max_error``
+    text, no setting digest), which :func:`pack_meta` packs as a version-1 file."""
     from motionrep.pipeline.compress import compress_motion
 
     if codec == "svd" and not params:
@@ -125,7 +126,19 @@ def mrc_parts(motion: Motion | None = None, codec: str = "svd",
         data = compress_motion(motion, codec, params=params).data
     meta_len = struct.unpack_from("<I", data, 16)[0]
     meta = json.loads(zlib.decompress(data[20:20 + meta_len]))
+    if version == 1:
+        from motionrep.model.bound import MaxError
+
+        bound = meta.pop("bound")
+        meta["extra"].pop("setting_sha256")
+        meta["extra"]["max_error"] = None if bound["kind"] == "none" else \
+            str(MaxError(bound["value"], bound["kind"] == "percent"))
     return meta, data[20 + meta_len:-4]
+
+
+def mrc_version(meta: dict | str) -> int:
+    """The container version whose metadata ``meta`` is (2 when it has the structured ``bound``)."""
+    return 2 if ('"bound":' in meta if isinstance(meta, str) else "bound" in meta) else 1
 
 
 def npz_parts(path: Path) -> tuple[dict[str, bytes], dict[str, np.ndarray]]:
@@ -145,8 +158,9 @@ def pack_raw(metadata: bytes, payload: bytes, version: int = 1) -> bytes:
 
 
 def pack_meta(meta: dict | str, payload: bytes) -> bytes:
+    """``.mrc`` bytes of this metadata, of the container version it is (:func:`mrc_version`)."""
     text = meta if isinstance(meta, str) else json.dumps(meta, sort_keys=True, separators=(",", ":"))
-    return pack_raw(zlib.compress(text.encode("utf-8"), 9), payload)
+    return pack_raw(zlib.compress(text.encode("utf-8"), 9), payload, mrc_version(meta))
 
 
 def npy_bytes(header: str, data: bytes = b"", version: tuple[int, int] = (1, 0)) -> bytes:
@@ -397,15 +411,22 @@ def build(directory: Path, bomb: bool = False) -> list[Case]:
     cases[-1].kind = "accept"
     from motionrep.plugin.coding import IntegerEncoder
 
-    enc = IntegerEncoder()  # a payload header claiming 2^32 frames x 2^20 features, the rest zeros
-    enc.encode_raw([2 ** 32 - 1], 32)
-    enc.encode_raw([2 ** 20 - 1], 20)
-    enc.encode_raw([15], 16)
-    claim = enc.to_bytes() + bytes(len(payload))
+    # a payload header claiming 2^32 frames x 2^20 features, the rest zeros: version 2 (LEB128 counts, what the
+    # codec writes) and version 1 (raw bits of the range coder, what files of 0.1.0 hold)
+    claim = bytes([0xFF, 0xFF, 0xFF, 0xFF, 0x0F, 0xFF, 0xFF, 0x3F, 15]) + bytes(len(payload))
     table = edited()
     table["arrays"][0]["shape"] = [len(claim)]
     mrc("mrc-transform-payload-4e9-frames", pack_meta(table, claim), "transform payload declares 4294967296 frames",
         "payload error without the file")
+    enc = IntegerEncoder()
+    enc.encode_raw([2 ** 32 - 1], 32)
+    enc.encode_raw([2 ** 20 - 1], 20)
+    enc.encode_raw([15], 16)
+    claim = enc.to_bytes() + bytes(len(payload))
+    table = edited(codec__version=1)
+    table["arrays"][0]["shape"] = [len(claim)]
+    mrc("mrc-transform-v1-payload-4e9-frames", pack_meta(table, claim),
+        "transform payload declares 4294967296 frames", "payload error without the file")
 
     # ---- BVH ---------------------------------------------------------------------------------------------------
     path = d / "bvh-zero-channels-1e9.bvh"
@@ -469,5 +490,5 @@ def check_leak(outputs: list[Path]) -> bool:
     return False
 
 
-__all__ = ["Case", "build", "SECRET", "check_leak", "write_v1_hdf5", "write_v1_npz", "mrc_parts", "npz_parts", "pack_meta", "pack_raw",
+__all__ = ["Case", "build", "SECRET", "check_leak", "write_v1_hdf5", "write_v1_npz", "mrc_parts", "mrc_version", "npz_parts", "pack_meta", "pack_raw",
            "npy_bytes", "npz_with", "zip_bomb", "small_motion"]

@@ -21,7 +21,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .crafted import SECRET, npy_bytes, pack_meta, pack_raw
+from .crafted import SECRET, mrc_version, npy_bytes, pack_meta, pack_raw
 
 __all__ = ["mutate_bytes", "mrc_mutant", "npz_mutant", "h5_mutant", "bvh_mutant", "glb_mutant",
            "gltf_json_mutant", "split_glb", "join_glb", "json_value", "SECRET_VALUE"]
@@ -150,7 +150,7 @@ def mrc_mutant(meta: dict, payload: bytes, rng: random.Random) -> bytes:
             blob = zlib.compress(mutate_bytes(text, rng), 9)
         if rng.random() < 0.3:
             pay = mutate_bytes(pay, rng)
-        return pack_raw(blob, pay)
+        return pack_raw(blob, pay, mrc_version(meta))
     return mutate_bytes(data, rng)
 
 

@@ -1,5 +1,5 @@
-"""Payload fuzz benchmark (issue 27): mutants of the ``transform`` and quantised Fourier payloads inside
-``.mrc`` files whose CRC-32 is recomputed (the container is packed again around the mutated payload), so that
+"""Payload fuzz benchmark (issue 27): mutants of the ``transform`` (versions 2 and 1) and quantised Fourier
+payloads inside ``.mrc`` files whose CRC-32 is recomputed (the container is packed again around the mutated payload), so that
 the payloads' own consistency checks, not the checksum, meet the damage.
 
     python tests/fuzz/payloads.py --mutants 20000 [--seconds 240] [--seed 0] [--json results.json]
@@ -44,10 +44,15 @@ from fuzz.mutate import mutate_bytes  # noqa: E402
 def _originals() -> dict[str, object]:
     from motionrep.pipeline.compress import Pipeline
     from motionrep.model.synthetic import synthetic_motion
+    from motionrep_transform import _stream, _stream2
 
     motion = synthetic_motion(frames=120, seed=3)
+    transform = Pipeline.build("transform").compress(motion).container
+    # the same integers in a payload of version 1, which files in the wild hold
+    old = np.frombuffer(_stream.pack(_stream2.unpack(np.asarray(transform.arrays["data"]).tobytes())), np.uint8)
     return {
-        "transform": Pipeline.build("transform").compress(motion).container,
+        "transform": transform,
+        "transform-v1": dataclasses.replace(transform, arrays={"data": old}, codec_version=1),
         "fourier-quantised": Pipeline.build("adaptive-fourier", params={"k": 2, "iters": 25, "window": 40},
                                             max_error=None).compress(motion).container,
     }

@@ -21,7 +21,7 @@ Each run gives one :class:`BenchRow` (column reference: ``specs/bench.md``):
 - the run (codec, representation, requested bound, fixed parameters of a sweep, seed);
 - the outcome (status, the codec's own short description ``K=5`` / ``rank=9`` (``Codec.describe``) or
   ``failed: best L-inf ...``), the error in file units and in percent of the character height, the four
-  compression figures of :func:`motionrep.pipeline.evaluate.compression_figures`: first the size vocabulary of
+  compression figures of :func:`motionrep.pipeline.figures.compression_figures`: first the size vocabulary of
   :mod:`motionrep.pipeline.figures` (payload and file bits per bone per frame, the ratio against the source file), then
   the paper's ratio, the bytes ratio against float32 channels and bits per joint per frame;
 - the cost: encode seconds (``CompressResult.seconds``: features, encoding, packing and the two checks, after

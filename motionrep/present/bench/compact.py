@@ -40,12 +40,12 @@ def _compact_layout(header: list[tuple[str, str]], body: list[list[str]], right:
 
 
 def format_compact(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] | None = None, *,
-                   width: int = TABLE_WIDTH) -> str:
+                   width: int = TABLE_WIDTH, every_column: str = "format_table") -> str:
     """The default table, within ``width`` columns: clip, codec, (representation, parameters when they vary),
     bound, outcome, L-inf % of height, the size vocabulary of :mod:`motionrep.pipeline.figures` (payload and file bits
     per bone per frame, x smaller than the source) and encode seconds; then the totals line and the medians.
     Clip names and outcomes are cut (``~``) when the table would be wider; :func:`format_table` has every
-    column (``bench --wide``)."""
+    column (``bench --wide``), which the medians' heading names as ``every_column``."""
     summaries = summarize(rows) if summaries is None else summaries
     reps = len({r.representation for r in rows}) > 1
     params = any(r.params for r in rows)
@@ -81,7 +81,8 @@ def format_compact(rows: Sequence[BenchRow], summaries: Sequence[BenchSummary] |
                   _f(s.median_ratio_vs_source, ".1f") + ("x" if s.median_ratio_vs_source else ""),
                   _f(s.median_encode_seconds, ".2f")]
         sbody.append(cells)
-    out += ["", "Medians over the runs that succeeded (failed: bound not met or error); every column: --wide.", ""]
+    out += ["", "Medians over the runs that succeeded (failed: bound not met or error); every column: "
+                f"{every_column}.", ""]
     out += _compact_layout(shead, sbody, set(range(m - 7, m)),
                            [shead.index(h) for h in (("", "params"), ("", "representation")) if h in shead], width)
     return "\n".join(out) + "\n"

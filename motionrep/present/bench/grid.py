@@ -133,15 +133,11 @@ def bench_tasks(clips: Sequence[ClipRef], codecs: Sequence[str], representations
         UnknownPluginError: for an unknown codec or representation.
         ParameterError: for a parameter no codec has, an invalid value, or an invalid bound.
     """
-    from ...pipeline.compress import Pipeline, parse_max_error
+    from ...pipeline.compress import Pipeline
 
     sweep = dict(sweep or {})
     if not codecs:
         raise ParameterError("no codec to run")
-    bounds: list[str | None] = []
-    for m in max_errors:
-        limit = parse_max_error(m)
-        bounds.append(None if limit is None else str(m).strip())
     used: set[str] = set()
     combos: dict[str, list[tuple[tuple[str, str], ...]]] = {}
     for codec in dict.fromkeys(codecs):
@@ -153,9 +149,17 @@ def bench_tasks(clips: Sequence[ClipRef], codecs: Sequence[str], representations
         known = sorted({f for c in combos for f in codec_parameter_names(c)})
         raise ParameterError(f"parameter {unused[0]!r} is not a parameter of codec(s) {', '.join(combos)}; their "
                              f"parameters: {', '.join(known)}")
-    settings = [(rep, codec, combo, bound) for rep in dict.fromkeys(representations) for codec in combos
-                for combo in combos[codec] for bound in dict.fromkeys(bounds)]
-    pipelines = {key: Pipeline.build(key[1], key[0], dict(key[2]), key[3], seed) for key in settings}
+    # each setting resolved once (the bound's text parsed there, by Pipeline.build); a bound keeps the text it was
+    # given as its label, None for none
+    pipelines: dict[tuple, Any] = {}
+    for rep in dict.fromkeys(representations):
+        for codec in combos:
+            for combo in combos[codec]:
+                for m in dict.fromkeys(max_errors):
+                    pipeline = Pipeline.build(codec, rep, dict(combo), m, seed)
+                    label = None if pipeline.max_error is None else str(m).strip()
+                    pipelines.setdefault((rep, codec, combo, label), pipeline)
+    settings = list(pipelines)
     tasks: list[BenchTask] = []
     for clip in clips:
         for key in settings:

@@ -87,14 +87,17 @@ class BenchRow:
     payload_bits_per_bone_frame: float | None = None
     file_bits_per_bone_frame: float | None = None
     ratio_vs_source: float | None = None
+    #: The parameter mentions ``message`` holds (:attr:`motionrep.errors.MotionrepError.parameters`), which the
+    #: command line rewrites into flags; not a column.
+    mentions: tuple[str, ...] = field(default=(), repr=False, compare=False, metadata={"column": False})
 
     def as_dict(self) -> dict[str, Any]:
         """Every column, JSON-serialisable."""
-        return dataclasses.asdict(self)
+        return {c: v for c, v in dataclasses.asdict(self).items() if c in COLUMNS}
 
 
 #: Column names of :class:`BenchRow`, in CSV order.
-COLUMNS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BenchRow))
+COLUMNS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BenchRow) if f.metadata.get("column", True))
 
 
 

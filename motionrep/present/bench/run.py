@@ -115,14 +115,16 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
     A bound that is not met gives a ``"failed"`` row; another :class:`~motionrep.errors.MotionrepError` raised
     while compressing gives an ``"error"`` row.  Errors reading the clip are raised.
     """
-    from ...pipeline.compress import parse_max_error
     from ...model.kinematics import character_height
 
     if motion is None:
         motion = task.clip.read()
     sk = motion.skeleton
     height = character_height(sk)
-    limit = parse_max_error(task.max_error)
+    try:
+        limit = task.resolved().max_error
+    except MotionrepError:  # a setting that does not build: an "error" row below
+        limit = None
     bound = None if limit is None or (limit.percent and height <= 0) else limit.bound(height)
     base = dict(clip=task.clip.name, source=task.clip.source, frames=motion.num_frames, joints=sk.num_joints,
                 fps=float(motion.fps), height=float(height), units=sk.units, codec=task.codec,
@@ -142,10 +144,10 @@ def run_task(task: BenchTask, motion: Motion | None = None) -> BenchRow:
                                         f"{best:.4g}" + ("" if pct is None else f" ({pct:.2f}%)"))
         return BenchRow(**base, status="failed", outcome=text, error=best, error_percent=pct,
                         encode_seconds=time.perf_counter() - start, load_average=_load(), message=str(exc),
-                        xz_bytes=xz)
+                        mentions=exc.parameters, xz_bytes=xz)
     except MotionrepError as exc:
         return BenchRow(**base, status="error", outcome=f"error: {type(exc).__name__}",
-                        load_average=_load(), message=str(exc), xz_bytes=xz)
+                        load_average=_load(), message=str(exc), mentions=exc.parameters, xz_bytes=xz)
     speed, features_speed, single = decode_speed(result.container, task.decode_poses, task.seed)
     r, f = result.report, result.figures
     return BenchRow(

@@ -11,7 +11,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ...errors import ValidationError, naming
+from ...errors import Note, ValidationError, naming
 
 __all__ = ["GIF_DEFAULT_FPS", "GIF_MAX_FPS", "MP4_DEFAULT_FPS", "MIN_SIDE", "MAX_SIDE", "parse_frames", "parse_size",
            "check_size", "select_frames", "animation_frames", "filmstrip_frames"]
@@ -120,7 +120,8 @@ def animation_frames(selected: NDArray[np.int64], exact: bool, clip_fps: float, 
     shown, rate, notes = frames_and_rate(selected, exact, clip_fps, fps, max_frames, kind)
     if worst_frame is not None and selected[0] <= worst_frame <= selected[-1] and worst_frame not in shown:
         if exact:
-            notes.append(f"the worst frame, {worst_frame}, is not among the frames --frames selects")
+            notes.append(Note(f"the worst frame, {worst_frame}, is not among the frames that frames= selects",
+                              "frames="))
         else:
             shown = shown.copy()
             shown[int(np.argmin(np.abs(shown - worst_frame)))] = worst_frame
@@ -151,8 +152,8 @@ def frames_and_rate(selected: NDArray[np.int64], exact: bool, clip_fps: float, f
     if shown.size > max_frames:
         rate = representable(max_frames / (selected.size / clip_fps), kind)
         shown = pick_by_time(selected, clip_fps, rate)
-        notes.append(f"showing {shown.size} of {selected.size} frames at {rate:.3g} fps, in real time "
-                     f"(--max-frames {max_frames})")
+        notes.append(Note(f"showing {shown.size} of {selected.size} frames at {rate:.3g} fps, in real time "
+                          f"(max_frames={max_frames})", "max_frames="))
     return shown, rate, notes
 
 

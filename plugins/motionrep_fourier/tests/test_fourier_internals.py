@@ -29,16 +29,11 @@ def edges_of(container) -> list[int]:
     return arrays["edges"].tolist() if "edges" in arrays else [0, container.num_frames - 1]
 
 
-@pytest.fixture(scope="module")
-def chain_motion():
-    return synthetic_motion(chain_skeleton(3), frames=48, fps=30, seed=1, cycles=2, amplitude_deg=20)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # Fourier codecs: the network, warm start, frequency choice
 # ---------------------------------------------------------------------------------------------------------------
 def test_warm_start_growth_leaves_the_function_unchanged():
-    from motionrep_fourier._train import _grow, _initial
+    from motionrep_fourier._trainnet import grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(3)
     net = _initial(gen, 5, 10, 7)
@@ -57,7 +52,7 @@ def test_warm_start_growth_leaves_the_function_unchanged():
 def test_variable_projection_loss_and_gradient():
     """The loss of the first two layers with the output layer solved by ridge least squares: its gradient
     matches central differences (float64 network), and the solved output layer is the least-squares one."""
-    from motionrep_fourier._train import RIDGE, _grow, _initial, _Net
+    from motionrep_fourier._trainnet import RIDGE, Net as _Net, grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(4)
     grown = _grow(_initial(gen, 3, 6, 5), gen)
@@ -97,7 +92,7 @@ def _two_loop_direction(g, pairs):
 
 
 def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
-    from motionrep_fourier._train import _LBFGS
+    from motionrep_fourier._lbfgs import LBFGS as _LBFGS
 
     rng = np.random.default_rng(0)
     n = 40
@@ -120,7 +115,7 @@ def test_lbfgs_compact_direction_is_the_two_loop_recursion_and_converges():
 def test_line_search_steps_through_the_float32_noise_of_the_loss():
     """Near a minimum the loss values carry rounding noise larger than the possible decrease; the line search
     must still move to where the slope flattens instead of declaring convergence (the gradient is accurate)."""
-    from motionrep_fourier._train import _LBFGS
+    from motionrep_fourier._lbfgs import LBFGS as _LBFGS
 
     rng = np.random.default_rng(1)
     scales = np.geomspace(1.0, 1e4, 20)  # very uneven curvature
@@ -327,7 +322,8 @@ def test_windowed_payload_checks_its_layout(windowed):
             windows_forward({**arrays, name: bad}, [0.5])
 
 
-@pytest.mark.parametrize("jobs", [1, 2, 3])
+# jobs=2 is the fast smoke test of the window workers; three processes only in the slow run
+@pytest.mark.parametrize("jobs", [1, 2, pytest.param(3, marks=pytest.mark.slow)])
 def test_windowed_files_are_byte_identical_for_a_seed_and_any_number_of_processes(jobs, windowed, chain_motion):
     again = compress_motion(chain_motion, "adaptive-fourier", max_error="3%",
                             params={"window": 16, "dtype": "float32", "jobs": jobs, **FAST_FOURIER})

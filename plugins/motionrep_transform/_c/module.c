@@ -1,6 +1,6 @@
 /* motionrep_transform._cdecode: the CPython binding of mrtransform (the decoder library has no Python in it).
  *
- *   declared(data) -> (F, D, region_frames)
+ *   declared(data, version) -> (F, D, region_frames)
  *   unpack(data, version) -> (F, D, region_frames, feature_exponents, region_exponents, coefficients)  (int64 bytes)
  *   reconstruct(F, D, region_frames, feature_exponents, region_exponents, coefficients) -> Frames
  *   decode(data, version) -> Frames
@@ -170,15 +170,16 @@ static PyTypeObject FramesType = {
 
 /* ---- functions ----------------------------------------------------------------------------------------- */
 
-static PyObject *py_declared(PyObject *mod, PyObject *arg)
+static PyObject *py_declared(PyObject *mod, PyObject *args)
 {
     (void)mod;
     Py_buffer b;
-    if (PyObject_GetBuffer(arg, &b, PyBUF_SIMPLE) < 0)
+    int version;
+    if (!PyArg_ParseTuple(args, "y*i", &b, &version))
         return NULL;
     uint64_t F, D, region;
     mrt_status st;
-    int code = mrt_declared(b.buf, (size_t)b.len, &F, &D, &region, &st);
+    int code = mrt_declared(b.buf, (size_t)b.len, version, &F, &D, &region, &st);
     PyBuffer_Release(&b);
     if (code)
         return raise_status(&st);
@@ -423,7 +424,7 @@ static PyObject *py_integers(PyObject *mod, PyObject *args)
 }
 
 static PyMethodDef functions[] = {
-    {"declared", py_declared, METH_O, "declared(data) -> (frames, features, region_frames)"},
+    {"declared", py_declared, METH_VARARGS, "declared(data, version) -> (frames, features, region_frames)"},
     {"unpack", py_unpack, METH_VARARGS, "unpack(data, version) -> (F, D, region, feature_exp, region_exp, coefficients)"},
     {"decode", py_decode, METH_VARARGS, "decode(data, version) -> Frames"},
     {"reconstruct", py_reconstruct, METH_VARARGS,

@@ -1,7 +1,9 @@
 /* mrtransform: the `transform` payload decoder (see mrtransform.h; the format is specs/codecs.md, "## `transform`",
- * and specs/coding.md for the integer coding).  Standard C99 and libm's floor, ceil and ldexp (exact operations),
- * nothing else. */
+ * and specs/coding.md for version 1's integer coding; version 2's integers are mrcoder.c's).  Standard C99 and
+ * libm's floor, ceil and ldexp (exact operations), nothing else. */
 #include "mrtransform.h"
+
+#include "mrcoder.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -351,10 +353,23 @@ int mrt_levels(uint64_t frames, uint64_t *sizes)
     return levels;
 }
 
-int mrt_declared(const uint8_t *data, size_t size, uint64_t *frames, uint64_t *features, uint64_t *region_frames,
-                 mrt_status *st)
+int mrt_declared(const uint8_t *data, size_t size, int version, uint64_t *frames, uint64_t *features,
+                 uint64_t *region_frames, mrt_status *st)
 {
     mrt_range_decoder rd;
+    ok(st);
+    if (version == 2) {
+        int64_t F, D, region;
+        int e = mrc_declared(data, size, &F, &D, &region);
+        if (e)
+            return fail(st, MRT_DAMAGED, "transform payload (version 2): %s", mrc_error_text(e));
+        *frames = (uint64_t)F;
+        *features = (uint64_t)D;
+        *region_frames = (uint64_t)region;
+        return MRT_OK;
+    }
+    if (version != 1)
+        return fail(st, MRT_VERSION, "transform payload: format version %d is not known to this decoder", version);
     if (size % 4)
         return fail(st, MRT_DAMAGED, "coded integers must be whole 32-bit words, got %zu bytes", size);
     mrt_range_init(&rd, data, size);
@@ -364,7 +379,7 @@ int mrt_declared(const uint8_t *data, size_t size, uint64_t *frames, uint64_t *f
     *frames += 1;
     *features += 1;
     *region_frames += 1;
-    return ok(st);
+    return MRT_OK;
 }
 
 void mrt_quantised_free(mrt_quantised *q)
@@ -583,7 +598,7 @@ static int begin(const uint8_t *data, size_t size, int version, mrt_range_decode
 {
     memset(q, 0, sizeof *q);
     ok(st);
-    if (version < 1 || version > MRT_MAX_VERSION)
+    if (version != 1)
         return fail(st, MRT_VERSION, "transform payload: format version %d is not known to this decoder", version);
     if (size % 4)
         return fail(st, MRT_DAMAGED, "coded integers must be whole 32-bit words, got %zu bytes", size);
@@ -598,9 +613,43 @@ static int finish(const mrt_range_decoder *rd, mrt_status *st)
     return MRT_OK;
 }
 
+/* A version-2 payload: its integers decoded by mrcoder.c (the adaptive coder of specs/codecs.md, "Payload version
+ * 2"), row-major into q, after its counts are checked against its bytes. */
+static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, mrt_status *st)
+{
+    uint64_t F, D, region;
+    if (mrt_declared(data, size, 2, &F, &D, &region, st))
+        return st->code;
+    uint64_t regions = (F + region - 1) / region;
+    if (F * D + D + regions > (uint64_t)MRC_VALUES_PER_BYTE * size)  /* before anything is allocated */
+        return fail(st, MRT_DAMAGED, "transform payload (version 2): %llu frames x %llu features cannot be held in %zu "
+                    "bytes (damaged data)", (unsigned long long)F, (unsigned long long)D, size);
+    q->frames = F;
+    q->features = D;
+    q->region_frames = region;
+    q->regions = regions;
+    q->levels = mrt_levels(F, q->sizes);
+    q->feature_exponents = malloc(D * sizeof(int64_t));
+    q->region_exponents = malloc(regions * sizeof(int64_t));
+    q->coefficients = malloc(F * D * sizeof(int64_t));
+    if (!q->feature_exponents || !q->region_exponents || !q->coefficients)
+        return fail(st, MRT_NO_MEMORY, "out of memory");
+    int e = mrc_decode(data, size, q->feature_exponents, q->region_exponents, q->coefficients);
+    if (e == MRC_E_MEMORY)
+        return fail(st, MRT_NO_MEMORY, "out of memory");
+    if (e)
+        return fail(st, MRT_DAMAGED, "transform payload (version 2): %s", mrc_error_text(e));
+    return MRT_OK;
+}
+
 int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, mrt_status *st)
 {
     mrt_range_decoder rd;
+    if (version == 2) {
+        memset(q, 0, sizeof *q);
+        ok(st);
+        return unpack_v2(data, size, q, st);
+    }
     if (begin(data, size, version, &rd, q, st))
         return st->code;
     if (!(q->coefficients = malloc(q->frames * q->features * sizeof(int64_t))))
@@ -834,10 +883,18 @@ int mrt_reconstruct(const mrt_quantised *q, mrt_frames *out, mrt_status *st)
 
 int mrt_decode(const uint8_t *data, size_t size, int version, mrt_frames *out, mrt_status *st)
 {
-    /* one buffer: the coefficients are parsed feature-major into it, then dequantised and transformed in place */
+    /* version 1: one buffer, the coefficients parsed feature-major into it, then dequantised and transformed in
+     * place; version 2: mrcoder's row-major integers, then mrt_reconstruct */
     mrt_range_decoder rd;
     mrt_quantised q;
     memset(out, 0, sizeof *out);
+    if (version == 2) {
+        int code = mrt_unpack(data, size, 2, &q, st);
+        if (!code)
+            code = mrt_reconstruct(&q, out, st);
+        mrt_quantised_free(&q);
+        return code;
+    }
     int64_t *buffer = NULL;
     int code = begin(data, size, version, &rd, &q, st);
     if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))

@@ -18,8 +18,10 @@
  * more values than its bytes can hold), every read is in bounds, and a damaged payload ends in one of the error
  * messages motionrep's Python decoder gave (mrt_status.message), never in a crash.
  *
- * Versions: `version` is the payload's format version; 1 is the only one so far.  A later version adds its own
- * stream parser (mrt_unpack) and shares the rest (range decoder, models, dequantisation, wavelet, sampling).
+ * Versions: `version` is the payload's format version: 1 (static models stored in the payload, a range coder:
+ * parsed here) or 2 (an adaptive binary coder with context mixing: its integers decoded by mrcoder.c, which an
+ * engine builds beside this file).  A version has its own integer decoder (mrt_unpack) and shares the rest
+ * (dequantisation, wavelet, sampling).
  */
 #ifndef MRTRANSFORM_H
 #define MRTRANSFORM_H
@@ -31,7 +33,7 @@
 extern "C" {
 #endif
 
-#define MRT_MAX_VERSION 1
+#define MRT_MAX_VERSION 2
 #define MRT_MAX_LEVELS 20
 #define MRT_MAX_EXPONENT 32767  /* largest magnitude of a step exponent (steps are 2 ** (exponent / 8)) */
 #define MRT_MAX_ZERO 208        /* largest zero index of a stored model */
@@ -70,9 +72,9 @@ typedef struct {
     double *rows;       /* NULL, or the same values frame-major (rows[i * D + d]), made by mrt_frames_rows */
 } mrt_frames;
 
-/* (F, D, region frames) the head of a payload declares (three raw fields; nothing else is read). */
-int mrt_declared(const uint8_t *data, size_t size, uint64_t *frames, uint64_t *features, uint64_t *region_frames,
-                 mrt_status *st);
+/* (F, D, region frames) the head of a payload of format `version` declares (nothing else is read). */
+int mrt_declared(const uint8_t *data, size_t size, int version, uint64_t *frames, uint64_t *features,
+                 uint64_t *region_frames, mrt_status *st);
 
 /* Range-decode a payload into `q` (free it with mrt_quantised_free, also after an error). */
 int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, mrt_status *st);

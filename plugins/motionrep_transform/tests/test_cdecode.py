@@ -107,18 +107,35 @@ def test_integer_coding_is_constrictions_on_random_models_and_streams():
     assert checked == 840 and errors > 10
 
 
-def _payloads() -> list[bytes]:
+def _payloads(version: int = 1) -> list[bytes]:
+    """Payloads of synthetic clips in format ``version``: the encoder's integers (it writes version 2), packed as
+    that version."""
+    from motionrep_transform import _stream, _stream2
+
     cases = [(humanoid_skeleton(), 120, "2%", "root-quat-axis-angle"), (chain_skeleton(5), 37, "0.5%", "euler"),
              (humanoid_skeleton(), 3, "2%", "ortho6d"), (humanoid_skeleton(), 1, "2%", "root-quat-axis-angle"),
              (chain_skeleton(3), 300, "0.1%", "dual-quaternion"), (chain_skeleton(4), 4, "2%", "euler"),
              (chain_skeleton(4), 5, "2%", "euler")]
-    return [compress_motion(synthetic_motion(s, frames=f, seed=i), "transform", representation=r,
-                            max_error=b).container.arrays["data"].tobytes() for i, (s, f, b, r) in enumerate(cases)]
+    written = [compress_motion(synthetic_motion(s, frames=f, seed=i), "transform", representation=r,
+                               max_error=b).container.arrays["data"].tobytes() for i, (s, f, b, r) in enumerate(cases)]
+    return written if version == 2 else [_stream.pack(_stream2.unpack(data)) for data in written]
 
 
 @pytest.fixture(scope="module")
 def payloads():
     return _payloads()
+
+
+@pytest.fixture(scope="module")
+def payloads_v2():
+    return _payloads(2)
+
+
+def _reference_v2(data: bytes) -> np.ndarray:
+    """Version 2 as main decoded it: mrcoder's integers (``_stream2.unpack``), then the numpy reconstruction."""
+    from motionrep_transform import _stream2
+
+    return reference.reconstruct(_stream2.unpack(data))
 
 
 def _c_frames(data: bytes) -> tuple[np.ndarray]:
@@ -141,6 +158,18 @@ def test_valid_payloads_decode_to_the_python_decoders_bits(payloads):
         got = np.asarray(_cdecode.decode(data, 1)).T
         assert got.shape == expected.shape and got.tobytes() == expected.tobytes()
         assert _same(_outcome(_reference_quantised, data), _outcome(_c_quantised, data))
+
+
+def test_version_2_payloads_decode_to_the_numpy_reconstructions_bits(payloads_v2):
+    """Version 2's integers are mrcoder.c's in both decoders; dequantisation and the inverse wavelet are the C
+    library's here, numpy's in the decoder it replaced: the same bits, valid or damaged (the same messages)."""
+    rng = random.Random(2)
+    for data in payloads_v2:
+        assert np.asarray(_cdecode.decode(data, 2)).T.tobytes() == _reference_v2(data).tobytes()
+    for i in range(400):
+        bad = mutate_bytes(payloads_v2[i % len(payloads_v2)], rng)
+        assert _same(_outcome(lambda d: (_reference_v2(d),), bad),
+                     _outcome(lambda d: (np.asarray(_cdecode.decode(d, 2)).T,), bad)), i
 
 
 def test_damaged_payloads_give_the_python_decoders_values_or_errors(payloads):
@@ -205,7 +234,7 @@ _EMBED = r"""
 #include <stdlib.h>
 #include "mrtransform.h"
 int main(int argc, char **argv) {
-    if (argc < 2)
+    if (argc < 3)
         return 2;
     FILE *f = fopen(argv[1], "rb");
     static unsigned char data[1 << 20];
@@ -213,7 +242,7 @@ int main(int argc, char **argv) {
     fclose(f);
     mrt_frames frames;
     mrt_status st;
-    if (mrt_decode(data, size, 1, &frames, &st) != MRT_OK) {
+    if (mrt_decode(data, size, atoi(argv[2]), &frames, &st) != MRT_OK) {
         printf("error: %s\n", st.message);
         return 1;
     }
@@ -227,27 +256,30 @@ int main(int argc, char **argv) {
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
-def test_the_library_builds_and_decodes_alone_without_python(payloads, tmp_path):
-    """mrtransform.c is plain C99 with the standard library and libm: an engine builds it with its own compiler
-    (no Python headers, no motionrep headers) and gets the same values as motionrep."""
+def test_the_library_builds_and_decodes_alone_without_python(payloads, payloads_v2, tmp_path):
+    """mrtransform.c (with mrcoder.c for version 2) is plain C99 with the standard library and libm: an engine
+    builds it with its own compiler (no Python headers, no motionrep headers) and gets the same values as
+    motionrep, and the same one-line errors."""
     main = tmp_path / "embed.c"
     main.write_text(_EMBED)
     exe = tmp_path / "embed"
     subprocess.run(["cc", "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-pedantic", "-Werror",
-                    f"-I{C_DIR}", str(main), str(C_DIR / "mrtransform.c"), "-o", str(exe), "-lm"], check=True)
+                    f"-I{C_DIR}", str(main), str(C_DIR / "mrtransform.c"), str(C_DIR / "mrcoder.c"), "-o", str(exe),
+                    "-lm"], check=True)
     payload = tmp_path / "payload.bin"
-    payload.write_bytes(payloads[0])
-    done = subprocess.run([str(exe), str(payload)], capture_output=True, check=True)
-    decoder = _cdecode.decode(payloads[0], 1)
-    out = np.empty((decoder.features, 3))
-    _cdecode.sample(np.array([0.0, 0.37, 1.0]), out, decoder)
-    assert done.stdout == out.tobytes()
-    payload.write_bytes(payloads[0][:-4])
-    failed = subprocess.run([str(exe), str(payload)], capture_output=True, text=True)
-    assert failed.returncode == 1 and failed.stdout.startswith("error: ")
-    with pytest.raises(PayloadError) as info:
-        _cdecode.decode(payloads[0][:-4], 1)
-    assert failed.stdout.strip() == f"error: {info.value}"
+    for version, data in ((1, payloads[0]), (2, payloads_v2[0])):
+        payload.write_bytes(data)
+        done = subprocess.run([str(exe), str(payload), str(version)], capture_output=True, check=True)
+        decoder = _cdecode.decode(data, version)
+        out = np.empty((decoder.features, 3))
+        _cdecode.sample(np.array([0.0, 0.37, 1.0]), out, decoder)
+        assert done.stdout == out.tobytes()
+        payload.write_bytes(data[:-4])
+        failed = subprocess.run([str(exe), str(payload), str(version)], capture_output=True, text=True)
+        assert failed.returncode == 1 and failed.stdout.startswith("error: ")
+        with pytest.raises(PayloadError) as info:
+            _cdecode.decode(data[:-4], version)
+        assert failed.stdout.strip() == f"error: {info.value}"
 
 
 REAL_CLIPS = ["cmu/bvh11/131_01.bvh", "cmu/bvh-matlab/walk.bvh", "other/bandai_namco/dataset-1_dash_normal_001.bvh",
@@ -258,17 +290,21 @@ REAL_CLIPS = ["cmu/bvh11/131_01.bvh", "cmu/bvh-matlab/walk.bvh", "other/bandai_n
 @pytest.mark.realdata
 @pytest.mark.parametrize("rel", REAL_CLIPS)
 def test_real_clips_decode_to_the_python_decoders_bits_within_their_bound(rel):
-    """Real clips coded at 2 %: the C decoder gives the Python decoder's frames bit for bit, and the file decodes
-    within the bound it stores.  (Every real clip, transform and svd, decodes to main's numba decoders' bits:
+    """Real clips coded at 2 %: the C decoder gives the frames of the decoders it replaced bit for bit (version 2,
+    and the same integers as version 1), and the file decodes within the bound it stores.  (Every real clip, transform and svd, decodes to main's numba decoders' bits:
     benchmarks/results/c_decode.md.)"""
     from motionrep.io import read
     from motionrep.io.container import unpack as unpack_container
     from motionrep.pipeline.decode import decompress
     from motionrep.pipeline.evaluate import max_joint_error
 
+    from motionrep_transform import _stream
+
     motion = read(SHARED_DATA / rel)
     result = compress_motion(motion, "transform", max_error="2%")
-    data = result.container.arrays["data"].tobytes()
-    assert np.asarray(_cdecode.decode(data, 1)).T.tobytes() == reference.decode_frames(data).tobytes()
+    data = result.container.arrays["data"].tobytes()  # version 2
+    assert np.asarray(_cdecode.decode(data, 2)).T.tobytes() == _reference_v2(data).tobytes()
+    v1 = _stream.pack(unpack(data, 2))  # the same integers as version 1
+    assert np.asarray(_cdecode.decode(v1, 1)).T.tobytes() == reference.decode_frames(v1).tobytes()
     decoded = decompress(unpack_container(result.data))
     assert max_joint_error(motion, decoded).max_error_percent <= 2.0

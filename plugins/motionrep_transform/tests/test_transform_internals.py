@@ -1,5 +1,6 @@
-"""The transform plugin's machinery: the wavelet, the payload stream's limits, and payloads of format 1 written by
-motionrep 0.1.0.  The codec's behaviour through the core is tested in ``tests/test_transform.py``."""
+"""The transform plugin's machinery: the wavelet, the payload streams' limits, payloads of format 1 written by
+motionrep 0.1.0 and of format 2.  The codec's behaviour through the core is tested in ``tests/test_transform.py``;
+the version-2 coder's own properties (round trips, hostile bytes) in ``test_stream2.py``."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ from motionrep.errors import PayloadError
 from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.plugin.registry import get_codec, get_representation
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
-from motionrep_transform._stream import unpack as unpack_stream
+from motionrep_transform import _stream2
+from motionrep_transform._stream import pack as pack_stream, unpack as unpack_stream
 from motionrep_transform._wavelet import forward, inverse, level_sizes, num_levels
 
 
@@ -54,16 +56,48 @@ def golden_motion():
     return synthetic_motion(chain_skeleton(3), frames=24, fps=30, seed=9)
 
 
-def test_format_1_payloads_still_decode():
+def _decoded_error_percent(hexdata: str, version: int | None) -> float:
     m = golden_motion()
-    data = np.frombuffer(bytes.fromhex(GOLDEN_HEX), dtype=np.uint8)
-    codec = get_codec("transform")
-    features = codec.decode(Payload({"data": data}), frame_times(m.num_frames))
+    data = np.frombuffer(bytes.fromhex(hexdata), dtype=np.uint8)
+    features = get_codec("transform").decode(Payload({"data": data}, version=version), frame_times(m.num_frames))
     decoded = get_representation("root-quat-axis-angle").from_features(features, m.skeleton, m.fps)
-    assert max_joint_error(m, decoded).max_error_percent <= 2.0
-    # and this version still writes the same bytes
-    r = compress_motion(m, "transform", max_error="2%")
-    assert r.container.arrays["data"].tobytes().hex() == GOLDEN_HEX
+    return max_joint_error(m, decoded).max_error_percent
+
+
+def test_format_1_payloads_still_decode():
+    assert _decoded_error_percent(GOLDEN_HEX, version=1) <= 2.0
+    # the version-1 writer still writes the same bytes for the same integers
+    assert pack_stream(unpack_stream(bytes.fromhex(GOLDEN_HEX))).hex() == GOLDEN_HEX
+
+
+# The payload of format 2 written for golden_motion() at --max-error 2% (the bytes the encoder's search chose when
+# version 2 was introduced; a later search may choose other integers, but these bytes must keep decoding).
+GOLDEN_2_HEX = (
+    "170c0f806f8d1020ef23bc0ae4a4f5a112e0803ca89cfc7448d97b28c06f19332928be180acb0b4de1fe5f71b13ff10395aac68564a9"
+    "75f207585cc8564d63b3b32279de5a1067316a7db14f8e3cf47452952f7da098b3057a961e37ca2b8b65cea58f0aee0464e717e3b32a"
+    "2bcafe5a60d99cab23d0daba73e37f01ee0122ec2bb19e82f03ab3222812937f4959effb10a49690e13ac2d53b59179c4c4dc42d8d1b"
+    "b4e5bf0ea20c8b6c455a95d7fbce")
+
+
+def test_format_2_payloads_decode_and_code_the_same_integers_to_the_same_bytes():
+    assert _decoded_error_percent(GOLDEN_2_HEX, version=2) <= 2.0
+    assert _decoded_error_percent(GOLDEN_2_HEX, version=None) <= 2.0  # a payload without a version is current
+    q = _stream2.unpack(bytes.fromhex(GOLDEN_2_HEX))
+    assert _stream2.pack(q).hex() == GOLDEN_2_HEX
+    # the same integers as version 1 would store, in fewer bytes
+    assert len(pack_stream(q)) > len(GOLDEN_2_HEX) // 2
+    r = compress_motion(golden_motion(), "transform", max_error="2%")
+    assert r.container.codec_version == 2
+
+
+def test_both_versions_of_the_same_integers_decode_to_the_same_frames_bit_for_bit():
+    m = synthetic_motion(chain_skeleton(5), frames=300, fps=60, seed=2)
+    v2 = compress_motion(m, "transform", max_error="0.5%").container.arrays["data"]
+    v1 = np.frombuffer(pack_stream(_stream2.unpack(v2.tobytes())), np.uint8)
+    codec = get_codec("transform")
+    frames_1 = codec.decoder(Payload({"data": v1}, version=1)).frames
+    assert np.array_equal(frames_1, codec.decoder(Payload({"data": v2}, version=2)).frames)
+    assert v2.size < v1.size
 
 
 def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
@@ -71,7 +105,7 @@ def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
     :func:`interpolate_rows` (numpy) defines the values: all three give the same."""
     from motionrep_transform._codec import interpolate_rows
 
-    data = np.frombuffer(bytes.fromhex(GOLDEN_HEX), dtype=np.uint8)
+    data = np.frombuffer(bytes.fromhex(GOLDEN_2_HEX), dtype=np.uint8)
     decoder = get_codec("transform").decoder(Payload({"data": data}))
     F = decoder.frames.shape[0]
     rng = np.random.default_rng(1)

@@ -3,9 +3,12 @@ SHA-256 of what the decoders of the time gave for them (issue 24: the decoders m
 the same bits).
 
 Run with the interpreter of the checkout whose decoders are the reference (they were made with main's numba
-decoders, commit 22eeb6c)::
+decoders: commit 22eeb6c, and for the transform payloads of version 2 (``-v2``) commit 6c9f3a2)::
 
-    /work/main/.venv/bin/python tests/data/golden/make_golden.py
+    /work/main/.venv/bin/python tests/data/golden/make_golden.py [--only transform --tag v2]
+
+``--only`` makes the cases whose name holds that text, ``--tag`` adds ``-TAG`` to their names; the other files
+and their digests are kept.
 
 The encodings are stored, not redone by the test: the svd codec's SVD (LAPACK) may differ in the last bits between
 machines, its decoding may not.
@@ -100,17 +103,28 @@ def cases():
 
 
 def main() -> None:
+    import argparse
+
     from motionrep.io.container import pack
 
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", default="")
+    parser.add_argument("--tag", default="")
+    args = parser.parse_args()
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__import__("motionrep").__file__).parent).stdout.strip()
-    golden = {"made_with": commit, "files": {}}
+    path = HERE / "golden.json"
+    golden = json.loads(path.read_text()) if path.exists() and args.only else {"files": {}, "made_with": {}}
     for name, container in cases():
+        if args.only not in name:
+            continue
+        name = f"{name}-{args.tag}" if args.tag else name
         data = pack(container)
         (HERE / f"{name}.mrc").write_bytes(data)
         golden["files"][name] = decodes(data)
+        golden["made_with"][name] = commit
         print(name, len(data), "bytes")
-    (HERE / "golden.json").write_text(json.dumps(golden, indent=1) + "\n")
+    path.write_text(json.dumps(golden, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,725 @@
+/* The entropy coder of `transform` payloads of version 2 (mrcoder.h; specs/codecs.md, "Payload version 2").
+ *
+ * A binary arithmetic coder (the carry-less range coder of LZMA: 32-bit range, bytes out with carry
+ * propagation) codes every decision with a 12-bit probability. Probabilities come from adaptive counters
+ * (16 bits, the rate 1 / (n + 1.5) after n updates, never below 1/64), and, for the detail coefficients, from
+ * three counters under different contexts mixed in the logistic domain by an adaptive linear mixer (PAQ's
+ * stretch/squash, integer tables). Integer arithmetic only: a right shift is applied to non-negative values
+ * only, and a signed division is written as a floor division (asr), so the result never depends on what C
+ * leaves to the implementation.
+ */
+#include "mrcoder.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* integer helpers                                                                                           */
+/* ------------------------------------------------------------------------------------------------------- */
+
+/* floor(x / 2 ** s) for any sign of x */
+static int64_t asr(int64_t x, int s) {
+    return x >= 0 ? (x >> s) : -(int64_t)(((uint64_t)(-(x + 1)) >> s) + 1);
+}
+
+static int bitlen(uint64_t x) {
+    int n = 0;
+    while (x) {
+        n++;
+        x >>= 1;
+    }
+    return n;
+}
+
+/* class of a non-negative context sum: 0 for 0, then two classes per octave, capped */
+static int qclass(int64_t s, int nclass) {
+    if (s <= 0) return 0;
+    int n = bitlen((uint64_t)s);
+    int c = 2 * n - 1 + (n >= 2 ? (int)((s >> (n - 2)) & 1) : 0);
+    return c < nclass - 1 ? c : nclass - 1;
+}
+
+static int64_t cap(int64_t v) {
+    int64_t m = v < 0 ? -v : v;
+    return m < (1 << 24) ? m : (1 << 24);
+}
+
+static int sign3(int64_t v) { return v == 0 ? 0 : (v > 0 ? 1 : 2); }
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* probability models                                                                                        */
+/* ------------------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    uint16_t p; /* P(1) in 1/65536 */
+    uint16_t n; /* updates seen, capped */
+} Counter;
+
+#define P_LOW 16
+#define P_HIGH (65536 - 16)
+
+static void counters_init(Counter *c, size_t n) {
+    for (size_t i = 0; i < n; i++) {
+        c[i].p = 32768;
+        c[i].n = 0;
+    }
+}
+
+/* the rate after n updates: max(1024, floor(131072 / (2 n + 3))), i.e. 1 / (n + 1.5) in 1/65536, not below 1/64;
+ * a table of the 63 values above the floor (a division per decision would cost as much as the rest) */
+static const uint16_t RATES[63] = {
+    43690, 26214, 18724, 14563, 11915, 10082, 8738, 7710, 6898, 6241, 5698, 5242,
+    4854, 4519, 4228, 3971, 3744, 3542, 3360, 3196, 3048, 2912, 2788, 2674,
+    2570, 2473, 2383, 2299, 2221, 2148, 2080, 2016, 1956, 1899, 1846, 1795,
+    1747, 1702, 1659, 1618, 1579, 1542, 1506, 1472, 1440, 1409, 1379, 1351,
+    1323, 1297, 1272, 1248, 1224, 1202, 1180, 1159, 1139, 1120, 1101, 1083,
+    1065, 1048, 1032,
+};
+
+static uint32_t rate_of(unsigned n) { return n < 63 ? RATES[n] : 1024u; }
+
+static void counter_update(Counter *c, int y) {
+    uint32_t r = rate_of(c->n);
+    uint32_t p = c->p;
+    if (y)
+        p += (uint32_t)(((uint64_t)(65536u - p) * r) >> 16);
+    else
+        p -= (uint32_t)(((uint64_t)p * r) >> 16);
+    if (p < P_LOW) p = P_LOW;
+    if (p > P_HIGH) p = P_HIGH;
+    c->p = (uint16_t)p;
+    if (c->n < 255) c->n++;
+}
+
+static int counter_p12(const Counter *c) { return c->p >> 4; } /* 1..4094 */
+
+/* PAQ's squash (logistic function on stretch units of 1/256 natural-log odds) by interpolation of 33 points,
+ * and stretch, its inverse, as a table */
+static const int SQUASH_T[33] = {1,    2,    3,    6,    10,   16,   27,   45,   73,   120,  194,
+                                 310,  488,  747,  1101, 1546, 2047, 2549, 2994, 3348, 3607, 3785,
+                                 3901, 3975, 4022, 4050, 4068, 4079, 4085, 4089, 4092, 4093, 4094};
+
+static int squash(int d) {
+    if (d > 2047) return 4095;
+    if (d < -2047) return 1;
+    int u = d + 2048; /* 1..4095 */
+    int i = u >> 7, w = u & 127;
+    return (SQUASH_T[i] * (128 - w) + SQUASH_T[i + 1] * w + 64) >> 7;
+}
+
+typedef struct {
+    int16_t stretch[4096];
+} Tables;
+
+static void tables_init(Tables *t) {
+    int pi = 0;
+    for (int x = -2047; x <= 2047; x++) {
+        int v = squash(x);
+        for (int i = pi; i <= v; i++) t->stretch[i] = (int16_t)x;
+        pi = v + 1;
+    }
+    for (int i = pi; i < 4096; i++) t->stretch[i] = 2047;
+}
+
+#define MIX_INPUTS 3
+#define MIX_SETS 18
+#define MIX_INIT 19661 /* 0.3 in 1/65536 */
+#define MIX_RATE 82    /* learning rate 0.02: w += err12 * st * 82 / 65536 */
+#define MIX_LIMIT (1 << 24) /* |w| <= 256 (real clips stay within a few units): no overflow on any data */
+
+typedef struct {
+    int32_t w[MIX_SETS][MIX_INPUTS];
+} Mixer;
+
+static void mixer_init(Mixer *m) {
+    for (int s = 0; s < MIX_SETS; s++)
+        for (int i = 0; i < MIX_INPUTS; i++) m->w[s][i] = MIX_INIT;
+}
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* the range coder                                                                                           */
+/* ------------------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    uint8_t *buf;
+    size_t len, cap;
+    uint64_t low;
+    uint32_t range;
+    uint8_t cache;
+    uint64_t pending;
+    int first, err;
+} Enc;
+
+static void enc_put(Enc *e, uint8_t b) {
+    if (e->first) { /* the first byte is always 0: not stored */
+        e->first = 0;
+        return;
+    }
+    if (e->len == e->cap) {
+        size_t cap = e->cap ? 2 * e->cap : 1024;
+        uint8_t *nb = (uint8_t *)realloc(e->buf, cap);
+        if (!nb) {
+            e->err = MRC_E_MEMORY;
+            return;
+        }
+        e->buf = nb;
+        e->cap = cap;
+    }
+    e->buf[e->len++] = b;
+}
+
+static void enc_shift(Enc *e) {
+    if ((uint32_t)e->low < 0xFF000000u || (e->low >> 32) != 0) {
+        uint8_t carry = (uint8_t)(e->low >> 32);
+        uint8_t temp = e->cache;
+        do {
+            enc_put(e, (uint8_t)(temp + carry));
+            temp = 0xFF;
+        } while (--e->pending != 0);
+        e->cache = (uint8_t)(e->low >> 24);
+    }
+    e->pending++;
+    e->low = (e->low & 0x00FFFFFFu) << 8;
+}
+
+static void enc_init(Enc *e) {
+    memset(e, 0, sizeof *e);
+    e->range = 0xFFFFFFFFu;
+    e->pending = 1;
+    e->first = 1;
+}
+
+/* code y (0/1) with P(1) = p12 / 4096, 1 <= p12 <= 4095 */
+static void enc_bit(Enc *e, int p12, int y) {
+    uint32_t bound = (e->range >> 12) * (uint32_t)p12;
+    if (y)
+        e->range = bound;
+    else {
+        e->low += bound;
+        e->range -= bound;
+    }
+    while (e->range < (1u << 24)) {
+        e->range <<= 8;
+        enc_shift(e);
+    }
+}
+
+/* the shortest ending: the value in [low, low + range) with the most trailing zero bits, whose zero bytes at
+ * the end are then dropped (the decoder reads zeros past the end; only the ending's own bytes are dropped, so
+ * that the decoder can tell a truncated stream: it reads at most 5 bytes past the end of a whole one) */
+static void enc_finish(Enc *e) {
+    size_t before = e->len;
+    uint64_t hi = e->low + e->range - 1;
+    for (int k = 32; k >= 0; k--) {
+        uint64_t mask = ((uint64_t)1 << k) - 1;
+        uint64_t v = (e->low + mask) & ~mask;
+        if (v <= hi) {
+            e->low = v;
+            break;
+        }
+    }
+    for (int i = 0; i < 5; i++) enc_shift(e);
+    while (e->len > before && e->buf[e->len - 1] == 0) e->len--;
+}
+
+typedef struct {
+    const uint8_t *data;
+    size_t len, pos;
+    uint32_t range, code;
+} Dec;
+
+static uint8_t dec_next(Dec *d) {
+    uint8_t b = d->pos < d->len ? d->data[d->pos] : 0;
+    d->pos++;
+    return b;
+}
+
+static void dec_init(Dec *d, const uint8_t *data, size_t len) {
+    d->data = data;
+    d->len = len;
+    d->pos = 0;
+    d->range = 0xFFFFFFFFu;
+    d->code = 0;
+    for (int i = 0; i < 4; i++) d->code = (d->code << 8) | dec_next(d);
+}
+
+static int dec_bit(Dec *d, int p12) {
+    uint32_t bound = (d->range >> 12) * (uint32_t)p12;
+    int y;
+    if (d->code < bound) {
+        d->range = bound;
+        y = 1;
+    } else {
+        d->code -= bound;
+        d->range -= bound;
+        y = 0;
+    }
+    while (d->range < (1u << 24)) {
+        d->range <<= 8;
+        d->code = (d->code << 8) | dec_next(d);
+    }
+    return y;
+}
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* one coder for both directions: `dec` NULL encodes `*y`, else decodes into it                              */
+/* ------------------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    Enc *enc;
+    Dec *dec;
+    Tables *t;
+    Mixer mix;
+} Coder;
+
+static int code_bit(Coder *c, int p12, int y) {
+    if (c->dec) return dec_bit(c->dec, p12);
+    enc_bit(c->enc, p12, y);
+    return y;
+}
+
+static int code_counter(Coder *c, Counter *k, int y) {
+    y = code_bit(c, counter_p12(k), y);
+    counter_update(k, y);
+    return y;
+}
+
+static int code_raw(Coder *c, int y) { return code_bit(c, 2048, y); }
+
+/* a decision from the counters k[0..n-1], mixed with weight set `set` */
+static int code_mixed(Coder *c, Counter **k, int n, int set, int y) {
+    int st[MIX_INPUTS];
+    int64_t dot = 0;
+    int32_t *w = c->mix.w[set];
+    for (int i = 0; i < n; i++) {
+        st[i] = c->t->stretch[counter_p12(k[i])];
+        dot += (int64_t)w[i] * st[i];
+    }
+    int64_t x = asr(dot, 16);
+    int p = squash(x > 2047 ? 2047 : (x < -2047 ? -2047 : (int)x));
+    if (p < 1) p = 1;
+    if (p > 4095) p = 4095;
+    y = code_bit(c, p, y);
+    int err = (y << 12) - p;
+    for (int i = 0; i < n; i++) {
+        int64_t v = w[i] + asr((int64_t)st[i] * err * MIX_RATE, 16);
+        w[i] = (int32_t)(v > MIX_LIMIT ? MIX_LIMIT : (v < -MIX_LIMIT ? -MIX_LIMIT : v));
+        counter_update(k[i], y);
+    }
+    return y;
+}
+
+/* generic signed integers (exponents, approximation): zero, sign, bit length in unary, two mantissa bits
+ * under counters, the rest raw */
+#define G_ZERO 0
+#define G_SIGN 1
+#define G_LEN 2
+#define G_MANT (G_LEN + 64)
+#define G_SIZE (G_MANT + 2 * 64)
+#define G_MAXBITS 63
+
+static int code_sint(Coder *c, Counter *set, int64_t *v) {
+    int64_t x = c->dec ? 0 : *v;
+    uint64_t m = x < 0 ? (uint64_t)(-(x + 1)) + 1 : (uint64_t)x;
+    int nz = code_counter(c, &set[G_ZERO], m != 0);
+    if (!nz) {
+        *v = 0;
+        return MRC_OK;
+    }
+    int neg = code_counter(c, &set[G_SIGN], x < 0);
+    int n = c->dec ? 0 : bitlen(m);
+    int k = 1;
+    for (; k < G_MAXBITS; k++)
+        if (!code_counter(c, &set[G_LEN + k], k < n)) break;
+    n = k;
+    uint64_t r = 1;
+    for (int b = n - 2; b >= 0; b--) {
+        int bit = c->dec ? 0 : (int)((m >> b) & 1);
+        if (b >= n - 3)
+            bit = code_counter(c, &set[G_MANT + 2 * n + (n - 2 - b)], bit);
+        else
+            bit = code_raw(c, bit);
+        r = (r << 1) | (uint64_t)bit;
+    }
+    if (c->dec) { /* r < 2 ** 63 */
+        *v = neg ? -(int64_t)r : (int64_t)r;
+    }
+    return MRC_OK;
+}
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* the payload                                                                                               */
+/* ------------------------------------------------------------------------------------------------------- */
+
+int mrc_level_sizes(int64_t frames, int64_t *sizes) {
+    int64_t details[20];
+    int levels = 0;
+    int64_t n = frames;
+    while (n >= 4 && levels < 20) {
+        details[levels++] = n / 2;
+        n = (n + 1) / 2;
+    }
+    sizes[0] = n;
+    for (int i = 0; i < levels; i++) sizes[1 + i] = details[levels - 1 - i];
+    return levels;
+}
+
+const char *mrc_error_text(int code) {
+    switch (code) {
+    case MRC_OK: return "no error";
+    case MRC_E_HEADER: return "the head (frames, features, region) is malformed or out of range";
+    case MRC_E_TOO_MANY: return "more values than the bytes can hold (damaged data)";
+    case MRC_E_EXPONENT: return "a step exponent is out of range (damaged data)";
+    case MRC_E_MAGNITUDE: return "a coefficient is out of range (damaged data)";
+    case MRC_E_TRUNCATED: return "the coded data ends early (damaged data)";
+    case MRC_E_TRAILING: return "bytes after the coded data (damaged data)";
+    case MRC_E_MEMORY: return "out of memory";
+    case MRC_E_ARGUMENT: return "a value the encoder cannot code";
+    default: return "unknown error";
+    }
+}
+
+/* LEB128, canonical, at most 5 bytes, value <= limit */
+static int read_varint(const uint8_t *data, size_t len, size_t *pos, uint64_t limit, uint64_t *out) {
+    uint64_t v = 0;
+    for (int i = 0; i < 5; i++) {
+        if (*pos >= len) return MRC_E_HEADER;
+        uint8_t b = data[(*pos)++];
+        v |= (uint64_t)(b & 0x7F) << (7 * i);
+        if (!(b & 0x80)) {
+            if (i > 0 && b == 0) return MRC_E_HEADER; /* not the shortest form */
+            if (v > limit) return MRC_E_HEADER;
+            *out = v;
+            return MRC_OK;
+        }
+    }
+    return MRC_E_HEADER;
+}
+
+static size_t write_varint(uint8_t *out, uint64_t v) {
+    size_t n = 0;
+    do {
+        uint8_t b = v & 0x7F;
+        v >>= 7;
+        out[n++] = (uint8_t)(b | (v ? 0x80 : 0));
+    } while (v);
+    return n;
+}
+
+static int64_t count_regions(int64_t frames, int64_t region) { return (frames + region - 1) / region; }
+
+static int head(const uint8_t *data, size_t len, int64_t *frames, int64_t *features, int64_t *region,
+                size_t *body) {
+    uint64_t f, d, r;
+    size_t pos = 0;
+    int e;
+    if ((e = read_varint(data, len, &pos, (uint64_t)MRC_MAX_FRAMES - 1, &f))) return e;
+    if ((e = read_varint(data, len, &pos, (uint64_t)MRC_MAX_FEATURES - 1, &d))) return e;
+    if ((e = read_varint(data, len, &pos, (uint64_t)MRC_MAX_REGION - 1, &r))) return e;
+    *frames = (int64_t)f + 1;
+    *features = (int64_t)d + 1;
+    *region = (int64_t)r + 1;
+    *body = pos;
+    return MRC_OK;
+}
+
+/* F * D + D + R within MRC_VALUES_PER_BYTE per byte (F < 2 ** 32, D <= 2 ** 20: no overflow) */
+static int values_fit(int64_t frames, int64_t features, int64_t region, size_t len) {
+    int64_t values = frames * features + features + count_regions(frames, region);
+    return (uint64_t)values <= (uint64_t)MRC_VALUES_PER_BYTE * (uint64_t)len;
+}
+
+int mrc_declared(const uint8_t *data, size_t len, int64_t *frames, int64_t *features, int64_t *region) {
+    size_t body;
+    return head(data, len, frames, features, region, &body);
+}
+
+int mrc_fits(int64_t frames, int64_t features, int64_t region, size_t len) {
+    return values_fit(frames, features, region, len);
+}
+
+/* detail contexts */
+#define N0 20 /* classes of the whole neighbourhood sum */
+#define N1 12 /* classes of the time and of the parent neighbourhood */
+#define BANDS 2
+#define C0 (BANDS * N0)
+#define C1 (BANDS * N1 * N1)
+#define FEAT 1024 /* per-feature contexts (feature index modulo this) */
+#define LEVELS 13
+#define C2 (LEVELS * FEAT)
+#define MAGS 16
+#define SIGNS 9
+
+typedef struct {
+    Counter gen[5][G_SIZE]; /* active flags (first 2 entries of set 0), exponents, regions, approximation */
+    Counter z0[C0], z1[C1], *z2;
+    Counter s0[SIGNS], *s2;
+    Counter m0[C0 * MAGS], m1[C1 * MAGS], *m2;
+    Counter mant[64 * 2];
+} Models;
+
+static int models_init(Models *m) {
+    counters_init(&m->gen[0][0], sizeof m->gen / sizeof(Counter));
+    counters_init(m->z0, C0);
+    counters_init(m->z1, C1);
+    counters_init(m->s0, SIGNS);
+    counters_init(m->m0, C0 * MAGS);
+    counters_init(m->m1, C1 * MAGS);
+    counters_init(m->mant, 64 * 2);
+    size_t n2 = (size_t)C2 * (1 + 1 + MAGS);
+    Counter *all = (Counter *)malloc(n2 * sizeof(Counter));
+    if (!all) return MRC_E_MEMORY;
+    counters_init(all, n2);
+    m->z2 = all;
+    m->s2 = all + C2;
+    m->m2 = all + 2 * C2;
+    return MRC_OK;
+}
+
+static void models_free(Models *m) { free(m->z2); }
+
+enum { GEN_ACTIVE = 0, GEN_FEXP = 1, GEN_REXP = 2, GEN_FIRST = 3, GEN_DIFF = 4 };
+
+#define LIMIT ((((int64_t)1) << MRC_MAX_BITS) - 1)
+
+/* one detail coefficient at row i (of n) of the band `cur` of level j, column c; parent rows `par` (np)
+ * of the next coarser band (`approx`: the approximation, whose neighbouring differences are the parents) */
+static int code_detail(Coder *c, Models *m, int64_t *cur, int64_t i, const int64_t *par, int64_t np,
+                       int approx, int64_t D, int64_t col, int j) {
+    int64_t *row = cur + i * D;
+    int64_t t1 = i >= 1 ? cap(row[col - D]) : 0;
+    int64_t t2 = i >= 2 ? cap(row[col - 2 * D]) : 0;
+    int64_t pa, pn, ps;
+    if (approx) {
+        int64_t k = i < np - 1 ? i : np - 1;
+        int64_t k2 = k + 1 < np - 1 ? k + 1 : np - 1;
+        pa = np > 1 ? cap(par[k2 * D + col] - par[k * D + col]) : 0;
+        pn = pa;
+        ps = 0;
+    } else {
+        int64_t k = i / 2 < np - 1 ? i / 2 : np - 1;
+        pa = cap(par[k * D + col]);
+        int64_t k2 = (i & 1) ? (k + 1 < np - 1 ? k + 1 : np - 1) : (k >= 1 ? k - 1 : 0);
+        pn = cap(par[k2 * D + col]);
+        ps = par[k * D + col];
+    }
+    int64_t r1 = col >= 1 ? cap(row[col - 1]) : 0;
+    int bc = j <= 1 ? 0 : 1;
+    int a0 = bc * N0 + qclass(3 * t1 + t2 + 2 * pa + pn + r1, N0);
+    int a1 = (bc * N1 + qclass(2 * t1 + t2, N1)) * N1 + qclass(2 * pa + pn, N1);
+    int a2 = (j < LEVELS - 1 ? j : LEVELS - 1) * FEAT + (int)(col % FEAT);
+    int64_t x = c->dec ? 0 : row[col];
+    uint64_t mag = x < 0 ? (uint64_t)(-x) : (uint64_t)x;
+    Counter *k[MIX_INPUTS];
+    k[0] = &m->z0[a0];
+    k[1] = &m->z1[a1];
+    k[2] = &m->z2[a2];
+    if (!code_mixed(c, k, 3, 0, mag != 0)) {
+        row[col] = 0;
+        return MRC_OK;
+    }
+    int sc = 3 * sign3(i >= 1 ? row[col - D] : 0) + sign3(ps);
+    k[0] = &m->s0[sc];
+    k[1] = &m->s2[a2];
+    int neg = code_mixed(c, k, 2, 1, x < 0);
+    int n = c->dec ? 0 : bitlen(mag);
+    int b = 1;
+    for (; b < MRC_MAX_BITS; b++) {
+        int q = b < MAGS - 1 ? b : MAGS - 1;
+        k[0] = &m->m0[a0 * MAGS + q];
+        k[1] = &m->m1[a1 * MAGS + q];
+        k[2] = &m->m2[(size_t)a2 * MAGS + q];
+        if (!code_mixed(c, k, 3, 2 + q, b < n)) break;
+    }
+    n = b;
+    uint64_t r = 1;
+    for (int s = n - 2; s >= 0; s--) {
+        int bit = c->dec ? 0 : (int)((mag >> s) & 1);
+        if (s >= n - 3)
+            bit = code_counter(c, &m->mant[2 * n + (n - 2 - s)], bit);
+        else
+            bit = code_raw(c, bit);
+        r = (r << 1) | (uint64_t)bit;
+    }
+    if (c->dec) row[col] = neg ? -(int64_t)r : (int64_t)r; /* r < 2 ** 62 */
+    return MRC_OK;
+}
+
+/* exponents, each as its difference from the previous one coded; where `active` (may be NULL) is 0 nothing is
+ * coded (0 on decoding) */
+static int code_exponents(Coder *c, Counter *set, int64_t *values, int64_t count, const uint8_t *active) {
+    int64_t last = 0;
+    for (int64_t i = 0; i < count; i++) {
+        if (active && !active[i]) {
+            if (c->dec) values[i] = 0;
+            continue;
+        }
+        int64_t v = c->dec ? 0 : values[i] - last;
+        code_sint(c, set, &v);
+        if (c->dec) {
+            if (v > 2 * MRC_MAX_EXPONENT || v < -2 * MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
+            values[i] = last + v;
+            if (values[i] > MRC_MAX_EXPONENT || values[i] < -MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
+        }
+        last = values[i];
+    }
+    return MRC_OK;
+}
+
+/* The body in both directions. Arrays: fexp (D), rexp (R), coef (F x D); on decoding they are written. */
+static int code_body(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef) {
+    Models m;
+    int e = models_init(&m);
+    if (e) return e;
+    uint8_t *active = (uint8_t *)calloc((size_t)D, 1);
+    if (!active) {
+        models_free(&m);
+        return MRC_E_MEMORY;
+    }
+    if (!c->dec) {
+        for (int64_t f = 0; f < F; f++)
+            for (int64_t d = 0; d < D; d++)
+                if (coef[f * D + d]) active[d] = 1;
+    }
+    int prev = 1;
+    for (int64_t d = 0; d < D; d++) {
+        active[d] = (uint8_t)code_counter(c, &m.gen[GEN_ACTIVE][prev], active[d]);
+        prev = active[d];
+    }
+    e = code_exponents(c, m.gen[GEN_FEXP], fexp, D, active);
+    if (!e) e = code_exponents(c, m.gen[GEN_REXP], rexp, R, NULL);
+    int64_t sizes[21];
+    int levels = mrc_level_sizes(F, sizes);
+    /* the approximation: its first row, then differences of consecutive rows */
+    for (int64_t i = 0; i < sizes[0] && !e; i++) {
+        for (int64_t d = 0; d < D && !e; d++) {
+            int64_t *at = &coef[i * D + d];
+            if (!active[d]) {
+                if (c->dec) *at = 0;
+                continue;
+            }
+            int64_t before = i ? at[-D] : 0;
+            int64_t v = c->dec ? 0 : *at - before;
+            code_sint(c, m.gen[i ? GEN_DIFF : GEN_FIRST], &v);
+            if (c->dec) {
+                if (v > 0 ? before > LIMIT - v : before < -LIMIT - v) e = MRC_E_MAGNITUDE;
+                else *at = before + v;
+            }
+        }
+    }
+    /* details, coarse to fine, row by row */
+    int64_t start = sizes[0], pstart = 0;
+    for (int b = 1; b <= levels && !e; b++) {
+        int j = levels - b + 1;
+        int64_t n = sizes[b], np = sizes[b - 1];
+        int64_t *cur = coef + start * D;
+        const int64_t *par = coef + pstart * D;
+        for (int64_t i = 0; i < n; i++) {
+            for (int64_t d = 0; d < D; d++) {
+                if (!active[d]) {
+                    if (c->dec) cur[i * D + d] = 0;
+                    continue;
+                }
+                code_detail(c, &m, cur, i, par, np, b == 1, D, d, j);
+            }
+        }
+        pstart = start;
+        start += n;
+    }
+    free(active);
+    models_free(&m);
+    return e;
+}
+
+int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
+               const int64_t *coef, uint8_t **out, size_t *out_len) {
+    *out = NULL;
+    *out_len = 0;
+    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
+        return MRC_E_ARGUMENT;
+    int64_t R = count_regions(F, region);
+    for (int64_t d = 0; d < D; d++)
+        if (fexp[d] > MRC_MAX_EXPONENT || fexp[d] < -MRC_MAX_EXPONENT) return MRC_E_ARGUMENT;
+    for (int64_t r = 0; r < R; r++)
+        if (rexp[r] > MRC_MAX_EXPONENT || rexp[r] < -MRC_MAX_EXPONENT) return MRC_E_ARGUMENT;
+    for (int64_t i = 0; i < F * D; i++)
+        if (coef[i] > LIMIT || coef[i] < -LIMIT) return MRC_E_ARGUMENT;
+    /* the body codes into a copy (code_detail writes the values it codes back, unchanged) */
+    int64_t *work = (int64_t *)malloc((size_t)(F * D) * sizeof(int64_t));
+    int64_t *fx = (int64_t *)malloc((size_t)D * sizeof(int64_t));
+    int64_t *rx = (int64_t *)malloc((size_t)R * sizeof(int64_t));
+    Tables *t = (Tables *)malloc(sizeof(Tables));
+    Enc enc;
+    enc_init(&enc);
+    int e = MRC_OK;
+    if (!work || !fx || !rx || !t) e = MRC_E_MEMORY;
+    if (!e) {
+        memcpy(work, coef, (size_t)(F * D) * sizeof(int64_t));
+        memcpy(fx, fexp, (size_t)D * sizeof(int64_t));
+        memcpy(rx, rexp, (size_t)R * sizeof(int64_t));
+        tables_init(t);
+        Coder c;
+        c.enc = &enc;
+        c.dec = NULL;
+        c.t = t;
+        mixer_init(&c.mix);
+        e = code_body(&c, F, D, R, fx, rx, work);
+        if (!e) enc_finish(&enc);
+        if (!e && enc.err) e = enc.err;
+    }
+    free(work);
+    free(fx);
+    free(rx);
+    free(t);
+    if (e) {
+        free(enc.buf);
+        return e;
+    }
+    uint8_t headb[16];
+    size_t h = write_varint(headb, (uint64_t)(F - 1));
+    h += write_varint(headb + h, (uint64_t)(D - 1));
+    h += write_varint(headb + h, (uint64_t)(region - 1));
+    size_t total = h + enc.len;
+    /* zero bytes at the end (the decoder reads zeros past the end in any case) until the values fit */
+    int64_t values = F * D + D + R;
+    size_t need = (size_t)((values + MRC_VALUES_PER_BYTE - 1) / MRC_VALUES_PER_BYTE);
+    if (total < need) total = need;
+    uint8_t *buf = (uint8_t *)calloc(total ? total : 1, 1);
+    if (!buf) {
+        free(enc.buf);
+        return MRC_E_MEMORY;
+    }
+    memcpy(buf, headb, h);
+    if (enc.len) memcpy(buf + h, enc.buf, enc.len);
+    free(enc.buf);
+    *out = buf;
+    *out_len = total;
+    return MRC_OK;
+}
+
+int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef) {
+    int64_t F, D, region;
+    size_t body;
+    int e = head(data, len, &F, &D, &region, &body);
+    if (e) return e;
+    if (!values_fit(F, D, region, len)) return MRC_E_TOO_MANY;
+    Tables *t = (Tables *)malloc(sizeof(Tables));
+    if (!t) return MRC_E_MEMORY;
+    tables_init(t);
+    Dec dec;
+    dec_init(&dec, data + body, len - body);
+    Coder c;
+    c.enc = NULL;
+    c.dec = &dec;
+    c.t = t;
+    mixer_init(&c.mix);
+    e = code_body(&c, F, D, count_regions(F, region), fexp, rexp, coef);
+    free(t);
+    if (e) return e;
+    /* the decoder reads as many bytes as the encoder wrote, of which at most the last 5 (the ending) are
+     * dropped zeros; every byte read, and what was not read must be zero padding */
+    if (dec.pos > dec.len + 5) return MRC_E_TRUNCATED;
+    for (size_t i = dec.pos; i < dec.len; i++)
+        if (data[body + i]) return MRC_E_TRAILING;
+    return MRC_OK;
+}

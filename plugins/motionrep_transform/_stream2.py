@@ -1,0 +1,82 @@
+"""The bytes of a ``transform`` payload of version 2: the same quantised wavelet coefficients as version 1
+(:class:`~._stream.Quantised`), coded by a compiled adaptive binary arithmetic coder with context mixing
+(:mod:`._ccoder`, plain C in ``_c/mrcoder.c``). Layout and models in ``specs/codecs.md`` ("Payload version 2").
+
+Compared with version 1 (static models fitted per clip and stored, pass-parallel range decoding): the models
+adapt as the clip is decoded, so none is stored; each coefficient's zero flag, sign and magnitude bits are
+predicted from three contexts at once (its neighbourhood in time and in the coarser level, the same with the
+time and parent parts apart, and the feature itself at that level), mixed by weights that adapt too; features
+whose coefficients are all zero are flagged once and cost nothing more (not even their step exponent).
+10-15 % fewer bytes on the CMU clips at every bound (``benchmarks/results/rate_coding.md``), lossless: the same
+integers, so the same decoded motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from motionrep.errors import PayloadError
+
+from . import _ccoder
+from ._stream import Quantised
+from ._wavelet import level_sizes, num_levels
+
+__all__ = ["pack", "unpack", "declared", "VALUES_PER_BYTE"]
+
+#: ``F * D + D + R`` of a payload is at most this many times its bytes (the encoder pads with zero bytes when a
+#: clip of nearly constant features would code in fewer), so a header cannot make the decoder allocate or work
+#: out of proportion to the data.
+VALUES_PER_BYTE = 4096
+
+
+def _fail(exc: ValueError) -> PayloadError:
+    return PayloadError(f"transform payload (version 2): {exc}")
+
+
+def pack(q: Quantised) -> bytes:
+    """The version-2 payload bytes of ``q``.
+
+    Raises:
+        ValueError: for values the format cannot hold (the encoder's search never produces them).
+    """
+    F, D = int(q.num_frames), int(q.num_features)
+    coef = np.ascontiguousarray(np.concatenate([np.asarray(c, np.int64) for c in q.coefficients], axis=0))
+    return _ccoder.encode(F, D, int(q.region_frames), np.ascontiguousarray(q.feature_exponents, np.int64),
+                          np.ascontiguousarray(q.region_exponents, np.int64), coef)
+
+
+def declared(data: bytes) -> tuple[int, int, int]:
+    """``(frames F, features D, region frames)`` the head of version-2 payload bytes declares (nothing else is
+    decoded), for ``Codec.check_payload``.
+
+    Raises:
+        PayloadError: for a malformed head (a count out of its range).
+    """
+    try:
+        F, D, region = _ccoder.declared(data)
+    except ValueError as exc:
+        raise _fail(exc) from None
+    return int(F), int(D), int(region)
+
+
+def unpack(data: bytes) -> Quantised:
+    """The :class:`~._stream.Quantised` content of version-2 payload bytes. A feature whose coefficients are all
+    zero gets the step exponent 0 (its step is not stored: it decodes to zeros at any step).
+
+    Raises:
+        PayloadError: for damaged or inconsistent data (one line saying what).
+    """
+    F, D, region = declared(data)
+    if F * D + D + -(-F // region) > VALUES_PER_BYTE * len(data):  # before anything is allocated
+        raise PayloadError(f"transform payload (version 2): {F} frames x {D} features cannot be held in "
+                           f"{len(data)} bytes (damaged data)")
+    fexp = np.empty(D, np.int64)
+    rexp = np.empty(-(-F // region), np.int64)
+    coef = np.empty((F, D), np.int64)
+    try:
+        _ccoder.decode(data, fexp, rexp, coef)
+    except ValueError as exc:
+        raise _fail(exc) from None
+    sizes = level_sizes(F, num_levels(F))
+    bounds = np.cumsum([0] + sizes)
+    return Quantised(F, D, region, fexp, rexp, [coef[a:b] for a, b in zip(bounds[:-1], bounds[1:])])
