@@ -2,8 +2,8 @@
  *
  *   Plan(plan_i, plan_f)                       a packed PosePlan, checked once
  *   Plan.run(X, count, check_finite, rot, root, moved) -> status
- *   Runtime(plan, sampler, width, block)       a clip opened for sampling: the codec's C sampler (a capsule, see
- *                                              motionrep/sampler.h) or None, and the plan
+ *   Runtime(plan, sampler, width, block, pose=None)   a clip opened for sampling: the codec's C sampler (a capsule,
+ *                                              see motionrep/sampler.h), the plan or None, the class of a pose
  *   Runtime.poses(u, rot, root, moved) -> status     every block of times, codec then plan, without Python
  *   Runtime.pose_new(t, per_second, f32, P) -> arrays or status    one time in seconds, checked and clamped here,
  *                                                                    into fresh numpy arrays
@@ -191,12 +191,14 @@ typedef struct {
     Py_ssize_t width, block;
     double *X;              /* one block's features, feature-major (width, block) */
     double *stage;          /* one sub-block's rotations, streamed out for large batches (mr_plan_run) */
+    PyTypeObject *pose;     /* or NULL: the class pose_new makes (its three fields set as object.__setattr__ does) */
 } RuntimeObject;
 
 static void Runtime_dealloc(RuntimeObject *self)
 {
     Py_XDECREF(self->plan);
     Py_XDECREF(self->capsule);
+    Py_XDECREF(self->pose);
     free(self->X);
     free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
@@ -204,11 +206,15 @@ static void Runtime_dealloc(RuntimeObject *self)
 
 static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 {
-    PyObject *plan, *capsule;
+    PyObject *plan, *capsule, *pose = Py_None;
     Py_ssize_t width, block;
-    static char *names[] = {"plan", "sampler", "width", "block", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn", names, &plan, &capsule, &width, &block))
+    static char *names[] = {"plan", "sampler", "width", "block", "pose", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn|O", names, &plan, &capsule, &width, &block, &pose))
         return -1;
+    if (pose != Py_None && !PyType_Check(pose)) {
+        PyErr_SetString(PyExc_TypeError, "pose must be a class or None");
+        return -1;
+    }
     if (self->capsule) {
         PyErr_SetString(PyExc_TypeError, "Runtime is initialised once");
         return -1;
@@ -236,6 +242,10 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
     }
     self->sampler = s;
     self->width = width;
+    if (pose != Py_None) {
+        Py_INCREF(pose);
+        self->pose = (PyTypeObject *)pose;
+    }
     self->block = block;
     Py_INCREF(capsule);
     self->capsule = capsule;
@@ -304,6 +314,9 @@ static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
     return PyLong_FromLong(status);
 }
 
+/* the fields of the pose class, interned at import */
+static PyObject *FIELDS[3];
+
 /* pose_new(t, per_second, f32, P) -> (rotations, root_translation, joint_translations) or a status: the pose at t
  * seconds (a number; t * per_second clamped to [0, 1]) in fresh numpy arrays, (J, 4) float32 or float64, (3,),
  * (P, 3); status 201: t is not a number, 202: not finite (t * per_second), else a run_blocks status */
@@ -356,7 +369,18 @@ static PyObject *Runtime_pose_new(RuntimeObject *self, PyObject *const *args, Py
         Py_DECREF(out);
         return PyLong_FromLong(status);
     }
-    return out;
+    if (!self->pose)
+        return out;
+    PyObject *pose = self->pose->tp_alloc(self->pose, 0);  /* as object.__new__(Pose) and object.__setattr__ */
+    int bad = !pose;
+    for (int k = 0; k < 3 && !bad; k++)
+        bad = PyObject_GenericSetAttr(pose, FIELDS[k], PyTuple_GET_ITEM(out, k)) < 0;
+    Py_DECREF(out);
+    if (bad) {
+        Py_XDECREF(pose);
+        return NULL;
+    }
+    return pose;
 }
 
 static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
@@ -392,8 +416,8 @@ static PyMethodDef Runtime_methods[] = {
     {"poses", (PyCFunction)Runtime_poses, METH_VARARGS,
      "poses(u, rot, root, moved) -> status: the poses at normalised times u (T,) float64."},
     {"pose_new", (PyCFunction)(void (*)(void))Runtime_pose_new, METH_FASTCALL,
-     "pose_new(t, per_second, f32, P) -> (rotations, root, moved) or status: one pose at t seconds in fresh arrays "
-     "(201: t is no number, 202: not finite)."},
+     "pose_new(t, per_second, f32, P) -> a pose (the Runtime's pose class, else a tuple of its three arrays) or a "
+     "status: one pose at t seconds in fresh arrays (201: t is no number, 202: not finite)."},
     {"features", (PyCFunction)Runtime_features, METH_VARARGS,
      "features(u, X) -> status: the codec's features at u (T,) into the feature-major X (D, >= T)."},
     {NULL, NULL, 0, NULL}};
@@ -403,7 +427,7 @@ static PyTypeObject RuntimeType = {
     .tp_basicsize = sizeof(RuntimeObject),
     .tp_dealloc = (destructor)Runtime_dealloc,
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "Runtime(plan, sampler, width, block): a codec's C sampler and a pose plan, run block by block.",
+    .tp_doc = "Runtime(plan, sampler, width, block, pose=None): a codec's C sampler and a pose plan, run block by block.",
     .tp_methods = Runtime_methods,
     .tp_init = (initproc)Runtime_init,
     .tp_new = PyType_GenericNew,
@@ -416,6 +440,10 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit__cplan(void)
 {
     import_array();
+    static const char *fields[3] = {"rotations", "root_translation", "joint_translations"};
+    for (int k = 0; k < 3; k++)
+        if (!(FIELDS[k] = PyUnicode_InternFromString(fields[k])))
+            return NULL;
     if (PyType_Ready(&PlanType) < 0 || PyType_Ready(&RuntimeType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);

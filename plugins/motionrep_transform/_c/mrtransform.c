@@ -491,6 +491,24 @@ static int decode_pass(mrt_range_decoder *rd, const mrt_model *models, const int
     return MRT_OK;
 }
 
+/* q's counts for F frames and D features in regions of `region` frames (accepted against the payload's size), its
+ * exponent arrays allocated, and its coefficients' too with `coefficients` */
+static int head_into(mrt_quantised *q, uint64_t F, uint64_t D, uint64_t region, int coefficients, mrt_status *st)
+{
+    q->frames = F;
+    q->features = D;
+    q->region_frames = region;
+    q->regions = (F + region - 1) / region;
+    q->levels = mrt_levels(F, q->sizes);
+    q->feature_exponents = malloc(D * sizeof(int64_t));
+    q->region_exponents = malloc(q->regions * sizeof(int64_t));
+    if (coefficients)
+        q->coefficients = malloc(F * D * sizeof(int64_t));
+    if (!q->feature_exponents || !q->region_exponents || (coefficients && !q->coefficients))
+        return fail(st, MRT_NO_MEMORY, "out of memory");
+    return MRT_OK;
+}
+
 /* The head of a version-1 payload: counts (checked against what the bytes can hold), step exponents. */
 static int parse_head_v1(mrt_range_decoder *rd, size_t size, mrt_quantised *q, mrt_status *st)
 {
@@ -504,15 +522,8 @@ static int parse_head_v1(mrt_range_decoder *rd, size_t size, mrt_quantised *q, m
     if (F * D + D + regions > mrt_max_values(size))
         return fail(st, MRT_DAMAGED, "transform payload: %llu frames x %llu features cannot be held in %zu bytes "
                     "(damaged data)", (unsigned long long)F, (unsigned long long)D, size);
-    q->frames = F;
-    q->features = D;
-    q->region_frames = region;
-    q->regions = regions;
-    q->levels = mrt_levels(F, q->sizes);
-    q->feature_exponents = malloc(D * sizeof(int64_t));
-    q->region_exponents = malloc(regions * sizeof(int64_t));
-    if (!q->feature_exponents || !q->region_exponents)
-        return fail(st, MRT_NO_MEMORY, "out of memory");
+    if (head_into(q, F, D, region, 0, st))
+        return st->code;
     if (decode_exponents(rd, D, q->feature_exponents, st) || decode_exponents(rd, regions, q->region_exponents, st))
         return st->code;
     if (F * D > UINT32_MAX)  /* more than 32 GiB of coefficients: no machine holds them */
@@ -624,16 +635,8 @@ static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, mrt_sta
     if (F * D + D + regions > (uint64_t)MRC_VALUES_PER_BYTE * size)  /* before anything is allocated */
         return fail(st, MRT_DAMAGED, "transform payload (version 2): %llu frames x %llu features cannot be held in %zu "
                     "bytes (damaged data)", (unsigned long long)F, (unsigned long long)D, size);
-    q->frames = F;
-    q->features = D;
-    q->region_frames = region;
-    q->regions = regions;
-    q->levels = mrt_levels(F, q->sizes);
-    q->feature_exponents = malloc(D * sizeof(int64_t));
-    q->region_exponents = malloc(regions * sizeof(int64_t));
-    q->coefficients = malloc(F * D * sizeof(int64_t));
-    if (!q->feature_exponents || !q->region_exponents || !q->coefficients)
-        return fail(st, MRT_NO_MEMORY, "out of memory");
+    if (head_into(q, F, D, region, 1, st))
+        return st->code;
     int e = mrc_decode(data, size, q->feature_exponents, q->region_exponents, q->coefficients);
     if (e == MRC_E_MEMORY)
         return fail(st, MRT_NO_MEMORY, "out of memory");
