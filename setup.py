@@ -1,7 +1,7 @@
 """The compiled extensions (C, built by the machine's C compiler when motionrep is installed); the package's
 metadata is in pyproject.toml.
 
-Every extension is compiled with the same flags: ``-O3`` (loops vectorised), ``-ffp-contract=off`` and
+Every extension is compiled with the same flags: ``-std=c11``, ``-O3`` (loops vectorised), ``-ffp-contract=off`` and
 ``-fno-fast-math`` (every floating-point operation is one IEEE operation, in the order the source writes it, no
 product and sum fused into one: a value is the same bits on any x86-64 or aarch64 CPU, in a vector lane or
 alone), ``-fno-math-errno`` and ``-fno-trapping-math`` (``sqrt`` without its ``errno`` branch, selects instead of
@@ -15,12 +15,19 @@ import numpy
 from setuptools import Extension, setup
 
 #: the flags every extension is compiled with (see above)
-FLAGS = ["-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-math-errno", "-fno-trapping-math"]
+FLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-math-errno", "-fno-trapping-math"]
 #: motionrep's installed C headers (mrkernels.h, sampler.h, pybuf.h)
 INCLUDE = ["motionrep/_c/include"]
 TRANSFORM = "plugins/motionrep_transform/_c"
 
 setup(ext_modules=[
+    # BVH numbers and writer, FK, rotation conversions and continuity (motionrep.io, motionrep.model)
+    Extension("motionrep._ccore",
+              sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
+                       "motionrep/_c/fk.c", "motionrep/_c/rotations.c"],
+              depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
+                       "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
+              extra_compile_args=FLAGS),
     # the pose plan and the runtime decoder's loop (motionrep.model.poseplan, motionrep.pipeline.runtime)
     # (numpy's C API: the one-pose path makes its fresh arrays in C)
     Extension("motionrep._cplan", sources=["motionrep/_c/plan/plan.c", "motionrep/_c/plan/module.c"],

@@ -415,7 +415,7 @@ def entropy(args: argparse.Namespace) -> None:
 
     from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
-    from motionrep_transform._codec import unpack
+    from motionrep_transform._decoder import unpack
 
     try:
         import zstandard

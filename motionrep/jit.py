@@ -23,13 +23,10 @@ prints :data:`COMPILE_NOTICE` on stderr, once, before the several seconds it tak
 prints nothing, and nor does a process whose environment sets :data:`NOTICE_ENV` to ``0`` (``--quiet``).
 
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
-There is no second, pure-numpy copy of a computation, with two measured exceptions.  Reading BVH text (its number
-parser and its Euler angles to quaternions) has a numpy path, bit-identical to the kernels (tested side by
-side), that a process uses until it has read enough text to win back numba's start-up (``motionrep.io._numbers
-.use_compiled``), so that ``motionrep info clip.bvh`` and other one-clip processes never import numba;
-:func:`sincos_numpy` is :func:`sincos` for it.  Writing BVH frame values is the mirror case: a numpy writer
-(``motionrep.io._bvh._format_shortest``) for processes without numba, and a compiled one
-(``motionrep.io._shortest``, the same bytes, tested side by side) once numba is loaded or for very large clips.
+motionrep's own core (reading and writing BVH, FK, the rotation conversions) no longer compiles anything at run
+time: it is C, compiled when motionrep is installed (``motionrep._ccore``, ``motionrep/_c/``), and imports no
+numba.  What still runs through this module: the pose plan (``motionrep.model.poseplan``) and the shipped codecs'
+decoders, until they move to C too (issue 24).
 Plugins (shipped or third-party) may compile their own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
 from Python (the runtime decoder, block after block, for a third-party codec's kernel) can take
@@ -45,7 +42,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "sincos_numpy", "affine_block", "affine_one",
+__all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "affine_block", "affine_one",
            "COMPILE_NOTICE", "NOTICE_ENV"]
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
@@ -163,8 +160,8 @@ def jit_inline(func: Callable) -> LazyKernel:
 
 @jit_inline
 def _sincos_reduced(x):
-    """``(quadrant, sin r, cos r)`` for ``x = r + quadrant pi / 2`` (quadrant 0-3): the arithmetic shared by
-    :func:`sincos` (compiled, scalars) and :func:`sincos_numpy` (arrays); no branch, so it runs on either."""
+    """``(quadrant, sin r, cos r)`` for ``x = r + quadrant pi / 2`` (quadrant 0-3), the reduction and kernels of
+    :func:`sincos`; ``motionrep/_c/mr_rotconv.h`` is the same arithmetic in C."""
     n = np.floor(x * 0.6366197723675814 + 0.5)
     r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21
     z = r * r
@@ -193,19 +190,6 @@ def sincos(x):
     if quadrant >= 2.0:
         return -s1, -c1
     return s1, c1
-
-
-def sincos_numpy(x):
-    """:func:`sincos` on a float64 numpy array, bit for bit: the same operations in the same order, each IEEE in
-    numpy as in the kernel (neither contracts a product and a sum into one fused operation; ``tests/test_bvh_paths
-    .py`` compares the two)."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        quadrant, s, c = _sincos_reduced.py_func(x)
-    odd = (quadrant == 1.0) | (quadrant == 3.0)
-    s1 = np.where(odd, c, s)
-    c1 = np.where(odd, -s, c)
-    upper = quadrant >= 2.0
-    return np.where(upper, -s1, s1), np.where(upper, -c1, c1)
 
 
 @jit_inline

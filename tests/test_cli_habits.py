@@ -230,13 +230,21 @@ def _tops(modules: set[str]) -> set[str]:
 
 
 def test_help_and_info_start_light(walk):
-    """`motionrep --help` imports no numpy; `motionrep info walk.bvh` none of numba (a small file is read by the
-    numpy path of the BVH reader), scipy, h5py, torch, matplotlib or pygltflib.  The start-up budget is 0.3 s
-    (benchmarks/startup.py)."""
+    """`motionrep --help` imports no numpy; `motionrep info walk.bvh` none of numba (the BVH reader is compiled C),
+    scipy, h5py, torch, matplotlib or pygltflib.  The start-up budget is 0.3 s (benchmarks/startup.py)."""
     heavy = {"scipy", "h5py", "torch", "matplotlib", "pygltflib", "numba", "constriction", "pluggy", "numpy"}
     assert not _tops(_imported_by(["--help"])) & heavy
     info = _imported_by(["info", str(walk)])
     assert not _tops(info) & (heavy - {"numpy"})
+
+
+def test_evaluating_and_converting_bvh_import_no_numba(tmp_path, walk):
+    """The BVH reader and writer and FK are the compiled core (C, built at install time): `evaluate` of two BVH
+    files and `convert` to BVH and to NPZ import neither numba nor llvmlite (`evaluate` imported numba for FK)."""
+    for args in (["evaluate", str(walk), str(walk)], ["convert", str(walk), str(tmp_path / "w.bvh")],
+                 ["convert", str(walk), str(tmp_path / "w.npz")]):
+        assert not _tops(_imported_by(args)) & {"numba", "llvmlite", "torch"}, args
+    assert (tmp_path / "w.bvh").exists() and (tmp_path / "w.npz").exists()
 
 
 def test_info_on_hdf5_leaves_h5py_to_the_reader_process(tmp_path, walk):

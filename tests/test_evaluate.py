@@ -158,3 +158,39 @@ def test_context_feature_sensitivity():
     np.testing.assert_allclose(col["j2/aa_z"], 10.0, rtol=1e-4)
     assert np.all(col["j2/aa_y"] < 1e-4)
     np.testing.assert_allclose(col["j1/aa_x"], 20.0, rtol=1e-4)
+
+
+@pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"])
+def test_the_context_decodes_through_the_plan_with_the_motions_bits(name):
+    """``frame_errors`` and ``feature_sensitivity`` decode through the representation's pose plan into pose arrays
+    (fixed translation axes set by the plan) and FK them, without building a Motion: the same bits as the Motion
+    path (``from_features``, ``fixed_axes_restored``, ``global_positions``, numpy's distances), which a context
+    without a plan takes.  Scalar IEEE float64 in both, no fused multiply-add: compared bitwise."""
+    from motionrep import Skeleton
+    from motionrep.pipeline.evaluate import MotionContext
+    from motionrep.plugin.registry import get_codec, get_representation
+
+    sk = humanoid_skeleton()
+    chans = list(sk.channels)
+    chans[0] = ("Xposition", "Zposition") + tuple(c for c in chans[0] if c.endswith("rotation"))  # Y fixed
+    chans[5] = ("Yposition",) + tuple(c for c in chans[5] if c.endswith("rotation"))  # a joint moving on Y only
+    sk = Skeleton(sk.names, sk.parents, sk.offsets, tuple(chans), sk.end_site_parents, sk.end_site_offsets)
+    m = synthetic_motion(sk, frames=50, seed=4)
+    rep = get_representation(name)
+    fast = MotionContext(m, rep, get_codec("svd"), None)
+    slow = MotionContext(m, rep, get_codec("svd"), None)
+    assert fast._plan is not None
+    slow._plan = None  # the Motion path
+    f = rep.to_features(m) + np.random.default_rng(1).normal(scale=1e-2, size=(50, rep.width(sk)))
+    for a, b in ((fast.frame_errors(f), slow.frame_errors(f)), (fast.frame_errors(f[7:19], 7),
+                                                                slow.frame_errors(f[7:19], 7)),
+                 (fast.feature_sensitivity(f), slow.feature_sensitivity(f))):
+        assert a.dtype == b.dtype == np.float64 and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+    assert fast.evaluations == slow.evaluations == 4
+    # the per-frame errors are the report's distances: the report's maximum, bit for bit
+    assert fast.frame_errors(f).max() == fast.evaluate(f).max_error
+    bad = f.copy()
+    bad[3, 5] = np.nan
+    for ctx in (fast, slow):
+        with pytest.raises(ValidationError):
+            ctx.frame_errors(bad)

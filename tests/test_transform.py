@@ -177,11 +177,16 @@ def test_damaged_payloads_give_clean_errors(walk):
 
 
 def test_same_input_gives_identical_bytes_across_processes_and_threads(walk):
+    """The whole search (region exponents, then the slack spent: here it moves coefficients) gives the same bytes
+    in fresh processes with one and two BLAS threads as in this one."""
     code = ("import sys; from motionrep.testing import humanoid_skeleton, synthetic_motion; "
             "from motionrep.pipeline.compress import compress_motion; "
             "m = synthetic_motion(humanoid_skeleton(), frames=150, fps=60, seed=3); "
             "sys.stdout.buffer.write(compress_motion(m, 'transform', max_error='1%').data)")
-    here = compress_motion(walk, "transform", max_error="1%").data
+    events = []
+    here = compress_motion(walk, "transform", max_error="1%",
+                           progress=lambda stage, fields: events.append((stage, dict(fields)))).data
+    assert [f["moved"] for stage, f in events if stage == "slack"][0] > 0
     runs = []
     for threads in ("1", "2"):
         env = dict(__import__("os").environ, OPENBLAS_NUM_THREADS=threads, OMP_NUM_THREADS=threads,
@@ -214,6 +219,20 @@ QUICK_CLIPS = ["cmu/bvh-matlab/walk.bvh", "other/bvh-toolbox/walk01.bvh",
 @pytest.mark.parametrize("rel", QUICK_CLIPS)
 def test_bound_on_real_clips_through_bvh(rel, max_error, tmp_path):
     assert _verify_through_bvh(SHARED_DATA / rel, tmp_path, max_error) <= float(max_error.rstrip("%"))
+
+
+@requires_shared
+@pytest.mark.realdata
+@pytest.mark.parametrize("max_error", ["2%", "0.0588%"])
+def test_the_slack_saves_bytes_on_a_real_clip_within_the_bound_through_bvh(max_error, tmp_path):
+    """Spending the slack (the default) writes fewer bytes than keeping the rounded integers (slack=0), and the
+    file still meets the bound after a round trip through BVH text."""
+    src = SHARED_DATA / "cmu/pybvh/cmu_12_01_walk.bvh"
+    kept = compress_file(src, None, "transform", max_error=max_error, params={"slack": 0})
+    spent = compress_file(src, tmp_path / "s.mrc", "transform", max_error=max_error)
+    assert spent.container.payload_bytes < kept.container.payload_bytes
+    decompress_file(tmp_path / "s.mrc", tmp_path / "s.bvh")
+    assert max_joint_error(read(src), read(tmp_path / "s.bvh")).max_error <= spent.bound
 
 
 @pytest.mark.slow

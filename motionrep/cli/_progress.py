@@ -114,7 +114,7 @@ class BatchProgress:
         self.activity = f"{name}: {text}"
 
     def _heartbeat(self) -> None:
-        while not self._stop.wait(0.25):
+        while not self._stop.wait(min(0.25, self.every / 2)):  # polls often enough for a short `every`
             now = time.monotonic()
             with self._lock:
                 if self.count >= self.total:

@@ -3,8 +3,8 @@
 The format, and the conventions motionrep applies where BVH files disagree, are in ``specs/formats/bvh.md``.
 In short: rotation channels are intrinsic Euler angles in degrees in the order listed; a position channel
 replaces that axis of the joint's OFFSET; CRLF, CR, tabs, scientific notation, namespaced names
-(``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk, by compiled loops or,
-while a process has read little, by numpy (see :func:`parse_bvh`).
+(``mixamorig:Hips``) and one-frame files are accepted.  The MOTION block is parsed in bulk and its Euler angles
+converted to quaternions by compiled loops (C, ``motionrep._ccore``), and the frame values are written back by one.
 Every problem raises :class:`~motionrep.errors.BVHFormatError` naming the file and the line.
 
 Size: one concern, the BVH format; the reader and the writer are kept together because each is the other's
@@ -27,8 +27,8 @@ from ..limits import check_clip
 from ..model.rotations import euler_branch, euler_columns, euler_columns_to_quat, euler_to_quat, quat_to_euler_continuous
 from ._atomic import atomic_path
 from ._files import read_regular
-from ._numbers import _python_float, first_control_byte, scan_block, use_compiled
-from ._plain_rows import parse_plain_rows
+from ._numbers import _python_float, first_control_byte, scan_block
+from ._shortest import format_shortest
 
 __all__ = ["read_bvh", "parse_bvh", "write_bvh", "format_bvh", "channel_values"]
 
@@ -268,14 +268,8 @@ def _decode(data: bytes, path) -> bytes:
     return data
 
 
-def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None, *, compiled: bool | None = None
-              ) -> Motion:
+def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None) -> Motion:
     """Parse BVH text (bytes or str) into a Motion; ``path`` is only used in error messages.
-
-    ``compiled``: parse the frame block and convert its Euler angles with the compiled loops (True) or with numpy
-    (False); None (the default) lets :func:`motionrep.io._numbers.use_compiled` choose by the text's size and
-    whether numba is already loaded.  Both give identical motions and errors; the numpy path spares a process
-    that reads one typical clip numba's start-up (seconds) at the cost of a slower parse.
 
     Raises:
         BVHFormatError: naming ``path`` and the line.
@@ -309,10 +303,8 @@ def parse_bvh(data: bytes | str, path: str | os.PathLike[str] | None = None, *, 
                          angles=sum(len(o) for o in skeleton.rotation_orders))
     if too_big:
         raise BVHFormatError(too_big, path, frames_line)
-    if compiled is None:
-        compiled = use_compiled(len(data) - block_start)
-    values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path, compiled)
-    return _motion_from_channels(skeleton, values, 1.0 / frame_time, compiled)
+    values = _parse_block(data, block_start, block_line, frames, skeleton.num_channels, path)
+    return _motion_from_channels(skeleton, values, 1.0 / frame_time)
 
 
 def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tuple[int, float, int, int, int]:
@@ -361,21 +353,15 @@ def _parse_motion_header(rest: bytes, start: int, motion_line: int, path) -> tup
     return frames, frame_time, min(pos, len(rest)), line_no + 1, found["Frames"][1]
 
 
-def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels: int,
-                 path, compiled: bool = True) -> NDArray[np.float64]:
+def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels: int, path) -> NDArray[np.float64]:
     """Parse the frame lines ``data[start:]`` in bulk; ``(frames, channels)`` values.
 
     Errors name the offending line.
     """
-    if not compiled and channels:  # plain decimal frame lines: whole-array parsing, exact (else the exact path)
-        plain = parse_plain_rows(data[start:], frames, channels)
-        if plain is not None:
-            return plain.reshape(frames, channels)
     u = np.frombuffer(data, np.uint8, offset=start)
     # room for the rows the bytes could hold (a value and a separator are two bytes at least), not for what
     # Frames: declares: a short file declaring a million frames is refused as truncated, not given the memory
-    scan = scan_block(u, channels, min(frames, u.shape[0] // (2 * channels) + 1) if channels else frames,
-                      compiled=compiled)
+    scan = scan_block(u, channels, min(frames, u.shape[0] // (2 * channels) + 1) if channels else frames)
     if channels == 0:
         if scan.rows:
             raise BVHFormatError("the skeleton has no channels but the frame lines hold values", path,
@@ -403,7 +389,7 @@ def _parse_block(data: bytes, start: int, first_line: int, frames: int, channels
     return scan.values.reshape(frames, channels)
 
 
-def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float, compiled: bool = True) -> Motion:
+def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float) -> Motion:
     """Build a Motion from ``(F, C)`` channel values laid out as the skeleton's channels."""
     F = values.shape[0]
     J = skeleton.num_joints
@@ -437,13 +423,12 @@ def _motion_from_channels(skeleton: Skeleton, values: NDArray, fps: float, compi
         positions, axes = euler_columns([skeleton.rotation_orders[j] for j in rot_joints])
         columns = np.array([[cols[k] if k >= 0 else -1 for k in ks] for cols, ks in zip(rot_cols, positions.tolist())],
                            np.int64)  # a joint's rotation channels need not be next to each other
-        euler_columns_to_quat(values, columns, axes, np.array(rot_joints, np.int64), rotations, degrees=True,
-                              compiled=compiled)
+        euler_columns_to_quat(values, columns, axes, np.array(rot_joints, np.int64), rotations, degrees=True)
     for order, (joints, cols) in by_order.items():
         branch[:, joints] = euler_branch(values[:, np.array(cols)], order, degrees=True)
-    root = np.ascontiguousarray(translations[:, 0])
-    moved = np.ascontiguousarray(translations[:, 1:])
-    angles = values[:, _rotation_columns(skeleton)]  # the file's very angles, for writing them back
+    root = translations[:, 0].copy()  # fresh, C-contiguous arrays: Motion keeps them without copying
+    moved = translations[:, 1:].copy()
+    angles = np.take(values, _rotation_columns(skeleton), axis=1)  # the file's very angles, for writing them back
     for a in (root, rotations, moved, angles):
         a.flags.writeable = False  # fresh and immutable: Motion keeps them without copying
     return Motion(skeleton, fps, root, rotations, moved, euler_branch=branch, euler_angles=angles)
@@ -596,7 +581,7 @@ def _bvh_bytes(motion: Motion, decimals: int | None) -> bytes:
     if values.shape[1] == 0:
         return (header + "\n" * motion.num_frames).encode("utf-8")
     if decimals is None:
-        return header.encode("utf-8") + _shortest_text(values)
+        return header.encode("utf-8") + format_shortest(values)
     scale = 10.0 ** decimals
     # + 0.0 turns -0.0 into 0.0; values too large to have digits at 10**-decimals are kept (rounding them could
     # overflow to inf)
@@ -628,132 +613,6 @@ def _frame_time(fps: float) -> str:
         if 1.0 / float(text) == fps:
             return text
     return repr(t)
-
-
-_MAX_SAFE = 2.0 ** 53  # integers below this are exact doubles
-_POW10 = 10.0 ** np.arange(18)
-_SHORTEST_CHUNK = 1 << 15  # values per chunk in _format_shortest
-_WIDTH = 26  # bytes per value row in _format_shortest: the longest repr() of a double (24) and a separator
-
-
-def _shortest_decimals(a: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """For magnitudes ``a``: the fewest decimals ``d`` (0..17) and the integer ``m`` (< 2**53) such that the decimal
-    ``m * 10**-d`` reads back as ``a`` exactly; ``d = -1`` where there is none.
-
-    ``m / 10**d`` with ``m < 2**53`` and ``d <= 22`` is one correctly rounded division of two exact doubles, so it
-    is the double nearest the decimal: what every correct reader (``float``, ``strtod``) returns for it.
-    """
-    d = np.full(a.shape, -1, np.int64)
-    m = np.zeros(a.shape)
-    small = np.minimum(a, _MAX_SAFE)  # larger values have no such decimal (they go to repr)
-    cand = np.empty(a.shape)
-    for k in range(18):
-        np.multiply(small, _POW10[k], out=cand)
-        np.rint(cand, out=cand)
-        ok = (cand < _MAX_SAFE) & (cand / _POW10[k] == a) & (d < 0)
-        d[ok] = k
-        m[ok] = cand[ok]
-        if not (d < 0).any():
-            break
-    return d, m
-
-
-#: Values from which a process without numba imports it to write them (compiled: about 0.25 us a value against
-#: 0.6-0.8 us for the numpy path on a clip of computed angles, measured 2026-12-02 on the shared 2-core machine at
-#: load 4-5; numba's start-up, 1-2 s, is won back after about 4 million values, a 20-minute 52-joint clip at 60 fps)
-COMPILED_WRITE_VALUES = 4_000_000
-
-
-def _shortest_text(values: NDArray[np.float64]) -> bytes:
-    """:func:`_format_shortest`'s bytes, by the compiled kernel (``motionrep.io._shortest``) when this process has
-    numba loaded already or the clip is large (:data:`COMPILED_WRITE_VALUES`), else by numpy: the same bytes either
-    way (tested), so the choice only changes the time."""
-    from ..jit import numba_loaded
-
-    if numba_loaded() or values.size >= COMPILED_WRITE_VALUES:
-        from ._shortest import format_shortest_compiled
-
-        return format_shortest_compiled(values)
-    return _format_shortest(values)
-
-
-def _format_shortest(values: NDArray[np.float64]) -> bytes:
-    """``values`` ``(F, C)`` as lines of single-space separated numbers, each the shortest decimal (fixed point,
-    at most 17 decimals and 16 significant digits) that reads back to the same double, ``-0`` for negative zero;
-    a value that needs more digits is written with ``repr`` (17 significant digits, exponent form when Python
-    uses it).  Never ``inf`` for a finite value.
-
-    Built with whole-array operations: values are grouped by their number of decimals; each group's digits are
-    made column by column, right-aligned in ``_WIDTH``-byte rows ending with the separator, and the padding is
-    dropped with one boolean selection.
-    """
-    F, C = values.shape
-    flat = values.ravel()
-    pieces = []
-    cols = np.arange(_WIDTH)
-    for a in range(0, flat.shape[0], _SHORTEST_CHUNK):
-        v = flat[a:a + _SHORTEST_CHUNK]
-        n = v.shape[0]
-        d, m = _shortest_decimals(np.abs(v))
-        negative = np.signbit(v)
-        rows = np.empty((n, _WIDTH), np.uint8)
-        start = np.empty(n, np.int64)
-        for k in np.unique(d).tolist():
-            idx = np.flatnonzero(d == k)
-            if k < 0:
-                rows[idx], start[idx] = _repr_rows(v[idx])
-            else:
-                rows[idx], start[idx] = _fixed_rows(m[idx], negative[idx], k)
-        rows[:, _WIDTH - 1] = np.where((np.arange(a, a + n) % C) == C - 1, 10, 32)
-        pieces.append(rows[cols[None, :] >= start[:, None]].tobytes())
-    return b"".join(pieces)
-
-
-def _fixed_rows(m: NDArray[np.float64], negative: NDArray[np.bool_], decimals: int
-                ) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
-    """Rows of ``_WIDTH`` bytes holding ``-m * 10**-decimals`` (where ``negative``) right-aligned before the last
-    column, and the first column of each; ``m`` holds integers below 2**53, whose digits come from exact
-    divisions by 10."""
-    n = m.shape[0]
-    chunk = np.zeros((_WIDTH, n), np.uint8)  # column-major: each column is contiguous
-    col = _WIDTH - 1
-    x = m.copy()
-    q = np.empty(n)
-    for _ in range(decimals):
-        col -= 1
-        np.floor(x / 10.0, out=q)
-        chunk[col] = x - 10.0 * q + 48.0
-        x, q = q, x
-    if decimals:
-        col -= 1
-        chunk[col] = 46
-    digits = np.ones(n, np.int64)
-    for i in range(16):  # the integer part: at least one digit
-        col -= 1
-        if i:
-            digits += x > 0
-        np.floor(x / 10.0, out=q)
-        chunk[col] = x - 10.0 * q + 48.0
-        x, q = q, x
-        if not x.any():
-            break
-    start = _WIDTH - 1 - decimals - (1 if decimals else 0) - digits - negative
-    neg = np.flatnonzero(negative)
-    chunk[start[neg], neg] = 45
-    return chunk.T, start
-
-
-def _repr_rows(v: NDArray[np.float64]) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
-    """Rows of ``_WIDTH`` bytes holding ``repr`` of each value right-aligned before the last column, and the first
-    column of each."""
-    texts = [repr(x) for x in v.tolist()]
-    length = np.fromiter(map(len, texts), np.int64, len(texts))
-    left = np.array(texts, dtype=f"S{_WIDTH - 1}").view(np.uint8).reshape(-1, _WIDTH - 1)
-    start = _WIDTH - 1 - length
-    source = np.arange(_WIDTH)[None, :] - start[:, None]  # column of the text that lands in each row column
-    rows = np.take_along_axis(left, np.clip(source, 0, _WIDTH - 2), axis=1)
-    rows = np.concatenate([rows, np.zeros((len(texts), 1), np.uint8)], axis=1)[:, :_WIDTH]
-    return rows, start
 
 
 def _last_digit(x: NDArray[np.float64], q: NDArray[np.float64], d: NDArray[np.float64], row: NDArray[np.uint8]

@@ -71,13 +71,12 @@ def channel_arrays(motion: Motion) -> dict[str, NDArray] | None:
     bit for bit (a clip not read from BVH, or changed since)."""
     from ..errors import ValidationError
     from ._bvh import _motion_from_channels, channel_values
-    from ._numbers import use_compiled
 
     if motion.euler_angles is None or motion.euler_branch is None:
         return None
     try:
         values = np.ascontiguousarray(channel_values(motion), dtype=np.float64)
-        back = _motion_from_channels(motion.skeleton, values, motion.fps, use_compiled(values.nbytes))
+        back = _motion_from_channels(motion.skeleton, values, motion.fps)
     except ValidationError:
         return None
     for name in ("root_translation", "rotations", "joint_translations", "euler_angles", "euler_branch"):
@@ -97,14 +96,7 @@ def channel_matrix(digits: NDArray, deltas: NDArray, patches: NDArray, patch_val
 
 
 def motion_from_channel_arrays(skeleton: Skeleton, fps: float, values: NDArray[np.float64]) -> Motion:
-    """The motion of channel values, as the BVH reader builds it, and by the same rule: through numpy (the same
-    bits) until the process has converted enough to win back numba's start-up, so that ``motionrep info`` of a
-    compact HDF5 or NPZ clip does not import numba (``motionrep.io._numbers.use_compiled``; 8 bytes a value
-    counted)."""
+    """The motion of channel values, as the BVH reader builds it (the same compiled conversion)."""
     from ._bvh import _motion_from_channels
-    from ._numbers import use_compiled
 
-    # The BVH reader's rule for numpy or compiled conversion (identical values): a small clip read by a command
-    # that needs nothing compiled (``info``) does not load numba.
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    return _motion_from_channels(skeleton, values, fps, use_compiled(values.nbytes))
+    return _motion_from_channels(skeleton, np.ascontiguousarray(values, dtype=np.float64), fps)

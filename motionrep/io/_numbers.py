@@ -1,5 +1,4 @@
-"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep.jit``), or with
-numpy and Python's ``float`` while a process has not paid numba's start-up (:func:`use_compiled`).
+"""Parsing whitespace-separated numbers (the BVH MOTION block) in one compiled pass (``motionrep._ccore``, C).
 
 Every value is bit-identical to ``float(token)``:
 
@@ -14,15 +13,8 @@ Every value is bit-identical to ``float(token)``:
    with its line so the caller can name it.
 
 For the BVH block the loop also checks the layout as it goes (rows of ``channels`` values, one per non-blank
-line) and reports where it is wrong; a row beyond the expected count is counted, not parsed.
-
-The numpy path needs no numba, whose import and cached machine code cost a fresh process more than reading a
-typical clip without it (:data:`NUMPY_PATH_BUDGET` gives the figures).  A BVH frame block of plain decimal numbers
-in the declared layout (what exporters write) is read by
-:func:`motionrep.io._plain_rows.parse_plain_rows`: whole-array integer arithmetic,
-exact by construction, and None on any doubt.  Everything else goes to :func:`_scan_numpy`, which finds the same
-tokens as the compiled loop with ``bytes.split`` and converts them with ``float`` itself: the same values, layout
-findings and errors (``tests/test_bvh_paths.py`` runs all of them on the same text).
+line) and reports where it is wrong; a row beyond the expected count is counted, not parsed.  The loop is C
+(``motionrep/_c/numbers.c``), compiled at install time: nothing to load or compile when a process starts.
 """
 
 from __future__ import annotations
@@ -32,150 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..jit import jit, jit_inline
+from .._ccore import scan as _scan
 
 __all__ = ["BlockScan", "scan_block", "parse_numbers", "first_control_byte"]
 
-_POW10 = 10.0 ** np.arange(23)
-_TWO53 = 2 ** 53
 #: Left-over tokens whose place is recorded in the first pass; more take a second pass.
 _FALLBACK_CAPACITY = 4096
-# info fields written by the kernel
+# info fields written by the kernel (motionrep/_c/numbers.c)
 _ROWS, _FIRST_WRONG, _WRONG_COUNT, _LAST_DATA, _EXTRA, _FIRST_DATA, _FALLBACKS, _TOKENS = range(8)
-
-
-@jit_inline
-def _parse_token(u, s, n):
-    """Parse the token starting at ``u[s]`` (a byte > 32): ``(True, value, end)`` on the fast path,
-    ``(False, 0.0, end)`` otherwise, ``end`` the offset after the token."""
-    i = s
-    negative = False
-    if u[i] == 45 or u[i] == 43:  # '-' or '+'
-        negative = u[i] == 45
-        i += 1
-    mantissa = 0
-    digits = 0
-    decimals = 0
-    exact = True
-    while i < n and 48 <= u[i] <= 57:
-        if mantissa >= 900719925474099:  # one more digit could reach 2**53
-            exact = False
-        else:
-            mantissa = mantissa * 10 + (u[i] - 48)
-        digits += 1
-        i += 1
-    if i < n and u[i] == 46:  # '.'
-        i += 1
-        while i < n and 48 <= u[i] <= 57:
-            if mantissa >= 900719925474099:
-                exact = False
-            else:
-                mantissa = mantissa * 10 + (u[i] - 48)
-            decimals += 1
-            digits += 1
-            i += 1
-    exponent = 0
-    if digits and i < n and (u[i] == 101 or u[i] == 69):  # 'e' or 'E'
-        i += 1
-        negative_exponent = False
-        if i < n and (u[i] == 45 or u[i] == 43):
-            negative_exponent = u[i] == 45
-            i += 1
-        exponent_digits = 0
-        while i < n and 48 <= u[i] <= 57:
-            if exponent < 100000:
-                exponent = exponent * 10 + (u[i] - 48)
-            exponent_digits += 1
-            i += 1
-        if exponent_digits == 0:
-            exact = False
-        if negative_exponent:
-            exponent = -exponent
-    if i < n and u[i] > 32:  # more bytes: not a plain decimal number (Python's float decides)
-        while i < n and u[i] > 32:
-            i += 1
-        return False, 0.0, i
-    power = exponent - decimals
-    if digits == 0 or not exact or power > 22 or power < -22:
-        return False, 0.0, i
-    v = np.float64(mantissa)  # exact: below 2**53
-    v = v * _POW10[power] if power >= 0 else v / _POW10[-power]
-    return True, -v if negative else v, i
-
-
-@jit
-def _scan_kernel(u, width, rows_max, by_line, out, fallback, info):
-    """Tokens of ``u``, parsed into ``out``.
-
-    ``by_line``: rows of ``width`` values, one per line with tokens (token ``k`` of row ``r`` at
-    ``out[r * width + k]``; rows from ``rows_max`` on and tokens past ``width`` are counted, not stored);
-    otherwise every token in order.  A token off the fast path gets NaN and its ``(slot, start, end, line)`` in
-    ``fallback`` (the first ``len(fallback)`` of them).  ``info`` receives the counts (see ``_ROWS``...).
-    """
-    n = u.shape[0]
-    capacity = fallback.shape[0]
-    line = 0
-    rows = 0
-    count = 0
-    row = -1
-    tokens = 0
-    left = 0
-    first_wrong = -1
-    wrong_count = 0
-    last_data = -1
-    extra = -1
-    first_data = -1
-    i = 0
-    while i <= n:
-        if i == n or u[i] == 10:  # end of a line
-            if by_line and count > 0 and count != width and first_wrong < 0:
-                first_wrong = line
-                wrong_count = count
-            count = 0
-            line += 1
-            i += 1
-            continue
-        if u[i] <= 32:
-            i += 1
-            continue
-        s = i
-        slot = -1
-        if by_line:
-            if count == 0:
-                row = rows
-                rows += 1
-                last_data = line
-                if first_data < 0:
-                    first_data = line
-                if row == rows_max:
-                    extra = line
-            if row < rows_max and count < width:
-                slot = row * width + count
-            count += 1
-        elif tokens < out.shape[0]:
-            slot = tokens
-        tokens += 1
-        ok, v, i = _parse_token(u, s, n)
-        if slot < 0:
-            continue
-        if ok:
-            out[slot] = v
-        else:
-            out[slot] = np.nan
-            if left < capacity:
-                fallback[left, 0] = slot
-                fallback[left, 1] = s
-                fallback[left, 2] = i
-                fallback[left, 3] = line
-            left += 1
-    info[_ROWS] = rows
-    info[_FIRST_WRONG] = first_wrong
-    info[_WRONG_COUNT] = wrong_count
-    info[_LAST_DATA] = last_data
-    info[_EXTRA] = extra
-    info[_FIRST_DATA] = first_data
-    info[_FALLBACKS] = left
-    info[_TOKENS] = tokens
 
 
 @dataclass(frozen=True)
@@ -204,55 +60,18 @@ class BlockScan:
     nonfinite: tuple[int, int, str] | None
 
 
-#: Bytes of BVH text a process reads through the numpy path (:func:`use_compiled`) before it switches to the
-#: compiled loops for good: about the break-even measured by ``benchmarks/io.py`` (2026-12-02, 46 real files, the
-#: shared 2-core AMD EPYC machine, load 3.2): a fresh process pays 1.55 s to import numba and load the cached
-#: machine code of the reader's kernels (1.0-2.0 s at loads 3-6) before it reads a byte; the numpy path (plain
-#: frame blocks parsed by
-#: :func:`motionrep.io._plain_rows.parse_plain_rows`) then reads 21.8 MB/s, the compiled one 57.9 MB/s, i.e. 0.029 s
-#: more per MB, so numba's start-up is won back after ~54 MB read in one process (35-68 MB over those start-up
-#: times; 18 MB before the plain-row parser, when the budget was 16 MB).  Below that the numpy path is the faster (a
-#: process reading one typical clip: 0.05-3 MB); a process that reads more (a batch) pays numba's start-up once and
-#: then reads at the compiled speed: at worst about twice the best choice in hindsight (the rent-or-buy rule).
-NUMPY_PATH_BUDGET = 48_000_000
-_numpy_path_bytes = 0
-
-
-def use_compiled(size: int) -> bool:
-    """Whether to read ``size`` bytes of numbers with the compiled loops (True) or the numpy path (False).
-
-    The compiled loops once numba is imported in this process (its start-up is paid) or once this process has read
-    :data:`NUMPY_PATH_BUDGET` bytes the slow way; the numpy path before that.  Both give identical values and
-    errors (tested), so the choice only changes the time.
-    """
-    global _numpy_path_bytes
-    from ..jit import numba_loaded
-
-    if numba_loaded() or _numpy_path_bytes + size > NUMPY_PATH_BUDGET:
-        return True
-    _numpy_path_bytes += size
-    return False
-
-
-def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line: bool = True,
-               compiled: bool | None = None) -> BlockScan:
+def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line: bool = True) -> BlockScan:
     """Parse the whitespace-separated numbers of the bytes ``u``: rows of ``width`` values, one per non-blank
     line, at most ``rows_max`` of them stored (``by_line``), or every token in order.
-
-    ``compiled``: run the compiled loop (True) or the numpy path (False); None chooses by :func:`use_compiled`.
     """
-    if compiled is None:
-        compiled = use_compiled(u.shape[0])
-    if not compiled:
-        return _scan_numpy(u.tobytes(), width, rows_max, by_line)
     size = rows_max * width if by_line else u.shape[0] // 2 + 1  # tokens are at least one byte and a separator
     values = np.empty(size)
     info = np.zeros(8, np.int64)
     fallback = np.empty((_FALLBACK_CAPACITY, 4), np.int64)
-    _scan_kernel(u, width, rows_max, by_line, values, fallback, info)
+    _scan(u, width, rows_max, by_line, values, fallback, info)
     if info[_FALLBACKS] > _FALLBACK_CAPACITY:  # many left-over tokens: again, with room for all of them
         fallback = np.empty((int(info[_FALLBACKS]), 4), np.int64)
-        _scan_kernel(u, width, rows_max, by_line, values, fallback, info)
+        _scan(u, width, rows_max, by_line, values, fallback, info)
     if not by_line:
         values = values[:int(info[_TOKENS])]
     bad = nonfinite = None
@@ -270,125 +89,11 @@ def scan_block(u: NDArray[np.uint8], width: int = 0, rows_max: int = 0, by_line:
                      int(info[_LAST_DATA]), int(info[_FIRST_DATA]), int(info[_EXTRA]), bad, nonfinite)
 
 
-# every byte the compiled loop takes as a separator (<= 32) but the line feed, as a space: then ``bytes.split()``
-# finds exactly its tokens (it would not split at bytes 0-8 or 14-31 itself)
-_TO_SPACE = bytes.maketrans(bytes(b for b in range(33) if b != 10), b" " * 32)
-
-
-_BATCH = 1 << 16  # tokens converted at a time: only one batch's token objects are alive, not the whole file's
-
-
-def _scan_numpy(data: bytes, width: int, rows_max: int, by_line: bool) -> BlockScan:
-    """:func:`scan_block` without numba: the same tokens, layout checks, values and errors (tested side by side).
-
-    Tokens come from ``bytes.split`` (line by line when ``by_line``) and are converted by Python's ``float``
-    (the compiled loop's values are bit-identical to it), a batch of lines at a time, each batch at once when the
-    text is ASCII without ``_``.
-    """
-    text = data.translate(_TO_SPACE)
-    clean = data.isascii() and b"_" not in data
-    if not by_line:
-        tokens = text.split()
-        values, index = _floats(tokens, clean)
-        whole = [(0, len(tokens), -1)]  # lines found on demand (only for an error)
-        finite = np.isfinite(values[:index])
-        return BlockScan(values, 0, -1, 0, -1, -1, -1,
-                         None if index is None else _located(index, tokens, whole, text, False),
-                         None if finite.all() else _located(int(np.argmin(finite)), tokens, whole, text, False))
-    values = np.empty(rows_max * width)
-    pending: list[bytes] = []
-    chunks: list[tuple[int, int, int]] = []  # (first slot, tokens, line) of each line's stored tokens in `pending`
-    found: dict[str, tuple[int, int, str]] = {}  # "bad", "nonfinite": as the compiled loop reports them
-
-    def convert() -> None:
-        converted, index = _floats(pending, clean)
-        first, last = chunks[0], chunks[-1]
-        if last[0] + last[1] - first[0] == len(pending):  # no short line: one run of slots
-            values[first[0]:first[0] + len(pending)] = converted
-        else:
-            k = 0
-            for slot, n, _ in chunks:
-                values[slot:slot + n] = converted[k:k + n]
-                k += n
-        finite = np.isfinite(converted[:index])  # the first non-finite value before the first non-number
-        if "nonfinite" not in found and not finite.all():
-            found["nonfinite"] = _located(int(np.argmin(finite)), pending, chunks, text, True)
-        if index is not None:
-            found["bad"] = _located(index, pending, chunks, text, True)
-        pending.clear()
-        chunks.clear()
-
-    rows = wrong_count = 0
-    first_wrong = last_data = first_data = extra = -1
-    for line_no, line in enumerate(text.split(b"\n")):
-        words = line.split()
-        if not words:
-            continue
-        n = len(words)
-        if n != width and first_wrong < 0:
-            first_wrong, wrong_count = line_no, n
-        if first_data < 0:
-            first_data = line_no
-        last_data = line_no
-        if rows == rows_max:
-            extra = line_no
-        if rows < rows_max and "bad" not in found:  # after a non-number the compiled loop stops converting too
-            stored = words if n <= width else words[:width]
-            if stored:
-                chunks.append((rows * width, len(stored), line_no))
-                pending.extend(stored)
-                if len(pending) >= _BATCH:
-                    convert()
-        rows += 1
-    if pending:
-        convert()
-    return BlockScan(values, rows, first_wrong, wrong_count, last_data, first_data, extra, found.get("bad"),
-                     found.get("nonfinite"))
-
-
-def _floats(tokens: list[bytes], clean: bool) -> tuple[NDArray[np.float64], int | None]:
-    """``float`` of each token, and the index of the first that is not a number (None if all are); values from
-    that index on are NaN.  ``clean``: the tokens are ASCII without ``_`` (``float`` alone decides)."""
-    n = len(tokens)
-    if clean:
-        try:
-            return np.fromiter(map(float, tokens), np.float64, n), None
-        except ValueError:
-            pass
-    out = np.full(n, np.nan)
-    for k, token in enumerate(tokens):
-        v = _python_float(token)
-        if v is None:
-            return out, k
-        out[k] = v
-    return out, None
-
-
-def _located(index: int, tokens: list[bytes], chunks: list[tuple[int, int, int]], text: bytes,
-             by_line: bool) -> tuple[int, int, str]:
-    """``(slot, line, text)`` of stored token ``index`` (as the compiled loop reports it)."""
-    label = tokens[index].decode("utf-8", "replace")[:40]
-    if not by_line:
-        seen = 0
-        for line_no, line in enumerate(text.split(b"\n")):
-            seen += len(line.split())
-            if seen > index:
-                return index, line_no, label
-    k = 0
-    for slot, n, line_no in chunks:
-        if index < k + n:
-            return slot + index - k, line_no, label
-        k += n
-    raise AssertionError("token index out of range")  # pragma: no cover
-
-
-def parse_numbers(data: bytes | NDArray[np.uint8], compiled: bool | None = None
-                  ) -> tuple[NDArray[np.float64], int | None]:
+def parse_numbers(data: bytes | NDArray[np.uint8]) -> tuple[NDArray[np.float64], int | None]:
     """Values of all whitespace-separated tokens of ``data``, bit-identical to ``float(token)``, and the index of
-    the first token that is not a number (None if all are; ``nan`` and ``inf`` are numbers here).  ``compiled``
-    as for :func:`scan_block`."""
+    the first token that is not a number (None if all are; ``nan`` and ``inf`` are numbers here)."""
     u = np.frombuffer(data, np.uint8) if isinstance(data, (bytes, bytearray, memoryview)) else data
-    scan = scan_block(u, by_line=False, compiled=compiled)
+    scan = scan_block(u, by_line=False)
     return scan.values, None if scan.bad is None else scan.bad[0]
 
 
@@ -399,7 +104,7 @@ _NOT_CONTROL = bytes(range(9, 14)) + bytes(range(32, 256))
 def first_control_byte(data: bytes) -> int:
     """Offset of the first control byte of ``data`` other than tab, LF, VT, FF, CR (bytes 9..13), or -1.
 
-    ``bytes.translate`` deletes every other byte in one C pass (hundreds of MB/s, no numba): what is left are
+    ``bytes.translate`` deletes every other byte in one C pass (hundreds of MB/s): what is left are
     the control bytes in file order, and the first of them is found with ``bytes.find``."""
     rest = data.translate(None, _NOT_CONTROL)
     return data.find(rest[:1]) if rest else -1

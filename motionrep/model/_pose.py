@@ -97,7 +97,7 @@ def _as_float_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) 
         a = value  # already an immutable float64 array (for example another Motion's): no copy needed
     else:
         try:
-            a = np.array(value, dtype=np.float64)
+            a = np.array(value, dtype=np.float64, order="C")  # C order: _readonly then keeps it
         except (TypeError, ValueError) as exc:
             raise ValidationError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from None
     if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):

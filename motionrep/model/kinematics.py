@@ -5,8 +5,9 @@ through :attr:`FKResult.rotations`, ``(..., 4)`` xyzw quaternions.  Points are o
 end sites (``E``), so every array over points has ``J + E`` entries.
 
 FK composes unit quaternions (normalised first, so the result is exactly the pose the rotations stand for) in one
-compiled loop over frames and joints (``motionrep.jit``): per joint one quaternion product and one vector
-rotation, in float64.
+compiled loop over frames and joints (``motionrep._ccore``, C: ``motionrep/_c/fk.c``): per joint one quaternion
+product and one vector rotation, in float64, each operation IEEE (no fused multiply-add, no fast-math), so the
+same bits on every x86-64 CPU.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from ..jit import jit
+from .._ccore import fk as _fk_kernel
 from ._pose import Motion, Skeleton
 from .rotations import matrix_to_quat
 
@@ -65,74 +66,6 @@ def quat_to_matrix_fast(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return m
 
 
-@jit
-def _fk_kernel(rot, root, offsets, parents, translated, joint_t, site_parents, site_offsets, out_pos, out_rot):
-    """World positions ``out_pos (F, J + E, 3)`` and, when ``out_rot`` has ``F`` rows, world rotations
-    ``out_rot (F, J + E, 4)`` (xyzw, ``w >= 0``), frame by frame, joint by joint (parents come first).
-
-    ``rot (F, J, 4)`` local rotations (float32 or float64; normalised here, arithmetic in float64), ``root
-    (F, 3)``, ``offsets (J, 3)``, ``translated (P,)`` joints whose local translation is ``joint_t (F, P, 3)``,
-    ``site_parents (E,)`` and ``site_offsets (E, 3)``.
-    """
-    F, J = rot.shape[0], rot.shape[1]
-    E = site_parents.shape[0]
-    rotations = out_rot.shape[0] == F
-    g = np.empty((J, 4))
-    local = np.empty((J, 3))
-    for j in range(J):
-        for c in range(3):
-            local[j, c] = offsets[j, c]
-    for f in range(F):
-        for k in range(translated.shape[0]):
-            for c in range(3):
-                local[translated[k], c] = joint_t[f, k, c]
-        for j in range(J):
-            x = np.float64(rot[f, j, 0])
-            y = np.float64(rot[f, j, 1])
-            z = np.float64(rot[f, j, 2])
-            w = np.float64(rot[f, j, 3])
-            n = np.sqrt(x * x + y * y + z * z + w * w)  # exactly unit: FK of the rotation each one stands for
-            x /= n
-            y /= n
-            z /= n
-            w /= n
-            p = parents[j]
-            if p < 0:
-                g[j, 0], g[j, 1], g[j, 2], g[j, 3] = x, y, z, w
-                for c in range(3):
-                    out_pos[f, j, c] = root[f, c]
-                continue
-            _rotate_add(g[p], local[j, 0], local[j, 1], local[j, 2], out_pos[f, p], out_pos[f, j])
-            ax, ay, az, aw = g[p, 0], g[p, 1], g[p, 2], g[p, 3]
-            g[j, 0] = aw * x + ax * w + ay * z - az * y
-            g[j, 1] = aw * y - ax * z + ay * w + az * x
-            g[j, 2] = aw * z + ax * y - ay * x + az * w
-            g[j, 3] = aw * w - ax * x - ay * y - az * z
-        for e in range(E):
-            p = site_parents[e]
-            _rotate_add(g[p], site_offsets[e, 0], site_offsets[e, 1], site_offsets[e, 2], out_pos[f, p],
-                        out_pos[f, J + e])
-        if rotations:
-            for i in range(J + E):
-                j = i if i < J else site_parents[i - J]
-                sign = -1.0 if g[j, 3] < 0 else 1.0  # w >= 0, as matrix_to_quat gives
-                for c in range(4):
-                    out_rot[f, i, c] = sign * g[j, c]
-
-
-@jit
-def _rotate_add(q, vx, vy, vz, base, out):
-    """``out = base + rotate(q, v)`` for a unit xyzw quaternion ``q``: ``v + w t + q_vec x t`` with
-    ``t = 2 q_vec x v``."""
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    tx = 2.0 * (qy * vz - qz * vy)
-    ty = 2.0 * (qz * vx - qx * vz)
-    tz = 2.0 * (qx * vy - qy * vx)
-    out[0] = base[0] + vx + qw * tx + (qy * tz - qz * ty)
-    out[1] = base[1] + vy + qw * ty + (qz * tx - qx * tz)
-    out[2] = base[2] + vz + qw * tz + (qx * ty - qy * tx)
-
-
 def _fk(motion: Motion, want_rotations: bool) -> tuple[NDArray, NDArray | None]:
     """World positions ``(F, J + E, 3)`` and, if asked, world rotations ``(F, J + E, 4)`` (xyzw, w >= 0)."""
     sk = motion.skeleton
@@ -156,14 +89,14 @@ def fk_arrays(skeleton: Skeleton, rotations: NDArray, root_translation: NDArray,
     """
     F, J, E = rotations.shape[0], skeleton.num_joints, skeleton.num_end_sites
     out_pos = np.empty((F, J + E, 3))
-    out_rot = np.empty((F, J + E, 4)) if want_rotations else np.empty((0, 0, 4))
+    out_rot = np.empty((F, J + E, 4)) if want_rotations else None
     rot = np.ascontiguousarray(rotations)
     if rot.dtype not in (np.float32, np.float64):
         rot = rot.astype(np.float64)
     _fk_kernel(rot, np.ascontiguousarray(root_translation, np.float64), skeleton.offsets, skeleton.parents,
                skeleton.translated_joints, np.ascontiguousarray(joint_translations, np.float64),
                skeleton.end_site_parents, skeleton.end_site_offsets, out_pos, out_rot)
-    return out_pos, (out_rot if want_rotations else None)
+    return out_pos, out_rot
 
 
 def forward_kinematics(motion: Motion) -> FKResult:

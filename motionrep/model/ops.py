@@ -28,6 +28,15 @@ __all__ = ["fixed_axes_restored", "resample", "resample_times", "interpolate_fra
            "detect_up_axis"]
 
 
+def fixed_axes(skeleton) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """``(1 + P, 3)`` whether each translation axis of the root and of ``skeleton.translated_joints`` has no position
+    channel, and the joint's OFFSET there: what :func:`fixed_axes_restored` sets such an axis to, in the form
+    :meth:`motionrep.model.poseplan.PosePlan.with_fixed_axes` takes (decoding straight to the restored values)."""
+    joints = [0] + skeleton.translated_joints.tolist()
+    fixed = np.array([[axis not in skeleton.position_axes[j] for axis in "XYZ"] for j in joints], bool)
+    return fixed, skeleton.offsets[joints].astype(np.float64)
+
+
 def fixed_axes_restored(motion: Motion) -> Motion:
     """``motion`` with every translation axis that has no position channel set back to the joint's OFFSET.
 

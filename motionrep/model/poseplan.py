@@ -6,9 +6,7 @@ parent's is taken off), and which columns hold the root's and the other joints' 
 kernel, in C (``motionrep/_c/plan/plan.c``, the extension ``motionrep._cplan`` built on install; :func:`decode_planned`
 and the runtime decoder ``motionrep.open`` run it), converts a block of poses joint by joint, each joint's
 arithmetic vectorised over the block's poses, straight from the feature columns into the caller's ``(T, J, 4)``
-rotations and ``(T, 3)`` / ``(T, P, 3)`` translations.  ``motionrep.model.rotations``' ``*_columns_*``
-conversions (reading BVH, the plain conversion functions) run the same kernel, so every conversion to quaternions
-is this one piece of code.
+rotations and ``(T, 3)`` / ``(T, P, 3)`` translations.
 
 Features are read **feature-major**, ``X (D, >= T)`` float64 with feature ``d`` of pose ``i`` at ``X[d, i]``:
 the layout in which codecs compute (a dense layer sums over its inputs for a block of times), so the kernel's
@@ -29,11 +27,10 @@ rounded.  Conversions (xyzw, as everywhere):
   does not rotate), made local: ``conj(G_parent) r``, ``G`` the world rotations decoded so far (the
   dual-quaternion representation's real parts); a plan with one such joint has one for every joint.
 
-:func:`decode_euler_numpy` is the kernel's Euler conversion in numpy, bit for bit, for reading small BVH files
-without numba (``motionrep.io._numbers.use_compiled``).
+The column conversions of ``motionrep.model.rotations`` (reading BVH, the plain conversion functions) are the same
+arithmetic in C (``motionrep/_c/mr_rotconv.h``), bit for bit (``benchmarks/ccore_equivalence.py``).
 
-Size: one concern, features to poses: the plan, its packing for the C kernel, and the numpy copy of the kernel's
-Euler branch.
+Size: one concern, features to poses: the plan and its packing for the C kernel.
 """
 
 from __future__ import annotations
@@ -45,9 +42,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ValidationError
-from ..jit import sincos_numpy
 
-__all__ = ["PosePlan", "decode_planned", "decode_euler_numpy", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
+__all__ = ["PosePlan", "decode_planned", "QUAT", "AXIS_ANGLE", "EULER", "EULER_DEGREES", "ORTHO6D", "WORLD_QUAT",
            "WORLD_IDENTITY", "SUB_BLOCK"]
 
 QUAT, AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, WORLD_QUAT, WORLD_IDENTITY = range(7)
@@ -197,58 +193,6 @@ def decode_planned(features: ArrayLike, plan: PosePlan, rotations: NDArray, root
                          keep_unplanned)
 
 
-def decode_euler_numpy(features: ArrayLike, plan: PosePlan, rotations: NDArray) -> None:
-    """The kernel's ``EULER`` / ``EULER_DEGREES`` conversion in numpy, bit for bit (the same operations in the same
-    order, vectorised over poses and entries instead of poses): for a plan of Euler entries only and no
-    translations, run as :func:`decode_planned` with ``check_finite=False, keep_unplanned=True``.  It lets reading
-    a small BVH file skip numba's start-up (``motionrep.io._numbers.use_compiled``)."""
-    if not ((plan.kinds == EULER) | (plan.kinds == EULER_DEGREES)).all() or plan.translation_columns.shape[0]:
-        raise ValidationError("decode_euler_numpy: the plan must hold Euler entries only, without translations")
-    X = np.asarray(features, dtype=np.float64)
-    T, R = X.shape[0], plan.kinds.shape[0]
-    step = max(1, _EULER_BLOCK // max(R, 1))  # poses at a time: the temporaries stay small (in cache, no page faults)
-    for a in range(0, T, step):
-        _decode_euler_block(X[a:a + step], plan, rotations[a:a + step])
-
-
-#: Values (poses x entries) :func:`decode_euler_numpy` converts at a time (measured: 8-16 K fastest)
-_EULER_BLOCK = 1 << 13
-
-
-def _decode_euler_block(X: NDArray, plan: PosePlan, rotations: NDArray) -> None:
-    T, R = X.shape[0], plan.kinds.shape[0]
-    QX, QY, QZ, QW = np.zeros((T, R)), np.zeros((T, R)), np.zeros((T, R)), np.ones((T, R))
-    degrees = plan.kinds == EULER_DEGREES
-    with np.errstate(invalid="ignore", over="ignore"):
-        for k in range(3):
-            rows = np.flatnonzero(plan.columns[:, k] >= 0)
-            if rows.size == 0:
-                break
-            every = rows.size == R  # all entries take part: whole arrays, no gather and scatter (the same values)
-            v = X[:, plan.columns[rows, k]]
-            # as in the kernel: degrees reduced exactly to about [-360, 360], then the half angle in radians
-            in_degrees = degrees[rows]
-            if in_degrees.all():
-                half = (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0)
-            elif not in_degrees.any():
-                half = 0.5 * v
-            else:
-                half = np.where(in_degrees, (v - 720.0 * np.floor(v * (1.0 / 720.0) + 0.5)) * (np.pi / 360.0),
-                                0.5 * v)
-            s, cs = sincos_numpy(half)
-            axis = plan.axes[rows, k]
-            ex, ey, ez = (axis == 0).astype(np.float64), (axis == 1).astype(np.float64), (axis == 2).astype(np.float64)
-            bx, by, bz, bw = s * ex, s * ey, s * ez, cs
-            # the kernel's product helper itself, run by numpy on the arrays: the same expressions
-            if every:
-                QX, QY, QZ, QW = _product(QX, QY, QZ, QW, bx, by, bz, bw)
-            else:
-                QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows] = _product(
-                    QX[:, rows], QY[:, rows], QZ[:, rows], QW[:, rows], bx, by, bz, bw)
-    for c, Q in enumerate((QX, QY, QZ, QW)):
-        rotations[:, plan.joints, c] = Q
-
-
 _NO_ROOT, _NO_MOVED = np.zeros((0, 3)), np.zeros((0, 0, 3))
 
 
@@ -284,12 +228,3 @@ def _raise_for(status: int) -> None:
         raise ValidationError("cannot normalise a quaternion of zero or non-finite length")
     if status == 3:
         raise ValidationError("6D rotation encoding has a zero or degenerate column")
-
-
-def _product(ax, ay, az, aw, bx, by, bz, bw):
-    """The Hamilton product ``a b`` of two xyzw quaternions as its four components, on numpy arrays: the
-    expressions of the C kernel's product (``motionrep/_c/plan/plan.c``), for :func:`decode_euler_numpy`."""
-    return (aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz)

@@ -12,12 +12,13 @@ Conventions:
   ``[R00, R10, R20, R01, R11, R21]``.
 * Every function accepts any number of leading batch dimensions and returns float64.
 
-Conversions *to* quaternions (what decoding and reading BVH spend their time on) are compiled loops
-(``motionrep.jit``) that read their input straight from the columns of a 2-D array (a feature matrix, a BVH frame
-block) and write into the joint slots of a ``(T, J, 4)`` array: the ``*_columns_*`` functions below, which the
-representations' decoders and the BVH reader call, and which the plain functions (:func:`axis_angle_to_quat`,
+Conversions *to* quaternions (what decoding and reading BVH spend their time on) are compiled loops in C
+(``motionrep._ccore``, built at install time) that read their input straight from the columns of a 2-D array (a
+feature matrix, a BVH frame block) and write into the joint slots of a ``(T, J, 4)`` array: the ``*_columns_*``
+functions below, which the BVH reader calls, and which the plain functions (:func:`axis_angle_to_quat`,
 :func:`euler_to_quat`, :func:`ortho6d_to_quat`, :func:`quat_normalize`) call too.  Their arithmetic is float64
-whatever the input's dtype, and IEEE throughout (no fast-math), so a value does not depend on the batch it is in.
+whatever the input's dtype, and IEEE throughout (no fused multiply-add, no fast-math), so a value does not depend on
+the batch it is in or on the CPU; it is the pose plan's (``motionrep.model.poseplan``), operation for operation.
 The other conversions delegate to ``scipy.spatial.transform.Rotation``; the algebra scipy lacks on plain arrays
 (products, rotating vectors, sign and wrap continuity over frames) is written here.
 
@@ -34,7 +35,7 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from ..errors import ValidationError
-from ..jit import jit
+from .._ccore import axis_angle_continuous as _continuous, columns_to_quat as _columns_to_quat
 
 __all__ = [
     "quat_identity",
@@ -390,7 +391,8 @@ def axis_angle_make_continuous(v: ArrayLike) -> NDArray[np.float64]:
     A rotation vector ``theta * n`` describes the same rotation as ``(theta + 2 pi k) * n`` for every integer
     ``k``; each frame takes the ``k`` that brings it closest (L2) to the previous frame's output.  A frame
     without rotation (``theta = 0``, any axis) takes the previous frame's axis: a whole number of turns about it.
-    Frame by frame, so a compiled loop (:func:`_continuous_kernel`).
+    Frame by frame, so a compiled loop (``motionrep/_c/rotations.c``), its sums and products in numpy's order
+    (``((a0 b0 + a1 b1) + a2 b2)``): the result of the frame-by-frame numpy loop it replaced, bit for bit.
     """
     v = _last_dim(v, 3, "v")
     if v.ndim < 2:
@@ -400,34 +402,9 @@ def axis_angle_make_continuous(v: ArrayLike) -> NDArray[np.float64]:
         axis = np.where(theta[..., None] > 1e-12, v / theta[..., None], 0.0)
     out = np.array(v, dtype=np.float64, order="C", copy=True)
     flat = out.reshape(v.shape[0], -1, 3)
-    _continuous_kernel(np.ascontiguousarray(theta).reshape(flat.shape[:2]),
+    _continuous(np.ascontiguousarray(theta).reshape(flat.shape[:2]),
                        np.ascontiguousarray(axis).reshape(flat.shape), flat)
     return out
-
-
-@jit
-def _continuous_kernel(theta, axis, out):
-    """``out[f, n] = (theta[f, n] + 2 pi k) axis[f, n]`` for ``f >= 1``, ``k = round((axis . out[f - 1, n] -
-    theta) / 2 pi)``; a rotation of ``theta <= 1e-12`` takes the direction of ``out[f - 1, n]`` (or 0) as its axis.
-    The sums and products in numpy's order (``((a0 b0 + a1 b1) + a2 b2)``), so the result is the one the
-    frame-by-frame numpy loop this replaces gave, bit for bit."""
-    two_pi = 2 * np.pi
-    for f in range(1, out.shape[0]):
-        for n in range(out.shape[1]):
-            p0, p1, p2 = out[f - 1, n, 0], out[f - 1, n, 1], out[f - 1, n, 2]
-            a0, a1, a2 = axis[f, n, 0], axis[f, n, 1], axis[f, n, 2]
-            t = theta[f, n]
-            if t <= 1e-12:  # no rotation: any axis will do, so keep the previous frame's
-                size = np.sqrt((p0 * p0 + p1 * p1) + p2 * p2)
-                if size > 1e-12:
-                    a0, a1, a2 = p0 / size, p1 / size, p2 / size
-                else:
-                    a0, a1, a2 = 0.0, 0.0, 0.0
-            k = np.rint(((a0 * p0 + a1 * p1) + a2 * p2 - t) / two_pi)
-            scale = t + two_pi * k
-            out[f, n, 0] = scale * a0
-            out[f, n, 1] = scale * a1
-            out[f, n, 2] = scale * a2
 
 
 def quat_make_continuous(q: ArrayLike) -> NDArray[np.float64]:
@@ -521,22 +498,20 @@ def quat_wxyz_to_xyzw(q: ArrayLike) -> NDArray[np.float64]:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# conversions from the columns of a 2-D array into the joint slots of (T, J, 4) quaternions: the pose-plan kernel
+# conversions from the columns of a 2-D array into the joint slots of (T, J, 4) quaternions (motionrep/_c)
 # ---------------------------------------------------------------------------------------------------------------
 _XYZ_COLUMNS = np.arange(3, dtype=np.int64).reshape(1, 3)
 _XYZW_COLUMNS = np.arange(4, dtype=np.int64).reshape(1, 4)
 _SIX_COLUMNS = np.arange(6, dtype=np.int64).reshape(1, 6)
 _F64, _F32, _I64 = np.dtype(np.float64), np.dtype(np.float32), np.dtype(np.int64)
-_NO_TRANSLATIONS = (np.zeros((0, 3), np.int64), np.zeros((0, 3)))
+#: the conversions of motionrep._ccore.columns_to_quat (the pose plan's kinds of the same names)
+_QUAT, _AXIS_ANGLE, _EULER, _EULER_DEGREES, _ORTHO6D = range(5)
 
 
 def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray, width: int,
-                     kind: int, axes: ArrayLike | None = None, compiled: bool = True) -> None:
-    """Check the arguments of the ``*_columns_*`` functions and run them through the pose-plan kernel
-    (:mod:`motionrep.model.poseplan`: one entry of ``kind`` per row of ``columns``), or its numpy twin of the Euler
-    conversions (``compiled=False``)."""
-    from .poseplan import PosePlan, decode_euler_numpy, decode_planned
-
+                     kind: int, axes: ArrayLike | None = None) -> None:
+    """Check the arguments of the ``*_columns_*`` functions and run the compiled conversion (``motionrep._ccore``:
+    ``motionrep/_c/mr_rotconv.h``, one entry of ``kind`` per row of ``columns``)."""
     f = features if type(features) is np.ndarray else np.asarray(features)
     if f.dtype is not _F64 and f.dtype is not _F32:
         f = f.astype(np.float64)
@@ -548,25 +523,33 @@ def _convert_columns(features: NDArray, columns: ArrayLike, joints: ArrayLike, o
         raise ValidationError(f"columns must have shape (R, {width}) and joints (R,), got {cols.shape} and "
                               f"{idx.shape}")
     if (type(out) is not np.ndarray or out.ndim != 3 or out.shape[0] != f.shape[0] or out.shape[2] != 4
-            or (out.dtype is not _F64 and out.dtype is not _F32)):
-        raise ValidationError(f"out must be a float32 or float64 array of shape ({f.shape[0]}, J, 4), got "
-                              f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
+            or (out.dtype is not _F64 and out.dtype is not _F32) or not out.flags.c_contiguous):
+        raise ValidationError(f"out must be a C-contiguous float32 or float64 array of shape ({f.shape[0]}, J, 4), "
+                              f"got {getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
     R, J = cols.shape[0], out.shape[1]
-    six = np.full((R, 6), -1, np.int64)
-    six[:, :width] = cols
-    ax = np.full((R, 3), -1, np.int64) if axes is None else np.asarray(axes, np.int64)
-    if ax.shape != (R, 3):
-        raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
-    if np.any(six < -1) or np.any(six >= f.shape[1]) or np.any(idx < 0) or np.any(idx >= J):
+    euler = kind == _EULER or kind == _EULER_DEGREES
+    used = cols >= 0
+    if euler:  # -1 ends a joint's factors early: after its first, and never followed by a column
+        used = np.cumprod(used, axis=1).astype(bool)
+    if (np.any(cols[~used] != -1) or np.any(cols >= f.shape[1]) or np.any(idx < 0) or np.any(idx >= J)
+            or (R and not used[:, 0].all())):
         raise ValidationError("columns must index the columns of features (-1 only to end a joint's Euler "
                               "factors early) and joints the joints of out")
-    plan = PosePlan(width=f.shape[1], num_joints=J, kinds=np.full(R, kind, np.int64), columns=six, axes=ax,
-                    joints=idx, parents=np.arange(J, dtype=np.int64) - 1, translation_columns=_NO_TRANSLATIONS[0],
-                    translation_values=_NO_TRANSLATIONS[1])
-    if compiled:
-        decode_planned(f, plan, out, None, None, check_finite=False, keep_unplanned=True)
-    else:
-        decode_euler_numpy(f, plan, out)
+    if np.unique(idx).size != R:
+        raise ValidationError("joints must all be different: each conversion writes its own joint")
+    ax = None
+    if euler:
+        ax = np.asarray(axes, np.int64)
+        if ax.shape != (R, 3):
+            raise ValidationError(f"axes must have the shape of columns {cols.shape}, got {ax.shape}")
+        if np.any(used & ((ax < 0) | (ax > 2))):
+            raise ValidationError("axes must be 0 (X), 1 (Y) or 2 (Z) for every angle")
+    status = _columns_to_quat(kind, np.ascontiguousarray(f), np.ascontiguousarray(cols), ax,
+                              np.ascontiguousarray(idx), out)
+    if status == 2:
+        raise ValidationError("cannot normalise a quaternion of zero or non-finite length")
+    if status == 3:
+        raise ValidationError("6D rotation encoding has a zero or degenerate column")
 
 
 def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -581,9 +564,7 @@ def quat_columns_normalized(features: NDArray, columns: ArrayLike, joints: Array
     Raises:
         ValidationError: if a quaternion has zero (or non-finite) length.
     """
-    from .poseplan import QUAT
-
-    _convert_columns(features, columns, joints, out, 4, QUAT)
+    _convert_columns(features, columns, joints, out, 4, _QUAT)
 
 
 def axis_angle_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -598,9 +579,7 @@ def axis_angle_columns_to_quat(features: NDArray, columns: ArrayLike, joints: Ar
         joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
     """
-    from .poseplan import AXIS_ANGLE
-
-    _convert_columns(features, columns, joints, out, 3, AXIS_ANGLE)
+    _convert_columns(features, columns, joints, out, 3, _AXIS_ANGLE)
 
 
 def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -630,7 +609,7 @@ def euler_columns(orders: list[str] | tuple[str, ...]) -> tuple[NDArray[np.int64
 
 
 def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike, joints: ArrayLike, out: NDArray,
-                          degrees: bool = False, compiled: bool = True) -> None:
+                          degrees: bool = False) -> None:
     """``out[:, joints[r]]`` = the product of the rotations about ``axes[r, k]`` by the angles in
     ``features[:, columns[r, k]]`` (``k`` = 0, 1, 2; intrinsic: the first factor leftmost).
 
@@ -641,15 +620,11 @@ def euler_columns_to_quat(features: NDArray, columns: ArrayLike, axes: ArrayLike
         joints: ``(R,)`` where each goes in ``out`` (all different).
         out: ``(T, J, 4)`` float32 or float64, written in place.
         degrees: the angles are in degrees (reduced exactly modulo 720 before the conversion to radians).
-        compiled: False runs the same arithmetic in numpy instead of the compiled kernel (bit-identical, slower
-            per angle, but without numba's start-up: what reading a small BVH file uses).
 
     Raises:
         ValidationError: for columns, axes or joints out of range.
     """
-    from .poseplan import EULER, EULER_DEGREES
-
-    _convert_columns(features, columns, joints, out, 3, EULER_DEGREES if degrees else EULER, axes, compiled)
+    _convert_columns(features, columns, joints, out, 3, _EULER_DEGREES if degrees else _EULER, axes)
 
 
 def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: ArrayLike, out: NDArray) -> None:
@@ -666,6 +641,4 @@ def ortho6d_columns_to_quat(features: NDArray, columns: ArrayLike, joints: Array
     Raises:
         ValidationError: if the two columns are (nearly) zero or parallel.
     """
-    from .poseplan import ORTHO6D
-
-    _convert_columns(features, columns, joints, out, 6, ORTHO6D)
+    _convert_columns(features, columns, joints, out, 6, _ORTHO6D)

@@ -27,10 +27,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..model._pose import Motion, Skeleton
+from ..model.poseplan import decode_planned
 from ..plugin.codec import Payload, frame_times
+from ..plugin.representation import empty_poses
 from ..errors import ValidationError, naming
-from ..model.kinematics import character_height, global_positions, point_names
-from ..model.ops import fixed_axes_restored
+from .._ccore import max_distances
+from ..model.kinematics import character_height, fk_arrays, global_positions, point_names
+from ..model.ops import fixed_axes, fixed_axes_restored
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
 
 if TYPE_CHECKING:
@@ -199,8 +202,31 @@ class Evaluator:
 
     def frame_errors(self, positions: NDArray[np.float64], first: int | None = None) -> NDArray[np.float64]:
         """``(n,)`` largest distance of each frame (over joints and end sites), with the arguments of
-        :meth:`positions_error`: one evaluation for a codec that measures many stretches of a clip at once."""
-        return self._distances(positions, first).max(axis=1)
+        :meth:`positions_error`: one evaluation for a codec that measures many stretches of a clip at once.
+
+        One compiled pass (``motionrep._ccore``): each distance is ``sqrt((dx dx + dy dy) + dz dz)``, the sum in
+        the order :meth:`positions_error`'s numpy takes, so the two give the same bits."""
+        positions = np.ascontiguousarray(positions, dtype=np.float64)
+        reference = self._positions
+        n = positions.shape[0] if positions.ndim == 3 else -1
+        if first is not None:
+            if not 0 <= first or n < 1 or first + n > reference.shape[0]:
+                raise ValidationError(f"frames {first}..{first + n - 1} are not frames of the reference "
+                                      f"(0..{reference.shape[0] - 1})")
+            reference = reference[first:first + n]
+        return self._max_distances(positions, reference)
+
+    @staticmethod
+    def _max_distances(positions: NDArray[np.float64], reference: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(N,)`` largest distance of each of ``positions``' frames to the reference frame ``k % M`` of the ``M``
+        in ``reference`` (checked shapes, finite)."""
+        if positions.ndim != 3 or positions.shape[1:] != reference.shape[1:] or (
+                positions.shape[0] % max(reference.shape[0], 1)):
+            raise ValidationError(f"candidate positions must have shape {reference.shape}, got {positions.shape}")
+        out = np.empty(positions.shape[0])
+        if not max_distances(positions, np.ascontiguousarray(reference), out):
+            raise ValidationError("candidate positions contain NaN or infinity")
+        return out
 
     def _distances(self, positions: NDArray[np.float64], first: int | None) -> NDArray[np.float64]:
         """``(n, J + E)`` distances of candidate positions to the reference's (checked shapes, finite)."""
@@ -266,6 +292,8 @@ class MotionContext:
         self.evaluations = 0
         self.evaluator = evaluator if evaluator is not None else Evaluator(motion)
         self._progress = progress
+        plan = representation.pose_plan(motion.skeleton)
+        self._plan = None if plan is None else plan.with_fixed_axes(*fixed_axes(motion.skeleton))
 
     def evaluate(self, features: ArrayLike) -> ErrorReport:
         """The error of candidate ``(F, D)`` features."""
@@ -282,7 +310,7 @@ class MotionContext:
     def frame_errors(self, features: ArrayLike, first: int = 0) -> NDArray[np.float64]:
         """``(n,)`` error of each frame of candidate ``(n, D)`` features of the frames ``first ..
         first + n - 1``, in one evaluation."""
-        return self.evaluator.frame_errors(global_positions(self._decoded(features)), first=int(first))
+        return self.evaluator.frame_errors(self._positions(features), first=int(first))
 
     def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
         """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:
@@ -302,10 +330,30 @@ class MotionContext:
         h = 1e-6 * (1.0 + np.abs(x).max(axis=0))
         moved = np.repeat(x[None], D, axis=0)  # (D, n, D): copy c has feature c moved by h_c
         moved[np.arange(D), :, np.arange(D)] += h[:, None]
-        base = global_positions(self._decoded(x))
-        pos = global_positions(self._decoded(moved.reshape(D * n, D))).reshape((D,) + base.shape)
-        shift = np.sqrt(np.sum((pos - base[None]) ** 2, axis=-1)).max(axis=-1)  # (D, n)
+        base = self._positions(x)
+        pos = self._positions(moved.reshape(D * n, D))
+        shift = Evaluator._max_distances(pos, base).reshape(D, n)
         return (shift / h[:, None]).T
+
+    def _positions(self, features: ArrayLike) -> NDArray[np.float64]:
+        """``(F, J + E, 3)`` FK positions of candidate features (counted in ``evaluations``).
+
+        A representation with a pose plan decodes straight into pose arrays, its fixed translation axes set to
+        the OFFSETs by the plan itself, and FK runs on those: the values of :meth:`_decoded`'s motion (the plan is
+        how that representation decodes, ``Representation.pose_plan``), without building and validating a
+        ``Motion``.  Features that do not decode (not finite, a zero-length quaternion) raise ``ValidationError``
+        as there."""
+        plan = self._plan
+        if plan is None:
+            return global_positions(self._decoded(features))
+        self.evaluations += 1
+        sk = self.motion.skeleton
+        f = np.asarray(features)
+        if f.ndim != 2 or f.shape[1] != plan.width:
+            raise ValidationError(f"features must have shape (F, {plan.width}), got {f.shape}")
+        poses = empty_poses(sk, f.shape[0])
+        decode_planned(f, plan, poses.rotations, poses.root_translation, poses.joint_translations)
+        return fk_arrays(sk, poses.rotations, poses.root_translation, poses.joint_translations)[0]
 
     def _decoded(self, features: ArrayLike) -> Motion:
         """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""

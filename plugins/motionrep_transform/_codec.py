@@ -12,16 +12,16 @@ Encoding (``specs/codecs.md`` has the full description):
 4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
    bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
    neighbour's change pushed over the bound are lowered until all pass);
-5. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
+5. the room the frames still have under the bound is spent (:mod:`._slack`): non-zero detail coefficients move one
+   step towards zero where that saves the most bits per error and the frames stay within the bound (the same
+   steps: any decoder of the payload's version reads the result);
+6. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
    (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
    read).
 
-Decoding (:class:`TransformDecoder`, prepared once per payload) is the C library ``_c/mrtransform.h`` / ``.c``
-(no Python in it; ``_cdecode`` is its binding; version 2's integers through ``_c/mrcoder.c``): decode the integers,
-multiply by the steps, inverse wavelet; then each call samples the decoded frames (linear interpolation for times
-between frames, the arithmetic of :func:`interpolate_rows`), for the runtime decoder through its C sampler.  The
-encoder measures every candidate with that same decoder (:func:`reconstruct`), so the bound it measured is the
-bound of what decodes.
+Decoding (:mod:`._decoder`: :class:`TransformDecoder`, prepared once per payload) is the C library
+``_c/mrtransform.h`` / ``.c``.  The encoder measures every candidate with that same decoder (:func:`reconstruct`),
+so the bound it measured is the bound of what decodes.
 """
 
 from __future__ import annotations
@@ -37,11 +37,13 @@ from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_w
 from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 
-from . import _cdecode, _stream, _stream2
+from . import _stream2
+from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
+from ._slack import frame_sensitivity, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
-from ._wavelet import coefficient_frames, forward, level_sizes, num_levels
+from ._wavelet import coefficient_frames, forward, num_levels
 
-__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
+__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows", "reconstruct", "unpack"]
 
 #: Step exponents are in eighths of an octave: step = 2 ** (exponent / 8).
 _PER_OCTAVE = 8
@@ -62,6 +64,10 @@ class TransformParams:
                 "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
+    slack: int = field(default=3, metadata={
+        "help": "with a bound: spend the room frames have under it by moving coefficients towards zero, searched "
+                "in this many feature groups one after the other, then again in half as many with fresh "
+                "priorities (0..64; 0 keeps the rounded integers)"})
     rounding: float = field(default=0.4, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
                 "zone around 0, more zeros at a slightly smaller step"})
@@ -72,6 +78,8 @@ class TransformParams:
             raise ParameterError(f"transform: step must be a number > 0, got {self.step!r}")
         if isinstance(self.region, bool) or not isinstance(self.region, int) or not 4 <= self.region <= 65536:
             raise ParameterError(f"transform: region must be an integer in 4..65536, got {self.region!r}")
+        if isinstance(self.slack, bool) or not isinstance(self.slack, int) or not 0 <= self.slack <= 64:
+            raise ParameterError(f"transform: slack must be an integer in 0..64, got {self.slack!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
 
@@ -151,20 +159,20 @@ def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray
 
 
 def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
-    """``(n,)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` (the ends extended by their nearest
-    value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ... values by doubling, then
-    each window as two overlapping power-of-two windows (scipy's ``minimum_filter1d(values, 2 span + 1,
-    mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up for every process that opens a transform
-    clip; a sliding window view would take O(n span) time, and the coarse levels' spans of a long clip reach
-    thousands of regions)."""
+    """``(n, ...)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` along the first axis (the ends
+    extended by their nearest value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ...
+    values by doubling, then each window as two overlapping power-of-two windows (scipy's
+    ``minimum_filter1d(values, 2 span + 1, mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up
+    for every process that opens a transform clip; a sliding window view would take O(n span) time, and the
+    coarse levels' spans of a long clip reach thousands of regions)."""
     v = np.asarray(values)
     n = v.shape[0]
     if span <= 0 or n == 0:
         return v
     if span >= n - 1:  # every window holds every value
-        return np.full(n, v.min(), dtype=v.dtype)
+        return np.broadcast_to(v.min(axis=0), v.shape).copy()
     width = 2 * span + 1
-    m = np.concatenate([np.full(span, v[0]), v, np.full(span, v[-1])])
+    m = np.concatenate([np.repeat(v[:1], span, axis=0), v, np.repeat(v[-1:], span, axis=0)])
     p = 1
     while 2 * p <= width:  # m[i] = min of the p values from i on
         m = np.minimum(m[:-p], m[p:])
@@ -172,106 +180,19 @@ def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
     return np.minimum(m[:n], m[width - p:width - p + n])
 
 
-def reconstruct(q: Quantised) -> NDArray[np.float64]:
-    """``(F, D)`` features of the frames of a quantised payload: dequantised and transformed back by the C
-    decoder (``mrt_reconstruct``), a read-only view.
-
-    Raises:
-        PayloadError: for coefficient arrays that do not fit the clip, a step out of range, or values that are
-            not finite.
-    """
-    coefficients = [np.asarray(c, dtype=np.int64) for c in q.coefficients]
-    sizes = level_sizes(q.num_frames, num_levels(q.num_frames))
-    if [c.shape for c in coefficients] != [(n, q.num_features) for n in sizes]:
-        raise PayloadError("transform payload: coefficient arrays do not fit the clip")
-    frames = _cdecode.reconstruct(q.num_frames, q.num_features, q.region_frames,
-                           np.ascontiguousarray(q.feature_exponents, dtype=np.int64),
-                           np.ascontiguousarray(q.region_exponents, dtype=np.int64),
-                           np.ascontiguousarray(np.concatenate(coefficients, axis=0)))
-    return np.asarray(frames).T
-
-
-def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[np.float64] | None = None
-                     ) -> NDArray[np.float64]:
-    """Rows ``(F, D)`` of the frames (frame ``i`` at ``t = i / (F - 1)``) at ``times`` ``(T,)`` (clipped to
-    [0, 1]): a time on a frame gives that frame's row exactly (one gather), a time between two frames
-    ``r_i + (r_(i+1) - r_i) a``.  Written into ``out`` ``(T, D)`` float64 when given."""
-    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
-    F = rows.shape[0]
-    if out is None:
-        out = np.empty((t.size,) + rows.shape[1:], dtype=np.float64)
-    if F == 1:
-        out[...] = rows[0]
-        return out
-    pos = t * (F - 1)
-    i = np.minimum(np.floor(pos).astype(np.int64), F - 1)
-    np.take(rows, i, axis=0, out=out)
-    a = pos - i
-    between = np.flatnonzero(a)
-    if between.size:
-        j = i[between]
-        out[between] += (rows[j + 1] - rows[j]) * a[between, None]
-    return out
-
-
-#: The stream module of each payload format version (encoding; the head a payload declares).
-_STREAMS = {1: _stream, 2: _stream2}
-
-
-def unpack(data: bytes, version: int) -> Quantised:
-    """The quantised content of payload bytes of format ``version`` (1 or 2)."""
-    return _STREAMS[version].unpack(data)
-
-
-class TransformDecoder:
-    """A payload prepared for decoding many times: its integers decoded and transformed back once by the C
-    decoder, to the ``(F, D)`` features of its frames (:attr:`frames`, read-only); each call only samples them (the
-    values of :func:`interpolate_rows`).  ``version``: the payload's format (1 or 2; default the current one).
-
-    Attributes:
-        width, kernel, kernel_args: the sampler for the runtime decoder (``Codec.decoder``): ``kernel(times, out,
-            *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
-        sampler: the same sampler for C callers (``motionrep.open``; ``motionrep/_c/include/motionrep/sampler.h``).
-
-    Raises:
-        PayloadError: for a damaged or inconsistent payload (when it is prepared).
-    """
-
-    def __init__(self, payload: Payload, version: int = 2):
-        data = np.asarray(payload.arrays["data"])
-        if data.dtype != np.uint8 or data.ndim != 1:
-            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        self._decoded = _cdecode.decode(np.ascontiguousarray(data), version)
-        self.frames = np.asarray(self._decoded).T  # (F, D), stored feature-major for the sampler
-        self.width = self.frames.shape[1]
-        self.kernel = _cdecode.sample
-        self.kernel_args = (self._decoded,)
-
-    @property
-    def sampler(self) -> Any:
-        """The C sampler (a capsule) that ``motionrep.open`` calls for each block of poses."""
-        return self._decoded.sampler
-
-    def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
-        t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
-        rows = np.empty((t.size, self.width)) if out is None or not out.flags.c_contiguous else out
-        self._decoded.rows(t, rows)
-        if out is not None and rows is not out:
-            out[...] = rows
-        return rows if out is None else out
-
-
 def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
-                 ) -> NDArray[np.float64]:
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(D,)`` position units per feature unit: the 90th percentile over frames of the context's measured
-    sensitivity when it offers one, else the weights ``w`` (Tojo et al. eq. 3)."""
+    sensitivity when it offers one, else the weights ``w`` (Tojo et al. eq. 3); and ``(m, D)``, the measured
+    sensitivity of ``m`` frames spread evenly over the clip (the weights, ``m = 1``, without a measure)."""
     measure = getattr(context, "feature_sensitivity", None)
     if measure is not None:
         per_frame = np.asarray(measure(features), dtype=np.float64)
-        if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and np.all(np.isfinite(per_frame)):
-            return np.percentile(per_frame, 90, axis=0)
-    return np.asarray(weights, dtype=np.float64)
+        if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and per_frame.shape[0] >= 1 \
+                and np.all(np.isfinite(per_frame)):
+            return np.percentile(per_frame, 90, axis=0), per_frame
+    w = np.asarray(weights, dtype=np.float64)
+    return w, w[None, :]
 
 
 class _RegionErrors:
@@ -326,7 +247,8 @@ class TransformCodec(Codec):
                                         "(max_error=None)"), "max_error=None")
         Y = np.asarray(features, dtype=np.float64)
         F, D = Y.shape
-        feature_exp = feature_exponents(_sensitivity(context, Y, weights))
+        summary, sampled = _sensitivity(context, Y, weights)
+        feature_exp = feature_exponents(summary)
         plan = _Plan(Y, feature_exp, params.region)
         if params.step is not None:
             k = np.full(plan.regions, int(_log_step(params.step)), np.int64)
@@ -334,7 +256,11 @@ class TransformCodec(Codec):
             k = self._search(plan, context, bound, params.rounding)
         if np.any(np.abs(k[:, None] + feature_exp[None, :]) > MAX_EXPONENT):
             raise BoundNotMetError("transform: the steps needed are out of range", None, bound)
-        payload = self._payload(plan.quantised(k, params.rounding))
+        quantised = plan.quantised(k, params.rounding)
+        frame_errors = getattr(context, "frame_errors", None)
+        if params.step is None and params.slack and frame_errors is not None and plan.levels:
+            quantised = self._spend_slack(plan, quantised, sampled, frame_errors, bound, params.slack, context)
+        payload = self._payload(quantised)
         # the search ends on a whole-clip measurement of exactly these values (frame_errors) within the bound; the
         # core measures the stored bytes again in any case. A fixed step, or a context that measures region by
         # region, is measured here
@@ -367,6 +293,26 @@ class TransformCodec(Codec):
         context.progress("settle", regions=R, evaluations=errors.evaluations,
                          step=[float(step_scale(k.min())), float(step_scale(k.max()))], diagnostic=True)
         return k
+
+    @staticmethod
+    def _spend_slack(plan: _Plan, quantised: Quantised, sampled: NDArray[np.float64], frame_errors, bound: float,
+                     blocks: int, context: EncodeContext) -> Quantised:
+        """The same steps, with coefficients moved towards zero where the frames have room (:mod:`._slack`)."""
+        steps = steps_of(plan.exponents(quantised.region_exponents))
+
+        def errors(features: NDArray[np.float64]) -> NDArray[np.float64]:
+            try:
+                return np.asarray(frame_errors(features), dtype=np.float64)
+            except MotionrepError:  # a candidate that does not even decode
+                return np.full(plan.num_frames, np.inf)
+
+        coefficients, figures = spend_slack(
+            quantised.coefficients, steps, plan.levels, frame_sensitivity(sampled, plan.num_frames),
+            errors, bound, lambda values: synthesised(values, plan.levels),
+            coefficient_frames(plan.num_frames, plan.levels), blocks=blocks)
+        context.progress("slack", moved=figures["moved"], evaluations=figures["evaluations"], diagnostic=True)
+        return Quantised(quantised.num_frames, quantised.num_features, quantised.region_frames,
+                         quantised.feature_exponents, quantised.region_exponents, coefficients)
 
     @staticmethod
     def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int) -> NDArray[np.int64]:
@@ -419,7 +365,7 @@ class TransformCodec(Codec):
         data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        F, D, _ = _STREAMS[self.payload_version(payload)].declared(data.tobytes())
+        F, D, _ = STREAMS[self.payload_version(payload)].declared(data.tobytes())
         check_frames(F, num_frames, "transform payload")
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 

@@ -12,7 +12,7 @@ Not part of the default test run (it takes from minutes to hours); ``tests/test_
 ``tests/test_hostile.py`` run small versions of it there.
 
 Mutants (``tests/fuzz/mutate.py``) are read by a child process, one after the other, each with
-``motionrep.io.read`` (BVH: ``parse_bvh``, its numpy path for even seeds and its compiled path for odd ones;
+``motionrep.io.read`` (BVH: ``parse_bvh``, the compiled core;
 ``.mrc``: ``unpack`` then ``decompress``, seed ``s`` mutating the file of codec ``s mod n`` of the ``n`` in
 ``--mrc-codecs``; ``gltf-json``: even seeds motionrep's own ``.glb``, odd seeds the same file without its
 ``extras``), under the small limits ``SMALL`` below; the
@@ -181,7 +181,7 @@ def child(fmt: str, start: int, count: int, work: Path, memory: int, mrc_codecs:
         warnings.simplefilter("always")
         try:
             if fmt == "bvh":
-                item = parse_bvh(data, str(path), compiled=bool(seed % 2))  # odd seeds: the compiled path
+                item = parse_bvh(data, str(path))
             elif fmt == "mrc":
                 item = decompress(unpack(data, str(path)), path=str(path))
             else:

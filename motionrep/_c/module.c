@@ -1,0 +1,361 @@
+/* motionrep._ccore: the Python glue of the compiled core (the kernels are plain C: numbers.c, shortest.c, fk.c,
+ * rotations.c).  Arrays come in through the buffer protocol (numpy arrays, bytes); each is checked here for its
+ * element type, its number of dimensions, C order and the sizes the kernel will touch, so a wrong call raises
+ * TypeError or ValueError instead of reading or writing out of bounds.  The kernels run without the GIL.
+ * The Python modules that call these (motionrep/io/_numbers.py, motionrep/io/_shortest.py,
+ * motionrep/model/kinematics.py, motionrep/model/rotations.py) validate arguments with motionrep's own errors
+ * first; this layer is the last line, not the user-facing one. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <stdlib.h>
+
+#include "ccore.h"
+#include "mr_rotconv.h"
+
+#define MAX_BUFFERS 10
+
+typedef struct {
+    Py_buffer b[MAX_BUFFERS];
+    int n;
+} buffers;
+
+static void release(buffers *bs)
+{
+    for (int i = 0; i < bs->n; i++)
+        PyBuffer_Release(&bs->b[i]);
+    bs->n = 0;
+}
+
+/* kind: 'd' float64, 'f' float32, 'r' float32 or float64, 'q' int64, 'B' bytes.  ndim < 0: any.  Returns the
+ * buffer (held in bs until release) or NULL with an exception set. */
+static Py_buffer *get(buffers *bs, PyObject *obj, const char *name, char kind, int ndim, int writable)
+{
+    Py_buffer *b = &bs->b[bs->n];
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, b, flags) < 0) {
+        PyErr_Format(PyExc_TypeError, "%s must be a C-contiguous%s array", name, writable ? " writable" : "");
+        return NULL;
+    }
+    bs->n++;
+    const char *fmt = b->format ? b->format : "B";
+    if (*fmt == '@' || *fmt == '=' || *fmt == '<')
+        fmt++;
+    int single = fmt[0] && !fmt[1], good = 0;
+    switch (kind) {
+    case 'd':
+        good = single && fmt[0] == 'd' && b->itemsize == 8;
+        break;
+    case 'r':
+        good = single && ((fmt[0] == 'd' && b->itemsize == 8) || (fmt[0] == 'f' && b->itemsize == 4));
+        break;
+    case 'q':
+        good = single && (fmt[0] == 'q' || fmt[0] == 'l') && b->itemsize == 8;
+        break;
+    case 'B':
+        good = single && (fmt[0] == 'B' || fmt[0] == 'b' || fmt[0] == 'c') && b->itemsize == 1;
+        break;
+    }
+    if (!good || (ndim >= 0 && b->ndim != ndim)) {
+        static const char *what[] = {"float64", "float32 or float64", "int64", "uint8"};
+        int w = kind == 'd' ? 0 : kind == 'r' ? 1 : kind == 'q' ? 2 : 3;
+        if (ndim >= 0)
+            PyErr_Format(PyExc_TypeError, "%s must be a %d-D %s array", name, ndim, what[w]);
+        else
+            PyErr_Format(PyExc_TypeError, "%s must be a %s array", name, what[w]);
+        return NULL;
+    }
+    return b;
+}
+
+static Py_ssize_t dim(const Py_buffer *b, int k) { return b->shape ? b->shape[k] : b->len / b->itemsize; }
+
+static PyObject *fail(buffers *bs, const char *message)
+{
+    release(bs);
+    PyErr_SetString(PyExc_ValueError, message);
+    return NULL;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(scan_doc, "scan(u, width, rows_max, by_line, out, fallback, info)\n--\n\n"
+                       "The numbers of the bytes u (motionrep.io._numbers.scan_block): float64 values into out,\n"
+                       "(slot, start, end, line) of each token left to Python's float into fallback (K, 4) int64,\n"
+                       "the counts into info (8,) int64.");
+
+static PyObject *py_scan(PyObject *self, PyObject *args)
+{
+    PyObject *ou, *oout, *ofb, *oinfo;
+    Py_ssize_t width, rows_max;
+    int by_line;
+    if (!PyArg_ParseTuple(args, "OnnpOOO", &ou, &width, &rows_max, &by_line, &oout, &ofb, &oinfo))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *u, *out, *fb, *info;
+    if (!(u = get(&bs, ou, "u", 'B', -1, 0)) || !(out = get(&bs, oout, "out", 'd', 1, 1))
+        || !(fb = get(&bs, ofb, "fallback", 'q', 2, 1)) || !(info = get(&bs, oinfo, "info", 'q', 1, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    if (width < 0 || rows_max < 0 || dim(fb, 1) != 4 || dim(info, 0) != MR_SCAN_INFO)
+        return fail(&bs, "scan: fallback must be (K, 4) and info (8,), width and rows_max >= 0");
+    if (by_line && (width && rows_max > dim(out, 0) / width))
+        return fail(&bs, "scan: out must hold rows_max * width values");
+    Py_BEGIN_ALLOW_THREADS
+    mr_scan((const uint8_t *)u->buf, (int64_t)u->len, width, rows_max, by_line, (double *)out->buf, dim(out, 0),
+            (int64_t *)fb->buf, dim(fb, 0), (int64_t *)info->buf);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(format_doc, "format_shortest(flat, per_line, out, fallback) -> (length, left)\n--\n\n"
+                         "flat's float64 values as the shortest decimals (motionrep.io._shortest), per_line to a line,\n"
+                         "into the uint8 array out (26 bytes a value); (offset, index) of each value left to repr into\n"
+                         "fallback (K, 2) int64.");
+
+static PyObject *py_format_shortest(PyObject *self, PyObject *args)
+{
+    PyObject *oflat, *oout, *ofb;
+    Py_ssize_t per_line;
+    if (!PyArg_ParseTuple(args, "OnOO", &oflat, &per_line, &oout, &ofb))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *flat, *out, *fb;
+    if (!(flat = get(&bs, oflat, "flat", 'd', 1, 0)) || !(out = get(&bs, oout, "out", 'B', 1, 1))
+        || !(fb = get(&bs, ofb, "fallback", 'q', 2, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    Py_ssize_t count = dim(flat, 0);
+    if (per_line < 1 || dim(fb, 1) != 2 || out->len / MR_SHORTEST_WIDTH < count)
+        return fail(&bs, "format_shortest: per_line >= 1, fallback (K, 2), out of 26 bytes a value");
+    int64_t length, left;
+    Py_BEGIN_ALLOW_THREADS
+    length = mr_format_shortest((const double *)flat->buf, count, per_line, (uint8_t *)out->buf, (int64_t *)fb->buf,
+                                dim(fb, 0), &left);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return Py_BuildValue("LL", (long long)length, (long long)left);
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(fk_doc, "fk(rot, root, offsets, parents, translated, joint_t, site_parents, site_offsets, out_pos, out_rot)\n"
+                     "--\n\n"
+                     "Forward kinematics (motionrep.model.kinematics.fk_arrays): rot (F, J, 4) float32 or float64,\n"
+                     "root (F, 3), offsets (J, 3), parents (J,), translated (P,), joint_t (F, P, 3), site_parents\n"
+                     "(E,), site_offsets (E, 3); out_pos (F, J + E, 3) and out_rot (F, J + E, 4) or None, written.");
+
+static PyObject *py_fk(PyObject *self, PyObject *args)
+{
+    PyObject *o[10];
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9]))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *rot, *root, *offsets, *parents, *translated, *joint_t, *sp, *so, *pos, *orot = NULL;
+    if (!(rot = get(&bs, o[0], "rot", 'r', 3, 0)) || !(root = get(&bs, o[1], "root", 'd', 2, 0))
+        || !(offsets = get(&bs, o[2], "offsets", 'd', 2, 0)) || !(parents = get(&bs, o[3], "parents", 'q', 1, 0))
+        || !(translated = get(&bs, o[4], "translated", 'q', 1, 0))
+        || !(joint_t = get(&bs, o[5], "joint_t", 'd', 3, 0)) || !(sp = get(&bs, o[6], "site_parents", 'q', 1, 0))
+        || !(so = get(&bs, o[7], "site_offsets", 'd', 2, 0)) || !(pos = get(&bs, o[8], "out_pos", 'd', 3, 1))
+        || (o[9] != Py_None && !(orot = get(&bs, o[9], "out_rot", 'd', 3, 1)))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t F = dim(rot, 0), J = dim(rot, 1), P = dim(translated, 0), E = dim(sp, 0);
+    if (dim(rot, 2) != 4 || dim(root, 0) != F || dim(root, 1) != 3 || dim(offsets, 0) != J || dim(offsets, 1) != 3
+        || dim(parents, 0) != J || dim(joint_t, 0) != F || dim(joint_t, 1) != P || dim(joint_t, 2) != 3
+        || dim(so, 0) != E || dim(so, 1) != 3 || dim(pos, 0) != F || dim(pos, 1) != J + E || dim(pos, 2) != 3
+        || (orot && (dim(orot, 0) != F || dim(orot, 1) != J + E || dim(orot, 2) != 4)))
+        return fail(&bs, "fk: array shapes do not agree");
+    const int64_t *par = parents->buf, *tr = translated->buf, *spa = sp->buf;
+    for (int64_t j = 0; j < J; j++)
+        if (par[j] >= j || (par[j] < 0 && j > 0) || (j == 0 && par[0] >= 0))
+            return fail(&bs, "fk: parents must come before their children, the root (parent -1) first");
+    for (int64_t k = 0; k < P; k++)
+        if (tr[k] < 0 || tr[k] >= J)
+            return fail(&bs, "fk: translated joints out of range");
+    for (int64_t e = 0; e < E; e++)
+        if (spa[e] < 0 || spa[e] >= J)
+            return fail(&bs, "fk: end-site parents out of range");
+    if (F > 0 && J == 0)
+        return fail(&bs, "fk: no joints");
+    mr_fk_args a = {F, J, E, P, rot->buf, rot->itemsize == 4, root->buf, offsets->buf, joint_t->buf, so->buf,
+                    par, tr, spa, pos->buf, orot ? orot->buf : NULL};
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = mr_fk(&a);
+    Py_END_ALLOW_THREADS
+    if (status) {
+        release(&bs);
+        return PyErr_NoMemory();
+    }
+    release(&bs);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(distances_doc, "max_distances(positions, reference, out) -> finite\n--\n\n"
+                            "out[k] = the largest distance between positions[k] (N, P, 3) and reference[k % M]\n"
+                            "(M, P, 3) over the P points (motionrep.pipeline.evaluate); False if one is not finite.");
+
+static PyObject *py_max_distances(PyObject *self, PyObject *args)
+{
+    PyObject *opos, *oref, *oout;
+    if (!PyArg_ParseTuple(args, "OOO", &opos, &oref, &oout))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *pos, *ref, *out;
+    if (!(pos = get(&bs, opos, "positions", 'd', 3, 0)) || !(ref = get(&bs, oref, "reference", 'd', 3, 0))
+        || !(out = get(&bs, oout, "out", 'd', 1, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t N = dim(pos, 0), P = dim(pos, 1), M = dim(ref, 0);
+    if (dim(pos, 2) != 3 || dim(ref, 1) != P || dim(ref, 2) != 3 || dim(out, 0) != N || (M == 0 && N > 0)
+        || (M > 0 && N % M))
+        return fail(&bs, "max_distances: positions (N, P, 3), reference (M, P, 3) with M dividing N, out (N,)");
+    int finite;
+    Py_BEGIN_ALLOW_THREADS
+    finite = mr_max_distances(pos->buf, ref->buf, N, M, P, out->buf);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return PyBool_FromLong(finite);
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(columns_doc, "columns_to_quat(kind, features, columns, axes, joints, out) -> status\n--\n\n"
+                          "out[:, joints[r]] = the quaternion of features[:, columns[r]] (motionrep.model.rotations):\n"
+                          "kind 0 quaternion, 1 rotation vector, 2 Euler radians, 3 Euler degrees, 4 6D; features\n"
+                          "(T, C) and out (T, J, 4) float32 or float64, columns (R, width) int64 (Euler: -1 ends\n"
+                          "early), axes (R, 3) int64 or None, joints (R,) int64.  Returns 0, 2 (a quaternion of zero\n"
+                          "length) or 3 (a degenerate 6D encoding).");
+
+static PyObject *py_columns_to_quat(PyObject *self, PyObject *args)
+{
+    int kind;
+    PyObject *ofeat, *ocols, *oaxes, *ojoints, *oout;
+    if (!PyArg_ParseTuple(args, "iOOOOO", &kind, &ofeat, &ocols, &oaxes, &ojoints, &oout))
+        return NULL;
+    if (kind < MR_QUAT || kind > MR_ORTHO6D) {
+        PyErr_SetString(PyExc_ValueError, "columns_to_quat: unknown kind");
+        return NULL;
+    }
+    int euler = kind == MR_EULER || kind == MR_EULER_DEGREES;
+    buffers bs = {.n = 0};
+    Py_buffer *feat, *cols, *axes = NULL, *joints, *out;
+    if (!(feat = get(&bs, ofeat, "features", 'r', 2, 0)) || !(cols = get(&bs, ocols, "columns", 'q', 2, 0))
+        || (euler && !(axes = get(&bs, oaxes, "axes", 'q', 2, 0))) || !(joints = get(&bs, ojoints, "joints", 'q', 1, 0))
+        || !(out = get(&bs, oout, "out", 'r', 3, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t T = dim(feat, 0), C = dim(feat, 1), R = dim(joints, 0), J = dim(out, 1);
+    int64_t width = kind == MR_QUAT ? 4 : kind == MR_ORTHO6D ? 6 : 3;
+    if (dim(cols, 0) != R || dim(cols, 1) != width || (axes && (dim(axes, 0) != R || dim(axes, 1) != 3))
+        || dim(out, 0) != T || dim(out, 2) != 4)
+        return fail(&bs, "columns_to_quat: array shapes do not agree");
+    const int64_t *c = cols->buf, *ax = axes ? axes->buf : NULL, *jo = joints->buf;
+    for (int64_t r = 0; r < R; r++) {
+        if (jo[r] < 0 || jo[r] >= J)
+            return fail(&bs, "columns_to_quat: joints out of range");
+        int ended = 0;
+        for (int64_t k = 0; k < width; k++) {
+            int64_t v = c[width * r + k];
+            if (euler && (v < 0 || ended)) {
+                if (v != -1 || k == 0)
+                    return fail(&bs, "columns_to_quat: an Euler entry needs its first column, -1 only after");
+                ended = 1;
+                continue;
+            }
+            if (v < 0 || v >= C)
+                return fail(&bs, "columns_to_quat: columns out of range");
+            if (euler && (ax[3 * r + k] < 0 || ax[3 * r + k] > 2))
+                return fail(&bs, "columns_to_quat: Euler axes must be 0, 1 or 2");
+        }
+    }
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = mr_columns_to_quat(kind, feat->buf, feat->itemsize == 4, T, C, c, ax, jo, R, out->buf,
+                                out->itemsize == 4, J);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return PyLong_FromLong(status);
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(continuous_doc, "axis_angle_continuous(theta, axis, out)\n--\n\n"
+                             "The continuity pass of rotation vectors (motionrep.model.rotations."
+                             "axis_angle_make_continuous):\ntheta (F, N), axis and out (F, N, 3) float64, out in place.");
+
+static PyObject *py_axis_angle_continuous(PyObject *self, PyObject *args)
+{
+    PyObject *otheta, *oaxis, *oout;
+    if (!PyArg_ParseTuple(args, "OOO", &otheta, &oaxis, &oout))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *theta, *axis, *out;
+    if (!(theta = get(&bs, otheta, "theta", 'd', 2, 0)) || !(axis = get(&bs, oaxis, "axis", 'd', 3, 0))
+        || !(out = get(&bs, oout, "out", 'd', 3, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t F = dim(theta, 0), N = dim(theta, 1);
+    if (dim(axis, 0) != F || dim(axis, 1) != N || dim(axis, 2) != 3 || dim(out, 0) != F || dim(out, 1) != N
+        || dim(out, 2) != 3)
+        return fail(&bs, "axis_angle_continuous: array shapes do not agree");
+    Py_BEGIN_ALLOW_THREADS
+    mr_axis_angle_continuous(theta->buf, axis->buf, out->buf, F, N);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(sincos_doc, "sincos(x) -> (sin x, cos x)\n--\n\n"
+                         "The sine and cosine every conversion to quaternions uses (mr_rotconv.h), for a float x.");
+
+static PyObject *py_sincos(PyObject *self, PyObject *arg)
+{
+    double x = PyFloat_AsDouble(arg), s, c;
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    mr_sincos(x, &s, &c);
+    return Py_BuildValue("dd", s, c);
+}
+
+static PyMethodDef methods[] = {
+    {"scan", py_scan, METH_VARARGS, scan_doc},
+    {"format_shortest", py_format_shortest, METH_VARARGS, format_doc},
+    {"fk", py_fk, METH_VARARGS, fk_doc},
+    {"max_distances", py_max_distances, METH_VARARGS, distances_doc},
+    {"columns_to_quat", py_columns_to_quat, METH_VARARGS, columns_doc},
+    {"axis_angle_continuous", py_axis_angle_continuous, METH_VARARGS, continuous_doc},
+    {"sincos", py_sincos, METH_O, sincos_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "motionrep._ccore",
+    "motionrep's compiled core (C, built at install time): the BVH number scan and writer, forward kinematics,\n"
+    "rotation conversions.  Private: called by motionrep.io and motionrep.model, which check the arguments.",
+    -1, methods,
+};
+
+int mr_simd = MR_SIMD_BASELINE;
+
+PyMODINIT_FUNC PyInit__ccore(void)
+{
+#if MR_HAVE_AVX2
+    __builtin_cpu_init();
+    const char *baseline = getenv("MOTIONREP_CCORE_BASELINE");
+    if (__builtin_cpu_supports("avx2") && !(baseline && *baseline && *baseline != '0'))
+        mr_simd = MR_SIMD_AVX2;
+#endif
+    PyObject *m = PyModule_Create(&module);
+    if (m && PyModule_AddStringConstant(m, "simd", mr_simd == MR_SIMD_AVX2 ? "avx2" : "baseline") < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,124 @@
+"""Spending the bound's slack (``motionrep_transform._slack``): its pieces, and what the search may change in a
+payload (only integers, each at most one step towards zero per round, the bound kept). Determinism across processes and
+thread counts is tested on the whole codec in ``tests/test_transform.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.compress import compress_motion, decompress
+from motionrep.pipeline.evaluate import max_joint_error
+from motionrep.plugin.coding import Model
+from motionrep_transform._codec import window_minimum
+from motionrep_transform._slack import _bisect_each, _code_lengths, frame_sensitivity, reduction_savings
+from motionrep_transform._stream2 import unpack
+from motionrep_transform._wavelet import forward, num_levels
+
+
+def test_code_lengths_are_the_models_costs():
+    model = Model(150, 20)
+    for a in (0, 1, 2, 5, 15, 16, 17, 100, 4000):
+        assert _code_lengths(model, np.array([a]))[0] == pytest.approx(model.cost(np.array([a])), abs=1e-9)
+
+
+def test_savings_are_zero_on_zeros_and_large_on_isolated_ones():
+    rng = np.random.default_rng(1)
+    x = np.cumsum(rng.normal(size=(200, 3)), axis=0)
+    levels = num_levels(200)
+    q = [np.rint(c / 2.0).astype(np.int64) for c in forward(x, levels)]
+    saved = reduction_savings(q, levels)
+    assert np.all(saved[0] == 0)  # the approximation is never moved
+    for c, s in zip(q[1:], saved[1:]):
+        assert np.all(s[c == 0] == 0)
+    finest, s = q[-1], saved[-1]
+    assert np.mean(finest == 0) > 0.8 and np.any(np.abs(finest) == 1)
+    # where a zero is likelier than a +-1 (here: everywhere), zeroing a +-1 saves more than its sign bit
+    assert np.all(s[np.abs(finest) == 1] > 1)
+
+
+def test_frame_sensitivity_interpolates_samples_spread_over_the_clip():
+    samples = np.array([[1.0, 10.0], [3.0, 10.0], [5.0, 4.0]])
+    s = frame_sensitivity(samples, 5)
+    assert s[:, 0].tolist() == [1.0, 2.0, 3.0, 4.0, 5.0]
+    assert s[0, 1] == 10.0 and s[-1, 1] == 4.0
+    assert frame_sensitivity(samples[:1], 4).shape == (4, 2)
+
+
+def test_bisect_each_finds_every_largest_passing_index():
+    limits = np.array([0, 3, 7, 16, 11])
+    calls = []
+
+    def passes(i):
+        calls.append(1)
+        return i <= limits
+
+    assert _bisect_each(passes, 5, 16).tolist() == limits.tolist()
+    assert len(calls) == 5  # ceil(log2(17)): index 0 is known to pass, 17 taken to fail
+
+
+def test_window_minimum_of_columns_is_that_of_each_column():
+    rng = np.random.default_rng(2)
+    v = rng.integers(-50, 50, size=(40, 3))
+    for span in (0, 1, 3, 39, 60):
+        out = window_minimum(v, span)
+        for c in range(3):
+            assert out[:, c].tolist() == window_minimum(v[:, c], span).tolist()
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_motion(humanoid_skeleton(), frames=240, fps=60, seed=5)
+
+
+@pytest.mark.parametrize("max_error", ["2%", "0.1%"])
+def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, max_error):
+    events = []
+    kept = compress_motion(walk, "transform", max_error=max_error, params={"slack": 0})
+    spent = compress_motion(walk, "transform", max_error=max_error,
+                            progress=lambda stage, fields: events.append((stage, dict(fields))))
+    a = unpack(kept.container.arrays["data"].tobytes())
+    b = unpack(spent.container.arrays["data"].tobytes())
+    # the same steps: region and feature exponents are not touched
+    assert a.region_exponents.tolist() == b.region_exponents.tolist()
+    active = [c for c in range(a.num_features) if any(np.any(x[:, c]) for x in b.coefficients)]
+    assert a.feature_exponents[active].tolist() == b.feature_exponents[active].tolist()  # (v2 stores no step
+    # for a feature whose coefficients are all zero)
+    assert np.array_equal(a.coefficients[0], b.coefficients[0])  # nor is the approximation
+    moved = 0
+    for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
+        # at most one step per round, two rounds
+        assert np.all((np.abs(y) <= np.abs(x)) & (np.abs(y) >= np.abs(x) - 2))
+        assert np.all((y == 0) | (np.sign(y) == np.sign(x)))
+        moved += int(np.abs(x - y).sum())
+    slack = [fields for stage, fields in events if stage == "slack"]
+    assert moved > 0 and slack and slack[0]["moved"] == moved
+    assert spent.container.payload_bytes < kept.container.payload_bytes
+    assert max_joint_error(walk, decompress(spent.data)).max_error <= spent.bound
+
+
+def test_without_frame_errors_nothing_is_searched():
+    """A context that measures region by region only (no ``frame_errors``) keeps the rounded integers: the
+    search would cost one evaluation per stretch per step."""
+    from motionrep.plugin.registry import get_codec, get_representation
+    from motionrep.pipeline.evaluate import MotionContext
+
+    class RegionsOnly:
+        def __init__(self, inner):
+            self._inner = inner
+            self.params, self.bound, self.seed, self.times = inner.params, inner.bound, inner.seed, inner.times
+
+        def __getattr__(self, name):
+            if name == "frame_errors":
+                raise AttributeError(name)
+            return getattr(self._inner, name)
+
+    m = synthetic_motion(humanoid_skeleton(), frames=64, fps=30, seed=1)
+    codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
+    params = codec.parse_params({})
+    inner = MotionContext(m, rep, codec, params, 0.02 * 1.7, 0, None)
+    a = codec.encode(rep.to_features(m), rep.weights(m), RegionsOnly(inner))
+    inner0 = MotionContext(m, rep, codec, codec.parse_params({"slack": 0}), 0.02 * 1.7, 0, None)
+    b = codec.encode(rep.to_features(m), rep.weights(m), RegionsOnly(inner0))
+    assert a.arrays["data"].tobytes() == b.arrays["data"].tobytes()
