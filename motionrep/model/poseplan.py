@@ -27,8 +27,9 @@ rounded.  Conversions (xyzw, as everywhere):
   does not rotate), made local: ``conj(G_parent) r``, ``G`` the world rotations decoded so far (the
   dual-quaternion representation's real parts); a plan with one such joint has one for every joint.
 
-The column conversions of ``motionrep.model.rotations`` (reading BVH, the plain conversion functions) are the same
-arithmetic in C (``motionrep/_c/mr_rotconv.h``), bit for bit (``benchmarks/ccore_equivalence.py``).
+Each conversion is the compiled core's (``motionrep/_c/mr_rotconv.h``, one value at a time, inlined into the
+kernel's loops over poses), the one implementation that ``motionrep.model.rotations``' column conversions (reading
+BVH, the plain conversion functions) run too.
 
 Size: one concern, features to poses: the plan and its packing for the C kernel.
 """

@@ -2,7 +2,8 @@
  *
  * Each conversion runs joint by joint over a sub-block of MR_PLAN_SUB poses, its arithmetic written as four
  * arrays (x, y, z, w) so that gcc vectorises the loops over poses; selects instead of branches.  The operations
- * and their order are those of the numba kernel this replaced, so the results are the same bits. */
+ * and their order are those of the numba kernel this replaced (the conversions are the compiled core's,
+ * motionrep/_c/mr_rotconv.h), so the results are the same bits. */
 #include "plan.h"
 
 #include <math.h>
@@ -95,95 +96,67 @@ size_t mr_plan_scratch(const mr_plan *p)
 }
 
 /* ---- the conversions: Q[i] for i < n from the feature rows ------------------------------------------------- */
-
-MR_INLINE void product(double ax, double ay, double az, double aw, double bx, double by, double bz, double bw,
-                       double *x, double *y, double *z, double *w)
-{
-    *x = aw * bx + ax * bw + ay * bz - az * by;
-    *y = aw * by - ax * bz + ay * bw + az * bx;
-    *z = aw * bz + ax * by - ay * bx + az * bw;
-    *w = aw * bw - ax * bx - ay * by - az * bz;
-}
+/* Each is a loop over poses of the compiled core's conversion of one value (motionrep/_c/mr_rotconv.h, through
+ * mrkernels.h): one implementation of every conversion, inlined here and vectorised over the poses. */
 
 MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1, const double *MR_RESTRICT x2,
                           double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
                           double *MR_RESTRICT QW, ptrdiff_t n)
 {
     for (ptrdiff_t i = 0; i < n; i++) {
-        double x = x0[i], y = x1[i], z = x2[i];
-        double theta2 = (x * x + y * y) + z * z;
-        double theta = sqrt(theta2);
-        double s, c;
-        mr_sincos(0.5 * theta, &s, &c);
-        /* sin(theta / 2) / theta, by its series below 1e-3 (no 0 / 0), as scipy does */
-        double ratio = s / theta;
-        double series = 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
-        double k = theta > 1e-3 ? ratio : series;
-        QX[i] = k * x;
-        QY[i] = k * y;
-        QZ[i] = k * z;
-        QW[i] = c;
+        double q[4];
+        mr_axis_angle(x0[i], x1[i], x2[i], q);
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
     }
 }
 
+/* the count of quaternions of zero or non-finite length */
 MR_INLINE ptrdiff_t normalized(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1,
                                const double *MR_RESTRICT x2, const double *MR_RESTRICT x3, double *MR_RESTRICT QX,
                                double *MR_RESTRICT QY, double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
 {
     ptrdiff_t zero = 0;
     for (ptrdiff_t i = 0; i < n; i++) {
-        double x = x0[i], y = x1[i], z = x2[i], w = x3[i];
-        double norm = sqrt(((x * x + y * y) + z * z) + w * w);
-        QX[i] = x / norm;
-        QY[i] = y / norm;
-        QZ[i] = z / norm;
-        QW[i] = w / norm;
-        zero += ((norm != 0.0) & (norm < INFINITY)) ? 0 : 1;
+        double q[4];
+        zero += mr_normalized(x0[i], x1[i], x2[i], x3[i], q) ? 0 : 1;
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
     }
     return zero;
 }
 
-/* one factor of an Euler entry: Q = Q b, b the rotation by `half`'s double about axis (ex, ey, ez) */
-MR_INLINE void euler_factor(const double *MR_RESTRICT v, int degrees, double ex, double ey, double ez,
-                            double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
-                            double *MR_RESTRICT QW, ptrdiff_t n)
+/* one factor of an Euler entry: Q = Q b, b the rotation by v[i] (radians, or degrees) about `axis`
+ * (mr_euler_factor's arithmetic, its parts inlined so that the loop vectorises) */
+MR_INLINE void euler_factor(const double *MR_RESTRICT v, int degrees, int axis, double *MR_RESTRICT QX,
+                            double *MR_RESTRICT QY, double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
 {
-    if (degrees) {
-        for (ptrdiff_t i = 0; i < n; i++) {
-            double a = v[i];
-            double s, cs;
-            /* exact reduction to about [-360, 360] (Sterbenz), then the half angle in radians */
-            mr_sincos((a - 720.0 * floor(a * (1.0 / 720.0) + 0.5)) * (MR_PI / 360.0), &s, &cs);
-            double x, y, z, w;
-            product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, &x, &y, &z, &w);
-            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
-        }
-    } else {
-        for (ptrdiff_t i = 0; i < n; i++) {
-            double s, cs;
-            mr_sincos(0.5 * v[i], &s, &cs);
-            double x, y, z, w;
-            product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, &x, &y, &z, &w);
-            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
-        }
+    double ex = axis == 0 ? 1.0 : 0.0, ey = axis == 1 ? 1.0 : 0.0, ez = axis == 2 ? 1.0 : 0.0;
+    for (ptrdiff_t i = 0; degrees && i < n; i++) {
+        double s, cs, q[4];
+        mr_sincos(mr_half_degrees(v[i]), &s, &cs);
+        mr_product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, q);
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
+    }
+    for (ptrdiff_t i = 0; !degrees && i < n; i++) {
+        double s, cs, q[4];
+        mr_sincos(0.5 * v[i], &s, &cs);
+        mr_product(QX[i], QY[i], QZ[i], QW[i], s * ex, s * ey, s * ez, cs, q);
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
     }
 }
 
 /* the same with an axis per element (the joints of one pose, side by side) */
-MR_INLINE void euler_factor_each(const double *MR_RESTRICT v, int degrees, const double *MR_RESTRICT ex,
-                                 const double *MR_RESTRICT ey, const double *MR_RESTRICT ez, double *MR_RESTRICT QX,
-                                 double *MR_RESTRICT QY, double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
+MR_INLINE void euler_factor_each(const double *MR_RESTRICT v, int degrees, const int *MR_RESTRICT axis,
+                                 double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
+                                 double *MR_RESTRICT QW, ptrdiff_t n)
 {
     for (ptrdiff_t i = 0; i < n; i++) {
-        double a = v[i];
-        double s, cs;
-        mr_sincos(degrees ? (a - 720.0 * floor(a * (1.0 / 720.0) + 0.5)) * (MR_PI / 360.0) : 0.5 * a, &s, &cs);
-        double x, y, z, w;
-        product(QX[i], QY[i], QZ[i], QW[i], s * ex[i], s * ey[i], s * ez[i], cs, &x, &y, &z, &w);
-        QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+        double q[4] = {QX[i], QY[i], QZ[i], QW[i]};
+        mr_euler_factor(q, v[i], axis[i], degrees);
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
     }
 }
 
+/* the count of degenerate encodings */
 MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_RESTRICT QX, double *MR_RESTRICT QY,
                             double *MR_RESTRICT QZ, double *MR_RESTRICT QW, ptrdiff_t n)
 {
@@ -191,56 +164,9 @@ MR_INLINE ptrdiff_t ortho6d(const double *const *c, ptrdiff_t a, double *MR_REST
     const double *MR_RESTRICT p3 = c[3] + a, *MR_RESTRICT p4 = c[4] + a, *MR_RESTRICT p5 = c[5] + a;
     ptrdiff_t degenerate = 0;
     for (ptrdiff_t i = 0; i < n; i++) {
-        double a1x = p0[i], a1y = p1[i], a1z = p2[i], a2x = p3[i], a2y = p4[i], a2z = p5[i];
-        double n1 = sqrt((a1x * a1x + a1y * a1y) + a1z * a1z);
-        double d = n1 > 0.0 ? n1 : 1.0;
-        double b1x = a1x / d, b1y = a1y / d, b1z = a1z / d;
-        double dot = (b1x * a2x + b1y * a2y) + b1z * a2z;
-        double u2x = a2x - dot * b1x, u2y = a2y - dot * b1y, u2z = a2z - dot * b1z;
-        double n2 = sqrt((u2x * u2x + u2y * u2y) + u2z * u2z);
-        double b2x = u2x / n2, b2y = u2y / n2, b2z = u2z / n2;
-        double b3x = b1y * b2z - b1z * b2y, b3y = b1z * b2x - b1x * b2z, b3z = b1x * b2y - b1y * b2x;
-        /* the columns b1, b2, b3 form the matrix m[row, col]; its quaternion as scipy's from_matrix: the largest
-         * of the trace and the diagonal picks the formula */
-        double m00 = b1x, m10 = b1y, m20 = b1z, m01 = b2x, m11 = b2y, m21 = b2z, m02 = b3x, m12 = b3y, m22 = b3z;
-        double trace = (m00 + m11) + m22;
-        int use_t = (trace >= m00) & (trace >= m11) & (trace >= m22);
-        int use_0 = !use_t & (m00 >= m11) & (m00 >= m22);
-        int use_1 = !use_t & !use_0 & (m11 >= m22);
-        double s21 = m21 + m12, d21 = m21 - m12;
-        double s02 = m02 + m20, d02 = m02 - m20;
-        double s10 = m10 + m01, d10 = m10 - m01;
-        double e0 = 1.0 - trace + 2.0 * m00, e1 = 1.0 - trace + 2.0 * m11, e2 = 1.0 - trace + 2.0 * m22;
-        double et = 1.0 + trace;
-        double x1 = use_1 ? s10 : s02;
-        double x0 = use_0 ? e0 : x1;
-        double x = use_t ? d21 : x0;
-        double y1 = use_1 ? e1 : s21;
-        double y0 = use_0 ? s10 : y1;
-        double y = use_t ? d02 : y0;
-        double z1 = use_1 ? s21 : e2;
-        double z0 = use_0 ? s02 : z1;
-        double z = use_t ? d10 : z0;
-        double w1 = use_1 ? d02 : d10;
-        double w0 = use_0 ? d21 : w1;
-        double w = use_t ? et : w0;
-        double norm = sqrt(((x * x + y * y) + z * z) + w * w);
-        norm = w < 0.0 ? -norm : norm;
-        QX[i] = x / norm;
-        QY[i] = y / norm;
-        QZ[i] = z / norm;
-        QW[i] = w / norm;
-        degenerate += ((n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < INFINITY)) ? 0 : 1;
-    }
-    /* where w is zero, the sign that makes the first non-zero component positive (scipy's canonical quaternion);
-     * q / -n is -(q / n) exactly, so this is the sign the formula would have chosen */
-    for (ptrdiff_t i = 0; i < n; i++) {
-        if (QW[i] == 0.0) {
-            double x = QX[i], y = QY[i], z = QZ[i];
-            if (x < 0.0 || (x == 0.0 && (y < 0.0 || (y == 0.0 && z < 0.0)))) {
-                QX[i] = -x; QY[i] = -y; QZ[i] = -z; QW[i] = -QW[i];
-            }
-        }
+        double q[4];
+        degenerate += mr_ortho6d(p0[i], p1[i], p2[i], p3[i], p4[i], p5[i], q) ? 0 : 1;
+        QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
     }
     return degenerate;
 }
@@ -257,8 +183,9 @@ MR_CLONES
 static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t i, double *o64, float *o32,
                           ptrdiff_t *zero, ptrdiff_t *degenerate)
 {
-    double in[6][ACROSS], Q[4][ACROSS], axes[3][ACROSS], T[5][ACROSS];
+    double in[6][ACROSS], Q[4][ACROSS], T[5][ACROSS];
     int64_t which[ACROSS], at[ACROSS];
+    int axes[ACROSS];
     for (int kind = MR_QUAT; kind <= MR_ORTHO6D; kind++) {
         ptrdiff_t n = 0;
         for (ptrdiff_t r = 0; r < p->R; r++)
@@ -288,20 +215,16 @@ static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrd
                 for (ptrdiff_t e = 0; e < n; e++) {
                     if (p->cols[6 * which[e] + k] < 0)
                         continue;
-                    int64_t axis = p->axes[3 * which[e] + k];
                     at[m] = e;
                     T[0][m] = in[k][e];
-                    axes[0][m] = axis == 0 ? 1.0 : 0.0;
-                    axes[1][m] = axis == 1 ? 1.0 : 0.0;
-                    axes[2][m] = axis == 2 ? 1.0 : 0.0;
+                    axes[m] = (int)p->axes[3 * which[e] + k];
                     for (int q = 0; q < 4; q++)
                         T[1 + q][m] = Q[q][e];
                     m++;
                 }
                 if (!m)
                     break;
-                euler_factor_each(T[0], kind == MR_EULER_DEGREES, axes[0], axes[1], axes[2], T[1], T[2], T[3], T[4],
-                                  m);
+                euler_factor_each(T[0], kind == MR_EULER_DEGREES, axes, T[1], T[2], T[3], T[4], m);
                 for (ptrdiff_t f = 0; f < m; f++)
                     for (int q = 0; q < 4; q++)
                         Q[q][at[f]] = T[1 + q][f];
@@ -386,9 +309,7 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                 for (int k = 0; k < 3; k++) {
                     if (cc[k] < 0)
                         break;
-                    int64_t axis = p->axes[3 * r + k];
-                    euler_factor(c[k] + a, kind == MR_EULER_DEGREES, axis == 0 ? 1.0 : 0.0, axis == 1 ? 1.0 : 0.0,
-                                 axis == 2 ? 1.0 : 0.0, QX, QY, QZ, QW, n);
+                    euler_factor(c[k] + a, kind == MR_EULER_DEGREES, (int)p->axes[3 * r + k], QX, QY, QZ, QW, n);
                 }
             } else if (kind == MR_ORTHO6D) {
                 degenerate += ortho6d(c, a, QX, QY, QZ, QW, n);
@@ -406,10 +327,10 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                     if (par >= 0) {
                         const double *gp = G + (size_t)par * 4 * MR_PLAN_SUB;
                         for (ptrdiff_t i = 0; i < n; i++) {
-                            double x, y, z, w;
-                            product(-gp[i], -gp[MR_PLAN_SUB + i], -gp[2 * MR_PLAN_SUB + i], gp[3 * MR_PLAN_SUB + i],
-                                    QX[i], QY[i], QZ[i], QW[i], &x, &y, &z, &w);
-                            QX[i] = x; QY[i] = y; QZ[i] = z; QW[i] = w;
+                            double q[4];
+                            mr_product(-gp[i], -gp[MR_PLAN_SUB + i], -gp[2 * MR_PLAN_SUB + i], gp[3 * MR_PLAN_SUB + i],
+                                       QX[i], QY[i], QZ[i], QW[i], q);
+                            QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
                         }
                     }
                 } else {

@@ -269,18 +269,11 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
     return 0;
 }
 
-static PyObject *Decoder_sampler(DecoderObject *self, void *closure)
-{
-    (void)closure;
-    if (!self->first_omega) {
-        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
-        return NULL;
-    }
-    return mr_sampler_capsule((PyObject *)self, &self->sampler);
-}
+static PyTypeObject DecoderType;
+MR_SAMPLER_BINDING(Decoder, DecoderObject, DecoderType)
 
 static PyGetSetDef Decoder_getset[] = {
-    {"sampler", (getter)Decoder_sampler, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
+    {"sampler", Decoder_sampler_get, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
 
 static PyTypeObject DecoderType = {
@@ -293,20 +286,6 @@ static PyTypeObject DecoderType = {
     .tp_init = (initproc)Decoder_init,
     .tp_new = PyType_GenericNew,
 };
-
-static PyObject *py_sample(PyObject *mod, PyObject *args)
-{
-    (void)mod;
-    PyObject *ot, *oo, *od;
-    if (!PyArg_ParseTuple(args, "OOO!", &ot, &oo, &DecoderType, &od))
-        return NULL;
-    DecoderObject *dec = (DecoderObject *)od;
-    if (!dec->first_omega) {
-        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
-        return NULL;
-    }
-    return mr_run_sampler(&dec->sampler, ot, oo);
-}
 
 static PyObject *py_elu(PyObject *mod, PyObject *args)
 {
@@ -333,7 +312,7 @@ static PyObject *py_elu(PyObject *mod, PyObject *args)
 }
 
 static PyMethodDef functions[] = {
-    {"sample", py_sample, METH_VARARGS, "sample(times, out, decoder): the features at times, feature-major"},
+    {"sample", Decoder_sample, METH_VARARGS, "sample(times, out, decoder): the features at times, feature-major"},
     {"elu", py_elu, METH_VARARGS, "elu(a, out): the decoder's float32 ELU of a (T,) float32 into out"},
     {NULL, NULL, 0, NULL}};
 

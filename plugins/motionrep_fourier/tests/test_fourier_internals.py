@@ -679,3 +679,15 @@ def test_quantised_without_a_bound_rounds_finely(chain_motion):
     a, b = decompress(q.data), decompress(f.data)
     # the same training; the rounding moves joints by far less than the network's own error
     assert max_joint_error(b, a).max_error < 0.05 * f.report.max_error + 1e-9
+
+
+def test_an_uninitialised_compiled_decoder_refuses_to_sample():
+    """A ``_cfourier.Decoder`` never initialised (or whose initialisation failed) raises, never calls through an
+    empty sampler."""
+    from motionrep_fourier import _cfourier
+
+    empty = _cfourier.Decoder.__new__(_cfourier.Decoder)
+    with pytest.raises(ValueError, match="not initialised"):
+        empty.sampler
+    with pytest.raises(ValueError, match="not initialised"):
+        _cfourier.sample(np.zeros(2), np.zeros((3, 2)), empty)

@@ -145,18 +145,11 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
     return 0;
 }
 
-static PyObject *Decoder_sampler(DecoderObject *self, void *closure)
-{
-    (void)closure;
-    if (!self->views[0].obj) {
-        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
-        return NULL;
-    }
-    return mr_sampler_capsule((PyObject *)self, &self->sampler);
-}
+static PyTypeObject DecoderType;
+MR_SAMPLER_BINDING(Decoder, DecoderObject, DecoderType)
 
 static PyGetSetDef Decoder_getset[] = {
-    {"sampler", (getter)Decoder_sampler, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
+    {"sampler", Decoder_sampler_get, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
 
 static PyTypeObject DecoderType = {
@@ -170,22 +163,8 @@ static PyTypeObject DecoderType = {
     .tp_new = PyType_GenericNew,
 };
 
-static PyObject *py_sample(PyObject *mod, PyObject *args)
-{
-    (void)mod;
-    PyObject *ot, *oo, *od;
-    if (!PyArg_ParseTuple(args, "OOO!", &ot, &oo, &DecoderType, &od))
-        return NULL;
-    DecoderObject *dec = (DecoderObject *)od;
-    if (!dec->views[0].obj) {
-        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
-        return NULL;
-    }
-    return mr_run_sampler(&dec->sampler, ot, oo);
-}
-
 static PyMethodDef functions[] = {
-    {"sample", py_sample, METH_VARARGS, "sample(times, out, decoder): the features at times, feature-major"},
+    {"sample", Decoder_sample, METH_VARARGS, "sample(times, out, decoder): the features at times, feature-major"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "motionrep_svd._csvd", "The svd codec's decoder in C.", -1,

@@ -30,33 +30,11 @@
 #define MR_RESTRICT
 #endif
 
-/* (sin x, cos x) of a float64 x to within an ulp: Cody-Waite reduction by pi / 2 (three parts, exact products for
- * |x| < 2^20 pi / 2; beyond, the result loses accuracy gracefully but stays bounded), then fdlibm's kernels on
- * [-pi/4, pi/4]; branch-free, so loops over it vectorise.  The same operations in the same order as the encoder
- * side's numpy copy (motionrep.jit.sincos_numpy), so both give the same bits. */
-MR_INLINE void mr_sincos(double x, double *s_out, double *c_out)
-{
-    double n = floor(x * 0.6366197723675814 + 0.5);
-    double r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11)
-               - n * 2.02226624871116645580e-21;
-    double z = r * r;
-    double s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
-        -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
-            -2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
-    double tail = z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (
-        2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (
-            2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
-    double hz = 0.5 * z;
-    double w = 1.0 - hz;
-    double c = w + (((1.0 - w) - hz) + tail);
-    double quadrant = n - 4.0 * floor(n * 0.25);
-    int odd = (quadrant == 1.0) | (quadrant == 3.0);
-    double s1 = odd ? c : s;
-    double c1 = odd ? -s : c;
-    int upper = quadrant >= 2.0;
-    *s_out = upper ? -s1 : s1;
-    *c_out = upper ? -c1 : c1;
-}
+/* The conversions to quaternions and their sine and cosine, one value at a time (mr_sincos, mr_product,
+ * mr_axis_angle, mr_normalized, mr_euler_factor, mr_ortho6d): the compiled core's header, one implementation for
+ * every extension (installed with the package beside this folder). */
+#define MR_ROTCONV_FLOOR_BUILTIN
+#include "../../mr_rotconv.h"
 
 /* Z[u * ldz + i] = b[u] + sum_k W[u * K + k] X[k * ldx + i] for u < U, i < m: a dense layer on a block of m inputs
  * stored as columns, each sum in a fixed order (bias first, then k = 0, 1, ..., one multiply and one add at a

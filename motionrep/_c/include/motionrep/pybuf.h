@@ -60,9 +60,11 @@ static inline void mr_capsule_release(PyObject *capsule)
 }
 
 /* The Python call of a sampler: the features at times (T,) float64 into a feature-major float64 out (width, >= T),
- * without the GIL; None, or MemoryError when the sampler fails. */
+ * without the GIL; None, or MemoryError when the sampler fails (ValueError while its `sample` is NULL). */
 static inline PyObject *mr_run_sampler(const mr_sampler *s, PyObject *times, PyObject *out)
 {
+    if (!s->sample)
+        return PyErr_Format(PyExc_ValueError, "the decoder is not initialised");
     Py_buffer bt, bo;
     Py_ssize_t any[1] = {-1}, so[2] = {(Py_ssize_t)s->width, -1};
     if (mr_get_buffer(times, &bt, 'd', 1, any, 0, "times") < 0)
@@ -88,8 +90,11 @@ static inline PyObject *mr_run_sampler(const mr_sampler *s, PyObject *times, PyO
     Py_RETURN_NONE;
 }
 
+/* The capsule of an object's sampler (ValueError while its `sample` is NULL: the object is not initialised). */
 static inline PyObject *mr_sampler_capsule(PyObject *owner, mr_sampler *s)
 {
+    if (!s->sample)
+        return PyErr_Format(PyExc_ValueError, "the decoder is not initialised");
     PyObject *capsule = PyCapsule_New(s, MR_SAMPLER_CAPSULE, mr_capsule_release);
     if (!capsule)
         return NULL;
@@ -101,6 +106,24 @@ static inline PyObject *mr_sampler_capsule(PyObject *owner, mr_sampler *s)
     }
     return capsule;
 }
+
+/* The two Python faces of a decoder type TYPE whose objects (struct OBJECT) hold an mr_sampler `sampler`:
+ * NAME_sampler_get, the getter of its `sampler` attribute (for a PyGetSetDef), and NAME_sample, the module function
+ * sample(times, out, decoder).  TYPE must be declared before (a tentative `static PyTypeObject TYPE;`). */
+#define MR_SAMPLER_BINDING(NAME, OBJECT, TYPE)                                                                     \
+    static PyObject *NAME##_sampler_get(PyObject *self, void *closure)                                            \
+    {                                                                                                             \
+        (void)closure;                                                                                            \
+        return mr_sampler_capsule(self, &((OBJECT *)self)->sampler);                                              \
+    }                                                                                                             \
+    static PyObject *NAME##_sample(PyObject *mod, PyObject *args)                                                 \
+    {                                                                                                             \
+        (void)mod;                                                                                                \
+        PyObject *ot, *oo, *od;                                                                                   \
+        if (!PyArg_ParseTuple(args, "OOO!", &ot, &oo, &(TYPE), &od))                                              \
+            return NULL;                                                                                          \
+        return mr_run_sampler(&((OBJECT *)od)->sampler, ot, oo);                                                  \
+    }
 #endif
 
 #endif
