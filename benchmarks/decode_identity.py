@@ -3,7 +3,7 @@ of main replaced by C): each clip of ``../shared/data`` is compressed with ``tra
 other checkout's interpreter (so that the files are that checkout's), then both interpreters decode every file
 and the SHA-256 of what they give is compared: the features at the frames and at random times, ``decompress``,
 ``motionrep.open``'s poses (float64 and float32) and single poses (``tests/data/golden/make_golden.py``,
-``decodes``).
+``decodes``), and the bytes of the decoded motion written as BVH (Euler angles and the writer).
 
     python benchmarks/decode_identity.py [--against /work/main/.venv/bin/python] [--codecs transform svd]
 
@@ -51,9 +51,17 @@ if mode == "make":
                 (folder / f"{name}.{codec}.mrc").write_bytes(compress_motion(motion, codec, max_error="2%").data)
             except Exception as exc:
                 out[f"{name}.{codec}.mrc"] = f"not encoded: {type(exc).__name__}: {exc}"
+import hashlib, tempfile
+from motionrep.io import write
+from motionrep.io.container import unpack
+from motionrep.pipeline.decode import decompress
+bvh = Path(tempfile.mkdtemp()) / "decoded.bvh"
 for path in sorted(folder.glob("*.mrc")):
     try:
         out[path.name] = g.decodes(path.read_bytes())
+        # the decoded motion written as BVH (Euler angles from the quaternions, then the writer): its bytes
+        write(decompress(unpack(path.read_bytes())), bvh)
+        out[path.name]["bvh"] = hashlib.sha256(bvh.read_bytes()).hexdigest()
     except Exception as exc:
         out[path.name] = f"error {type(exc).__name__}: {exc}"
 out["numba imported"] = "numba" in sys.modules
@@ -93,8 +101,9 @@ def main(argv: list[str] | None = None) -> None:
     md = [f"# Decoding identity on the real clips ({start}, load {doc['load']})", "",
           f"Every real clip of `../shared/data` compressed at 2 % with {', '.join(args.codecs)} by `{args.against}`, "
           "then decoded by it and by this checkout: the SHA-256 of the features at the frames and at 700 random "
-          "times, of `decompress`, of `motionrep.open`'s poses (float64, float32) and of 40 single poses "
-          "(`tests/data/golden/make_golden.py`).", "",
+          "times, of `decompress`, of `motionrep.open`'s poses (float64, float32), of 40 single poses "
+          "(`tests/data/golden/make_golden.py`) and of the decoded motion written as BVH (the Euler angles of "
+          "its quaternions and the writer).", "",
           f"- files: {doc['files']}; **identical: {doc['identical']}**; different: {len(differ)}"
           + (f" ({', '.join(differ)})" if differ else ""),
           f"- not encoded (the codec refused the clip there): {len(doc['not_encoded'])}",
