@@ -51,4 +51,10 @@ int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64
                        const int64_t *axes, const int64_t *joints, int64_t R, void *out, int out32, int64_t J);
 void mr_axis_angle_continuous(const double *theta, const double *axis, double *out, int64_t F, int64_t N);
 
+/* euler.c: (n, 4) xyzw quaternions to (n, 3) Euler angles for seq (three of "xyz", lower case extrinsic, upper
+ * case intrinsic, no axis twice in a row), radians or degrees, as scipy's Rotation.from_quat(q).as_euler(seq,
+ * degrees); returns -1, or the index of the first quaternion of zero or NaN length (out is then
+ * incomplete). */
+int64_t mr_quat_to_euler(const double *quat, int64_t n, const char *seq, int degrees, double *out);
+
 #endif

@@ -742,3 +742,15 @@ def test_a_stage_far_from_the_bound_ends_early(chain_motion):
     far = [K for K, (_, error) in stages.items() if error > FAR * r.bound and K < r.container.info["K"]]
     assert far and all(FAR_ITERS <= stages[K][0] <= FAR_ITERS + EVAL_EVERY * CHUNK for K in far)
     assert any(iterations > FAR_ITERS for iterations, error in stages.values() if error <= FAR * r.bound)
+
+
+def test_an_uninitialised_compiled_decoder_refuses_to_sample():
+    """A ``_cfourier.Decoder`` never initialised (or whose initialisation failed) raises, never calls through an
+    empty sampler."""
+    from motionrep_fourier import _cfourier
+
+    empty = _cfourier.Decoder.__new__(_cfourier.Decoder)
+    with pytest.raises(ValueError, match="not initialised"):
+        empty.sampler
+    with pytest.raises(ValueError, match="not initialised"):
+        _cfourier.sample(np.zeros(2), np.zeros((3, 2)), empty)
