@@ -23,10 +23,11 @@ prints :data:`COMPILE_NOTICE` on stderr, once, before the several seconds it tak
 prints nothing, and nor does a process whose environment sets :data:`NOTICE_ENV` to ``0`` (``--quiet``).
 
 Kernels are private (``_``-prefixed) and called from the public numpy-level functions that validate the input.
-motionrep's own core (reading and writing BVH, FK, the rotation conversions) no longer compiles anything at run
-time: it is C, compiled when motionrep is installed (``motionrep._ccore``, ``motionrep/_c/``), and imports no
-numba.  What still runs through this module: the pose plan (``motionrep.model.poseplan``) and the shipped codecs'
-decoders, until they move to C too (issue 24).
+Nothing shipped runs through this module any more: reading and writing BVH, FK, the rotation conversions
+(``motionrep._ccore``), the pose plan and the shipped codecs' decoders are C, compiled when motionrep is installed
+(``motionrep/_c/``, the plugins' ``_c/``).  numba is therefore not a dependency of the core install; it comes with
+the ``jit`` extra (``pip install 'motionrep[jit]'``), and calling a kernel without it raises
+:class:`~motionrep.errors.PluginError` saying so.
 Plugins (shipped or third-party) may compile their own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
 from Python (the runtime decoder, block after block, for a third-party codec's kernel) can take
@@ -41,6 +42,8 @@ import threading
 from typing import Any, Callable
 
 import numpy as np
+
+from motionrep.errors import PluginError
 
 __all__ = ["jit", "jit_inline", "LazyKernel", "numba_loaded", "sincos", "affine_block", "affine_one",
            "COMPILE_NOTICE", "NOTICE_ENV"]
@@ -88,7 +91,7 @@ def numba_loaded() -> bool:
     """Whether this process has imported numba (a compiled function has run or been typed)."""
     import sys
 
-    return "numba" in sys.modules
+    return sys.modules.get("numba") is not None  # None: marked as not importable
 
 
 def _register_typeof() -> None:
@@ -126,7 +129,11 @@ class LazyKernel:
         if d is None:
             with _lock:
                 if self._dispatcher is None:
-                    import numba
+                    try:
+                        import numba
+                    except ImportError:
+                        raise PluginError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled by "
+                                          "numba, which is not installed: pip install 'motionrep[jit]'") from None
 
                     _register_typeof()
                     dispatcher = numba.njit(**self._options)(self.py_func)

@@ -249,6 +249,8 @@ class _ThirdPartyCodec:
 
 @pytest.mark.parametrize("kernel", ["c", "numba", None], ids=["c-kernel", "numba-kernel", "decoder-only"])
 def test_a_decoder_without_a_c_sampler_decodes_the_same_poses(kernel):
+    if kernel == "numba":
+        pytest.importorskip("numba", reason="numba (the jit extra) is not installed")
     motion = synthetic_motion(chain_skeleton(5), frames=70, fps=30, seed=5)
     data = compress_motion(motion, "transform").data
     times = np.random.default_rng(0).random(1500) * motion.duration

@@ -36,6 +36,7 @@ def _env(tmp_path: Path, cache: Path, *extra: Path) -> dict[str, str]:
 
 def test_a_cold_cache_is_announced_once_and_a_warm_one_not(tmp_path):
     """A kernel of its own (a module in tmp_path), so the test compiles one small function, not motionrep's."""
+    pytest.importorskip("numba", reason="numba (the jit extra) is not installed")
     (tmp_path / "startup_kernels.py").write_text(textwrap.dedent("""
         from motionrep.jit import jit
 
@@ -187,3 +188,26 @@ def test_info_of_a_compact_hdf5_clip_imports_no_numba(tmp_path, walk):
     a, b = read(walk), read(h5)
     for name in ("root_translation", "rotations", "joint_translations", "euler_angles", "euler_branch"):
         assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+
+
+def test_a_kernel_without_numba_says_which_extra_to_install():
+    """numba is not a dependency of the core install (nothing shipped compiles at run time): a third party's
+    ``motionrep.jit`` kernel called where numba cannot be imported raises ``PluginError`` naming the extra."""
+    code = textwrap.dedent("""
+        import sys
+        sys.modules["numba"] = None  # what an install without the jit extra sees: import numba fails
+        from motionrep.errors import PluginError
+        from motionrep.jit import jit
+
+        @jit
+        def add_one(x):
+            return x + 1.0
+
+        try:
+            add_one(1.0)
+        except PluginError as exc:
+            print("MESSAGE", exc)
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(Path("."), Path(".")))
+    assert done.returncode == 0, done.stderr
+    assert "MESSAGE" in done.stdout and "motionrep[jit]" in done.stdout and "add_one" in done.stdout, done.stdout
