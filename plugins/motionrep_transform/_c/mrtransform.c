@@ -512,7 +512,7 @@ static int head_into(mrt_quantised *q, uint64_t F, uint64_t D, uint64_t region, 
 /* The head of a version-1 payload: counts (checked against what the bytes can hold), step exponents. */
 static int parse_head_v1(mrt_range_decoder *rd, size_t size, mrt_quantised *q, mrt_status *st)
 {
-    uint64_t F, D, region;
+    uint64_t F = 0, D = 0, region = 0;
     if (decode_field(rd, 32, &F, st) || decode_field(rd, 20, &D, st) || decode_field(rd, 16, &region, st))
         return st->code;
     F += 1;
@@ -625,19 +625,24 @@ static int finish(const mrt_range_decoder *rd, mrt_status *st)
 }
 
 /* A version-2 payload: its integers decoded by mrcoder.c (the adaptive coder of specs/codecs.md, "Payload version
- * 2"), row-major into q, after its counts are checked against its bytes. */
-static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, mrt_status *st)
+ * 2"), after its counts are checked against its bytes: row-major into q (q->coefficients), or, with `feature_major`
+ * (mrt_decode), feature-major into a buffer of F x D int64 allocated here (*buffer, which mrt_decode dequantises and
+ * transforms back in place, as version 1's). */
+static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, int64_t **buffer, mrt_status *st)
 {
-    uint64_t F, D, region;
+    uint64_t F = 0, D = 0, region = 0;
     if (mrt_declared(data, size, 2, &F, &D, &region, st))
         return st->code;
     uint64_t regions = (F + region - 1) / region;
     if (F * D + D + regions > (uint64_t)MRC_VALUES_PER_BYTE * size)  /* before anything is allocated */
         return fail(st, MRT_DAMAGED, "transform payload (version 2): %llu frames x %llu features cannot be held in %zu "
                     "bytes (damaged data)", (unsigned long long)F, (unsigned long long)D, size);
-    if (head_into(q, F, D, region, 1, st))
+    if (head_into(q, F, D, region, !buffer, st))
         return st->code;
-    int e = mrc_decode(data, size, q->feature_exponents, q->region_exponents, q->coefficients);
+    if (buffer && !(*buffer = malloc(F * D * sizeof(int64_t))))
+        return fail(st, MRT_NO_MEMORY, "out of memory");
+    int e = mrc_decode_layout(data, size, q->feature_exponents, q->region_exponents,
+                              buffer ? *buffer : q->coefficients, buffer != NULL);
     if (e == MRC_E_MEMORY)
         return fail(st, MRT_NO_MEMORY, "out of memory");
     if (e)
@@ -651,7 +656,7 @@ int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, 
     if (version == 2) {
         memset(q, 0, sizeof *q);
         ok(st);
-        return unpack_v2(data, size, q, st);
+        return unpack_v2(data, size, q, NULL, st);
     }
     if (begin(data, size, version, &rd, q, st))
         return st->code;
@@ -845,6 +850,14 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
     for (uint64_t c = 0; c < D; c++) {
         double *x = values + c * F;
         if (!coef) {  /* in place: each int64 becomes its double */
+            int64_t any = 0;
+            for (uint64_t r = 0; r < F; r++) {
+                int64_t v;
+                memcpy(&v, x + r, sizeof v);
+                any |= v;
+            }
+            if (!any)  /* all zero: dequantised and transformed back, every value is +0.0, the bytes it holds */
+                continue;
             const double *steps = table + q->feature_exponents[c];
             for (uint64_t r = 0; r < F; r++) {
                 int64_t v;
@@ -886,26 +899,26 @@ int mrt_reconstruct(const mrt_quantised *q, mrt_frames *out, mrt_status *st)
 
 int mrt_decode(const uint8_t *data, size_t size, int version, mrt_frames *out, mrt_status *st)
 {
-    /* version 1: one buffer, the coefficients parsed feature-major into it, then dequantised and transformed in
-     * place; version 2: mrcoder's row-major integers, then mrt_reconstruct */
+    /* one buffer: the coefficients decoded feature-major into it (version 1 parsed here, version 2 by mrcoder.c),
+     * then dequantised and transformed back in place */
     mrt_range_decoder rd;
     mrt_quantised q;
     memset(out, 0, sizeof *out);
-    if (version == 2) {
-        int code = mrt_unpack(data, size, 2, &q, st);
-        if (!code)
-            code = mrt_reconstruct(&q, out, st);
-        mrt_quantised_free(&q);
-        return code;
-    }
     int64_t *buffer = NULL;
-    int code = begin(data, size, version, &rd, &q, st);
-    if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))
-        code = fail(st, MRT_NO_MEMORY, "out of memory");
-    if (!code)
-        code = parse_coefficients_v1(&rd, &q, buffer, 1, st);
-    if (!code)
-        code = finish(&rd, st);
+    int code;
+    if (version == 2) {
+        memset(&q, 0, sizeof q);
+        ok(st);
+        code = unpack_v2(data, size, &q, &buffer, st);
+    } else {
+        code = begin(data, size, version, &rd, &q, st);
+        if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))
+            code = fail(st, MRT_NO_MEMORY, "out of memory");
+        if (!code)
+            code = parse_coefficients_v1(&rd, &q, buffer, 1, st);
+        if (!code)
+            code = finish(&rd, st);
+    }
     if (!code)
         code = synthesise(&q, NULL, (double *)(void *)buffer, st);
     if (!code) {
