@@ -37,6 +37,12 @@ def svd_clip():
 
 
 @pytest.fixture(scope="module")
+def transform_clip():
+    motion = synthetic_motion(chain_skeleton(5), frames=61, fps=30, seed=4)
+    return motion, compress_motion(motion, "transform", max_error="5%").data
+
+
+@pytest.fixture(scope="module")
 def fourier_clip():
     motion = synthetic_motion(chain_skeleton(4), frames=40, fps=24, seed=3)
     return motion, compress_motion(motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 25}).data
@@ -133,6 +139,25 @@ def test_times_are_seconds_clamped_to_the_clip(svd_clip):
             clip.poses([0.0, bad])
     with pytest.raises(ValidationError, match="number"):
         clip.pose("soon")
+
+
+@pytest.mark.parametrize("which", ["svd_clip", "transform_clip", "fourier_clip"])
+def test_seconds_are_normalised_in_c_as_numpy_clip_does(which, request):
+    """Clip.poses hands its seconds to the C loop, which normalises them block by block: the poses are those of
+    the normalised times numpy.clip(t * per_second, 0, 1) gives, bit for bit (-0.0, tiny negatives, the ends)."""
+    from motionrep.plugin.representation import empty_poses
+
+    clip = motionrep.open(request.getfixturevalue(which)[1])
+    rng = np.random.default_rng(5)
+    t = np.concatenate([[-0.0, 0.0, -1e-300, 5e-324, -3.0, clip.duration, np.nextafter(clip.duration, 0.0),
+                         clip.duration * 7.0], rng.random(300) * clip.duration])
+    got = clip.poses(t)
+    want = empty_poses(clip.skeleton, t.size, np.float64)
+    u = np.clip(t * clip._per_second, 0.0, 1.0)
+    assert clip._runtime.poses(u, want.rotations, want.root_translation, want.joint_translations) == 0
+    for a, b in ((got.rotations, want.rotations), (got.root_translation, want.root_translation),
+                 (got.joint_translations, want.joint_translations)):
+        assert a.tobytes() == b.tobytes()
 
 
 def test_positions_are_fk_of_the_poses(svd_clip):

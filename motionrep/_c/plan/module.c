@@ -4,7 +4,8 @@
  *   Plan.run(X, count, check_finite, rot, root, moved) -> status
  *   Runtime(plan, sampler, width, block, pose=None)   a clip opened for sampling: the codec's C sampler (a capsule,
  *                                              see motionrep/sampler.h), the plan or None, the class of a pose
- *   Runtime.poses(u, rot, root, moved) -> status     every block of times, codec then plan, without Python
+ *   Runtime.poses(u, rot, root, moved[, per_second]) -> status   every block of times, codec then plan, without
+ *                                              Python (with per_second: u in seconds, normalised block by block)
  *   Runtime.pose_new(t, per_second, f32, P) -> arrays or status    one time in seconds, checked and clamped here,
  *                                                                    into fresh numpy arrays
  *   Runtime.features(u, X) -> status                 the codec alone into a feature-major X (D, >= T)
@@ -190,6 +191,7 @@ typedef struct {
     const mr_sampler *sampler;
     Py_ssize_t width, block;
     double *X;              /* one block's features, feature-major (width, block) */
+    double *U;              /* one block's normalised times (Runtime.poses with per_second) */
     double *stage;          /* one sub-block's rotations, streamed out for large batches (mr_plan_run) */
     PyTypeObject *pose;     /* or NULL: the class pose_new makes (its three fields set as object.__setattr__ does) */
 } RuntimeObject;
@@ -200,6 +202,7 @@ static void Runtime_dealloc(RuntimeObject *self)
     Py_XDECREF(self->capsule);
     Py_XDECREF(self->pose);
     free(self->X);
+    free(self->U);
     free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
@@ -236,7 +239,8 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
         PyErr_SetString(PyExc_ValueError, "the plan reads more features than the codec decodes");
         return -1;
     }
-    if (!(self->X = malloc(((size_t)width ? (size_t)width : 1) * (size_t)block * sizeof(double)))) {
+    if (!(self->X = malloc(((size_t)width ? (size_t)width : 1) * (size_t)block * sizeof(double)))
+        || !(self->U = malloc((size_t)block * sizeof(double)))) {
         PyErr_NoMemory();
         return -1;
     }
@@ -261,9 +265,10 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 }
 
 /* every block of the `count` times u: the codec into X, then the plan into the outputs (rotations float32 or
- * float64, root and moved translations) */
+ * float64, root and moved translations).  With per_second >= 0, u holds finite seconds, each block's made the
+ * normalised times numpy.clip(t * per_second, 0.0, 1.0) gives (the same values, without arrays of them all). */
 static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, void *rot, int f32, double *root,
-                      double *moved)
+                      double *moved, double per_second)
 {
     const mr_plan *p = &self->plan->plan;
     const mr_sampler *s = self->sampler;
@@ -271,7 +276,16 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, vo
     double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;
     for (Py_ssize_t a = 0; a < count; a += self->block) {
         Py_ssize_t m = count - a < self->block ? count - a : self->block;
-        int e = s->sample(s->state, u + a, (size_t)m, self->X, (size_t)self->block);
+        const double *times = u + a;
+        if (per_second >= 0.0) {
+            for (Py_ssize_t i = 0; i < m; i++) {
+                double v = u[a + i] * per_second;
+                v = v > 0.0 ? v : 0.0;  /* numpy's clip: its maximum then minimum (-0.0 becomes 0.0) */
+                self->U[i] = v < 1.0 ? v : 1.0;
+            }
+            times = self->U;
+        }
+        int e = s->sample(s->state, times, (size_t)m, self->X, (size_t)self->block);
         if (e)
             return 100 + e;
         int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)rot + a * rstride, f32,
@@ -286,8 +300,19 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, vo
 static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
 {
     PyObject *ou, *rot, *root, *moved;
-    if (!PyArg_ParseTuple(args, "OOOO", &ou, &rot, &root, &moved))
+    double per_second = -1.0;  /* none: u are normalised times */
+    PyObject *ops = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOO|O", &ou, &rot, &root, &moved, &ops))
         return NULL;
+    if (ops != Py_None) {
+        per_second = PyFloat_AsDouble(ops);
+        if (per_second == -1.0 && PyErr_Occurred())
+            return NULL;
+        if (!(per_second >= 0.0 && per_second < INFINITY)) {
+            PyErr_SetString(PyExc_ValueError, "per_second must be finite and >= 0");
+            return NULL;
+        }
+    }
     if (!self->plan) {
         PyErr_SetString(PyExc_TypeError, "this Runtime has no plan");
         return NULL;
@@ -304,10 +329,10 @@ static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
     int status;
     if (bu.shape[0] > 16) {
         Py_BEGIN_ALLOW_THREADS
-        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf, per_second);
         Py_END_ALLOW_THREADS
     } else {
-        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf, per_second);
     }
     release_outputs(&o);
     PyBuffer_Release(&bu);
@@ -364,7 +389,7 @@ static PyObject *Runtime_pose_new(RuntimeObject *self, PyObject *const *args, Py
     PyTuple_SET_ITEM(out, 1, root);
     PyTuple_SET_ITEM(out, 2, moved);
     int status = run_blocks(self, &u, 1, PyArray_DATA((PyArrayObject *)rot), f32,
-                            PyArray_DATA((PyArrayObject *)root), PyArray_DATA((PyArrayObject *)moved));
+                            PyArray_DATA((PyArrayObject *)root), PyArray_DATA((PyArrayObject *)moved), -1.0);
     if (status) {
         Py_DECREF(out);
         return PyLong_FromLong(status);
@@ -414,7 +439,8 @@ static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
 
 static PyMethodDef Runtime_methods[] = {
     {"poses", (PyCFunction)Runtime_poses, METH_VARARGS,
-     "poses(u, rot, root, moved) -> status: the poses at normalised times u (T,) float64."},
+     "poses(u, rot, root, moved[, per_second]) -> status: the poses at normalised times u (T,) float64, or, with "
+     "per_second (a number >= 0), at u seconds (finite; normalised as numpy.clip(u * per_second, 0.0, 1.0))."},
     {"pose_new", (PyCFunction)(void (*)(void))Runtime_pose_new, METH_FASTCALL,
      "pose_new(t, per_second, f32, P) -> a pose (the Runtime's pose class, else a tuple of its three arrays) or a "
      "status: one pose at t seconds in fresh arrays (201: t is no number, 202: not finite)."},

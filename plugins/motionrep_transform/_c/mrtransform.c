@@ -981,6 +981,48 @@ static inline void lerp_rows(const double *MRT_RESTRICT a, const double *MRT_RES
     }
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define MRT_TRANSPOSE8 1
+typedef double mrt_v8d __attribute__((vector_size(64)));
+typedef long long mrt_v8i __attribute__((vector_size(64)));
+
+/* Eight times (rows of frames D apart, first j0[k], second j1[k], fraction fr[k]) of features d0..d0+7, blended
+ * (lerp_rows' operations) and stored feature-major, eight values to a feature: the 8 x 8 block transposed in
+ * registers (shuffles: data moved, no arithmetic). */
+static inline void lerp8x8(const double *rows, uint64_t D, const int32_t *j0, const int32_t *j1, const double *fr,
+                           uint64_t d0, double *out, size_t ldo)
+{
+    mrt_v8d r[8];
+    for (int k = 0; k < 8; k++) {
+        mrt_v8d v, u;
+        memcpy(&v, rows + (size_t)j0[k] * D + d0, sizeof v);
+        memcpy(&u, rows + (size_t)j1[k] * D + d0, sizeof u);
+        mrt_v8d w = v + (u - v) * fr[k];
+        r[k] = fr[k] == 0.0 ? v : w;
+    }
+    const mrt_v8i even = {0, 8, 2, 10, 4, 12, 6, 14}, odd = {1, 9, 3, 11, 5, 13, 7, 15};
+    const mrt_v8i lo2 = {0, 1, 8, 9, 4, 5, 12, 13}, hi2 = {2, 3, 10, 11, 6, 7, 14, 15};
+    const mrt_v8i lo4 = {0, 1, 2, 3, 8, 9, 10, 11}, hi4 = {4, 5, 6, 7, 12, 13, 14, 15};
+    mrt_v8d t[8], v[8], c[8];
+    for (int k = 0; k < 8; k += 2) {
+        t[k] = __builtin_shuffle(r[k], r[k + 1], even);
+        t[k + 1] = __builtin_shuffle(r[k], r[k + 1], odd);
+    }
+    for (int k = 0; k < 8; k += 4) {
+        v[k] = __builtin_shuffle(t[k], t[k + 2], lo2);
+        v[k + 1] = __builtin_shuffle(t[k + 1], t[k + 3], lo2);
+        v[k + 2] = __builtin_shuffle(t[k], t[k + 2], hi2);
+        v[k + 3] = __builtin_shuffle(t[k + 1], t[k + 3], hi2);
+    }
+    for (int k = 0; k < 4; k++) {
+        c[k] = __builtin_shuffle(v[k], v[k + 4], lo4);
+        c[k + 4] = __builtin_shuffle(v[k], v[k + 4], hi4);
+    }
+    for (int k = 0; k < 8; k++)
+        memcpy(out + (d0 + (uint64_t)k) * ldo, &c[k], sizeof c[k]);
+}
+#endif
+
 MRT_CLONES
 void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
 {
@@ -1004,6 +1046,21 @@ void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *
             double tmp[8 * 512];
             for (size_t i0 = 0; D <= 512 && i0 < m; i0 += 8) {
                 size_t n = m - i0 < 8 ? m - i0 : 8;
+#ifdef MRT_TRANSPOSE8
+                if (n == 8) {  /* eight features at a time in registers, the rest as below */
+                    uint64_t d0 = 0;
+                    for (; d0 + 8 <= D; d0 += 8)
+                        lerp8x8(f->rows, D, first + i0, second + i0, frac + i0, d0, out + a + i0, ldo);
+                    for (; d0 < D; d0++)
+                        for (size_t k = 0; k < 8; k++) {
+                            double v = f->rows[(size_t)first[i0 + k] * D + d0];
+                            double u = f->rows[(size_t)second[i0 + k] * D + d0];
+                            double w = v + (u - v) * frac[i0 + k];
+                            out[d0 * ldo + a + i0 + k] = frac[i0 + k] == 0.0 ? v : w;
+                        }
+                    continue;
+                }
+#endif
                 for (size_t k = 0; k < n; k++)
                     lerp_rows(f->rows + (size_t)first[i0 + k] * D, f->rows + (size_t)second[i0 + k] * D,
                               frac[i0 + k], tmp + k * D, D);
