@@ -160,6 +160,34 @@ def test_seconds_are_normalised_in_c_as_numpy_clip_does(which, request):
         assert a.tobytes() == b.tobytes()
 
 
+@pytest.mark.parametrize("representation", ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"])
+def test_joints_constant_over_the_clip_are_converted_once_to_the_same_bits(representation):
+    """transform's decoder reports the features constant over the clip (constant_features); the C loop then
+    converts the joints whose features all are once (motionrep/_c/plan/module.c): the poses are bit for bit those
+    of converting them at every pose (the same Runtime without the constants)."""
+    from motionrep._cplan import SUB_BLOCK, Runtime
+    from motionrep.pipeline.runtime import Pose
+
+    motion = synthetic_motion(chain_skeleton(6), frames=80, fps=30, seed=7)
+    rotations = motion.rotations.copy()
+    rotations[:, 2] = [0.0, 0.0, 0.0, 1.0]  # a joint that never moves
+    rotations[:, 4] = rotations[0, 4]  # one held at a pose of its own
+    data = compress_motion(motion.replace(rotations=rotations), "transform", representation=representation,
+                           max_error="5%").data
+    clip = motionrep.open(data)
+    constant = clip._decoder.constant_features
+    assert np.isfinite(constant).sum() >= 3
+    t = np.concatenate([[0.0, clip.duration], np.random.default_rng(8).random(500) * clip.duration])
+    got = clip.poses(t)
+    plain = Runtime(clip._plan, clip._decoder.sampler, constant.size, SUB_BLOCK, Pose)
+    want = empty_poses(clip.skeleton, t.size, np.float64)
+    assert plain.poses(t, want.rotations, want.root_translation, want.joint_translations, clip._per_second) == 0
+    assert got.rotations.tobytes() == want.rotations.tobytes()
+    assert got.root_translation.tobytes() == want.root_translation.tobytes()
+    for one in t[:5]:
+        assert clip.pose(one).rotations.tobytes() == want.rotations[np.flatnonzero(t == one)[0]].tobytes()
+
+
 def test_positions_are_fk_of_the_poses(svd_clip):
     motion, data = svd_clip
     clip = motionrep.open(data)

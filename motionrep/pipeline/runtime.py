@@ -125,8 +125,11 @@ class Clip:
             self._plan = None
         from .._cplan import SUB_BLOCK, Runtime
 
-        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one
-        self._runtime = Runtime(self._plan, sampler, width, SUB_BLOCK, Pose) if sampler is not None else None
+        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one; the
+        # features its decoder knows to be constant over the clip (`constant_features`) are converted once
+        constant = getattr(self._decoder, "constant_features", None) if self._plan is not None else None
+        self._runtime = (Runtime(self._plan, sampler, width, SUB_BLOCK, Pose, constant) if sampler is not None
+                         else None)
         # one pose in one C call (Runtime.pose_new: t checked and clamped, the Pose and its arrays made in C)
         self._pose_new = self._runtime.pose_new if self._runtime is not None and self._plan is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)

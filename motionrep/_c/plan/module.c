@@ -2,8 +2,9 @@
  *
  *   Plan(plan_i, plan_f)                       a packed PosePlan, checked once
  *   Plan.run(X, count, check_finite, rot, root, moved) -> status
- *   Runtime(plan, sampler, width, block, pose=None)   a clip opened for sampling: the codec's C sampler (a capsule,
- *                                              see motionrep/sampler.h), the plan or None, the class of a pose
+ *   Runtime(plan, sampler, width, block, pose=None, constant=None)   a clip opened for sampling: the codec's C
+ *                                              sampler (a capsule, see motionrep/sampler.h), the plan or None, the
+ *                                              class of a pose, the features constant over the clip (NaN: not)
  *   Runtime.poses(u, rot, root, moved[, per_second]) -> status   every block of times, codec then plan, without
  *                                              Python (with per_second: u in seconds, normalised block by block)
  *   Runtime.pose_new(t, per_second, f32, P) -> arrays or status    one time in seconds, checked and clamped here,
@@ -187,6 +188,9 @@ static PyTypeObject PlanType = {
 typedef struct {
     PyObject_HEAD
     PlanObject *plan;       /* or NULL: the codec alone (features) */
+    mr_plan run;            /* the plan as this clip runs it: with its constant entries (mr_plan.isconst) */
+    unsigned char *isconst;
+    double *constq;
     PyObject *capsule;      /* keeps the sampler's owner alive */
     const mr_sampler *sampler;
     Py_ssize_t width, block;
@@ -203,16 +207,80 @@ static void Runtime_dealloc(RuntimeObject *self)
     Py_XDECREF(self->pose);
     free(self->X);
     free(self->U);
+    free(self->isconst);
+    free(self->constq);
     free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* The entries of the plan whose columns are all constant over the clip (constant[c] finite; NaN: not constant),
+ * and their quaternions: those entries alone run on the constants as one pose (the same conversions, so the values
+ * every pose would get, since a feature the codec reports constant samples to that value at every time).  Nothing
+ * is marked when one of them is no valid rotation (a zero quaternion, a degenerate 6D encoding: the status every
+ * batch must then report) or for world plans.  0, or -1 with an exception set. */
+static int constant_entries(RuntimeObject *self, const double *constant, Py_ssize_t width)
+{
+    static const int widths[7] = {4, 3, 3, 3, 6, 4, 0};
+    const mr_plan *p = &self->plan->plan;
+    if (p->world || p->R == 0)
+        return 0;
+    size_t R = (size_t)p->R, J = (size_t)(p->J ? p->J : 1);
+    double *X1 = malloc(((size_t)width ? (size_t)width : 1) * sizeof(double)), *rot = malloc(J * 4 * sizeof(double));
+    int64_t *part = malloc(R * (1 + 6 + 3 + 1) * sizeof(int64_t));  /* the constant entries: kinds, cols, axes, joints */
+    self->isconst = calloc(R, 1);
+    self->constq = calloc(R * 4, sizeof(double));
+    int ok = X1 && rot && part && self->isconst && self->constq;
+    if (ok) {
+        for (Py_ssize_t d = 0; d < width; d++)
+            X1[d] = fabs(constant[d]) < INFINITY ? constant[d] : 0.0;
+        mr_plan sub = *p;  /* the constant entries alone, no translations */
+        int64_t *kinds = part, *cols = part + R, *axes = cols + 6 * R, *joints = axes + 3 * R, n = 0;
+        for (size_t r = 0; r < R; r++) {
+            int64_t kind = p->kinds[r];
+            int all = kind != MR_WORLD_QUAT && kind != MR_WORLD_IDENTITY;
+            for (int k = 0; all && k < widths[kind]; k++) {
+                int64_t c = p->cols[6 * r + k];
+                all = c < 0 ? (kind == MR_EULER || kind == MR_EULER_DEGREES) : fabs(constant[c]) < INFINITY;
+            }
+            self->isconst[r] = (unsigned char)all;
+            if (!all)
+                continue;
+            kinds[n] = kind;
+            joints[n] = p->joints[r];
+            memcpy(cols + 6 * n, p->cols + 6 * r, 6 * sizeof(int64_t));
+            memcpy(axes + 3 * n, p->axes + 3 * r, 3 * sizeof(int64_t));
+            n++;
+        }
+        sub.R = n;
+        sub.N = sub.M = 0;
+        sub.kinds = kinds;
+        sub.cols = cols;
+        sub.axes = axes;
+        sub.joints = joints;
+        if (n && mr_plan_run(&sub, X1, 1, 1, 0, rot, 0, NULL, NULL, NULL, NULL) == MR_PLAN_OK) {
+            for (size_t r = 0; r < R; r++)
+                if (self->isconst[r])
+                    memcpy(self->constq + 4 * r, rot + 4 * p->joints[r], 4 * sizeof(double));
+            self->run.isconst = self->isconst;
+            self->run.constq = self->constq;
+        }
+    }
+    free(X1);
+    free(rot);
+    free(part);
+    if (!ok) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    return 0;
+}
+
 static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 {
-    PyObject *plan, *capsule, *pose = Py_None;
+    PyObject *plan, *capsule, *pose = Py_None, *oconst = Py_None;
     Py_ssize_t width, block;
-    static char *names[] = {"plan", "sampler", "width", "block", "pose", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn|O", names, &plan, &capsule, &width, &block, &pose))
+    static char *names[] = {"plan", "sampler", "width", "block", "pose", "constant", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn|OO", names, &plan, &capsule, &width, &block, &pose, &oconst))
         return -1;
     if (pose != Py_None && !PyType_Check(pose)) {
         PyErr_SetString(PyExc_TypeError, "pose must be a class or None");
@@ -256,6 +324,17 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
     if (plan != Py_None) {
         Py_INCREF(plan);
         self->plan = (PlanObject *)plan;
+        self->run = self->plan->plan;
+        if (oconst != Py_None) {
+            Py_buffer bc;
+            Py_ssize_t sc[1] = {width};
+            if (mr_get_buffer(oconst, &bc, 'd', 1, sc, 0, "constant") < 0)
+                return -1;
+            int e = constant_entries(self, bc.buf, width);
+            PyBuffer_Release(&bc);
+            if (e < 0)
+                return -1;
+        }
         if (!(self->stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)(self->plan->plan.J ? self->plan->plan.J : 1)))) {
             PyErr_NoMemory();
             return -1;
@@ -270,7 +349,7 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, void *rot, int f32, double *root,
                       double *moved, double per_second)
 {
-    const mr_plan *p = &self->plan->plan;
+    const mr_plan *p = &self->run;
     const mr_sampler *s = self->sampler;
     size_t rstride = (size_t)p->J * 4 * (f32 ? sizeof(float) : sizeof(double));
     double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;

@@ -253,7 +253,7 @@ MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t 
     for (int part = 0; part < 2; part++)
         for (ptrdiff_t k = 0; k < n[part]; k++) {
             int64_t c = cols[part][k];
-            if (c < 0)
+            if (c < 0 || (part == 0 && p->isconst && p->isconst[k / 6]))  /* constant columns: finite, known */
                 continue;
             const double *x = X + c * ldx;
             if (count < 8) {
@@ -298,7 +298,12 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
             const double *c[6];
             for (int k = 0; k < 6; k++)
                 c[k] = cc[k] >= 0 ? X + cc[k] * ldx : NULL;
-            if (kind == MR_AXIS_ANGLE) {
+            if (p->isconst && p->isconst[r]) {  /* columns constant over the clip: the quaternion known */
+                const double *q = p->constq + 4 * r;
+                for (ptrdiff_t i = 0; i < n; i++) {
+                    QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
+                }
+            } else if (kind == MR_AXIS_ANGLE) {
                 axis_angle(c[0] + a, c[1] + a, c[2] + a, QX, QY, QZ, QW, n);
             } else if (kind == MR_QUAT) {
                 zero += normalized(c[0] + a, c[1] + a, c[2] + a, c[3] + a, QX, QY, QZ, QW, n);
