@@ -34,7 +34,38 @@ typedef struct {
     mr_plan plan;
     Py_buffer bi, bf;
     double *scratch;
+    int64_t *checked;  /* plan.checked */
 } PlanObject;
+
+/* The columns the entries of `p` (less those marked in `skip`, if any) and its translations read, each once, in
+ * order: the list mr_plan_run's finiteness check goes through (malloc'ed; NULL when out of memory). */
+static int64_t *read_columns(const mr_plan *p, const unsigned char *skip, int64_t *count)
+{
+    int64_t top = 0;
+    for (int64_t k = 0; k < 6 * p->R; k++)
+        top = p->cols[k] + 1 > top ? p->cols[k] + 1 : top;
+    for (int64_t k = 0; k < 3 * p->N; k++)
+        top = p->tcols[k] + 1 > top ? p->tcols[k] + 1 : top;
+    unsigned char *mark = calloc((size_t)(top ? top : 1), 1);
+    int64_t *out = malloc((size_t)(top ? top : 1) * sizeof(int64_t)), n = 0;
+    if (!mark || !out) {
+        free(mark);
+        free(out);
+        return NULL;
+    }
+    for (int64_t k = 0; k < 6 * p->R; k++)
+        if (p->cols[k] >= 0 && !(skip && skip[k / 6]))
+            mark[p->cols[k]] = 1;
+    for (int64_t k = 0; k < 3 * p->N; k++)
+        if (p->tcols[k] >= 0)
+            mark[p->tcols[k]] = 1;
+    for (int64_t c = 0; c < top; c++)
+        if (mark[c])
+            out[n++] = c;
+    free(mark);
+    *count = n;
+    return out;
+}
 
 static void Plan_dealloc(PlanObject *self)
 {
@@ -43,6 +74,7 @@ static void Plan_dealloc(PlanObject *self)
     if (self->bf.obj)
         PyBuffer_Release(&self->bf);
     free(self->scratch);
+    free(self->checked);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -69,10 +101,12 @@ static int Plan_init(PlanObject *self, PyObject *args, PyObject *kw)
         return -1;
     }
     size_t n = mr_plan_scratch(&self->plan);
-    if (n && !(self->scratch = malloc(n * sizeof(double)))) {
+    if ((n && !(self->scratch = malloc(n * sizeof(double))))
+        || !(self->checked = read_columns(&self->plan, NULL, &self->plan.nchecked))) {
         PyErr_NoMemory();
         return -1;
     }
+    self->plan.checked = self->checked;
     return 0;
 }
 
@@ -191,6 +225,7 @@ typedef struct {
     mr_plan run;            /* the plan as this clip runs it: with its constant entries (mr_plan.isconst) */
     unsigned char *isconst;
     double *constq;
+    int64_t *checked;       /* run.checked: the plan's columns less those of its constant entries */
     PyObject *capsule;      /* keeps the sampler's owner alive */
     const mr_sampler *sampler;
     Py_ssize_t width, block;
@@ -209,6 +244,7 @@ static void Runtime_dealloc(RuntimeObject *self)
     free(self->U);
     free(self->isconst);
     free(self->constq);
+    free(self->checked);
     free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
@@ -263,6 +299,8 @@ static int constant_entries(RuntimeObject *self, const double *constant, Py_ssiz
                     memcpy(self->constq + 4 * r, rot + 4 * p->joints[r], 4 * sizeof(double));
             self->run.isconst = self->isconst;
             self->run.constq = self->constq;
+            ok = (self->checked = read_columns(p, self->isconst, &self->run.nchecked)) != NULL;
+            self->run.checked = self->checked;
         }
     }
     free(X1);

@@ -243,17 +243,22 @@ static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrd
     }
 }
 
-/* whether a column of the plan's holds NaN or infinity in its first `count` values (a few poses: plain loops, no
- * vector set-up per column) */
+/* whether a column of the plan's holds NaN or infinity in its first `count` values (each column once, from
+ * p->checked when the caller made that list; a few poses: plain loops, no vector set-up per column) */
 MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count)
 {
     const int64_t *cols[2] = {p->cols, p->tcols};
-    const ptrdiff_t n[2] = {6 * p->R, 3 * p->N};
+    ptrdiff_t n[2] = {6 * p->R, 3 * p->N};
+    if (p->checked) {
+        cols[0] = p->checked;
+        n[0] = p->nchecked;
+        n[1] = 0;
+    }
     int bad = 0;
     for (int part = 0; part < 2; part++)
         for (ptrdiff_t k = 0; k < n[part]; k++) {
             int64_t c = cols[part][k];
-            if (c < 0 || (part == 0 && p->isconst && p->isconst[k / 6]))  /* constant columns: finite, known */
+            if (c < 0)
                 continue;
             const double *x = X + c * ldx;
             if (count < 8) {

@@ -26,6 +26,10 @@ typedef struct {
      * writes for every pose instead of converting the same values again (the values it would compute) */
     const unsigned char *isconst;
     const double *constq;
+    /* NULL (mr_plan_parse), or the columns check_finite must look at, each once (nchecked of them): those the plan
+     * reads, less any of constant entries (known finite) */
+    const int64_t *checked;
+    int64_t nchecked;
 } mr_plan;
 
 /* The plan in the packed arrays of PosePlan.packed(), checked so that running it reads and writes in bounds.
