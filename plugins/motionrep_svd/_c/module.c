@@ -73,7 +73,7 @@ typedef struct {
     }
 
 SVD_KERNEL(sample_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32)
-SVD_KERNEL(sample_f64, double, mr_affine_block_f64, mr_affine_one_f64)
+SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 

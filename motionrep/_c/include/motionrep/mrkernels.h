@@ -40,10 +40,60 @@
 /* Z[u * ldz + i] = b[u] + sum_k W[u * K + k] X[k * ldx + i] for u < U, i < m: a dense layer on a block of m inputs
  * stored as columns, each sum in a fixed order (bias first, then k = 0, 1, ..., one multiply and one add at a
  * time), vectorised over the block's columns, never over the sum: an input gives the same bits in any block, at
- * any position (compare mr_affine_one_*), on any CPU (the sums of motionrep.jit.affine_block, the same operations
- * in the same order).  Each tile of eight units by 64 bytes of columns keeps its sums in registers over the whole
- * of k (gcc's vector extension, lowered to the vectors each target copy has); the results are stored converted to
- * TO (exactly: float to double, or the same type). */
+ * any position (compare mr_affine_one_*), on any CPU.  Four units at a time and two inputs per pass, as
+ * motionrep.jit.affine_block (the same operations in the same order). */
+#define MR_AFFINE_BLOCK(NAME, T)                                                                                   \
+    MR_INLINE void NAME(const T *MR_RESTRICT W, ptrdiff_t U, ptrdiff_t K, const T *MR_RESTRICT b,                 \
+                        const T *MR_RESTRICT X, ptrdiff_t ldx, T *MR_RESTRICT Z, ptrdiff_t ldz, ptrdiff_t m)      \
+    {                                                                                                             \
+        ptrdiff_t u = 0;                                                                                          \
+        for (; u + 4 <= U; u += 4) {                                                                              \
+            T *z0 = Z + u * ldz, *z1 = z0 + ldz, *z2 = z1 + ldz, *z3 = z2 + ldz;                                  \
+            const T *w0 = W + u * K, *w1 = w0 + K, *w2 = w1 + K, *w3 = w2 + K;                                    \
+            T b0 = b[u], b1 = b[u + 1], b2 = b[u + 2], b3 = b[u + 3];                                            \
+            for (ptrdiff_t i = 0; i < m; i++) {                                                                   \
+                z0[i] = b0; z1[i] = b1; z2[i] = b2; z3[i] = b3;                                                   \
+            }                                                                                                     \
+            ptrdiff_t k = 0;                                                                                      \
+            for (; k + 2 <= K; k += 2) {                                                                          \
+                T w00 = w0[k], w01 = w0[k + 1], w10 = w1[k], w11 = w1[k + 1];                                    \
+                T w20 = w2[k], w21 = w2[k + 1], w30 = w3[k], w31 = w3[k + 1];                                    \
+                const T *xa = X + k * ldx, *xb = xa + ldx;                                                        \
+                for (ptrdiff_t i = 0; i < m; i++) {                                                               \
+                    T x0 = xa[i], x1 = xb[i];                                                                     \
+                    z0[i] = (z0[i] + w00 * x0) + w01 * x1;                                                        \
+                    z1[i] = (z1[i] + w10 * x0) + w11 * x1;                                                        \
+                    z2[i] = (z2[i] + w20 * x0) + w21 * x1;                                                        \
+                    z3[i] = (z3[i] + w30 * x0) + w31 * x1;                                                        \
+                }                                                                                                 \
+            }                                                                                                     \
+            if (k < K) {                                                                                          \
+                T v0 = w0[k], v1 = w1[k], v2 = w2[k], v3 = w3[k];                                                 \
+                const T *xa = X + k * ldx;                                                                        \
+                for (ptrdiff_t i = 0; i < m; i++) {                                                               \
+                    T x = xa[i];                                                                                  \
+                    z0[i] += v0 * x; z1[i] += v1 * x; z2[i] += v2 * x; z3[i] += v3 * x;                           \
+                }                                                                                                 \
+            }                                                                                                     \
+        }                                                                                                         \
+        for (; u < U; u++) {                                                                                      \
+            T *z = Z + u * ldz;                                                                                   \
+            const T *w = W + u * K;                                                                               \
+            T bias = b[u];                                                                                        \
+            for (ptrdiff_t i = 0; i < m; i++) z[i] = bias;                                                        \
+            for (ptrdiff_t k = 0; k < K; k++) {                                                                   \
+                T wk = w[k];                                                                                      \
+                const T *xa = X + k * ldx;                                                                        \
+                for (ptrdiff_t i = 0; i < m; i++) z[i] += wk * xa[i];                                             \
+            }                                                                                                     \
+        }                                                                                                         \
+    }
+
+/* The same sums as MR_AFFINE_BLOCK (each in the same order: the same bits), with each tile of eight units by 64
+ * bytes of columns keeping its sums in registers over the whole of k (gcc's vector extension, lowered to the
+ * vectors each target copy has), and the results stored converted to TO (exactly: float to double, or the same
+ * type): faster for blocks of 16 or more columns (the svd decoder's 64), slower on a block's last few columns
+ * (summed one at a time), so the Fourier decoder, whose blocks are its windows' times, keeps MR_AFFINE_BLOCK. */
 #if defined(__GNUC__)
 #define MR_AFFINE_BLOCK_TO(NAME, T, TO)                                                                            \
     MR_INLINE void NAME(const T *MR_RESTRICT W, ptrdiff_t U, ptrdiff_t K, const T *MR_RESTRICT b,                 \
@@ -121,8 +171,9 @@
         }                                                                                                         \
     }
 
-MR_AFFINE_BLOCK_TO(mr_affine_block_f64, double, double)
-MR_AFFINE_BLOCK_TO(mr_affine_block_f32, float, float)
+MR_AFFINE_BLOCK(mr_affine_block_f64, double)
+MR_AFFINE_BLOCK(mr_affine_block_f32, float)
+MR_AFFINE_BLOCK_TO(mr_affine_block_f64_to, double, double)
 MR_AFFINE_BLOCK_TO(mr_affine_block_f32_f64, float, double)
 MR_AFFINE_ONE(mr_affine_one_f64, double)
 MR_AFFINE_ONE(mr_affine_one_f32, float)
