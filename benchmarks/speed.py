@@ -597,7 +597,9 @@ def _decode_report(dec: dict) -> list[str]:
     md = [f"## Decoding ({dec['clip']}, {dec['frames']} frames, {dec['joints']} joints; load "
           f"{dec['load_start']}-{dec['load_end']})", "",
           "Each file encoded once by this checkout, then decoded in fresh processes by this checkout (C decoders) "
-          + (f"and by `{against}` (main: numba decoders), alternately, {dec['rounds']} rounds each, the best kept"
+          + (f"and by `{against}` (main's checkout: its C decoders since the compiled decoders were merged, numba's "
+             "before; the last column says whether it imported numba), alternately, "
+             f"{dec['rounds']} rounds each, the best kept"
              if against else "") + ". Batched: `clip.poses(times, out=...)` at "
           f"{dec['poses']:,} random times (codec, pose plan, fixed axes), best of {dec['repeats']}; \"CPU\" divides by "
           "the thread's CPU time instead of the wall clock (the machine is shared); one pose: `clip.pose(t)` in a loop "

@@ -37,6 +37,12 @@ def svd_clip():
 
 
 @pytest.fixture(scope="module")
+def transform_clip():
+    motion = synthetic_motion(chain_skeleton(5), frames=61, fps=30, seed=4)
+    return motion, compress_motion(motion, "transform", max_error="5%").data
+
+
+@pytest.fixture(scope="module")
 def fourier_clip():
     motion = synthetic_motion(chain_skeleton(4), frames=40, fps=24, seed=3)
     return motion, compress_motion(motion, "naive-fourier", max_error=None, params={"k": 2, "iters": 25}).data
@@ -133,6 +139,53 @@ def test_times_are_seconds_clamped_to_the_clip(svd_clip):
             clip.poses([0.0, bad])
     with pytest.raises(ValidationError, match="number"):
         clip.pose("soon")
+
+
+@pytest.mark.parametrize("which", ["svd_clip", "transform_clip", "fourier_clip"])
+def test_seconds_are_normalised_in_c_as_numpy_clip_does(which, request):
+    """Clip.poses hands its seconds to the C loop, which normalises them block by block: the poses are those of
+    the normalised times numpy.clip(t * per_second, 0, 1) gives, bit for bit (-0.0, tiny negatives, the ends)."""
+    from motionrep.plugin.representation import empty_poses
+
+    clip = motionrep.open(request.getfixturevalue(which)[1])
+    rng = np.random.default_rng(5)
+    t = np.concatenate([[-0.0, 0.0, -1e-300, 5e-324, -3.0, clip.duration, np.nextafter(clip.duration, 0.0),
+                         clip.duration * 7.0], rng.random(300) * clip.duration])
+    got = clip.poses(t)
+    want = empty_poses(clip.skeleton, t.size, np.float64)
+    u = np.clip(t * clip._per_second, 0.0, 1.0)
+    assert clip._runtime.poses(u, want.rotations, want.root_translation, want.joint_translations) == 0
+    for a, b in ((got.rotations, want.rotations), (got.root_translation, want.root_translation),
+                 (got.joint_translations, want.joint_translations)):
+        assert a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("representation", ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"])
+def test_joints_constant_over_the_clip_are_converted_once_to_the_same_bits(representation):
+    """transform's decoder reports the features constant over the clip (constant_features); the C loop then
+    converts the joints whose features all are once (motionrep/_c/plan/module.c): the poses are bit for bit those
+    of converting them at every pose (the same Runtime without the constants)."""
+    from motionrep._cplan import SUB_BLOCK, Runtime
+    from motionrep.pipeline.runtime import Pose
+
+    motion = synthetic_motion(chain_skeleton(6), frames=80, fps=30, seed=7)
+    rotations = motion.rotations.copy()
+    rotations[:, 2] = [0.0, 0.0, 0.0, 1.0]  # a joint that never moves
+    rotations[:, 4] = rotations[0, 4]  # one held at a pose of its own
+    data = compress_motion(motion.replace(rotations=rotations), "transform", representation=representation,
+                           max_error="5%").data
+    clip = motionrep.open(data)
+    constant = clip._decoder.constant_features
+    assert np.isfinite(constant).sum() >= 3
+    t = np.concatenate([[0.0, clip.duration], np.random.default_rng(8).random(500) * clip.duration])
+    got = clip.poses(t)
+    plain = Runtime(clip._plan, clip._decoder.sampler, constant.size, SUB_BLOCK, Pose)
+    want = empty_poses(clip.skeleton, t.size, np.float64)
+    assert plain.poses(t, want.rotations, want.root_translation, want.joint_translations, clip._per_second) == 0
+    assert got.rotations.tobytes() == want.rotations.tobytes()
+    assert got.root_translation.tobytes() == want.root_translation.tobytes()
+    for one in t[:5]:
+        assert clip.pose(one).rotations.tobytes() == want.rotations[np.flatnonzero(t == one)[0]].tobytes()
 
 
 def test_positions_are_fk_of_the_poses(svd_clip):

@@ -125,8 +125,11 @@ class Clip:
             self._plan = None
         from .._cplan import SUB_BLOCK, Runtime
 
-        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one
-        self._runtime = Runtime(self._plan, sampler, width, SUB_BLOCK, Pose) if sampler is not None else None
+        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one; the
+        # features its decoder knows to be constant over the clip (`constant_features`) are converted once
+        constant = getattr(self._decoder, "constant_features", None) if self._plan is not None else None
+        self._runtime = (Runtime(self._plan, sampler, width, SUB_BLOCK, Pose, constant) if sampler is not None
+                         else None)
         # one pose in one C call (Runtime.pose_new: t checked and clamped, the Pose and its arrays made in C)
         self._pose_new = self._runtime.pose_new if self._runtime is not None and self._plan is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)
@@ -147,13 +150,18 @@ class Clip:
         Raises:
             ValidationError: for times that are not finite numbers.
         """
+        return np.clip(self._seconds(times) * self._per_second, 0.0, 1.0)
+
+    @staticmethod
+    def _seconds(times: ArrayLike) -> NDArray[np.float64]:
+        """``(T,)`` float64 seconds of ``times``, checked to be finite numbers."""
         try:
             t = np.asarray(times, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError):
             raise ValidationError("times must be numbers (seconds)") from None
         if not np.isfinite(t).all():
             raise ValidationError("times must be finite (seconds)")
-        return np.clip(t * self._per_second, 0.0, 1.0)
+        return t
 
     # ---- sampling -------------------------------------------------------------------------------------------
     def pose(self, t: float, dtype: type = np.float64) -> Pose:
@@ -209,20 +217,23 @@ class Clip:
         Raises:
             ValidationError: for times that are not finite, or an ``out`` of the wrong shape.
         """
-        u = self.normalized_times(times)
+        t = self._seconds(times)
         if out is None:
-            out = empty_poses(self.skeleton, u.size, dtype)
-        elif (len(out) != u.size or out.rotations.shape[1:] != (self.skeleton.num_joints, 4)
-              or out.root_translation.shape != (u.size, 3)
-              or out.joint_translations.shape != (u.size, self.skeleton.translated_joints.size, 3)
+            out = empty_poses(self.skeleton, t.size, dtype)
+        elif (len(out) != t.size or out.rotations.shape[1:] != (self.skeleton.num_joints, 4)
+              or out.root_translation.shape != (t.size, 3)
+              or out.joint_translations.shape != (t.size, self.skeleton.translated_joints.size, 3)
               or not all(a.flags.c_contiguous for a in (out.rotations, out.root_translation, out.joint_translations))
               or out.rotations.dtype not in (np.float64, np.float32)):
-            raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
-        if self._runtime is not None and self._plan is not None:
-            status = self._runtime.poses(u, out.rotations, out.root_translation, out.joint_translations)
+            raise ValidationError(f"out must hold {t.size} poses of this skeleton (see empty_poses)")
+        if self._runtime is not None and self._plan is not None:  # the seconds normalised in C, block by block
+            t = np.ascontiguousarray(t)
+            status = self._runtime.poses(t, out.rotations, out.root_translation, out.joint_translations,
+                                         self._per_second)
             if status:
                 raise self._status_error(status)
             return out
+        u = np.clip(t * self._per_second, 0.0, 1.0)
         try:
             for a in range(0, u.size, BLOCK):
                 b = min(u.size, a + BLOCK)

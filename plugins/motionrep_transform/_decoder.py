@@ -91,6 +91,7 @@ class TransformDecoder:
         width, kernel, kernel_args: the sampler for the runtime decoder (``Codec.decoder``): ``kernel(times, out,
             *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
         sampler: the same sampler for C callers (``motionrep.open``; ``motionrep/_c/include/motionrep/sampler.h``).
+        constant_features: the features constant over the clip (NaN where not), for the runtime decoder.
 
     Raises:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
@@ -105,6 +106,19 @@ class TransformDecoder:
         self.width = self.frames.shape[1]
         self.kernel = _cdecode.sample
         self.kernel_args = (self._decoded,)
+        self._constant: NDArray[np.float64] | None = None
+
+    @property
+    def constant_features(self) -> NDArray[np.float64]:
+        """``(D,)``: each feature's value where it is the same at every frame (the same bits, and not -0.0: linear
+        interpolation then gives exactly that value at any time), NaN where it varies.  The runtime decoder converts
+        the joints whose features are all constant once instead of at every pose (``motionrep.open``)."""
+        if self._constant is None:
+            first = self.frames[0]
+            bits = self.frames.view(np.int64)
+            same = np.all(bits == bits[0], axis=0) & ~((first == 0.0) & np.signbit(first))
+            self._constant = np.where(same, first, np.nan)
+        return self._constant
 
     @property
     def sampler(self) -> Any:

@@ -2,9 +2,11 @@
  *
  *   Plan(plan_i, plan_f)                       a packed PosePlan, checked once
  *   Plan.run(X, count, check_finite, rot, root, moved) -> status
- *   Runtime(plan, sampler, width, block, pose=None)   a clip opened for sampling: the codec's C sampler (a capsule,
- *                                              see motionrep/sampler.h), the plan or None, the class of a pose
- *   Runtime.poses(u, rot, root, moved) -> status     every block of times, codec then plan, without Python
+ *   Runtime(plan, sampler, width, block, pose=None, constant=None)   a clip opened for sampling: the codec's C
+ *                                              sampler (a capsule, see motionrep/sampler.h), the plan or None, the
+ *                                              class of a pose, the features constant over the clip (NaN: not)
+ *   Runtime.poses(u, rot, root, moved[, per_second]) -> status   every block of times, codec then plan, without
+ *                                              Python (with per_second: u in seconds, normalised block by block)
  *   Runtime.pose_new(t, per_second, f32, P) -> arrays or status    one time in seconds, checked and clamped here,
  *                                                                    into fresh numpy arrays
  *   Runtime.features(u, X) -> status                 the codec alone into a feature-major X (D, >= T)
@@ -32,7 +34,38 @@ typedef struct {
     mr_plan plan;
     Py_buffer bi, bf;
     double *scratch;
+    int64_t *checked;  /* plan.checked */
 } PlanObject;
+
+/* The columns the entries of `p` (less those marked in `skip`, if any) and its translations read, each once, in
+ * order: the list mr_plan_run's finiteness check goes through (malloc'ed; NULL when out of memory). */
+static int64_t *read_columns(const mr_plan *p, const unsigned char *skip, int64_t *count)
+{
+    int64_t top = 0;
+    for (int64_t k = 0; k < 6 * p->R; k++)
+        top = p->cols[k] + 1 > top ? p->cols[k] + 1 : top;
+    for (int64_t k = 0; k < 3 * p->N; k++)
+        top = p->tcols[k] + 1 > top ? p->tcols[k] + 1 : top;
+    unsigned char *mark = calloc((size_t)(top ? top : 1), 1);
+    int64_t *out = malloc((size_t)(top ? top : 1) * sizeof(int64_t)), n = 0;
+    if (!mark || !out) {
+        free(mark);
+        free(out);
+        return NULL;
+    }
+    for (int64_t k = 0; k < 6 * p->R; k++)
+        if (p->cols[k] >= 0 && !(skip && skip[k / 6]))
+            mark[p->cols[k]] = 1;
+    for (int64_t k = 0; k < 3 * p->N; k++)
+        if (p->tcols[k] >= 0)
+            mark[p->tcols[k]] = 1;
+    for (int64_t c = 0; c < top; c++)
+        if (mark[c])
+            out[n++] = c;
+    free(mark);
+    *count = n;
+    return out;
+}
 
 static void Plan_dealloc(PlanObject *self)
 {
@@ -41,6 +74,7 @@ static void Plan_dealloc(PlanObject *self)
     if (self->bf.obj)
         PyBuffer_Release(&self->bf);
     free(self->scratch);
+    free(self->checked);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -67,10 +101,12 @@ static int Plan_init(PlanObject *self, PyObject *args, PyObject *kw)
         return -1;
     }
     size_t n = mr_plan_scratch(&self->plan);
-    if (n && !(self->scratch = malloc(n * sizeof(double)))) {
+    if ((n && !(self->scratch = malloc(n * sizeof(double))))
+        || !(self->checked = read_columns(&self->plan, NULL, &self->plan.nchecked))) {
         PyErr_NoMemory();
         return -1;
     }
+    self->plan.checked = self->checked;
     return 0;
 }
 
@@ -186,10 +222,15 @@ static PyTypeObject PlanType = {
 typedef struct {
     PyObject_HEAD
     PlanObject *plan;       /* or NULL: the codec alone (features) */
+    mr_plan run;            /* the plan as this clip runs it: with its constant entries (mr_plan.isconst) */
+    unsigned char *isconst;
+    double *constq;
+    int64_t *checked;       /* run.checked: the plan's columns less those of its constant entries */
     PyObject *capsule;      /* keeps the sampler's owner alive */
     const mr_sampler *sampler;
     Py_ssize_t width, block;
     double *X;              /* one block's features, feature-major (width, block) */
+    double *U;              /* one block's normalised times (Runtime.poses with per_second) */
     double *stage;          /* one sub-block's rotations, streamed out for large batches (mr_plan_run) */
     PyTypeObject *pose;     /* or NULL: the class pose_new makes (its three fields set as object.__setattr__ does) */
 } RuntimeObject;
@@ -200,16 +241,84 @@ static void Runtime_dealloc(RuntimeObject *self)
     Py_XDECREF(self->capsule);
     Py_XDECREF(self->pose);
     free(self->X);
+    free(self->U);
+    free(self->isconst);
+    free(self->constq);
+    free(self->checked);
     free(self->stage);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* The entries of the plan whose columns are all constant over the clip (constant[c] finite; NaN: not constant),
+ * and their quaternions: those entries alone run on the constants as one pose (the same conversions, so the values
+ * every pose would get, since a feature the codec reports constant samples to that value at every time).  Nothing
+ * is marked when one of them is no valid rotation (a zero quaternion, a degenerate 6D encoding: the status every
+ * batch must then report) or for world plans.  0, or -1 with an exception set. */
+static int constant_entries(RuntimeObject *self, const double *constant, Py_ssize_t width)
+{
+    static const int widths[7] = {4, 3, 3, 3, 6, 4, 0};
+    const mr_plan *p = &self->plan->plan;
+    if (p->world || p->R == 0)
+        return 0;
+    size_t R = (size_t)p->R, J = (size_t)(p->J ? p->J : 1);
+    double *X1 = malloc(((size_t)width ? (size_t)width : 1) * sizeof(double)), *rot = malloc(J * 4 * sizeof(double));
+    int64_t *part = malloc(R * (1 + 6 + 3 + 1) * sizeof(int64_t));  /* the constant entries: kinds, cols, axes, joints */
+    self->isconst = calloc(R, 1);
+    self->constq = calloc(R * 4, sizeof(double));
+    int ok = X1 && rot && part && self->isconst && self->constq;
+    if (ok) {
+        for (Py_ssize_t d = 0; d < width; d++)
+            X1[d] = fabs(constant[d]) < INFINITY ? constant[d] : 0.0;
+        mr_plan sub = *p;  /* the constant entries alone, no translations */
+        int64_t *kinds = part, *cols = part + R, *axes = cols + 6 * R, *joints = axes + 3 * R, n = 0;
+        for (size_t r = 0; r < R; r++) {
+            int64_t kind = p->kinds[r];
+            int all = kind != MR_WORLD_QUAT && kind != MR_WORLD_IDENTITY;
+            for (int k = 0; all && k < widths[kind]; k++) {
+                int64_t c = p->cols[6 * r + k];
+                all = c < 0 ? (kind == MR_EULER || kind == MR_EULER_DEGREES) : fabs(constant[c]) < INFINITY;
+            }
+            self->isconst[r] = (unsigned char)all;
+            if (!all)
+                continue;
+            kinds[n] = kind;
+            joints[n] = p->joints[r];
+            memcpy(cols + 6 * n, p->cols + 6 * r, 6 * sizeof(int64_t));
+            memcpy(axes + 3 * n, p->axes + 3 * r, 3 * sizeof(int64_t));
+            n++;
+        }
+        sub.R = n;
+        sub.N = sub.M = 0;
+        sub.kinds = kinds;
+        sub.cols = cols;
+        sub.axes = axes;
+        sub.joints = joints;
+        if (n && mr_plan_run(&sub, X1, 1, 1, 0, rot, 0, NULL, NULL, NULL, NULL) == MR_PLAN_OK) {
+            for (size_t r = 0; r < R; r++)
+                if (self->isconst[r])
+                    memcpy(self->constq + 4 * r, rot + 4 * p->joints[r], 4 * sizeof(double));
+            self->run.isconst = self->isconst;
+            self->run.constq = self->constq;
+            ok = (self->checked = read_columns(p, self->isconst, &self->run.nchecked)) != NULL;
+            self->run.checked = self->checked;
+        }
+    }
+    free(X1);
+    free(rot);
+    free(part);
+    if (!ok) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    return 0;
+}
+
 static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 {
-    PyObject *plan, *capsule, *pose = Py_None;
+    PyObject *plan, *capsule, *pose = Py_None, *oconst = Py_None;
     Py_ssize_t width, block;
-    static char *names[] = {"plan", "sampler", "width", "block", "pose", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn|O", names, &plan, &capsule, &width, &block, &pose))
+    static char *names[] = {"plan", "sampler", "width", "block", "pose", "constant", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOnn|OO", names, &plan, &capsule, &width, &block, &pose, &oconst))
         return -1;
     if (pose != Py_None && !PyType_Check(pose)) {
         PyErr_SetString(PyExc_TypeError, "pose must be a class or None");
@@ -236,7 +345,8 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
         PyErr_SetString(PyExc_ValueError, "the plan reads more features than the codec decodes");
         return -1;
     }
-    if (!(self->X = malloc(((size_t)width ? (size_t)width : 1) * (size_t)block * sizeof(double)))) {
+    if (!(self->X = malloc(((size_t)width ? (size_t)width : 1) * (size_t)block * sizeof(double)))
+        || !(self->U = malloc((size_t)block * sizeof(double)))) {
         PyErr_NoMemory();
         return -1;
     }
@@ -252,6 +362,17 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
     if (plan != Py_None) {
         Py_INCREF(plan);
         self->plan = (PlanObject *)plan;
+        self->run = self->plan->plan;
+        if (oconst != Py_None) {
+            Py_buffer bc;
+            Py_ssize_t sc[1] = {width};
+            if (mr_get_buffer(oconst, &bc, 'd', 1, sc, 0, "constant") < 0)
+                return -1;
+            int e = constant_entries(self, bc.buf, width);
+            PyBuffer_Release(&bc);
+            if (e < 0)
+                return -1;
+        }
         if (!(self->stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)(self->plan->plan.J ? self->plan->plan.J : 1)))) {
             PyErr_NoMemory();
             return -1;
@@ -261,17 +382,27 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
 }
 
 /* every block of the `count` times u: the codec into X, then the plan into the outputs (rotations float32 or
- * float64, root and moved translations) */
+ * float64, root and moved translations).  With per_second >= 0, u holds finite seconds, each block's made the
+ * normalised times numpy.clip(t * per_second, 0.0, 1.0) gives (the same values, without arrays of them all). */
 static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, void *rot, int f32, double *root,
-                      double *moved)
+                      double *moved, double per_second)
 {
-    const mr_plan *p = &self->plan->plan;
+    const mr_plan *p = &self->run;
     const mr_sampler *s = self->sampler;
     size_t rstride = (size_t)p->J * 4 * (f32 ? sizeof(float) : sizeof(double));
     double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;
     for (Py_ssize_t a = 0; a < count; a += self->block) {
         Py_ssize_t m = count - a < self->block ? count - a : self->block;
-        int e = s->sample(s->state, u + a, (size_t)m, self->X, (size_t)self->block);
+        const double *times = u + a;
+        if (per_second >= 0.0) {
+            for (Py_ssize_t i = 0; i < m; i++) {
+                double v = u[a + i] * per_second;
+                v = v > 0.0 ? v : 0.0;  /* numpy's clip: its maximum then minimum (-0.0 becomes 0.0) */
+                self->U[i] = v < 1.0 ? v : 1.0;
+            }
+            times = self->U;
+        }
+        int e = s->sample(s->state, times, (size_t)m, self->X, (size_t)self->block);
         if (e)
             return 100 + e;
         int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)rot + a * rstride, f32,
@@ -286,8 +417,19 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, vo
 static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
 {
     PyObject *ou, *rot, *root, *moved;
-    if (!PyArg_ParseTuple(args, "OOOO", &ou, &rot, &root, &moved))
+    double per_second = -1.0;  /* none: u are normalised times */
+    PyObject *ops = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOO|O", &ou, &rot, &root, &moved, &ops))
         return NULL;
+    if (ops != Py_None) {
+        per_second = PyFloat_AsDouble(ops);
+        if (per_second == -1.0 && PyErr_Occurred())
+            return NULL;
+        if (!(per_second >= 0.0 && per_second < INFINITY)) {
+            PyErr_SetString(PyExc_ValueError, "per_second must be finite and >= 0");
+            return NULL;
+        }
+    }
     if (!self->plan) {
         PyErr_SetString(PyExc_TypeError, "this Runtime has no plan");
         return NULL;
@@ -304,10 +446,10 @@ static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)
     int status;
     if (bu.shape[0] > 16) {
         Py_BEGIN_ALLOW_THREADS
-        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf, per_second);
         Py_END_ALLOW_THREADS
     } else {
-        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf);
+        status = run_blocks(self, bu.buf, bu.shape[0], o.rot.buf, o.f32, o.root.buf, o.moved.buf, per_second);
     }
     release_outputs(&o);
     PyBuffer_Release(&bu);
@@ -364,7 +506,7 @@ static PyObject *Runtime_pose_new(RuntimeObject *self, PyObject *const *args, Py
     PyTuple_SET_ITEM(out, 1, root);
     PyTuple_SET_ITEM(out, 2, moved);
     int status = run_blocks(self, &u, 1, PyArray_DATA((PyArrayObject *)rot), f32,
-                            PyArray_DATA((PyArrayObject *)root), PyArray_DATA((PyArrayObject *)moved));
+                            PyArray_DATA((PyArrayObject *)root), PyArray_DATA((PyArrayObject *)moved), -1.0);
     if (status) {
         Py_DECREF(out);
         return PyLong_FromLong(status);
@@ -414,7 +556,8 @@ static PyObject *Runtime_features(RuntimeObject *self, PyObject *args)
 
 static PyMethodDef Runtime_methods[] = {
     {"poses", (PyCFunction)Runtime_poses, METH_VARARGS,
-     "poses(u, rot, root, moved) -> status: the poses at normalised times u (T,) float64."},
+     "poses(u, rot, root, moved[, per_second]) -> status: the poses at normalised times u (T,) float64, or, with "
+     "per_second (a number >= 0), at u seconds (finite; normalised as numpy.clip(u * per_second, 0.0, 1.0))."},
     {"pose_new", (PyCFunction)(void (*)(void))Runtime_pose_new, METH_FASTCALL,
      "pose_new(t, per_second, f32, P) -> a pose (the Runtime's pose class, else a tuple of its three arrays) or a "
      "status: one pose at t seconds in fresh arrays (201: t is no number, 202: not finite)."},

@@ -243,12 +243,17 @@ static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrd
     }
 }
 
-/* whether a column of the plan's holds NaN or infinity in its first `count` values (a few poses: plain loops, no
- * vector set-up per column) */
+/* whether a column of the plan's holds NaN or infinity in its first `count` values (each column once, from
+ * p->checked when the caller made that list; a few poses: plain loops, no vector set-up per column) */
 MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count)
 {
     const int64_t *cols[2] = {p->cols, p->tcols};
-    const ptrdiff_t n[2] = {6 * p->R, 3 * p->N};
+    ptrdiff_t n[2] = {6 * p->R, 3 * p->N};
+    if (p->checked) {
+        cols[0] = p->checked;
+        n[0] = p->nchecked;
+        n[1] = 0;
+    }
     int bad = 0;
     for (int part = 0; part < 2; part++)
         for (ptrdiff_t k = 0; k < n[part]; k++) {
@@ -298,7 +303,12 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
             const double *c[6];
             for (int k = 0; k < 6; k++)
                 c[k] = cc[k] >= 0 ? X + cc[k] * ldx : NULL;
-            if (kind == MR_AXIS_ANGLE) {
+            if (p->isconst && p->isconst[r]) {  /* columns constant over the clip: the quaternion known */
+                const double *q = p->constq + 4 * r;
+                for (ptrdiff_t i = 0; i < n; i++) {
+                    QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
+                }
+            } else if (kind == MR_AXIS_ANGLE) {
                 axis_angle(c[0] + a, c[1] + a, c[2] + a, QX, QY, QZ, QW, n);
             } else if (kind == MR_QUAT) {
                 zero += normalized(c[0] + a, c[1] + a, c[2] + a, c[3] + a, QX, QY, QZ, QW, n);

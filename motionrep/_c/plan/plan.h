@@ -21,6 +21,15 @@ typedef struct {
     const int64_t *kinds, *cols, *axes, *joints, *parents, *ident, *tcols;   /* (R), (R, 6), (R, 3), ... */
     const double *tvals;           /* (N, 3) */
     int64_t rows;                  /* the feature rows the plan reads: max column + 1 */
+    /* NULL (mr_plan_parse), or set by a caller that knows which features are constant over a clip: the entries
+     * (R) whose columns all are (isconst[r]), and their quaternions (constq, (R, 4)), which mr_plan_run then
+     * writes for every pose instead of converting the same values again (the values it would compute) */
+    const unsigned char *isconst;
+    const double *constq;
+    /* NULL (mr_plan_parse), or the columns check_finite must look at, each once (nchecked of them): those the plan
+     * reads, less any of constant entries (known finite) */
+    const int64_t *checked;
+    int64_t nchecked;
 } mr_plan;
 
 /* The plan in the packed arrays of PosePlan.packed(), checked so that running it reads and writes in bounds.

@@ -32,13 +32,14 @@ typedef struct {
         const svd_arrays *s = state;                                                                               \
         const size_t F = s->F, r = s->r, D = s->D;                                                                 \
         const T *coeff = s->coeff, *mean = s->mean, *basis_t = s->basis_t, *basis = s->basis;                      \
-        /* one time (a pose alone): its two vectors on the stack, no allocation */                                 \
-        T small[1024];                                                                                             \
-        size_t need = count == 1 ? r + D + 1 : (r ? r : 1) * ROWS + D * ROWS + r + D + 1;                          \
-        T *C = need <= 1024 ? small : malloc(sizeof(T) * need);                                                    \
+        /* the block's interpolated coefficients (and one time's two vectors) on the stack when they fit: no    \
+         * allocation per call; the features go straight into out, converted from T as they are stored */         \
+        T small[4096];                                                                                             \
+        size_t need = count == 1 ? r + D + 1 : (r ? r : 1) * ROWS + r + D + 1;                                     \
+        T *C = need <= 4096 ? small : malloc(sizeof(T) * need);                                                    \
         if (!C)                                                                                                    \
             return 1;                                                                                              \
-        T *Y = count == 1 ? C : C + (r ? r : 1) * ROWS, *c1 = count == 1 ? C : Y + D * ROWS, *y1 = c1 + r;         \
+        T *c1 = count == 1 ? C : C + (r ? r : 1) * ROWS, *y1 = c1 + r;                                             \
         const size_t stride = count == 1 ? 1 : ROWS; /* of C's rows: one time writes c1 straight away */           \
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
@@ -64,18 +65,15 @@ typedef struct {
                     out[d * ldo + a] = (double)y1[d];                                                              \
                 continue;                                                                                          \
             }                                                                                                      \
-            AFFINE_BLOCK(basis_t, (ptrdiff_t)D, (ptrdiff_t)r, mean, C, ROWS, Y, ROWS, (ptrdiff_t)m);               \
-            for (size_t d = 0; d < D; d++)                                                                         \
-                for (size_t i = 0; i < m; i++)                                                                     \
-                    out[d * ldo + a + i] = (double)Y[d * ROWS + i];                                                \
+            AFFINE_BLOCK(basis_t, (ptrdiff_t)D, (ptrdiff_t)r, mean, C, ROWS, out + a, (ptrdiff_t)ldo, (ptrdiff_t)m);  \
         }                                                                                                          \
         if (C != small)                                                                                            \
             free(C);                                                                                               \
         return 0;                                                                                                  \
     }
 
-SVD_KERNEL(sample_f32, float, mr_affine_block_f32, mr_affine_one_f32)
-SVD_KERNEL(sample_f64, double, mr_affine_block_f64, mr_affine_one_f64)
+SVD_KERNEL(sample_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32)
+SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 

@@ -13,38 +13,51 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The coder's functions are written once for both directions (a `dec` argument) and inlined into the encoder's
+ * and the decoder's loop, each compiled with `dec` a constant: no test of the direction per decision. */
+#if defined(__GNUC__)
+#define MRC_INLINE static inline __attribute__((always_inline))
+#else
+#define MRC_INLINE static inline
+#endif
+
 /* ------------------------------------------------------------------------------------------------------- */
 /* integer helpers                                                                                           */
 /* ------------------------------------------------------------------------------------------------------- */
 
-/* floor(x / 2 ** s) for any sign of x */
-static int64_t asr(int64_t x, int s) {
-    return x >= 0 ? (x >> s) : -(int64_t)(((uint64_t)(-(x + 1)) >> s) + 1);
+/* floor(x / 2 ** s) for any sign of x (int64_t is two's complement: ~x = -x - 1 >= 0 for x < 0, and
+ * floor(x / 2 ** s) = ~floor(~x / 2 ** s); both arms a right shift of a non-negative value, one instruction) */
+MRC_INLINE int64_t asr(int64_t x, int s) {
+    return x >= 0 ? (x >> s) : ~(~x >> s);
 }
 
-static int bitlen(uint64_t x) {
+MRC_INLINE int bitlen(uint64_t x) {
+#if defined(__GNUC__)
+    return x ? 64 - __builtin_clzll(x) : 0;
+#else
     int n = 0;
     while (x) {
         n++;
         x >>= 1;
     }
     return n;
+#endif
 }
 
 /* class of a non-negative context sum: 0 for 0, then two classes per octave, capped */
-static int qclass(int64_t s, int nclass) {
+MRC_INLINE int qclass(int64_t s, int nclass) {
     if (s <= 0) return 0;
     int n = bitlen((uint64_t)s);
     int c = 2 * n - 1 + (n >= 2 ? (int)((s >> (n - 2)) & 1) : 0);
     return c < nclass - 1 ? c : nclass - 1;
 }
 
-static int64_t cap(int64_t v) {
+MRC_INLINE int64_t cap(int64_t v) {
     int64_t m = v < 0 ? -v : v;
     return m < (1 << 24) ? m : (1 << 24);
 }
 
-static int sign3(int64_t v) { return v == 0 ? 0 : (v > 0 ? 1 : 2); }
+MRC_INLINE int sign3(int64_t v) { return v == 0 ? 0 : (v > 0 ? 1 : 2); }
 
 /* ------------------------------------------------------------------------------------------------------- */
 /* probability models                                                                                        */
@@ -52,7 +65,7 @@ static int sign3(int64_t v) { return v == 0 ? 0 : (v > 0 ? 1 : 2); }
 
 typedef struct {
     uint16_t p; /* P(1) in 1/65536 */
-    uint16_t n; /* updates seen, capped */
+    uint16_t n; /* updates seen, capped at 63 */
 } Counter;
 
 #define P_LOW 16
@@ -67,19 +80,18 @@ static void counters_init(Counter *c, size_t n) {
 
 /* the rate after n updates: max(1024, floor(131072 / (2 n + 3))), i.e. 1 / (n + 1.5) in 1/65536, not below 1/64;
  * a table of the 63 values above the floor (a division per decision would cost as much as the rest) */
-static const uint16_t RATES[63] = {
+static const uint16_t RATES[64] = {
     43690, 26214, 18724, 14563, 11915, 10082, 8738, 7710, 6898, 6241, 5698, 5242,
     4854, 4519, 4228, 3971, 3744, 3542, 3360, 3196, 3048, 2912, 2788, 2674,
     2570, 2473, 2383, 2299, 2221, 2148, 2080, 2016, 1956, 1899, 1846, 1795,
     1747, 1702, 1659, 1618, 1579, 1542, 1506, 1472, 1440, 1409, 1379, 1351,
     1323, 1297, 1272, 1248, 1224, 1202, 1180, 1159, 1139, 1120, 1101, 1083,
-    1065, 1048, 1032,
+    1065, 1048, 1032, 1024,
 };
 
-static uint32_t rate_of(unsigned n) { return n < 63 ? RATES[n] : 1024u; }
-
-static void counter_update(Counter *c, int y) {
-    uint32_t r = rate_of(c->n);
+/* (n stops at 63, where the rate stops changing: the same rates as counting on) */
+MRC_INLINE void counter_update(Counter *c, int y) {
+    uint32_t r = RATES[c->n];
     uint32_t p = c->p;
     if (y)
         p += (uint32_t)(((uint64_t)(65536u - p) * r) >> 16);
@@ -88,10 +100,10 @@ static void counter_update(Counter *c, int y) {
     if (p < P_LOW) p = P_LOW;
     if (p > P_HIGH) p = P_HIGH;
     c->p = (uint16_t)p;
-    if (c->n < 255) c->n++;
+    c->n += c->n < 63;
 }
 
-static int counter_p12(const Counter *c) { return c->p >> 4; } /* 1..4094 */
+MRC_INLINE int counter_p12(const Counter *c) { return c->p >> 4; } /* 1..4094 */
 
 /* PAQ's squash (logistic function on stretch units of 1/256 natural-log odds) by interpolation of 33 points,
  * and stretch, its inverse, as a table */
@@ -107,14 +119,19 @@ static int squash(int d) {
     return (SQUASH_T[i] * (128 - w) + SQUASH_T[i + 1] * w + 64) >> 7;
 }
 
+#define N0 20 /* classes of the whole neighbourhood sum (detail contexts, below) */
+#define N1 12 /* classes of the time and of the parent neighbourhood */
+
 typedef struct {
     int16_t stretch[4096];
+    int16_t squash[4095]; /* squash(d - 2047), d = 0..4094: one load per decision instead of the interpolation */
 } Tables;
 
 static void tables_init(Tables *t) {
+    for (int d = -2047; d <= 2047; d++) t->squash[d + 2047] = (int16_t)squash(d);
     int pi = 0;
     for (int x = -2047; x <= 2047; x++) {
-        int v = squash(x);
+        int v = t->squash[x + 2047];
         for (int i = pi; i <= v; i++) t->stretch[i] = (int16_t)x;
         pi = v + 1;
     }
@@ -228,7 +245,7 @@ typedef struct {
     uint32_t range, code;
 } Dec;
 
-static uint8_t dec_next(Dec *d) {
+MRC_INLINE uint8_t dec_next(Dec *d) {
     uint8_t b = d->pos < d->len ? d->data[d->pos] : 0;
     d->pos++;
     return b;
@@ -243,7 +260,7 @@ static void dec_init(Dec *d, const uint8_t *data, size_t len) {
     for (int i = 0; i < 4; i++) d->code = (d->code << 8) | dec_next(d);
 }
 
-static int dec_bit(Dec *d, int p12) {
+MRC_INLINE int dec_bit(Dec *d, int p12) {
     uint32_t bound = (d->range >> 12) * (uint32_t)p12;
     int y;
     if (d->code < bound) {
@@ -262,47 +279,47 @@ static int dec_bit(Dec *d, int p12) {
 }
 
 /* ------------------------------------------------------------------------------------------------------- */
-/* one coder for both directions: `dec` NULL encodes `*y`, else decodes into it                              */
+/* one coder for both directions: `dec` 0 encodes `*y`, else decodes into it (a constant where inlined)       */
 /* ------------------------------------------------------------------------------------------------------- */
 
 typedef struct {
     Enc *enc;
-    Dec *dec;
-    Tables *t;
-    Mixer mix;
+    Dec d;           /* the decoder's state, by value: code_body works on a local copy the compiler keeps in registers */
+    const Tables *t;
+    Mixer *mix;
 } Coder;
 
-static int code_bit(Coder *c, int p12, int y) {
-    if (c->dec) return dec_bit(c->dec, p12);
+MRC_INLINE int code_bit(const int dec, Coder *c, int p12, int y) {
+    if (dec) return dec_bit(&c->d, p12);
     enc_bit(c->enc, p12, y);
     return y;
 }
 
-static int code_counter(Coder *c, Counter *k, int y) {
-    y = code_bit(c, counter_p12(k), y);
+MRC_INLINE int code_counter(const int dec, Coder *c, Counter *k, int y) {
+    y = code_bit(dec, c, counter_p12(k), y);
     counter_update(k, y);
     return y;
 }
 
-static int code_raw(Coder *c, int y) { return code_bit(c, 2048, y); }
+MRC_INLINE int code_raw(const int dec, Coder *c, int y) { return code_bit(dec, c, 2048, y); }
 
-/* a decision from the counters k[0..n-1], mixed with weight set `set` */
-static int code_mixed(Coder *c, Counter **k, int n, int set, int y) {
+/* a decision from the counters k[0..n-1], mixed with the weights w (a set of c->mix.w, or a copy of one the
+ * caller keeps in registers) */
+MRC_INLINE int code_mixed(const int dec, Coder *c, Counter **k, int n, int32_t *w, int y) {
     int st[MIX_INPUTS];
+    int64_t st_rate[MIX_INPUTS]; /* st * MIX_RATE before the decision is known: off the path from one to the next */
     int64_t dot = 0;
-    int32_t *w = c->mix.w[set];
     for (int i = 0; i < n; i++) {
         st[i] = c->t->stretch[counter_p12(k[i])];
+        st_rate[i] = (int64_t)st[i] * MIX_RATE;
         dot += (int64_t)w[i] * st[i];
     }
     int64_t x = asr(dot, 16);
-    int p = squash(x > 2047 ? 2047 : (x < -2047 ? -2047 : (int)x));
-    if (p < 1) p = 1;
-    if (p > 4095) p = 4095;
-    y = code_bit(c, p, y);
+    int p = c->t->squash[(x > 2047 ? 2047 : (x < -2047 ? -2047 : (int)x)) + 2047]; /* 1..4095 */
+    y = code_bit(dec, c, p, y);
     int err = (y << 12) - p;
     for (int i = 0; i < n; i++) {
-        int64_t v = w[i] + asr((int64_t)st[i] * err * MIX_RATE, 16);
+        int64_t v = w[i] + asr(st_rate[i] * err, 16); /* st * err * MIX_RATE: the same integer */
         w[i] = (int32_t)(v > MIX_LIMIT ? MIX_LIMIT : (v < -MIX_LIMIT ? -MIX_LIMIT : v));
         counter_update(k[i], y);
     }
@@ -318,30 +335,30 @@ static int code_mixed(Coder *c, Counter **k, int n, int set, int y) {
 #define G_SIZE (G_MANT + 2 * 64)
 #define G_MAXBITS 63
 
-static int code_sint(Coder *c, Counter *set, int64_t *v) {
-    int64_t x = c->dec ? 0 : *v;
+MRC_INLINE int code_sint(const int dec, Coder *c, Counter *set, int64_t *v) {
+    int64_t x = dec ? 0 : *v;
     uint64_t m = x < 0 ? (uint64_t)(-(x + 1)) + 1 : (uint64_t)x;
-    int nz = code_counter(c, &set[G_ZERO], m != 0);
+    int nz = code_counter(dec, c, &set[G_ZERO], m != 0);
     if (!nz) {
         *v = 0;
         return MRC_OK;
     }
-    int neg = code_counter(c, &set[G_SIGN], x < 0);
-    int n = c->dec ? 0 : bitlen(m);
+    int neg = code_counter(dec, c, &set[G_SIGN], x < 0);
+    int n = dec ? 0 : bitlen(m);
     int k = 1;
     for (; k < G_MAXBITS; k++)
-        if (!code_counter(c, &set[G_LEN + k], k < n)) break;
+        if (!code_counter(dec, c, &set[G_LEN + k], k < n)) break;
     n = k;
     uint64_t r = 1;
     for (int b = n - 2; b >= 0; b--) {
-        int bit = c->dec ? 0 : (int)((m >> b) & 1);
+        int bit = dec ? 0 : (int)((m >> b) & 1);
         if (b >= n - 3)
-            bit = code_counter(c, &set[G_MANT + 2 * n + (n - 2 - b)], bit);
+            bit = code_counter(dec, c, &set[G_MANT + 2 * n + (n - 2 - b)], bit);
         else
-            bit = code_raw(c, bit);
+            bit = code_raw(dec, c, bit);
         r = (r << 1) | (uint64_t)bit;
     }
-    if (c->dec) { /* r < 2 ** 63 */
+    if (dec) { /* r < 2 ** 63 */
         *v = neg ? -(int64_t)r : (int64_t)r;
     }
     return MRC_OK;
@@ -439,14 +456,11 @@ int mrc_fits(int64_t frames, int64_t features, int64_t region, size_t len) {
 }
 
 /* detail contexts */
-#define N0 20 /* classes of the whole neighbourhood sum */
-#define N1 12 /* classes of the time and of the parent neighbourhood */
 #define BANDS 2
 #define C0 (BANDS * N0)
 #define C1 (BANDS * N1 * N1)
 #define FEAT 1024 /* per-feature contexts (feature index modulo this) */
 #define LEVELS 13
-#define C2 (LEVELS * FEAT)
 #define MAGS 16
 #define SIGNS 9
 
@@ -456,9 +470,12 @@ typedef struct {
     Counter s0[SIGNS], *s2;
     Counter m0[C0 * MAGS], m1[C1 * MAGS], *m2;
     Counter mant[64 * 2];
+    int64_t feat; /* per-feature contexts per level that can occur: min(D, FEAT) (z2, s2, m2 hold LEVELS x feat) */
 } Models;
 
-static int models_init(Models *m) {
+/* (The per-feature contexts (level, feature modulo FEAT) are stored for the features a clip has only: the same
+ * contexts, fewer counters to set up.) */
+static int models_init(Models *m, int64_t D) {
     counters_init(&m->gen[0][0], sizeof m->gen / sizeof(Counter));
     counters_init(m->z0, C0);
     counters_init(m->z1, C1);
@@ -466,13 +483,14 @@ static int models_init(Models *m) {
     counters_init(m->m0, C0 * MAGS);
     counters_init(m->m1, C1 * MAGS);
     counters_init(m->mant, 64 * 2);
-    size_t n2 = (size_t)C2 * (1 + 1 + MAGS);
+    m->feat = D < FEAT ? D : FEAT;
+    size_t c2 = (size_t)(LEVELS * m->feat), n2 = c2 * (1 + 1 + MAGS);
     Counter *all = (Counter *)malloc(n2 * sizeof(Counter));
     if (!all) return MRC_E_MEMORY;
     counters_init(all, n2);
     m->z2 = all;
-    m->s2 = all + C2;
-    m->m2 = all + 2 * C2;
+    m->s2 = all + c2;
+    m->m2 = all + 2 * c2;
     return MRC_OK;
 }
 
@@ -482,81 +500,115 @@ enum { GEN_ACTIVE = 0, GEN_FEXP = 1, GEN_REXP = 2, GEN_FIRST = 3, GEN_DIFF = 4 }
 
 #define LIMIT ((((int64_t)1) << MRC_MAX_BITS) - 1)
 
-/* one detail coefficient at row i (of n) of the band `cur` of level j, column c; parent rows `par` (np)
- * of the next coarser band (`approx`: the approximation, whose neighbouring differences are the parents) */
-static int code_detail(Coder *c, Models *m, int64_t *cur, int64_t i, const int64_t *par, int64_t np,
-                       int approx, int64_t D, int64_t col, int j) {
-    int64_t *row = cur + i * D;
-    int64_t t1 = i >= 1 ? cap(row[col - D]) : 0;
-    int64_t t2 = i >= 2 ? cap(row[col - 2 * D]) : 0;
-    int64_t pa, pn, ps;
+/* The rows a detail row's contexts read: the two rows before it in its band (up1, up2, where they exist) and its
+ * parents (pk, pk2; for the band next to the approximation, the two approximation rows whose difference is the
+ * parent, where there are two); the coefficient of column `col` of a row at row[col * cs]. */
+typedef struct {
+    const int64_t *up1, *up2, *pk, *pk2;
+    int has1, has2, approx, j;
+    int64_t cs;
+} Rows;
+
+/* the rows of detail row i of a band of level j whose parents are the np rows `par` (`approx`: the approximation);
+ * rows rs apart, columns cs apart */
+MRC_INLINE Rows rows_of(int64_t *cur, int64_t i, const int64_t *par, int64_t np, int approx, int j, int64_t rs,
+                        int64_t cs) {
+    Rows r;
+    r.has1 = i >= 1;
+    r.has2 = i >= 2;
+    r.up1 = cur + (i >= 1 ? i - 1 : 0) * rs;
+    r.up2 = cur + (i >= 2 ? i - 2 : 0) * rs;
+    r.approx = approx;
+    r.j = j;
+    r.cs = cs;
     if (approx) {
         int64_t k = i < np - 1 ? i : np - 1;
         int64_t k2 = k + 1 < np - 1 ? k + 1 : np - 1;
-        pa = np > 1 ? cap(par[k2 * D + col] - par[k * D + col]) : 0;
+        r.pk = par + k * rs;
+        r.pk2 = par + k2 * rs; /* with one row (np 1), pk2 = pk: the difference is 0 */
+    } else {
+        int64_t k = i / 2 < np - 1 ? i / 2 : np - 1;
+        int64_t k2 = (i & 1) ? (k + 1 < np - 1 ? k + 1 : np - 1) : (k >= 1 ? k - 1 : 0);
+        r.pk = par + k * rs;
+        r.pk2 = par + k2 * rs;
+    }
+    return r;
+}
+
+/* one detail coefficient, row[col * rw->cs], with the rows `rw` around it and r1 = cap(row[col - 1]) (0 for col 0): the
+ * contexts of specs/codecs.md, "Payload version 2"; returns cap(row[col]), the next coefficient's r1 (from the
+ * value decoded, not from memory: a zero is known as soon as its decision is) */
+MRC_INLINE int64_t code_detail(const int dec, Coder *c, Models *m, int64_t *row, const Rows *rw, int64_t col, int64_t r1,
+                           int32_t *wzero) {
+    const int64_t at = col * rw->cs;
+    int64_t u1 = rw->has1 ? rw->up1[at] : 0;
+    int64_t t1 = cap(u1);
+    int64_t t2 = rw->has2 ? cap(rw->up2[at]) : 0;
+    int64_t pa, pn, ps;
+    if (rw->approx) {
+        pa = cap(rw->pk2[at] - rw->pk[at]);
         pn = pa;
         ps = 0;
     } else {
-        int64_t k = i / 2 < np - 1 ? i / 2 : np - 1;
-        pa = cap(par[k * D + col]);
-        int64_t k2 = (i & 1) ? (k + 1 < np - 1 ? k + 1 : np - 1) : (k >= 1 ? k - 1 : 0);
-        pn = cap(par[k2 * D + col]);
-        ps = par[k * D + col];
+        ps = rw->pk[at];
+        pa = cap(ps);
+        pn = cap(rw->pk2[at]);
     }
-    int64_t r1 = col >= 1 ? cap(row[col - 1]) : 0;
+    int j = rw->j;
     int bc = j <= 1 ? 0 : 1;
     int a0 = bc * N0 + qclass(3 * t1 + t2 + 2 * pa + pn + r1, N0);
     int a1 = (bc * N1 + qclass(2 * t1 + t2, N1)) * N1 + qclass(2 * pa + pn, N1);
-    int a2 = (j < LEVELS - 1 ? j : LEVELS - 1) * FEAT + (int)(col % FEAT);
-    int64_t x = c->dec ? 0 : row[col];
+    int a2 = (j < LEVELS - 1 ? j : LEVELS - 1) * (int)m->feat + (int)((uint64_t)col % FEAT);
+    int64_t x = dec ? 0 : row[at];
     uint64_t mag = x < 0 ? (uint64_t)(-x) : (uint64_t)x;
     Counter *k[MIX_INPUTS];
     k[0] = &m->z0[a0];
     k[1] = &m->z1[a1];
     k[2] = &m->z2[a2];
-    if (!code_mixed(c, k, 3, 0, mag != 0)) {
-        row[col] = 0;
-        return MRC_OK;
+    if (!code_mixed(dec, c, k, 3, wzero, mag != 0)) {
+        row[at] = 0;
+        return 0;
     }
-    int sc = 3 * sign3(i >= 1 ? row[col - D] : 0) + sign3(ps);
+    int sc = 3 * sign3(u1) + sign3(ps);
     k[0] = &m->s0[sc];
     k[1] = &m->s2[a2];
-    int neg = code_mixed(c, k, 2, 1, x < 0);
-    int n = c->dec ? 0 : bitlen(mag);
+    int neg = code_mixed(dec, c, k, 2, c->mix->w[1], x < 0);
+    int n = dec ? 0 : bitlen(mag);
     int b = 1;
     for (; b < MRC_MAX_BITS; b++) {
         int q = b < MAGS - 1 ? b : MAGS - 1;
         k[0] = &m->m0[a0 * MAGS + q];
         k[1] = &m->m1[a1 * MAGS + q];
         k[2] = &m->m2[(size_t)a2 * MAGS + q];
-        if (!code_mixed(c, k, 3, 2 + q, b < n)) break;
+        if (!code_mixed(dec, c, k, 3, c->mix->w[2 + q], b < n)) break;
     }
     n = b;
     uint64_t r = 1;
     for (int s = n - 2; s >= 0; s--) {
-        int bit = c->dec ? 0 : (int)((mag >> s) & 1);
+        int bit = dec ? 0 : (int)((mag >> s) & 1);
         if (s >= n - 3)
-            bit = code_counter(c, &m->mant[2 * n + (n - 2 - s)], bit);
+            bit = code_counter(dec, c, &m->mant[2 * n + (n - 2 - s)], bit);
         else
-            bit = code_raw(c, bit);
+            bit = code_raw(dec, c, bit);
         r = (r << 1) | (uint64_t)bit;
     }
-    if (c->dec) row[col] = neg ? -(int64_t)r : (int64_t)r; /* r < 2 ** 62 */
-    return MRC_OK;
+    if (dec) row[at] = neg ? -(int64_t)r : (int64_t)r; /* r < 2 ** 62 */
+    return cap(neg ? -(int64_t)r : (int64_t)r);
 }
 
 /* exponents, each as its difference from the previous one coded; where `active` (may be NULL) is 0 nothing is
  * coded (0 on decoding) */
-static int code_exponents(Coder *c, Counter *set, int64_t *values, int64_t count, const uint8_t *active) {
+MRC_INLINE int code_exponents(const int dec, Coder *c, Counter *set, int64_t *values, int64_t count,
+                              const uint8_t *active) {
     int64_t last = 0;
     for (int64_t i = 0; i < count; i++) {
         if (active && !active[i]) {
-            if (c->dec) values[i] = 0;
+            if (dec) values[i] = 0;
             continue;
         }
-        int64_t v = c->dec ? 0 : values[i] - last;
-        code_sint(c, set, &v);
-        if (c->dec) {
+        int64_t v = dec ? 0 : values[i] - last;
+        code_sint(dec, c, set, &v);
+        if (dec) {
             if (v > 2 * MRC_MAX_EXPONENT || v < -2 * MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
             values[i] = last + v;
             if (values[i] > MRC_MAX_EXPONENT || values[i] < -MRC_MAX_EXPONENT) return MRC_E_EXPONENT;
@@ -567,68 +619,89 @@ static int code_exponents(Coder *c, Counter *set, int64_t *values, int64_t count
 }
 
 /* The body in both directions. Arrays: fexp (D), rexp (R), coef (F x D); on decoding they are written. */
-static int code_body(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef) {
+MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp,
+                         int64_t *coef, int64_t rs, int64_t cs) {
+    Coder local = *c; /* a copy whose address does not escape: its fields stay in registers */
+    Coder *outer = c;
+    c = &local;
     Models m;
-    int e = models_init(&m);
+    int e = models_init(&m, D);
     if (e) return e;
     uint8_t *active = (uint8_t *)calloc((size_t)D, 1);
     if (!active) {
         models_free(&m);
         return MRC_E_MEMORY;
     }
-    if (!c->dec) {
+    if (!dec) {
         for (int64_t f = 0; f < F; f++)
             for (int64_t d = 0; d < D; d++)
-                if (coef[f * D + d]) active[d] = 1;
+                if (coef[f * rs + d * cs]) active[d] = 1;
     }
     int prev = 1;
     for (int64_t d = 0; d < D; d++) {
-        active[d] = (uint8_t)code_counter(c, &m.gen[GEN_ACTIVE][prev], active[d]);
+        active[d] = (uint8_t)code_counter(dec, c, &m.gen[GEN_ACTIVE][prev], active[d]);
         prev = active[d];
     }
-    e = code_exponents(c, m.gen[GEN_FEXP], fexp, D, active);
-    if (!e) e = code_exponents(c, m.gen[GEN_REXP], rexp, R, NULL);
+    e = code_exponents(dec, c, m.gen[GEN_FEXP], fexp, D, active);
+    if (!e) e = code_exponents(dec, c, m.gen[GEN_REXP], rexp, R, NULL);
     int64_t sizes[21];
     int levels = mrc_level_sizes(F, sizes);
     /* the approximation: its first row, then differences of consecutive rows */
     for (int64_t i = 0; i < sizes[0] && !e; i++) {
         for (int64_t d = 0; d < D && !e; d++) {
-            int64_t *at = &coef[i * D + d];
+            int64_t *at = &coef[i * rs + d * cs];
             if (!active[d]) {
-                if (c->dec) *at = 0;
+                if (dec) *at = 0;
                 continue;
             }
-            int64_t before = i ? at[-D] : 0;
-            int64_t v = c->dec ? 0 : *at - before;
-            code_sint(c, m.gen[i ? GEN_DIFF : GEN_FIRST], &v);
-            if (c->dec) {
+            int64_t before = i ? at[-rs] : 0;
+            int64_t v = dec ? 0 : *at - before;
+            code_sint(dec, c, m.gen[i ? GEN_DIFF : GEN_FIRST], &v);
+            if (dec) {
                 if (v > 0 ? before > LIMIT - v : before < -LIMIT - v) e = MRC_E_MAGNITUDE;
                 else *at = before + v;
             }
         }
     }
-    /* details, coarse to fine, row by row */
+    /* details, coarse to fine, row by row; the zero flags' weights (set 0, the most used) in local variables */
+    int32_t wzero[MIX_INPUTS];
+    memcpy(wzero, c->mix->w[0], sizeof wzero);
     int64_t start = sizes[0], pstart = 0;
     for (int b = 1; b <= levels && !e; b++) {
         int j = levels - b + 1;
         int64_t n = sizes[b], np = sizes[b - 1];
-        int64_t *cur = coef + start * D;
-        const int64_t *par = coef + pstart * D;
+        int64_t *cur = coef + start * rs;
+        const int64_t *par = coef + pstart * rs;
         for (int64_t i = 0; i < n; i++) {
+            Rows rw = rows_of(cur, i, par, np, b == 1, j, rs, cs);
+            int64_t *row = cur + i * rs, r1 = 0;
             for (int64_t d = 0; d < D; d++) {
                 if (!active[d]) {
-                    if (c->dec) cur[i * D + d] = 0;
+                    if (dec) row[d * cs] = 0;
+                    r1 = 0;
                     continue;
                 }
-                code_detail(c, &m, cur, i, par, np, b == 1, D, d, j);
+                r1 = code_detail(dec, c, &m, row, &rw, d, r1, wzero);
             }
         }
         pstart = start;
         start += n;
     }
+    memcpy(c->mix->w[0], wzero, sizeof wzero);
+    *outer = local;
     free(active);
     models_free(&m);
     return e;
+}
+
+/* the body's two directions, each its own compiled copy */
+static int code_body_enc(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef) {
+    return code_body(0, c, F, D, R, fexp, rexp, coef, D, 1);
+}
+
+static int code_body_dec(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                         int64_t rs, int64_t cs) {
+    return code_body(1, c, F, D, R, fexp, rexp, coef, rs, cs);
 }
 
 int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
@@ -659,11 +732,13 @@ int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const 
         memcpy(rx, rexp, (size_t)R * sizeof(int64_t));
         tables_init(t);
         Coder c;
+        Mixer mix;
+        memset(&c, 0, sizeof c);
         c.enc = &enc;
-        c.dec = NULL;
         c.t = t;
-        mixer_init(&c.mix);
-        e = code_body(&c, F, D, R, fx, rx, work);
+        c.mix = &mix;
+        mixer_init(&mix);
+        e = code_body_enc(&c, F, D, R, fx, rx, work);
         if (!e) enc_finish(&enc);
         if (!e && enc.err) e = enc.err;
     }
@@ -698,6 +773,11 @@ int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const 
 }
 
 int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef) {
+    return mrc_decode_layout(data, len, fexp, rexp, coef, 0);
+}
+
+int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                      int feature_major) {
     int64_t F, D, region;
     size_t body;
     int e = head(data, len, &F, &D, &region, &body);
@@ -706,20 +786,21 @@ int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, in
     Tables *t = (Tables *)malloc(sizeof(Tables));
     if (!t) return MRC_E_MEMORY;
     tables_init(t);
-    Dec dec;
-    dec_init(&dec, data + body, len - body);
     Coder c;
+    Mixer mix;
     c.enc = NULL;
-    c.dec = &dec;
+    dec_init(&c.d, data + body, len - body);
     c.t = t;
-    mixer_init(&c.mix);
-    e = code_body(&c, F, D, count_regions(F, region), fexp, rexp, coef);
+    c.mix = &mix;
+    mixer_init(&mix);
+    e = code_body_dec(&c, F, D, count_regions(F, region), fexp, rexp, coef, feature_major ? 1 : D,
+                      feature_major ? F : 1);
     free(t);
     if (e) return e;
     /* the decoder reads as many bytes as the encoder wrote, of which at most the last 5 (the ending) are
      * dropped zeros; every byte read, and what was not read must be zero padding */
-    if (dec.pos > dec.len + 5) return MRC_E_TRUNCATED;
-    for (size_t i = dec.pos; i < dec.len; i++)
+    if (c.d.pos > c.d.len + 5) return MRC_E_TRUNCATED;
+    for (size_t i = c.d.pos; i < c.d.len; i++)
         if (data[body + i]) return MRC_E_TRAILING;
     return MRC_OK;
 }

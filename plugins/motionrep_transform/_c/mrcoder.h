@@ -58,6 +58,11 @@ int mrc_encode(int64_t frames, int64_t features, int64_t region, const int64_t *
 /* Decode into caller-allocated arrays of the sizes mrc_declared gives (fexp D, rexp R, coef F x D). */
 int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef);
 
+/* The same with the coefficients feature-major when `feature_major` (coef[d * F + f]; the bands of a feature one
+ * after the other in storage order, as mrtransform's in-place synthesis takes them), else row-major (mrc_decode). */
+int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                      int feature_major);
+
 #ifdef __cplusplus
 }
 #endif

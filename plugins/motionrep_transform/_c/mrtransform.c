@@ -512,7 +512,7 @@ static int head_into(mrt_quantised *q, uint64_t F, uint64_t D, uint64_t region, 
 /* The head of a version-1 payload: counts (checked against what the bytes can hold), step exponents. */
 static int parse_head_v1(mrt_range_decoder *rd, size_t size, mrt_quantised *q, mrt_status *st)
 {
-    uint64_t F, D, region;
+    uint64_t F = 0, D = 0, region = 0;
     if (decode_field(rd, 32, &F, st) || decode_field(rd, 20, &D, st) || decode_field(rd, 16, &region, st))
         return st->code;
     F += 1;
@@ -625,19 +625,24 @@ static int finish(const mrt_range_decoder *rd, mrt_status *st)
 }
 
 /* A version-2 payload: its integers decoded by mrcoder.c (the adaptive coder of specs/codecs.md, "Payload version
- * 2"), row-major into q, after its counts are checked against its bytes. */
-static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, mrt_status *st)
+ * 2"), after its counts are checked against its bytes: row-major into q (q->coefficients), or, with `feature_major`
+ * (mrt_decode), feature-major into a buffer of F x D int64 allocated here (*buffer, which mrt_decode dequantises and
+ * transforms back in place, as version 1's). */
+static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, int64_t **buffer, mrt_status *st)
 {
-    uint64_t F, D, region;
+    uint64_t F = 0, D = 0, region = 0;
     if (mrt_declared(data, size, 2, &F, &D, &region, st))
         return st->code;
     uint64_t regions = (F + region - 1) / region;
     if (F * D + D + regions > (uint64_t)MRC_VALUES_PER_BYTE * size)  /* before anything is allocated */
         return fail(st, MRT_DAMAGED, "transform payload (version 2): %llu frames x %llu features cannot be held in %zu "
                     "bytes (damaged data)", (unsigned long long)F, (unsigned long long)D, size);
-    if (head_into(q, F, D, region, 1, st))
+    if (head_into(q, F, D, region, !buffer, st))
         return st->code;
-    int e = mrc_decode(data, size, q->feature_exponents, q->region_exponents, q->coefficients);
+    if (buffer && !(*buffer = malloc(F * D * sizeof(int64_t))))
+        return fail(st, MRT_NO_MEMORY, "out of memory");
+    int e = mrc_decode_layout(data, size, q->feature_exponents, q->region_exponents,
+                              buffer ? *buffer : q->coefficients, buffer != NULL);
     if (e == MRC_E_MEMORY)
         return fail(st, MRT_NO_MEMORY, "out of memory");
     if (e)
@@ -651,7 +656,7 @@ int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, 
     if (version == 2) {
         memset(q, 0, sizeof *q);
         ok(st);
-        return unpack_v2(data, size, q, st);
+        return unpack_v2(data, size, q, NULL, st);
     }
     if (begin(data, size, version, &rd, q, st))
         return st->code;
@@ -845,6 +850,14 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
     for (uint64_t c = 0; c < D; c++) {
         double *x = values + c * F;
         if (!coef) {  /* in place: each int64 becomes its double */
+            int64_t any = 0;
+            for (uint64_t r = 0; r < F; r++) {
+                int64_t v;
+                memcpy(&v, x + r, sizeof v);
+                any |= v;
+            }
+            if (!any)  /* all zero: dequantised and transformed back, every value is +0.0, the bytes it holds */
+                continue;
             const double *steps = table + q->feature_exponents[c];
             for (uint64_t r = 0; r < F; r++) {
                 int64_t v;
@@ -886,26 +899,26 @@ int mrt_reconstruct(const mrt_quantised *q, mrt_frames *out, mrt_status *st)
 
 int mrt_decode(const uint8_t *data, size_t size, int version, mrt_frames *out, mrt_status *st)
 {
-    /* version 1: one buffer, the coefficients parsed feature-major into it, then dequantised and transformed in
-     * place; version 2: mrcoder's row-major integers, then mrt_reconstruct */
+    /* one buffer: the coefficients decoded feature-major into it (version 1 parsed here, version 2 by mrcoder.c),
+     * then dequantised and transformed back in place */
     mrt_range_decoder rd;
     mrt_quantised q;
     memset(out, 0, sizeof *out);
-    if (version == 2) {
-        int code = mrt_unpack(data, size, 2, &q, st);
-        if (!code)
-            code = mrt_reconstruct(&q, out, st);
-        mrt_quantised_free(&q);
-        return code;
-    }
     int64_t *buffer = NULL;
-    int code = begin(data, size, version, &rd, &q, st);
-    if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))
-        code = fail(st, MRT_NO_MEMORY, "out of memory");
-    if (!code)
-        code = parse_coefficients_v1(&rd, &q, buffer, 1, st);
-    if (!code)
-        code = finish(&rd, st);
+    int code;
+    if (version == 2) {
+        memset(&q, 0, sizeof q);
+        ok(st);
+        code = unpack_v2(data, size, &q, &buffer, st);
+    } else {
+        code = begin(data, size, version, &rd, &q, st);
+        if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))
+            code = fail(st, MRT_NO_MEMORY, "out of memory");
+        if (!code)
+            code = parse_coefficients_v1(&rd, &q, buffer, 1, st);
+        if (!code)
+            code = finish(&rd, st);
+    }
     if (!code)
         code = synthesise(&q, NULL, (double *)(void *)buffer, st);
     if (!code) {
@@ -968,8 +981,75 @@ static inline void lerp_rows(const double *MRT_RESTRICT a, const double *MRT_RES
     }
 }
 
-MRT_CLONES
-void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
+#if defined(__GNUC__) && !defined(__clang__)
+#define MRT_TRANSPOSE8 1
+typedef double mrt_v8d __attribute__((vector_size(64)));
+typedef long long mrt_v8i __attribute__((vector_size(64)));
+
+/* Eight times (rows of frames D apart, first j0[k], second j1[k], fraction fr[k]) of features d0..d0+7, blended
+ * (lerp_rows' operations) and stored feature-major, eight values to a feature: the 8 x 8 block transposed in
+ * registers (shuffles: data moved, no arithmetic). */
+static inline void lerp8x8(const double *rows, uint64_t D, const int32_t *j0, const int32_t *j1, const double *fr,
+                           uint64_t d0, double *out, size_t ldo)
+{
+    mrt_v8d r[8];
+    for (int k = 0; k < 8; k++) {
+        mrt_v8d v, u;
+        memcpy(&v, rows + (size_t)j0[k] * D + d0, sizeof v);
+        memcpy(&u, rows + (size_t)j1[k] * D + d0, sizeof u);
+        mrt_v8d w = v + (u - v) * fr[k];
+        r[k] = fr[k] == 0.0 ? v : w;
+    }
+    const mrt_v8i even = {0, 8, 2, 10, 4, 12, 6, 14}, odd = {1, 9, 3, 11, 5, 13, 7, 15};
+    const mrt_v8i lo2 = {0, 1, 8, 9, 4, 5, 12, 13}, hi2 = {2, 3, 10, 11, 6, 7, 14, 15};
+    const mrt_v8i lo4 = {0, 1, 2, 3, 8, 9, 10, 11}, hi4 = {4, 5, 6, 7, 12, 13, 14, 15};
+    mrt_v8d t[8], v[8], c[8];
+    for (int k = 0; k < 8; k += 2) {
+        t[k] = __builtin_shuffle(r[k], r[k + 1], even);
+        t[k + 1] = __builtin_shuffle(r[k], r[k + 1], odd);
+    }
+    for (int k = 0; k < 8; k += 4) {
+        v[k] = __builtin_shuffle(t[k], t[k + 2], lo2);
+        v[k + 1] = __builtin_shuffle(t[k + 1], t[k + 3], lo2);
+        v[k + 2] = __builtin_shuffle(t[k], t[k + 2], hi2);
+        v[k + 3] = __builtin_shuffle(t[k + 1], t[k + 3], hi2);
+    }
+    for (int k = 0; k < 4; k++) {
+        c[k] = __builtin_shuffle(v[k], v[k + 4], lo4);
+        c[k + 4] = __builtin_shuffle(v[k], v[k + 4], hi4);
+    }
+    for (int k = 0; k < 8; k++)
+        memcpy(out + (d0 + (uint64_t)k) * ldo, &c[k], sizeof c[k]);
+}
+#endif
+
+#ifdef MRT_TRANSPOSE8
+/* Every full group of eight of the m times: lerp8x8 over the features, eight at a time, the last few one by one.
+ * Returns the times done (m rounded down to eight). */
+static inline __attribute__((always_inline)) size_t sample8(const double *rows, uint64_t D, const int32_t *first, const int32_t *second, const double *frac,
+                      size_t m, double *out, size_t ldo)
+{
+    size_t i0 = 0;
+    for (; i0 + 8 <= m; i0 += 8) {
+        uint64_t d0 = 0;
+        for (; d0 + 8 <= D; d0 += 8)
+            lerp8x8(rows, D, first + i0, second + i0, frac + i0, d0, out + i0, ldo);
+        for (; d0 < D; d0++)
+            for (size_t k = 0; k < 8; k++) {
+                double v = rows[(size_t)first[i0 + k] * D + d0], u = rows[(size_t)second[i0 + k] * D + d0];
+                double w = v + (u - v) * frac[i0 + k];
+                out[d0 * ldo + i0 + k] = frac[i0 + k] == 0.0 ? v : w;
+            }
+    }
+    return i0;
+}
+#endif
+
+/* mrt_sample's body; `narrow`: ldo of the runtime's size (at most 128), where sample8 stores faster (wider
+ * blocks, their rows 2 or 4 kB apart, store faster as below); a constant in each copy (the other path's code
+ * left out of it, as it slows it down) */
+static inline __attribute__((always_inline)) void sample_body(const mrt_frames *f, const double *times,
+                                                              size_t count, double *out, size_t ldo, const int narrow)
 {
     int32_t first[TIMES], second[TIMES];
     double frac[TIMES];
@@ -989,7 +1069,12 @@ void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *
         if (f->rows) {  /* eight times at a time: their rows blended, then stored eight values to a feature */
             uint64_t D = f->features;
             double tmp[8 * 512];
-            for (size_t i0 = 0; D <= 512 && i0 < m; i0 += 8) {
+            size_t i0 = 0;
+#ifdef MRT_TRANSPOSE8
+            if (narrow)
+                i0 = sample8(f->rows, D, first, second, frac, m, out + a, ldo);
+#endif
+            for (; D <= 512 && i0 < m; i0 += 8) {
                 size_t n = m - i0 < 8 ? m - i0 : 8;
                 for (size_t k = 0; k < n; k++)
                     lerp_rows(f->rows + (size_t)first[i0 + k] * D, f->rows + (size_t)second[i0 + k] * D,
@@ -1004,6 +1089,26 @@ void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *
         for (uint64_t d = 0; d < f->features; d++)
             lerp_gather(f->values + d * f->frames, first, second, frac, out + d * ldo + a, m);
     }
+}
+
+MRT_CLONES
+static void sample_narrow(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
+{
+    sample_body(f, times, count, out, ldo, 1);
+}
+
+MRT_CLONES
+static void sample_wide(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
+{
+    sample_body(f, times, count, out, ldo, 0);
+}
+
+void mrt_sample(const mrt_frames *f, const double *times, size_t count, double *out, size_t ldo)
+{
+    if (ldo <= 128)
+        sample_narrow(f, times, count, out, ldo);
+    else
+        sample_wide(f, times, count, out, ldo);
 }
 
 MRT_CLONES
