@@ -1,4 +1,6 @@
-"""Spending the bound's slack: smaller integers where the frames have room under the bound.
+"""Spending the bound's slack by thresholds: smaller integers where the frames have room under the bound, for a
+context without feature edits (with them, :mod:`._greedy` measures every move exactly and saves more). The savings
+estimate (:func:`reduction_savings`) orders the moves of both.
 
 The region search (:mod:`._codec`) gives every region the coarsest step whose frames all stay within the bound,
 so the worst frame of each region sits at the bound, but the other frames do not: on the CMU clips the median

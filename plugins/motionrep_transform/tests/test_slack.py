@@ -1,5 +1,6 @@
-"""Spending the bound's slack (``motionrep_transform._slack``): its pieces, and what the search may change in a
-payload (only integers, each at most one step towards zero per round, the bound kept). Determinism across processes and
+"""Spending the bound's slack (``motionrep_transform._slack``, the threshold search of a context without feature
+edits; ``_greedy`` for the exact one): its pieces, and what the search may change in a payload (only integers, each
+at most one step towards zero per round or pass, the bound kept). Determinism across processes and
 thread counts is tested on the whole codec in ``tests/test_transform.py``."""
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ def walk():
 def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, max_error):
     events = []
     kept = compress_motion(walk, "transform", max_error=max_error, params={"slack": 0})
-    spent = compress_motion(walk, "transform", max_error=max_error,
+    spent = compress_motion(walk, "transform", max_error=max_error, params={"slack": 2},
                             progress=lambda stage, fields: events.append((stage, dict(fields))))
     a = unpack(kept.container.arrays["data"].tobytes())
     b = unpack(spent.container.arrays["data"].tobytes())
@@ -88,7 +89,7 @@ def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, m
     assert np.array_equal(a.coefficients[0], b.coefficients[0])  # nor is the approximation
     moved = 0
     for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
-        # at most one step per round, two rounds
+        # at most one step per pass, two passes
         assert np.all((np.abs(y) <= np.abs(x)) & (np.abs(y) >= np.abs(x) - 2))
         assert np.all((y == 0) | (np.sign(y) == np.sign(x)))
         moved += int(np.abs(x - y).sum())
