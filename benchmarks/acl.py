@@ -386,7 +386,7 @@ def speed(args: argparse.Namespace) -> None:
         def sample_all():
             for a in range(0, u.size, BLOCK):
                 if kernel is not None:  # the compiled sampler, as motionrep.open calls it
-                    kernel.dispatcher(u[a:a + BLOCK], block, *decoder.kernel_args)
+                    getattr(kernel, "dispatcher", kernel)(u[a:a + BLOCK], block, *decoder.kernel_args)
                 else:
                     decoder(u[a:a + BLOCK])
 
@@ -415,7 +415,7 @@ def entropy(args: argparse.Namespace) -> None:
 
     from motionrep.pipeline.compress import compress_motion
     from motionrep.io import read
-    from motionrep_transform._codec import unpack
+    from motionrep_transform._decoder import unpack
 
     try:
         import zstandard

@@ -80,7 +80,7 @@ def measure(clip, kernel, times: dict, repeats: int, rng) -> dict:
         wall, cpu = _best(lambda: clip.poses(t, out=buffer), repeats)
         u = clip.normalized_times(t)
         X = np.empty((d.width, 512))
-        dispatcher = kernel.dispatcher
+        dispatcher = getattr(kernel, "dispatcher", kernel)
 
         def codec_only():
             for a in range(0, u.size, 512):
@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> None:
         features = []
         for kernel in (before, clip._codec_kernel):
             X = np.empty((clip._decoder.width, u.size))
-            kernel.dispatcher(u, X, *clip._decoder.kernel_args)
+            getattr(kernel, "dispatcher", kernel)(u, X, *clip._decoder.kernel_args)
             features.append(X)
         after = clip._codec_kernel
         entry = {"label": label, "codec": codec, "windows": int(result.container.info.get("windows", 1)),

@@ -132,7 +132,7 @@ def fixed(path: Path, which: str, K: int, iters: int) -> dict[str, Any]:
     from motionrep_fourier._network import fourier_features
 
     Y, w, times = features_of(path)
-    scale = _train.clip_scale(Y, w)
+    scale = _train.clip_scale(Y, w).indices
     mean = Y.mean(axis=0)
     target = ((Y - mean) / np.asarray(step_scale(scale), np.float64)).astype(np.float32)
     gen = np.random.default_rng(0)

@@ -80,10 +80,14 @@ RAW_DEFAULT_MACHINE = "2 CPUs (Intel(R) Xeon(R) Processor @ 2.50GHz), Python 3.1
 
 
 def code_hash() -> str:
-    """Short SHA-256 of the codec, representation and pipeline sources the results depend on."""
+    """Short SHA-256 of the codec, representation and pipeline sources the results depend on (their C sources
+    included)."""
     h = hashlib.sha256()
-    files = sorted((REPO / "plugins").glob("motionrep_*/*.py")) + [REPO / "motionrep" / n for n in (
-        "compress.py", "evaluate.py", "container.py", "kinematics.py", "rotations.py", "codec.py")]
+    files = sorted((REPO / "plugins").glob("motionrep_*/*.py")) + sorted((REPO / "plugins").glob("motionrep_*/_c/*"))
+    files += [REPO / "motionrep" / n for n in ("pipeline/compress.py", "pipeline/evaluate.py", "io/container.py",
+                                                "model/kinematics.py", "model/rotations.py", "model/poseplan.py",
+                                                "plugin/codec.py")]
+    files += sorted(p for p in (REPO / "motionrep" / "_c").rglob("*") if p.is_file())
     for f in files:
         h.update(f.name.encode())
         h.update(f.read_bytes())

@@ -13,18 +13,20 @@ Measurements (each clip in a fresh process, so that memory peaks and first-call 
 2. ``profile``: the same on one clip under ``cProfile``, with the time grouped by what it is spent on (network
    forward/backward, the L-BFGS direction, line-search bookkeeping, the shared evaluation and its parts,
    frequency selection, the pipeline's own checks), and ``tracemalloc``'s peak of numpy/Python allocations.
-3. ``decode``: a clip compressed with ``svd`` at 2 %, ``adaptive-fourier`` (K = 10, as in the paper) and
-   ``transform`` (when installed), in every representation, opened with the runtime decoder (``motionrep.open``)
-   and sampled at 200,000 random times (best of 3): poses per second (float64 and float32 rotations), the codec
-   alone, the median time of one pose, beside the figures before it and the targets; and the start-up of a fresh
-   process (numba's cache warm and empty).
+3. ``decode``: a clip compressed with ``transform`` and ``svd`` at 2 % and ``adaptive-fourier`` (K = 10, as in
+   the paper), in every representation, each file decoded in fresh processes by this checkout and by another
+   one's interpreter (``--against``, default main's venv: its numba decoders), alternately in the same run:
+   preparing the decoder, the runtime decoder (``motionrep.open``) at 100,000 random times (best of 3; float64
+   and float32 rotations), the codec alone, the median time of one pose, whether numba was imported, beside
+   issue 24's targets; and the whole-process ``motionrep decompress x.mrc -o x.bvh``.
 
 Results: ``benchmarks/results/speed.json`` and ``benchmarks/results/speed.md``; the 1-minute load average is
 recorded with every measurement (the machine is shared).
 
 Usage::
 
-    python benchmarks/speed.py [--clips NAME ...] [--profile-clip NAME] [--decode-poses 200000] [--skip decode ...]
+    python benchmarks/speed.py [--clips NAME ...] [--profile-clip NAME] [--decode-poses 100000] [--skip decode ...]
+        [--against /path/to/other/.venv/bin/python] [--decode-codecs transform svd] [--decode-representations ...]
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -240,19 +243,22 @@ def profile_one(name: str, bound: str, trim: bool = True) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# 3. decode throughput (in this process)
+# 3. decode throughput, side by side with another checkout (its own interpreter) in the same run
 # ---------------------------------------------------------------------------------------------------------------
-#: The decode figures before the runtime decoder (results/speed.md at code 689765ee00c5, quiet machine: load
-#: 1.0-1.3) and the targets of issue 12.
-DECODE_PREVIOUS = {"poses_per_second": "139k-170k (adaptive-fourier), 208k-285k (svd)",
-                   "one_pose_us": "399 (adaptive-fourier), 248 (svd)"}
-DECODE_TARGETS = {"poses_per_second": 1_000_000, "one_pose_us": 20.0}
-#: Codecs of the decode measurement: (name, compress options). ``transform`` is measured when it is installed.
-DECODE_CODECS = (("svd", {"max_error": "2%"}),
+#: Issue 24's targets (transform and svd, the default representation): batched runtime decode, one pose from
+#: Python, preparing a transform clip.
+DECODE_TARGETS = {"poses_per_second": 5_000_000, "one_pose_us": 2.0, "prepare_frames_per_second": 1_000_000}
+#: The checkout decoding is compared with: main's virtual environment (numba decoders), when it is there.
+AGAINST = REPO.parent.parent / "main" / ".venv" / "bin" / "python"
+#: Codecs of the decode measurement: (name, compress options).
+DECODE_CODECS = (("transform", {"max_error": "2%"}),
+                 ("svd", {"max_error": "2%"}),
                  # K = 10 as in the paper; decoding costs the same however long it trained (100 iterations a stage)
-                 ("adaptive-fourier", {"max_error": None, "params": {"k": 10, "iters": 100}}),
-                 ("transform", {"max_error": "2%"}))
+                 ("adaptive-fourier", {"max_error": None, "params": {"k": 10, "iters": 100}}))
 DECODE_REPRESENTATIONS = ("root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion")
+#: Rounds of the side-by-side measurement: each checkout measures each file once per round, alternately; the
+#: best of its rounds is kept.
+ROUNDS = 2
 
 
 def _cpu_best(fn, repeats: int) -> tuple[float, float]:
@@ -273,119 +279,182 @@ def _cpu_best(fn, repeats: int) -> tuple[float, float]:
     return wall, cpu
 
 
-def decode_speed(name: str, poses: int) -> dict:
-    """The runtime decoder (``motionrep.open``) on one clip, every codec x representation: batched poses per
-    second (``clip.poses(times, out=...)``, float64 and float32 rotations), the codec alone (feature vectors
-    per second), the median time of ``clip.pose(t)``, and numba's start-up in fresh processes."""
+def decode_file(path: str, poses: int) -> dict:
+    """One ``.mrc`` file decoded by the checkout this interpreter imports (this function uses only what main and
+    this branch both offer): preparing the codec's decoder, batched ``clip.poses(times, out=...)`` at ``poses``
+    random times (float64 and float32 rotations), the codec alone in blocks of 512, one ``clip.pose(t)``; and
+    whether numba was imported."""
     import numpy as np
 
     import motionrep
-    from motionrep.pipeline.compress import compress_motion
-    from motionrep.errors import MotionrepError
+    from motionrep.io.container import unpack
+    from motionrep.plugin.codec import Payload
     from motionrep.plugin.registry import get_codec
     from motionrep.plugin.representation import empty_poses
 
-    get_codec("adaptive-fourier").warm_up()
-    motion, _ = _read(name, True)
-    out = {"clip": name, "code": _code(), "frames": motion.num_frames, "joints": motion.num_joints, "poses": poses,
-           "repeats": REPEATS, "load_start": _load(), "codecs": [], "previous": DECODE_PREVIOUS,
-           "targets": DECODE_TARGETS}
+    data = Path(path).read_bytes()
+    container = unpack(data)
+    codec = get_codec(container.codec)
+    payload = Payload(arrays=container.arrays, info=container.info, version=container.codec_version)
+    codec.decoder(payload)  # numba's cached code loaded, if any
+    out = {"frames": int(container.num_frames), "load_start": _load()}
+    out["prepare_seconds"], out["prepare_cpu_seconds"] = _cpu_best(lambda: codec.decoder(payload), 20)
+    clip = motionrep.open(data)
     rng = np.random.default_rng(0)
-    sample = None
-    for codec_name, options in DECODE_CODECS:
-        try:
-            get_codec(codec_name)
-        except MotionrepError:
-            print(f"  {codec_name}: not installed, skipped", flush=True)
-            continue
-        for rep in DECODE_REPRESENTATIONS:
-            try:
-                result = compress_motion(motion, codec_name, representation=rep, seed=0, **options)
-            except MotionrepError as exc:
-                out["codecs"].append({"codec": codec_name, "representation": rep, "error": str(exc)})
-                continue
-            clip = motionrep.open(result.data)
-            if sample is None and codec_name == "adaptive-fourier":
-                sample = result.data
-            times = rng.random(poses) * clip.duration
-            entry = {"codec": codec_name, "representation": rep, "bytes": len(result.data),
-                     "info": {k: v for k, v in result.container.info.items() if k != "omega"},
-                     "error_percent": result.report.max_error_percent, "load_start": _load()}
-            for dtype in (np.float64, np.float32):
-                buffer = empty_poses(clip.skeleton, poses, dtype)
-                clip.poses(times, out=buffer)  # pages touched, kernels compiled
-                wall, cpu = _cpu_best(lambda: clip.poses(times, out=buffer), REPEATS)
-                entry[f"poses_per_second_{np.dtype(dtype).name}"] = poses / wall
-                entry[f"poses_per_cpu_second_{np.dtype(dtype).name}"] = poses / cpu
-            u = clip.normalized_times(times)
-            decoder = clip._decoder
-            kernel = getattr(decoder, "kernel", None)
-            features = np.empty((decoder.width, 512))  # feature-major, as motionrep.open decodes a block
+    times = rng.random(poses) * clip.duration
+    for dtype in (np.float64, np.float32):
+        buffer = empty_poses(clip.skeleton, poses, dtype)
+        clip.poses(times, out=buffer)  # pages touched, kernels loaded
+        wall, cpu = _cpu_best(lambda: clip.poses(times, out=buffer), REPEATS)
+        out[f"poses_per_second_{np.dtype(dtype).name}"] = poses / wall
+        out[f"poses_per_cpu_second_{np.dtype(dtype).name}"] = poses / cpu
+    u = clip.normalized_times(times)
+    decoder = clip._decoder
+    kernel = getattr(decoder, "kernel", None)
+    kernel = getattr(kernel, "dispatcher", kernel)  # a numba kernel: its dispatcher, as main's motionrep.open calls it
+    features = np.empty((decoder.width, 512))  # feature-major, as motionrep.open decodes a block
 
-            def codec_only():
-                for a in range(0, poses, 512):
-                    if kernel is not None:  # the compiled decoder, as motionrep.open calls it
-                        kernel.dispatcher(u[a:a + 512], features, *decoder.kernel_args)
-                    else:
-                        decoder(u[a:a + 512])
+    def codec_only():
+        for a in range(0, poses, 512):
+            if kernel is not None:
+                kernel(u[a:a + 512], features, *decoder.kernel_args)
+            else:
+                decoder(u[a:a + 512])
 
-            wall, cpu = _cpu_best(codec_only, REPEATS)
-            entry["features_per_second"], entry["features_per_cpu_second"] = poses / wall, poses / cpu
-            single, single_cpu = [], []
-            for t in rng.random(3000) * clip.duration:
-                s, c = time.perf_counter(), time.thread_time()
-                clip.pose(t)
-                single.append(time.perf_counter() - s)
-                single_cpu.append(time.thread_time() - c)
-            entry["one_pose_seconds_median"] = statistics.median(single)
-            entry["one_pose_seconds_p90"] = sorted(single)[int(0.9 * len(single))]
-            entry["one_pose_cpu_seconds_median"] = statistics.median(single_cpu)
-            entry["load_end"] = _load()
-            out["codecs"].append(entry)
-            print(f"  {codec_name} / {rep}: {entry['poses_per_second_float64']:,.0f} poses/s, one pose "
-                  f"{1e6 * entry['one_pose_seconds_median']:.1f} us (load {entry['load_end']})", flush=True)
-    if sample is not None:
-        out["start_up"] = _start_up(sample)
+    wall, cpu = _cpu_best(codec_only, REPEATS)
+    out["features_per_second"], out["features_per_cpu_second"] = poses / wall, poses / cpu
+    single, single_cpu = [], []
+    for t in rng.random(5000) * clip.duration:
+        w, c = time.perf_counter(), time.thread_time()
+        clip.pose(t)
+        single.append(time.perf_counter() - w)
+        single_cpu.append(time.thread_time() - c)
+    out["one_pose_seconds_median"] = statistics.median(single)
+    out["one_pose_seconds_p90"] = sorted(single)[int(0.9 * len(single))]
+    out["one_pose_cpu_seconds_median"] = statistics.median(single_cpu)
+    many = (rng.random(5000) * clip.duration).tolist()
+
+    def one_at_a_time():
+        for t in many:
+            clip.pose(t)
+
+    wall, cpu = _cpu_best(one_at_a_time, 9)  # a loop: no timer call per pose
+    out["one_pose_seconds_loop"], out["one_pose_cpu_seconds_loop"] = wall / len(many), cpu / len(many)
+    out["numba_imported"] = "numba" in sys.modules
     out["load_end"] = _load()
     return out
 
 
-_START_UP = """
-import sys, time
-t0 = time.perf_counter()
-import numpy
-t1 = time.perf_counter()
-import motionrep
-clip = motionrep.open(sys.argv[1])
-t2 = time.perf_counter()
-clip.pose(0.1)
-t3 = time.perf_counter()
-clip.poses([0.1, 0.2])
-t4 = time.perf_counter()
-print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
-"""
+def _measure(python: str, path: Path, poses: int) -> dict:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    proc = subprocess.run([python, __file__, "_decodefile", str(path), str(poses)], capture_output=True, text=True,
+                          env=env, cwd=tempfile.gettempdir())
+    if proc.returncode != 0:
+        raise SystemExit(f"{python} decode {path.name} failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def _start_up(data: bytes) -> dict:
-    """Seconds of a fresh process to import motionrep and open a clip, then of its first pose and first batch
-    (numba loading its cached machine code, or compiling it when its cache is empty), with the cache warm and
-    with an empty one (``NUMBA_CACHE_DIR`` set to a new directory)."""
-    import tempfile
+def _best_of(runs: list[dict]) -> dict:
+    """Each figure's best over the rounds (highest rate, lowest time)."""
+    best = dict(runs[0])
+    for r in runs[1:]:
+        for k, v in r.items():
+            if isinstance(v, float) and k not in ("load_start", "load_end"):
+                best[k] = min(best[k], v) if "seconds" in k else max(best[k], v)
+    best["load_start"], best["load_end"] = runs[0]["load_start"], runs[-1]["load_end"]
+    return best
 
+
+_DECOMPRESS = [sys.executable, "-m", "motionrep", "decompress"]
+
+
+def _whole_process(python: str, mrc: Path, repeats: int = 5) -> dict:
+    """Median wall and CPU seconds of ``motionrep decompress x.mrc -o x.bvh`` (a fresh process each time)."""
+    import resource
+
+    walls, cpus = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "clip.mrc"
-        path.write_bytes(data)
-        runs = {}
-        for label, cache in (("warm cache", None), ("empty cache", Path(tmp) / "numba")):
-            env = dict(os.environ)
-            if cache is not None:
-                env["NUMBA_CACHE_DIR"] = str(cache)
-            proc = subprocess.run([sys.executable, "-c", _START_UP, str(path)], capture_output=True, text=True,
-                                  env=env, check=True)
-            numpy_s, open_s, pose_s, batch_s = map(float, proc.stdout.split())
-            runs[label] = {"import_numpy": numpy_s, "import_and_open": open_s, "first_pose": pose_s,
-                           "first_batch": batch_s, "load": _load()}
-    return runs
+        for _ in range(repeats + 1):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            w = time.perf_counter()
+            subprocess.run([python, "-m", "motionrep", "decompress", str(mrc), "-o", str(Path(tmp) / "x.bvh"),
+                            "--force"], check=True, capture_output=True, cwd=tmp)
+            walls.append(time.perf_counter() - w)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return {"seconds": statistics.median(walls[1:]), "cpu_seconds": statistics.median(cpus[1:]), "load": _load()}
+
+
+def _transform_v1(container) -> bytes:
+    """The ``.mrc`` bytes of a transform container with its payload as version 1 (the same integers; version 1 is
+    read by both checkouts)."""
+    import dataclasses
+
+    import numpy as np
+
+    from motionrep.io.container import pack
+    from motionrep_transform import _stream, _stream2
+
+    data = _stream.pack(_stream2.unpack(np.asarray(container.arrays["data"]).tobytes()))
+    return pack(dataclasses.replace(container, arrays={"data": np.frombuffer(data, np.uint8)}, codec_version=1))
+
+
+def decode_speed(name: str, poses: int, against: Path | None, codecs: list[str] | None = None,
+                 representations: list[str] | None = None) -> dict:
+    """Every codec x representation of one clip, encoded by this checkout, decoded by this checkout and by
+    ``against`` (another checkout's interpreter, main's numba decoders), alternately in the same run: see
+    :func:`decode_file`; and the whole-process ``decompress`` of the transform and svd files."""
+    from motionrep.errors import MotionrepError
+    from motionrep.pipeline.compress import compress_motion
+    from motionrep.plugin.registry import get_codec
+
+    get_codec("adaptive-fourier").warm_up()
+    motion, _ = _read(name, True)
+    sides = {"this": sys.executable}
+    if against is not None:
+        sides["against"] = str(against)
+    out = {"clip": name, "code": _code(), "frames": motion.num_frames, "joints": motion.num_joints, "poses": poses,
+           "repeats": REPEATS, "rounds": ROUNDS, "load_start": _load(), "codecs": [], "targets": DECODE_TARGETS,
+           "against": str(against) if against else None, "whole_process": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for codec_name, options in DECODE_CODECS:
+            for rep in DECODE_REPRESENTATIONS:
+                if (codecs is not None and codec_name not in codecs) or (representations is not None
+                                                                         and rep not in representations):
+                    continue
+                entry = {"codec": codec_name, "representation": rep}
+                try:
+                    result = compress_motion(motion, codec_name, representation=rep, seed=0, **options)
+                except MotionrepError as exc:
+                    out["codecs"].append(dict(entry, error=str(exc)))
+                    continue
+                path = Path(tmp) / f"{codec_name}-{rep}.mrc"
+                path.write_bytes(result.data)
+                files.append((entry, path, len(result.data)))
+                if codec_name == "transform" and rep == DECODE_REPRESENTATIONS[0]:  # the same integers, payload v1
+                    v1 = _transform_v1(result.container)
+                    path = Path(tmp) / f"{codec_name}-{rep}-v1.mrc"
+                    path.write_bytes(v1)
+                    files.append(({"codec": "transform (payload v1)", "representation": rep}, path, len(v1)))
+        for entry, path, size in files:
+            runs = {side: [] for side in sides}
+            for _ in range(ROUNDS):
+                for side, python in sides.items():
+                    runs[side].append(_measure(python, path, poses))
+            entry.update(bytes=size, **{side: _best_of(r) for side, r in runs.items()})
+            out["codecs"].append(entry)
+            this = entry["this"]
+            print(f"  {entry['codec']} / {entry['representation']}: {this['poses_per_second_float64']:,.0f} poses/s, "
+                  f"one pose {1e6 * this['one_pose_seconds_loop']:.2f} us"
+                  + (f" (against: {entry['against']['poses_per_second_float64']:,.0f}, "
+                     f"{1e6 * entry['against']['one_pose_seconds_loop']:.2f} us)" if "against" in entry else "")
+                  + f", load {this['load_end']}", flush=True)
+            if entry["representation"] == DECODE_REPRESENTATIONS[0] and entry["codec"] in ("transform", "svd"):
+                out["whole_process"][entry["codec"]] = {side: _whole_process(python, path) for side, python in
+                                                        sides.items()}
+    out["load_end"] = _load()
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -411,12 +480,19 @@ def main(argv: list[str] | None = None) -> None:
         fn = encode_one if argv[0] == "_encode" else profile_one
         print(json.dumps(fn(argv[1], argv[2])))
         return
+    if argv and argv[0] == "_decodefile":
+        print(json.dumps(decode_file(argv[1], int(argv[2]))))
+        return
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--clips", nargs="*", default=list(CLIPS))
     parser.add_argument("--bound", default="2%")
     parser.add_argument("--profile-clip", default="InverseKinematics/02_01")
     parser.add_argument("--decode-clip", default="bvh11/131_01")
-    parser.add_argument("--decode-poses", type=int, default=200_000)
+    parser.add_argument("--decode-poses", type=int, default=100_000)
+    parser.add_argument("--decode-codecs", nargs="*", default=[c for c, _ in DECODE_CODECS])
+    parser.add_argument("--decode-representations", nargs="*", default=list(DECODE_REPRESENTATIONS))
+    parser.add_argument("--against", type=Path, default=AGAINST if AGAINST.exists() else None,
+                        help="the interpreter of the checkout decoding is compared with (default: main's venv)")
     parser.add_argument("--skip", nargs="*", default=[], choices=["encode", "profile", "decode"])
     parser.add_argument("--out", type=Path, default=RESULTS / "speed.json")
     args = parser.parse_args(argv)
@@ -424,9 +500,8 @@ def main(argv: list[str] | None = None) -> None:
     doc["machine"] = machine()
     if "decode" not in args.skip:
         print(f"decode {args.decode_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
-        before = doc.get("decode") or {}
-        doc["decode"] = decode_speed(args.decode_clip, args.decode_poses)
-        doc["decode"]["previous_run"] = _previous_run(before)
+        doc["decode"] = decode_speed(args.decode_clip, args.decode_poses, args.against, args.decode_codecs,
+                                     args.decode_representations)
         _save(args.out, doc)
     if "profile" not in args.skip:
         print(f"profile {args.profile_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
@@ -511,64 +586,76 @@ def report(doc: dict) -> str:
                f"{prof['tracemalloc_peak_mb']:.1f} MB; process peak RSS {prof['rss_mb_peak']:.0f} MB (mostly torch).",
                ""]
     dec = doc.get("decode")
-    if dec and "previous" in dec:
+    if dec and "rounds" in dec:
         md += _decode_report(dec)
     return "\n".join(md)
 
 
-def _previous_run(before: dict) -> dict:
-    """The figures of the last decode measurement (the one this run replaces), by ``codec/representation``."""
-    rows = {f"{c['codec']}/{c['representation']}": {"poses_per_second": c["poses_per_second_float64"],
-                                                    "one_pose_us": 1e6 * c["one_pose_seconds_median"]}
-            for c in before.get("codecs", []) if "error" not in c}
-    return {"code": before.get("code"), "load": [before.get("load_start"), before.get("load_end")], "rows": rows}
-
-
 def _decode_report(dec: dict) -> list[str]:
-    ok = [c for c in dec["codecs"] if "error" not in c]
-    target_p, target_us = dec["targets"]["poses_per_second"], dec["targets"]["one_pose_us"]
-    md = [f"## Decoding with the runtime decoder ({dec['clip']}, {dec['frames']} frames, {dec['joints']} joints; "
-          f"{dec['poses']:,} random times, best of {dec['repeats']}; load {dec['load_start']}-{dec['load_end']})", "",
-          "`clip = motionrep.open(data)`; batched: `clip.poses(times, out=...)` (codec, representation, fixed "
-          "axes; rotations float64, the values the core measured, or float32); codec only: the prepared decoder "
-          "in blocks of 512; one pose: `clip.pose(t)`, median and 90th percentile over 3000 random times. "
-          "\"per CPU s\" divides by this thread's CPU time instead of the wall clock (the machine may be shared).",
-          "",
-          "| codec | representation | poses/s float64 (per CPU s) | poses/s float32 | features/s (codec only) "
-          "| one pose median, p90 (CPU) | previous run: poses/s, one pose | target | met |",
-          "|---|---|---:|---:|---:|---:|---:|---|---|"]
-    previous = dec.get("previous_run", {}).get("rows", {})
-    for c in ok:
-        met = c["poses_per_second_float64"] >= target_p and 1e6 * c["one_pose_seconds_median"] <= target_us
-        md.append(f"| {c['codec']} | {c['representation']} | {c['poses_per_second_float64']:,.0f} "
-                  f"({c['poses_per_cpu_second_float64']:,.0f}) | {c['poses_per_second_float32']:,.0f} "
-                  f"| {c['features_per_second']:,.0f} | {1e6 * c['one_pose_seconds_median']:.1f} us, "
-                  f"{1e6 * c['one_pose_seconds_p90']:.1f} us ({1e6 * c.get('one_pose_cpu_seconds_median', 0):.1f} us) "
-                  f"| {_previous_cell(previous.get(c['codec'] + '/' + c['representation']))} "
-                  f"| >= {target_p:,} poses/s, <= {target_us:g} us "
-                  f"| {'yes' if met else 'no'} |")
+    t = dec["targets"]
+    against = dec.get("against")
+    md = [f"## Decoding ({dec['clip']}, {dec['frames']} frames, {dec['joints']} joints; load "
+          f"{dec['load_start']}-{dec['load_end']})", "",
+          "Each file encoded once by this checkout, then decoded in fresh processes by this checkout (C decoders) "
+          + (f"and by `{against}` (main: numba decoders), alternately, {dec['rounds']} rounds each, the best kept"
+             if against else "") + ". Batched: `clip.poses(times, out=...)` at "
+          f"{dec['poses']:,} random times (codec, pose plan, fixed axes), best of {dec['repeats']}; \"CPU\" divides by "
+          "the thread's CPU time instead of the wall clock (the machine is shared); one pose: `clip.pose(t)` in a loop "
+          "over 5000 random times, the mean per pose (best of 9 loops), and the median of the same calls timed one "
+          "by one (which adds the timer's own calls); prepare: `codec.decoder(payload)` (the integers' decoding and "
+          "the inverse wavelet for transform), best of 20; codec only: the prepared decoder in blocks of 512.", "",
+          "| codec | representation | poses/s float64 (CPU) | poses/s float32 | one pose: loop (median one by one) "
+          "| prepare | features/s codec only | numba imported |", "|---|---|---:|---:|---:|---:|---:|---|"]
+
+    def row(c: dict, side: str) -> str:
+        r = c[side]
+        frames_per_s = r["frames"] / r["prepare_seconds"]
+        return (f"{r['poses_per_second_float64'] / 1e6:.2f} M ({r['poses_per_cpu_second_float64'] / 1e6:.2f} M) | "
+                f"{r['poses_per_second_float32'] / 1e6:.2f} M | {1e6 * r['one_pose_seconds_loop']:.2f} us "
+                f"({1e6 * r['one_pose_seconds_median']:.2f} us) | {1e3 * r['prepare_seconds']:.2f} ms "
+                f"({frames_per_s / 1e6:.2f} M frames/s) | {r['features_per_second'] / 1e6:.2f} M "
+                f"| {'yes' if r['numba_imported'] else 'no'} |")
+
     for c in dec["codecs"]:
         if "error" in c:
-            md.append(f"| {c['codec']} | {c['representation']} | failed: {c['error'][:80]} | | | | | | |")
-    run = dec.get("previous_run", {})
-    if run.get("rows"):
-        md += ["", f"Previous run: code {run.get('code')}, load {run['load'][0]}-{run['load'][1]}."]
-    md += ["", f"Before the runtime decoder (batched through `decompress`'s steps, one pose through them): "
-           f"{dec['previous']['poses_per_second']} poses/s; one pose {dec['previous']['one_pose_us']} us.", ""]
-    if "start_up" in dec:
-        md += ["Start-up of a fresh process (import motionrep, open a clip; then its first pose and first batch, "
-               "when numba loads its cached machine code or, with an empty cache, compiles it):", "",
-               "| numba cache | import numpy | import motionrep + open | first pose | first batch | load |",
-               "|---|---:|---:|---:|---:|---:|"]
-        for label, r in dec["start_up"].items():
-            md.append(f"| {label} | {r['import_numpy']:.2f} s | {r['import_and_open']:.2f} s | {r['first_pose']:.2f} s "
-                      f"| {r['first_batch']:.2f} s | {r['load']} |")
-        md.append("")
+            md.append(f"| {c['codec']} | {c['representation']} | failed: {c['error'][:80]} | | | | | |")
+            continue
+        md.append(f"| {c['codec']} | {c['representation']} | " + row(c, "this"))
+        if "against" in c:
+            md.append(f"| ... main | | " + row(c, "against"))
+    md += ["", f"Targets (issue 24; transform and svd, {DECODE_REPRESENTATIONS[0]}): batched >= "
+           f"{t['poses_per_second'] / 1e6:g} M poses/s, one pose <= {t['one_pose_us']:g} us, preparing a transform "
+           f"clip >= {t['prepare_frames_per_second'] / 1e6:g} M frames/s.", "",
+           "| codec | batched, float64 | one pose | prepare | ratio to main (batched, one pose, prepare) |",
+           "|---|---|---|---|---|"]
+    for c in dec["codecs"]:
+        if ("error" in c or c["representation"] != DECODE_REPRESENTATIONS[0]
+                or c["codec"] not in ("transform", "transform (payload v1)", "svd")):
+            continue
+        r = c["this"]
+        rate, one = r["poses_per_second_float64"], 1e6 * r["one_pose_seconds_loop"]
+        prep = r["frames"] / r["prepare_seconds"]
+        cells = [f"{rate / 1e6:.2f} M: {'met' if rate >= t['poses_per_second'] else 'NOT met'}",
+                 f"{one:.2f} us: {'met' if one <= t['one_pose_us'] else 'NOT met'}",
+                 (f"{prep / 1e6:.2f} M frames/s: {'met' if prep >= t['prepare_frames_per_second'] else 'NOT met'}"
+                  if c["codec"].startswith("transform") else "-")]
+        ratio = "-"
+        if "against" in c:
+            a = c["against"]
+            ratio = (f"{rate / a['poses_per_second_float64']:.2f}x, "
+                     f"{a['one_pose_seconds_loop'] / r['one_pose_seconds_loop']:.2f}x faster, "
+                     f"{a['prepare_seconds'] / r['prepare_seconds']:.1f}x faster")
+        md.append(f"| {c['codec']} | " + " | ".join(cells) + f" | {ratio} |")
+    if dec.get("whole_process"):
+        md += ["", "Whole process `motionrep decompress x.mrc -o x.bvh` (median of 5 after one warm-up; issue 24's "
+               "target 0.5 s):", "", "| codec | this checkout | main | load |", "|---|---:|---:|---:|"]
+        for codec, sides in dec["whole_process"].items():
+            main = sides.get("against")
+            md.append(f"| {codec} | {sides['this']['seconds']:.2f} s (CPU {sides['this']['cpu_seconds']:.2f} s) | "
+                      + (f"{main['seconds']:.2f} s (CPU {main['cpu_seconds']:.2f} s)" if main else "-")
+                      + f" | {sides['this']['load']} |")
+    md.append("")
     return md
-
-
-def _previous_cell(row: dict | None) -> str:
-    return "-" if row is None else f"{row['poses_per_second']:,.0f}, {row['one_pose_us']:.1f} us"
 
 
 if __name__ == "__main__":

@@ -29,8 +29,9 @@ numba.  What still runs through this module: the pose plan (``motionrep.model.po
 decoders, until they move to C too (issue 24).
 Plugins (shipped or third-party) may compile their own hot loops with the same decorator: ``from motionrep.jit import jit`` (a function compiled with numba's own
 ``njit`` may call motionrep's helpers such as :func:`sincos` once numba is imported).  Code that calls a kernel very often
-from Python (the runtime decoder, once per pose) can take :attr:`LazyKernel.dispatcher` once and call it
-directly, which saves the proxy's function call.
+from Python (the runtime decoder, block after block, for a third-party codec's kernel) can take
+:attr:`LazyKernel.dispatcher` once and call it directly, which saves the proxy's function call.  The shipped
+decoders and the pose plan are C (``motionrep/_c``, the plugins' ``_c``) and never import numba.
 """
 
 from __future__ import annotations

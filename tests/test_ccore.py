@@ -7,7 +7,8 @@ or AMD).  So these comparisons are bitwise (``view(np.uint64)``), not within a t
 C sources (``motionrep/_c/mr_rotconv.h``, ``fk.c``, ``rotations.c``) expression by expression; the C was checked
 against the numba kernels it replaced on every real clip (``benchmarks/results/ccore_equivalence.md``), and a few
 of those values are kept below as hex literals.  Independent checks beside them: sine and cosine within an ulp of
-``math``, quaternions of the right rotation (scipy), the writer's text read back by ``float``.
+``math``, quaternions of the right rotation (scipy), the writer's text read back by ``float``; and ``euler.c``
+against scipy itself, whose operations it repeats.
 """
 
 from __future__ import annotations
@@ -340,6 +341,10 @@ def test_the_avx2_and_baseline_copies_give_the_same_bits():
                                    np.array([0]), np.zeros((4, 1, 4))),  # a column outside the features
     lambda: _ccore.columns_to_quat(0, np.zeros((4, 4)), np.array([[0, 1, 2, 3]]), None, np.array([1]),
                                    np.zeros((4, 1, 4))),  # a joint outside the output
+    lambda: _ccore.quat_to_euler(np.zeros((4, 4)), "xyz", False, np.zeros((3, 3))),  # too small an output
+    lambda: _ccore.quat_to_euler(np.zeros((4, 4)), "xYz", False, np.zeros((4, 3))),  # mixed case
+    lambda: _ccore.quat_to_euler(np.zeros((4, 4)), "xxz", False, np.zeros((4, 3))),  # an axis twice in a row
+    lambda: _ccore.quat_to_euler(np.zeros((4, 4)), "xy", False, np.zeros((4, 3))),  # two axes
     lambda: _ccore.scan(b"1 2 3", 3, 5, True, np.zeros(4), np.zeros((8, 4), np.int64), np.zeros(8, np.int64)),
     lambda: _ccore.format_shortest(np.zeros(10), 2, np.zeros(100, np.uint8), np.zeros((4, 2), np.int64)),
 ])
@@ -360,3 +365,39 @@ def test_the_core_refuses_wrong_element_types():
         out = np.zeros((4, 1, 4))
         out.flags.writeable = False
         _ccore.columns_to_quat(0, np.ones((4, 4)), np.array([[0, 1, 2, 3]]), None, np.array([0]), out)
+
+
+SEQS = [a + b + c for a in "xyz" for b in "xyz" for c in "xyz" if a != b and b != c]
+
+
+@pytest.mark.parametrize("seq", SEQS + [o.upper() for o in SEQS])
+def test_quaternions_to_euler_angles_are_scipys_bit_for_bit(seq):
+    """``euler.c`` does scipy's operations (``Rotation.from_quat(q).as_euler(seq, degrees)``) in the same order with
+    the same libm ``atan2`` and ``hypot``: the same bits, here compared bitwise with the scipy installed beside
+    it (scipy's x86-64 wheels contract no multiply-add either), on random rotations of every size, edge values
+    and rotations at and near gimbal lock; a zero or NaN quaternion is refused by both."""
+    rng = np.random.default_rng(sum(map(ord, seq)))
+    edges = np.array([0.0, -0.0, 1.0, -1.0, 0.5, -0.5, math.sqrt(0.5), -math.sqrt(0.5), 1e-9, -1e-9, 1e-300, 2.0,
+                      np.inf, -np.inf])
+    angles = rng.uniform(-np.pi, np.pi, (3000, 3))
+    lock = np.pi / 2 if seq[0].lower() != seq[2].lower() else 0.0
+    angles[:1000, 1] = lock + rng.normal(size=1000) * 10.0 ** rng.integers(-12, -5, 1000)
+    angles[1000:2000, 1] = (-lock if lock else np.pi) + rng.normal(size=1000) * 10.0 ** rng.integers(-12, -5, 1000)
+    q = np.concatenate([rng.normal(size=(3000, 4)), rng.normal(size=(500, 4)) * 1e-150,
+                        rng.normal(size=(500, 4)) * 1e150, rng.choice(edges, (3000, 4)),
+                        Rotation.from_euler(seq, angles).as_quat()])
+    norm = np.sqrt(((q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1]) + q[:, 2] * q[:, 2]) + q[:, 3] * q[:, 3])
+    refused = (norm == 0) | np.isnan(norm)
+    q = np.ascontiguousarray(q[~refused])
+    for degrees in (False, True):
+        with np.errstate(all="ignore"), pytest.warns(UserWarning, match="Gimbal lock"):
+            expected = Rotation.from_quat(q).as_euler(seq, degrees=degrees)
+        out = np.empty((len(q), 3))
+        assert _ccore.quat_to_euler(q, seq, degrees, out) == -1
+        assert np.array_equal(bits(out), bits(expected)) or np.array_equal(out, expected, equal_nan=True)
+    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0], [1e-300, 1e-300, 0.0, 0.0]):
+        with pytest.raises(ValueError, match="zero norm"):
+            Rotation.from_quat(bad)
+        assert _ccore.quat_to_euler(np.array([[0.0, 0.0, 0.0, 1.0], bad]), seq, False, np.empty((2, 3))) == 1
+    with pytest.raises(ValueError, match="zero norm"):
+        R.quat_to_euler(np.zeros((2, 4)), seq)

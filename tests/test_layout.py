@@ -29,8 +29,6 @@ LONG_MODULES = {
                                  "an untrusted file",
     "motionrep/model/rotations.py": "every parameterisation times its conversions, each short and beside its "
                                     "inverse, the compiled column conversions beside their public checks",
-    "motionrep/model/poseplan.py": "features to poses: one compiled kernel by design, its inline helpers, and the "
-                                   "numpy copy it must match operation for operation",
     "motionrep/plugin/coding.py": "integer coding: quantiser, model and coder share one definition of the "
                                   "probabilities that must agree bit for bit",
     "motionrep/plugin/codec.py": "the codec interface, with the helpers that are its methods' documented defaults",
@@ -40,8 +38,6 @@ LONG_MODULES = {
                                      "report of what was left out describe one another",
     "motionrep/batch/engine.py": "running many clips' work: the pool supervision and the jobs whose failure outcomes "
                                  "it returns",
-    "plugins/motionrep_transform/_codec.py": "the codec's search and its decoder over two payload versions; the "
-                                             "decoder leaves for its own module when the compiled decoder lands",
 }
 
 
@@ -305,7 +301,7 @@ def test_library_code_validates_without_assert():
 WINGS = [
     ("base", ("motionrep.errors", "motionrep.formats", "motionrep.defaults", "motionrep.limits", "motionrep.jit",
               "motionrep._signals", "motionrep._threads", "motionrep._version", "motionrep._ccore",
-              "motionrep._cpose", "motionrep._moved")),
+              "motionrep._cpose", "motionrep._cplan", "motionrep._moved")),
     ("model", ("motionrep.model",)),
     ("plugin", ("motionrep.plugin",)),
     ("io", ("motionrep.io",)),

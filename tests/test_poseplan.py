@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 from motionrep.errors import ValidationError
+from motionrep.model import poseplan as pp
 from motionrep.model.poseplan import (AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, QUAT, WORLD_IDENTITY, WORLD_QUAT,
                                 PosePlan, decode_planned)
 
@@ -142,3 +145,89 @@ def test_bad_features_are_refused():
     bad[3, 10:13] = 2 * bad[3, 7:10]  # parallel columns
     with pytest.raises(ValidationError, match="degenerate"):
         _decode(plan, bad)
+
+
+# ---- the same bits as the numba kernel this C kernel replaced ---------------------------------------------------
+# Random plans (every kind, world rotations, translations, parents in any order) and features (edge values, NaN,
+# infinity, -0, denormals; batches past the streaming threshold), decoded as float64 and float32 with and without
+# the finiteness check: the digest main's numba kernel gave (22eeb6c).  Compared bit for bit on purpose: scalar IEEE
+# arithmetic in C compiled without fused multiply-add or fast-math is the same on every x86-64 and aarch64 CPU; NaN
+# results are compared as NaN (their sign bit may differ).
+NUMBA_DIGEST = "e456d2e32dc6ca5102108981c7ecaf13f7d97c5f606d38da43a5e5f01ffdf466"
+
+
+def _random_plan(rng, width):
+    J = int(rng.integers(1, 9))
+    kinds, cols, axes, joints = [], [], [], []
+    if rng.random() < 0.2:  # world rotations: one entry per joint
+        for j in range(J):
+            k = pp.WORLD_QUAT if rng.random() < 0.8 else pp.WORLD_IDENTITY
+            c, a = np.full(6, -1), np.full(3, -1)
+            if k == pp.WORLD_QUAT:
+                c[:4] = rng.choice(width, 4, replace=False)
+            kinds.append(k), joints.append(j), cols.append(c), axes.append(a)
+    else:
+        for j in rng.permutation(J)[:rng.integers(0, J + 1)]:
+            k = int(rng.choice([pp.QUAT, pp.AXIS_ANGLE, pp.EULER, pp.EULER_DEGREES, pp.ORTHO6D]))
+            c, a = np.full(6, -1), np.full(3, -1)
+            n = int(rng.integers(1, 4)) if k in (pp.EULER, pp.EULER_DEGREES) else {0: 4, 1: 3, 4: 6}[k]
+            c[:n] = rng.choice(width, n, replace=False)
+            if k in (pp.EULER, pp.EULER_DEGREES):
+                a[:n] = rng.integers(0, 3, n)
+            kinds.append(k), joints.append(int(j)), cols.append(c), axes.append(a)
+    P = int(rng.integers(0, 3))
+    tc = rng.integers(-1, width, (P + 1, 3)) if rng.random() < 0.8 else np.zeros((0, 3), np.int64)
+    parents = np.arange(J) - 1
+    if rng.random() < 0.5 and J > 1:
+        parents = np.array([-1] + [int(rng.integers(0, j)) for j in range(1, J)])
+    R = len(kinds)
+    return pp.PosePlan(width=width, num_joints=J, kinds=np.array(kinds, np.int64).reshape(R),
+                       columns=np.array(cols, np.int64).reshape(R, 6), axes=np.array(axes, np.int64).reshape(R, 3),
+                       joints=np.array(joints, np.int64).reshape(R), parents=parents.astype(np.int64),
+                       translation_columns=tc.astype(np.int64), translation_values=rng.normal(size=tc.shape))
+
+
+def _random_features(rng, T, width):
+    kind = rng.integers(0, 6)
+    if kind == 0:
+        return rng.normal(size=(T, width))
+    if kind == 1:
+        return rng.normal(size=(T, width)) * 10.0 ** rng.integers(-12, 8, (1, width))
+    if kind == 2:
+        return rng.choice([0.0, -0.0, 1.0, -1.0, 1e-300, 1e300, 0.5, 720.0, -360.0, 1e-4, 5e-324], size=(T, width))
+    if kind == 3:
+        return rng.normal(size=(T, width)) * 1e6
+    if kind == 4:
+        x = rng.normal(size=(T, width))
+        x[rng.random((T, width)) < 0.01] = rng.choice([np.nan, np.inf, -np.inf])
+        return x
+    return np.round(rng.normal(size=(T, width)) * 2) / 2
+
+
+def _digest(seed, trials):
+    rng = np.random.default_rng(seed)
+    h = hashlib.sha256()
+    for _ in range(trials):
+        width = int(rng.integers(6, 30))
+        plan = _random_plan(rng, width)
+        T = int(rng.integers(8192, 9000) if rng.random() < 0.03 else rng.integers(0, 200))
+        X = _random_features(rng, T, width)
+        check, keep = bool(rng.random() < 0.5), bool(rng.random() < 0.3)
+        N = plan.translation_columns.shape[0]
+        for dt in (np.float64, np.float32):
+            rot = np.full((T, plan.num_joints, 4), 7.0, dt)
+            root, moved = (np.full((T, 3), 7.0), np.full((T, max(N - 1, 0), 3), 7.0)) if N else (None, None)
+            try:
+                pp.decode_planned(X, plan, rot, root, moved, check_finite=check, keep_unplanned=keep)
+                h.update(b"ok")
+            except ValidationError as exc:
+                h.update(str(exc).encode())
+            for a in (rot, root, moved):
+                if a is not None:  # NaN compared as NaN, whatever its sign
+                    h.update(np.where(np.isnan(a), np.nan, a).tobytes())
+    return h.hexdigest()
+
+
+
+def test_random_plans_decode_to_the_numba_kernels_bits():
+    assert _digest(7, 400) == NUMBA_DIGEST

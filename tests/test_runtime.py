@@ -196,3 +196,68 @@ def test_motion_of_a_clip_is_decompress(svd_clip):
     got, expected = motionrep.open(data).motion(fps=45.0), decompress(data, fps=45.0)
     assert isinstance(got, Motion) and got.num_frames == expected.num_frames
     assert np.array_equal(got.rotations, expected.rotations)
+
+
+# ---- a third party's decoder: without a C sampler, the runtime calls it from Python before the C pose plan ----
+def _numba_sample(times, out, rows_t):
+    """The transform decoder's sampling as a third party's numba kernel (``motionrep.jit``): the same arithmetic."""
+    D, F = rows_t.shape
+    for i in range(times.shape[0]):
+        t = min(max(times[i], 0.0), 1.0)
+        j, a = 0, 0.0
+        if F > 1:
+            pos = t * (F - 1)
+            j = min(int(np.floor(pos)), F - 1)
+            a = pos - j
+        k = min(j + 1, F - 1)
+        for d in range(D):
+            v = rows_t[d, j]
+            out[d, i] = v if a == 0.0 else v + (rows_t[d, k] - v) * a
+
+
+class _NoSampler:
+    """A shipped decoder seen through its Python face only: a C ``kernel``, a numba one, or neither."""
+
+    def __init__(self, decoder, kernel: str):
+        from motionrep.jit import jit
+
+        self._decoder, self.width = decoder, decoder.width
+        if kernel == "c":
+            self.kernel, self.kernel_args = decoder.kernel, decoder.kernel_args
+        elif kernel == "numba":
+            self.kernel, self.kernel_args = jit(_numba_sample), (np.ascontiguousarray(decoder.frames.T),)
+
+    def __call__(self, times, out=None):
+        return self._decoder(times, out)
+
+
+class _ThirdPartyCodec:
+    """The transform codec as a third party would offer it: its decoder without ``sampler``."""
+
+    def __init__(self, kernel: str):
+        from motionrep.plugin.registry import get_codec
+
+        self._codec, self._kernel = get_codec("transform"), kernel
+        self.name = "transform"
+
+    def check_payload(self, payload, num_frames):
+        self._codec.check_payload(payload, num_frames)
+
+    def decoder(self, payload):
+        return _NoSampler(self._codec.decoder(payload), self._kernel)
+
+
+@pytest.mark.parametrize("kernel", ["c", "numba", None], ids=["c-kernel", "numba-kernel", "decoder-only"])
+def test_a_decoder_without_a_c_sampler_decodes_the_same_poses(kernel):
+    motion = synthetic_motion(chain_skeleton(5), frames=70, fps=30, seed=5)
+    data = compress_motion(motion, "transform").data
+    times = np.random.default_rng(0).random(1500) * motion.duration
+    reference = motionrep.open(data)
+    assert reference._runtime is not None  # the C loop
+    other = Clip(unpack(data), codec=_ThirdPartyCodec(kernel))
+    assert other._runtime is None
+    a, b = reference.poses(times), other.poses(times)
+    for name in ("rotations", "root_translation", "joint_translations"):
+        assert np.array_equal(getattr(a, name), getattr(b, name))
+    for t in times[:20]:
+        assert np.array_equal(reference.pose(t).rotations, other.pose(t).rotations)

@@ -91,4 +91,10 @@ static inline void mr_rotate_add(const double *g, const double *base, double vx,
     out[2] = base[2] + vz + qw * tz + (qx * ty - qy * tx);
 }
 
+/* euler.c: (n, 4) xyzw quaternions to (n, 3) Euler angles for seq (three of "xyz", lower case extrinsic, upper
+ * case intrinsic, no axis twice in a row), radians or degrees, as scipy's Rotation.from_quat(q).as_euler(seq,
+ * degrees); returns -1, or the index of the first quaternion of zero or NaN length (out is then
+ * incomplete). */
+int64_t mr_quat_to_euler(const double *quat, int64_t n, const char *seq, int degrees, double *out);
+
 #endif

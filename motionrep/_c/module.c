@@ -1,5 +1,5 @@
 /* motionrep._ccore: the Python glue of the compiled core (the kernels are plain C: numbers.c, shortest.c, fk.c,
- * rotations.c, edits.c).  Arrays come in through the buffer protocol (numpy arrays, bytes); each is checked here for its
+ * rotations.c, edits.c, euler.c).  Arrays come in through the buffer protocol (numpy arrays, bytes); each is checked here for its
  * element type, its number of dimensions, C order and the sizes the kernel will touch, so a wrong call raises
  * TypeError or ValueError instead of reading or writing out of bounds.  The kernels run without the GIL.
  * The Python modules that call these (motionrep/io/_numbers.py, motionrep/io/_shortest.py,
@@ -8,6 +8,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "ccore.h"
 #include "mr_rotconv.h"
@@ -312,6 +313,44 @@ static PyObject *py_axis_angle_continuous(PyObject *self, PyObject *args)
 }
 
 /* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(euler_doc, "quat_to_euler(q, seq, degrees, out) -> index\n--\n\n"
+                        "Euler angles of q (N, 4) float64 xyzw into out (N, 3) float64 for seq (3 axes of 'xyz' or "
+                        "'XYZ',\nno axis twice in a row), as scipy's Rotation.from_quat(q).as_euler(seq, degrees): "
+                        "-1, or the index of\nthe first quaternion of zero or NaN length (out is then incomplete).");
+
+static PyObject *py_quat_to_euler(PyObject *self, PyObject *args)
+{
+    PyObject *oq, *oout;
+    const char *seq;
+    int degrees;
+    if (!PyArg_ParseTuple(args, "OspO", &oq, &seq, &degrees, &oout))
+        return NULL;
+    int ok = strlen(seq) == 3;
+    for (int e = 0; ok && e < 3; e++)
+        ok = (seq[e] >= 'x' && seq[e] <= 'z' && seq[0] >= 'x') || (seq[e] >= 'X' && seq[e] <= 'Z' && seq[0] <= 'Z');
+    if (!ok || seq[0] == seq[1] || seq[1] == seq[2]) {
+        PyErr_SetString(PyExc_ValueError, "quat_to_euler: seq must be three axes of 'xyz' or of 'XYZ', no axis twice "
+                                          "in a row");
+        return NULL;
+    }
+    buffers bs = {.n = 0};
+    Py_buffer *q, *out;
+    if (!(q = get(&bs, oq, "q", 'd', 2, 0)) || !(out = get(&bs, oout, "out", 'd', 2, 1))) {
+        release(&bs);
+        return NULL;
+    }
+    int64_t n = dim(q, 0);
+    if (dim(q, 1) != 4 || dim(out, 0) != n || dim(out, 1) != 3)
+        return fail(&bs, "quat_to_euler: q must have shape (N, 4) and out (N, 3)");
+    int64_t zero;
+    Py_BEGIN_ALLOW_THREADS
+    zero = mr_quat_to_euler(q->buf, n, seq, degrees, out->buf);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return PyLong_FromLongLong(zero);
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
 PyDoc_STRVAR(sincos_doc, "sincos(x) -> (sin x, cos x)\n--\n\n"
                          "The sine and cosine every conversion to quaternions uses (mr_rotconv.h), for a float x.");
 
@@ -502,6 +541,7 @@ static PyMethodDef methods[] = {
     {"max_distances", py_max_distances, METH_VARARGS, distances_doc},
     {"columns_to_quat", py_columns_to_quat, METH_VARARGS, columns_doc},
     {"axis_angle_continuous", py_axis_angle_continuous, METH_VARARGS, continuous_doc},
+    {"quat_to_euler", py_quat_to_euler, METH_VARARGS, euler_doc},
     {"sincos", py_sincos, METH_O, sincos_doc},
     {"edits", py_edits, METH_VARARGS, edits_doc},
     {NULL, NULL, 0, NULL},

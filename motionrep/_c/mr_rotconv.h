@@ -27,10 +27,14 @@
 
 /* floor(x) exactly, for any double (inf and nan are returned as they are, -0.0 stays -0.0).  With SSE4.1 (the AVX2
  * copies) floor() is one instruction; without it (the x86-64 baseline) the nearest integer by adding and removing
- * 2**52 (exact below 2**52 in magnitude), one less where that rounded up: selects that vectorise, no libm call. */
+ * 2**52 (exact below 2**52 in magnitude), one less where that rounded up: selects that vectorise, no libm call.
+ * An includer whose kernels are gcc target_clones (motionrep/_c/include/motionrep/mrkernels.h: the clones'
+ * targets are not known to the preprocessor) defines MR_ROTCONV_FLOOR_BUILTIN: floor() itself, which gcc makes
+ * one instruction in the AVX2 / AVX-512 clones and an inline sequence in the baseline one (-fno-trapping-math):
+ * floor exactly, either way. */
 static inline double MR_RC(mr_floor)(double x)
 {
-#if defined(__SSE4_1__)
+#if defined(__SSE4_1__) || defined(MR_ROTCONV_FLOOR_BUILTIN)
     return floor(x);
 #else
     const double two52 = 4503599627370496.0;

@@ -19,7 +19,9 @@ functions below, which the BVH reader calls, and which the plain functions (:fun
 :func:`euler_to_quat`, :func:`ortho6d_to_quat`, :func:`quat_normalize`) call too.  Their arithmetic is float64
 whatever the input's dtype, and IEEE throughout (no fused multiply-add, no fast-math), so a value does not depend on
 the batch it is in or on the CPU; it is the pose plan's (``motionrep.model.poseplan``), operation for operation.
-The other conversions delegate to ``scipy.spatial.transform.Rotation``; the algebra scipy lacks on plain arrays
+Quaternions to Euler angles (writing BVH) are compiled too (``motionrep/_c/euler.c``: scipy's algorithm and
+operations, the same bits), so writing a BVH file does not import scipy.  The other conversions delegate to
+``scipy.spatial.transform.Rotation``; the algebra scipy lacks on plain arrays
 (products, rotating vectors, sign and wrap continuity over frames) is written here.
 
 Size: one concern, rotations on arrays; the length is the number of parameterisations (quaternion, matrix,
@@ -30,12 +32,12 @@ path) sit at the end, each kernel beside the public function that checks its arg
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
 from ..errors import ValidationError
 from .._ccore import axis_angle_continuous as _continuous, columns_to_quat as _columns_to_quat
+from .._ccore import quat_to_euler as _quat_to_euler
 
 __all__ = [
     "quat_identity",
@@ -212,10 +214,10 @@ def _euler_candidates(q: NDArray, order: str, degrees: bool) -> tuple[NDArray, N
     (always true for three-axis orders).
     """
     full = _complete_order(order)
-    flat = q.reshape(-1, 4)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # gimbal lock: scipy picks a valid solution and warns
-        e1 = _scipy_rotation().from_quat(flat).as_euler(full, degrees=degrees)
+    flat = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
+    e1 = np.empty((flat.shape[0], 3))
+    if _quat_to_euler(flat, full, degrees, e1) >= 0:  # scipy's own words for it
+        raise ValueError("Found zero norm quaternions in `quat`.")
     half = 180.0 if degrees else np.pi
     # The other solution of the same rotation: (a + pi, pi - b, c + pi) for Tait-Bryan orders (three different
     # axes), (a + pi, -b, c + pi) for proper Euler orders (first axis repeated last).
@@ -241,7 +243,8 @@ def _wrap(a: NDArray, half: float) -> NDArray:
 def quat_to_euler(q: ArrayLike, order: str, degrees: bool = False) -> NDArray[np.float64]:
     """``(..., 4)`` xyzw quaternions to Euler angles ``(..., len(order))``, frame by frame.
 
-    For three-axis orders this is scipy's solution (middle angle in [-90, 90] degrees for Tait-Bryan orders).
+    For three-axis orders this is scipy's solution (middle angle in [-90, 90] degrees for Tait-Bryan orders; computed
+    by the compiled core, ``motionrep/_c/euler.c``, scipy's operations bit for bit, without importing scipy).
     For one- or two-axis orders the solution whose missing axes are zero is returned.
 
     Raises:

@@ -12,9 +12,12 @@ open a ``.mrc`` once and then ask for poses at arbitrary times::
 Opening checks the container, looks up its codec and representation and prepares everything that does not
 depend on the time: the codec's decoder (``Codec.decoder``: arrays checked and converted to their working
 precision), the representation's per-skeleton plan (``Representation.decode_poses``), the axes that have no
-position channel, and the scratch buffers of one block of :data:`BLOCK` poses.  Sampling then runs the codec and
-the representation block by block in compiled loops (``motionrep.jit``) into the caller's arrays, nothing
-decoded is cached: memory is the payload plus a few hundred kB of buffers, whatever the clip's length.
+position channel, and the scratch buffers of one block of poses.  Sampling then runs the codec and the
+representation block by block in one C loop (``motionrep._cplan.Runtime``: the codec decoder's C ``sampler``, then
+the pose plan, ``motionrep/_c/plan``) into the caller's arrays, and one pose is one C call that also makes its
+arrays; a third party's codec without a C sampler is called from Python block by block (its compiled ``kernel``,
+or its ``decoder``).  Nothing else decoded is cached: memory is the prepared payload plus a few hundred kB of
+buffers, whatever the clip's length.
 
 The values are those the core measured when it wrote the file: ``motionrep.pipeline.compress.decode_at``, the one decode
 path, is :meth:`Clip.motion_at` (the same prepared codec decoder, the representation's ``from_features``, whose
@@ -23,8 +26,8 @@ values its ``decode_poses`` gives too), and a time decodes to the same bits alon
 clip, so a frame's time gives that frame's pose (to the rounding of the time itself; :meth:`Clip.motion` decodes
 the frames exactly as ``decompress``).
 
-A :class:`Clip` keeps scratch buffers: use one per thread (the compiled loops release the GIL, so threads with
-their own clips decode in parallel).
+A :class:`Clip` keeps scratch buffers: use one per thread (the C loops release the GIL, so threads with their own
+clips decode in parallel).
 """
 
 from __future__ import annotations
@@ -47,7 +50,8 @@ from ..plugin.representation import Poses, Representation, empty_poses
 
 __all__ = ["Clip", "Pose", "open_clip", "BLOCK"]
 
-#: Poses decoded together: the block's features and poses stay in the CPU cache.
+#: Poses decoded together when the codec has no C sampler (its Python-called kernel or decoder); the C loop takes
+#: 64 at a time (``motionrep._cplan.SUB_BLOCK``, or the block the codec's sampler asks for).
 BLOCK = 512
 _F64 = np.dtype(np.float64)
 #: What a codec may raise on a damaged payload besides PayloadError; it becomes a ContainerError naming the file.
@@ -107,7 +111,8 @@ class Clip:
         self._per_second = self.fps / (self.num_frames - 1) if self.num_frames > 1 else 0.0
         width = representation.width(self.skeleton)
         compiled = all(hasattr(self._decoder, a) for a in ("kernel", "kernel_args", "width"))
-        if compiled and self._decoder.width != width:
+        sampler = getattr(self._decoder, "sampler", None)
+        if (compiled or sampler is not None) and self._decoder.width != width:
             raise ContainerError(f"codec {codec.name!r} decodes {self._decoder.width} features per pose, representation "
                                  f"{representation.name!r} needs {width}", path)
         self._codec_kernel = self._decoder.kernel if compiled else None
@@ -115,12 +120,18 @@ class Clip:
         plan = representation.pose_plan(self.skeleton)
         if plan is not None:
             fixed, values = _fixed_axes(self.skeleton)
-            self._plan: tuple | None = plan.with_fixed_axes(fixed, values).packed()
+            self._plan: Any = plan.with_fixed_axes(fixed, values).compiled()
         else:
             self._plan = None
+        from .._cplan import SUB_BLOCK, Runtime
+
+        # the codec's C sampler and the plan in one C loop (motionrep/_c/plan/module.c), when the codec has one
+        self._runtime = Runtime(self._plan, sampler, width, SUB_BLOCK, Pose) if sampler is not None else None
+        # one pose in one C call (Runtime.pose_new: t checked and clamped, the Pose and its arrays made in C)
+        self._pose_new = self._runtime.pose_new if self._runtime is not None and self._plan is not None else None
         self._fixed = _fixed_axes_list(self.skeleton)
         self._X = np.empty((width, BLOCK))  # one block's features, feature-major (see Codec.decoder)
-        self._kernels: tuple | None = None  # the compiled functions, resolved on the first decode
+        self._moved_shape = (self.skeleton.translated_joints.size, 3)
         self._one = {_F64: empty_poses(self.skeleton, 1, np.float64),
                      np.dtype(np.float32): empty_poses(self.skeleton, 1, np.float32)}
         self._time = np.zeros(1)
@@ -155,18 +166,36 @@ class Clip:
         Raises:
             ValidationError: if ``t`` is not a finite number.
         """
+        pose_new = self._pose_new
+        if pose_new is not None and (dtype is np.float64 or dtype is np.float32):
+            got = pose_new(t, self._per_second, dtype is np.float32, self._moved_shape[0])
+            if type(got) is Pose:
+                return got
+            if got == 202:
+                raise self._time_error(got, t)
+            if got != 201:  # 201: not a float; float(t) below decides (a string of a number is one)
+                raise self._status_error(got)
         try:
             u = float(t) * self._per_second
         except (TypeError, ValueError):
-            raise ValidationError(f"t must be a number (seconds), got {t!r}") from None
+            raise self._time_error(201, t) from None
         if not math.isfinite(u):
-            raise ValidationError(f"t must be finite, got {t!r}")
-        self._time[0] = min(max(u, 0.0), 1.0)
+            raise self._time_error(202, t)
         one = self._one[_F64] if dtype is np.float64 else self._one.get(np.dtype(dtype))
         if one is None:
             raise ValidationError(f"rotations can be float64 or float32, not {np.dtype(dtype)}")
-        self._decode_block(self._time, one)
+        self._time[0] = min(max(u, 0.0), 1.0)
+        try:
+            self._decode_block(self._time, one)
+        except ValidationError as exc:  # the payload decodes to no valid pose: damaged
+            raise self._payload_error(exc) from None
         return Pose(one.rotations[0].copy(), one.root_translation[0].copy(), one.joint_translations[0].copy())
+
+    @staticmethod
+    def _time_error(status: int, t: Any) -> ValidationError:
+        if status == 201:
+            return ValidationError(f"t must be a number (seconds), got {t!r}")
+        return ValidationError(f"t must be finite, got {t!r}")
 
     def poses(self, times: ArrayLike, dtype: type = np.float64, out: Poses | None = None) -> Poses:
         """The poses at ``times`` ``(T,)`` seconds (each clamped to ``[0, duration]``).
@@ -189,6 +218,11 @@ class Clip:
               or not all(a.flags.c_contiguous for a in (out.rotations, out.root_translation, out.joint_translations))
               or out.rotations.dtype not in (np.float64, np.float32)):
             raise ValidationError(f"out must hold {u.size} poses of this skeleton (see empty_poses)")
+        if self._runtime is not None and self._plan is not None:
+            status = self._runtime.poses(u, out.rotations, out.root_translation, out.joint_translations)
+            if status:
+                raise self._status_error(status)
+            return out
         try:
             for a in range(0, u.size, BLOCK):
                 b = min(u.size, a + BLOCK)
@@ -243,34 +277,43 @@ class Clip:
         what = str(exc) if isinstance(exc, (PayloadError, ValidationError)) else f"{type(exc).__name__}: {exc}"
         return ContainerError(f"codec {self._codec_name!r} cannot decode this payload: {what}", self._path)
 
+    def _status_error(self, status: int) -> ContainerError:
+        """The error of a non-zero status of the C loop: the plan's (features that are no pose) or the codec's."""
+        from ..model.poseplan import _raise_for
+
+        if status >= 100:
+            return self._payload_error(PayloadError(f"the compiled decoder failed (code {status - 100})"))
+        try:
+            _raise_for(status)
+        except ValidationError as exc:
+            return self._payload_error(exc)
+        return self._payload_error(PayloadError(f"the compiled decoder failed (status {status})"))
+
     def _decode_block(self, u: NDArray[np.float64], out: Poses) -> None:
         """Decode at most :data:`BLOCK` normalised times into ``out``: the codec's features into the block's
-        feature-major scratch, then the representation's plan (one compiled call each), or the Python paths of
-        a codec or representation without them."""
-        kernels = self._kernels
-        if kernels is None:
-            from ..model.poseplan import _poses_kernel
-
-            codec = None if self._codec_kernel is None else self._codec_kernel.dispatcher
-            kernels = self._kernels = (codec, _poses_kernel.dispatcher if self._plan is not None else None)
-        codec, poses = kernels
+        feature-major scratch (its C sampler, its compiled kernel, or its Python call), then the representation's
+        plan (the C kernel) or its Python path."""
         m = u.shape[0]
         X = self._X
-        if codec is not None:
-            codec(u, X, *self._codec_args)
+        if self._runtime is not None:
+            status = self._runtime.features(u, X)
+            if status:
+                raise self._status_error(status)
+        elif self._codec_kernel is not None:
+            kernel = self._codec_kernel
+            if hasattr(kernel, "dispatcher"):  # a numba kernel (motionrep.jit): its dispatcher, built on first use
+                kernel = self._codec_kernel = kernel.dispatcher
+            kernel(u, X, *self._codec_args)
         else:
             features = np.asarray(self._features_at(u))
             if features.shape != (m, X.shape[0]):
                 raise self._payload_error(ValueError(f"decoded features of shape {features.shape}, expected "
                                                      f"{(m, X.shape[0])}"))
             X[:, :m] = features.T
-        if poses is not None:
-            status = poses(X, m, self._plan[0], self._plan[1], True, out.rotations, out.root_translation,
-                           out.joint_translations)
-            if status:
-                from ..model.poseplan import _raise_for
+        if self._plan is not None:
+            from ..model.poseplan import _raise_for
 
-                _raise_for(status)
+            _raise_for(self._plan.run(X, m, True, out.rotations, out.root_translation, out.joint_translations))
             return
         self._rep.decode_poses(X[:, :m].T, self.skeleton, out)
         for name, index, values in self._fixed:

@@ -152,14 +152,16 @@ class Codec(ABC):
         (one path).
 
         **Compiled decoders.**  The runtime decoder (``motionrep.open``) decodes block after block of poses; a
-        decoder that also has the attributes ``width`` (``D``), ``kernel`` (a function compiled with
+        decoder that also has the attributes ``width`` (``D``), ``kernel`` (a C function, or one compiled with
         ``motionrep.jit.jit``) and ``kernel_args`` (a tuple) is called as ``kernel(times, out, *kernel_args)``
         instead, with ``times`` ``(m,)`` float64 normalised times (clamped to [0, 1]) and ``out`` a
         C-contiguous ``(D, >= m)`` float64 array to write **feature-major** (feature ``d`` of time ``i`` at
         ``out[d, i]``: the layout in which a codec computes a block, and in which the representations' compiled
         conversions read it, ``motionrep.model.poseplan``).  It must write the values ``__call__`` gives, and keep no
-        state between calls; subclassing :class:`CompiledDecoder` gives the plain call from the kernel.  The
-        shipped codecs' decoders do.
+        state between calls; subclassing :class:`CompiledDecoder` gives the plain call from the kernel.  A decoder
+        whose kernel is C may also offer ``sampler``: a capsule of the same kernel for C callers
+        (``motionrep/_c/include/motionrep/sampler.h``), which ``motionrep.open`` then calls block by block without
+        Python between the codec and the pose plan.  The shipped codecs' decoders do.
         """
         return _DecodeCall(self, payload)
 
@@ -364,8 +366,9 @@ def describe_progress(stage: str, fields: Mapping[str, Any]) -> str:
 class CompiledDecoder:
     """Base of a prepared decoder with a compiled kernel (see :meth:`Codec.decoder`): a subclass sets, in its
     ``__init__``, ``width`` (features per time ``D``), ``dtype`` (its arithmetic, float32 or float64), ``kernel``
-    (a function compiled with ``motionrep.jit.jit``) and ``kernel_args`` (a tuple), and this class gives the
-    ``decoder(times, out=None)`` call from them, so the runtime decoder's blocks and a plain call run one kernel.
+    (a C function, or one compiled with ``motionrep.jit.jit``) and ``kernel_args`` (a tuple), and optionally
+    ``sampler`` (the same kernel for C callers), and this class gives the ``decoder(times, out=None)`` call from
+    them, so the runtime decoder's blocks and a plain call run one kernel.
     """
 
     width: int
@@ -377,7 +380,8 @@ class CompiledDecoder:
         """``(T, D)`` features at normalised ``times`` ``(T,)`` in :attr:`dtype` (into ``out`` when given)."""
         t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
         features = np.empty((self.width, t.size))
-        self.kernel.dispatcher(t, features, *self.kernel_args)
+        kernel = self.kernel
+        getattr(kernel, "dispatcher", kernel)(t, features, *self.kernel_args)  # a numba kernel: its dispatcher
         if out is None:
             return features.T.astype(self.dtype)
         out[...] = features.T

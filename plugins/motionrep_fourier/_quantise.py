@@ -10,7 +10,8 @@ layer matrices ``A0 = [W0 | b0]``, ``A1 = [W1 | b1]``, ``A2 = [W2 | b2]``.  Each
   ``d_l ~ sqrt(n_l / G_l)``;
 * one offset common to the three is then bisected to the bound (``motionrep.plugin.coding.largest_passing``), each
   candidate measured by the shared evaluator exactly as it would be decoded;
-* then each layer's step, largest layer first, is made coarser one index at a time while the bound holds.
+* then each layer's step, largest layer first, is made coarser while the bound holds, in jumps of 16, 8, 4, 2 and
+  1 indices, in rounds until a round changes nothing.
 
 In every candidate the first two layers are rounded, and the output layer is fitted again by least squares to
 the targets on the rounded layers' activations before it is rounded (the rounding of the earlier layers is
@@ -34,12 +35,20 @@ __all__ = ["quantise_network", "output_scale", "Candidate"]
 
 #: Probes of the Hutchinson estimate of the first layer's sensitivity.
 _PROBES = 8
-#: How far each layer's step is made coarser after the common bisection, at most (index steps of 2^(1/8)).
+#: Half the range (index steps of 2^(1/8)) over which the output layer's step is bisected for each shift.
 _COARSER = 16
+#: The final search: each layer's step index is raised by these jumps in turn, each up to ``_REPEATS`` times while
+#: the bound holds, in at most ``_ROUNDS`` rounds over the layers.
+_JUMPS = (16, 8, 4, 2, 1)
+_REPEATS = 4
+_ROUNDS = 4
 #: Shifts of the hidden layers' step indices tried against the sensitivity-based proportions.
 _SHIFTS = (-24, -16, -8, -4, 4, 8, 16)
 #: Without a bound: the RMS of the rounding's output error, in normalised units (the targets' RMS is 1).
 NOISE = 1e-3
+#: Damping of the inputs' Gram matrix in :func:`rounded`, relative to its mean diagonal (the next is tried when the
+#: factorisation fails).
+_DAMPING = (1e-6, 1e-3, 1e-1)
 
 Measure = Callable[[dict], float]
 
@@ -93,6 +102,37 @@ def _sensitivities(layers: list[NDArray[np.float64]], xT: NDArray[np.float64], r
     return np.array([g0, g1, g2]) / np.array([A.size for A in layers], np.float64)
 
 
+def rounded(A: NDArray[np.float64], inputsT: NDArray[np.float64], steps: NDArray[np.float64]) -> NDArray[np.int64]:
+    """``(m, n)`` integers ``Q`` with ``Q * steps`` (per column) close to the layer ``A (m, n)`` on its inputs
+    ``inputsT (n, N)``: each column is rounded in turn and its rounding error is compensated by the columns not
+    yet rounded, in the least-squares sense on the inputs (GPTQ, Frantar et al. 2023, "optimal brain
+    quantisation" one column at a time), columns of larger input energy first. With ``H = inputs inputs^T / N``
+    and ``U`` the upper Cholesky factor of ``H^-1`` (columns reordered), rounding column ``k`` moves the columns
+    after it by ``-(error / U_kk) U_k,k+1:``, which keeps ``|(A - Q steps) inputs|^2`` near its least value."""
+    n = A.shape[1]
+    gram = inputsT @ inputsT.T / max(inputsT.shape[1], 1)
+    order = np.argsort(-np.diag(gram), kind="stable")
+    gram = gram[np.ix_(order, order)]
+    level = float(np.mean(np.diag(gram))) if n else 0.0
+    upper = None
+    for damping in _DAMPING:
+        try:
+            inverse = np.linalg.inv(gram + (damping * level + 1e-300) * np.eye(n))
+            upper = np.linalg.cholesky((inverse + inverse.T) / 2.0).T
+            break
+        except np.linalg.LinAlgError:
+            continue
+    s = np.asarray(steps, np.float64)[order]
+    W = np.array(A[:, order], np.float64)
+    Q = np.empty(W.shape, np.int64)
+    for k in range(n):
+        q = np.rint(W[:, k] / s[k])
+        Q[:, order[k]] = q
+        if upper is not None and k + 1 < n:
+            W[:, k + 1:] -= np.outer((W[:, k] - q * s[k]) / upper[k, k], upper[k, k + 1:])
+    return Q
+
+
 class Candidate:
     """Rounds a trained network with given step indices, re-fitting the output layer on the rounded hidden
     layers; :meth:`network` is the result as a :class:`QuantizedNetwork`, :meth:`arrays` as the decoder sees it."""
@@ -110,12 +150,12 @@ class Candidate:
     def network(self, steps: NDArray[np.int64]) -> QuantizedNetwork:
         d0, d1, d2 = (float(step_scale(int(i))) for i in steps)
         c1, c2 = self.column_scale
-        Q0 = np.rint(self.layers[0] / d0).astype(np.int64)
-        Q1 = np.rint(self.layers[1] / (d1 * c1)).astype(np.int64)
-        # the hidden layers as the decoder has them (float32 weights), the output layer fitted to them
+        Q0 = rounded(self.layers[0], self.xT, np.full(self.layers[0].shape[1], d0))
         A0 = (Q0 * d0).astype(np.float32).astype(np.float64)
-        A1 = (Q1 * (d1 * c1)).astype(np.float32).astype(np.float64)
         a0T = _with_ones(_elu(A0 @ self.xT)[0])
+        Q1 = rounded(self.layers[1], a0T, d1 * c1)
+        # the hidden layers as the decoder has them (float32 weights), the output layer fitted to them
+        A1 = (Q1 * (d1 * c1)).astype(np.float32).astype(np.float64)
         a1T = _with_ones(_elu(A1 @ a0T)[0])
         G = a1T @ a1T.T
         h = G.shape[0] - 1
@@ -125,7 +165,7 @@ class Candidate:
             A2 = np.linalg.solve(G, B.T).T
         except np.linalg.LinAlgError:
             A2 = np.linalg.lstsq(G, B.T, rcond=None)[0].T
-        Q2 = np.rint(A2 / (d2 * c2)).astype(np.int64)
+        Q2 = rounded(A2, a1T, d2 * c2)
         return QuantizedNetwork(self.omega2, np.asarray(steps, np.int64), (Q0, Q1, Q2), self.columns)
 
     def arrays(self, steps: NDArray[np.int64]) -> dict:
@@ -206,12 +246,20 @@ def quantise_network(layers: list[NDArray[np.float64]], xT: NDArray[np.float64],
         trial_bits = bits(trial)
         if trial_bits < best_bits:
             best, best_bits = trial, trial_bits
+    # then each layer coarser while the bound holds, largest layer first, in jumps of two octaves down to one
+    # index (the error is not monotonic in the steps: a coarser step can pass beyond one that fails), in rounds
+    # until a round changes nothing
     steps = best
-    for layer in np.argsort(-sizes, kind="stable").tolist():  # then each layer coarser, largest layer first
-        for _ in range(_COARSER):
-            trial = steps.copy()
-            trial[layer] += 1
-            if error(trial) > bound:
-                break
-            steps = trial
+    for _ in range(_ROUNDS):
+        before = steps.copy()
+        for layer in np.argsort(-sizes, kind="stable").tolist():
+            for jump in _JUMPS:
+                for _ in range(_REPEATS):
+                    trial = steps.copy()
+                    trial[layer] += jump
+                    if error(trial) > bound:
+                        break
+                    steps = trial
+        if np.array_equal(before, steps):
+            break
     return candidate.network(steps), error(steps)

@@ -2,12 +2,12 @@
 
 Only ``_FourierCodec.encode`` imports this module.
 
-Per stage (one value of K): L-BFGS (:class:`._lbfgs.LBFGS`) with a strong-Wolfe line search on the loss of eq. 3, in
-chunks of :data:`CHUNK` iterations.  After every chunk the network is written as it would be stored
-(normalisation folded into the output layer, cast to the storage dtype) and, when the bound applies at this K,
-measured with the shared evaluator; the codec returns as soon as the stored payload meets the bound.  A stage
-ends when the loss improved by less than ``tol`` over the last :data:`WINDOW` chunks, or after ``iters``
-iterations.
+Per stage (one value of K): L-BFGS (:class:`._lbfgs.LBFGS`) with a strong-Wolfe line search on the loss of eq. 3
+plus a weight decay relative to the bound (:func:`weight_decay`), in chunks of :data:`CHUNK` iterations.  After
+every chunk the network is written as it would be stored (normalisation folded into the output layer, cast to
+the storage dtype) and, when the bound applies at this K, measured with the shared evaluator; the codec returns
+as soon as the stored payload meets the bound.  A stage ends when the loss improved by less than ``tol`` over the last :data:`WINDOW` chunks, or after ``iters``
+iterations, or after :data:`FAR_ITERS` when the error measured last was above :data:`FAR` times the bound.
 
 Targets are normalised: ``Z = (Y - mean) * s / c`` with ``s`` the weights ``w`` (floored at 1e-3 of the
 largest) and ``c`` the RMS of ``(Y - mean) * s``, so the mean squared error of ``Z`` is eq. 3 up to a constant
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import Callable, Iterator
+from typing import Callable, Iterator, NamedTuple
 
 import numpy as np
 import scipy.fft
@@ -35,7 +35,8 @@ from ._packed import pack
 from ._quantise import output_scale, quantise_network
 from ._trainnet import RIDGE, Net, grow, initial_net
 
-__all__ = ["fit", "next_adaptive_frequency", "CHUNK", "WINDOW", "EVAL_EVERY", "NEAR"]
+__all__ = ["fit", "next_adaptive_frequency", "clip_scale", "weight_decay", "ClipScale", "CHUNK", "WINDOW",
+           "EVAL_EVERY", "NEAR", "FAR", "FAR_ITERS", "DECAY"]
 
 #: L-BFGS iterations between two looks at the loss (and, when the bound applies, maybe at the error).
 CHUNK = 25
@@ -46,6 +47,12 @@ EVAL_EVERY = 4
 #: The payload is measured after every chunk while the predicted error is below ``NEAR`` times the bound.
 NEAR = 1.5
 _DTYPES = {"float32": np.float32, "float16": np.float16}
+#: A stage whose last measured error is above ``FAR`` times the bound ends after ``FAR_ITERS`` iterations: far from
+#: the bound, training to the plateau only delays the next frequency (the next stage trains every weight again).
+FAR = 3.0
+FAR_ITERS = 100
+#: Weight decay per squared bound in normalised units (:func:`weight_decay`).
+DECAY = 3e-5
 #: ``dtype=quantised``: the trained network is rounded once its error is below this fraction of the bound (at
 #: the last stage's end, once it is below the bound); the rest of the bound is the rounding's.
 HEADROOM = 0.95
@@ -108,32 +115,54 @@ def next_adaptive_frequency(residual: NDArray[np.float64], weights: NDArray[np.f
 # -----------------------------------------------------------------------------------------------------------------
 # Algorithm 1
 # -----------------------------------------------------------------------------------------------------------------
-def clip_scale(features: NDArray[np.float64], weights: NDArray[np.float64]) -> NDArray[np.int64]:
-    """``(D,)`` output scale indices of a clip: ``step_scale`` of them is, within 2^(1/16), ``c / s`` with ``s``
-    the weights floored at 1e-3 of the largest and ``c`` the RMS of the centred features times ``s``: the
-    training targets ``(Y - mean) / u`` then have unit RMS and errors weighted by ``w`` (eq. 3)."""
+class ClipScale(NamedTuple):
+    """A clip's output scale: ``indices (D,)``, the output scale indices, and ``rms``, the RMS ``c`` of the
+    centred features times the weights (file units of position: one normalised unit is about ``c``)."""
+
+    indices: NDArray[np.int64]
+    rms: float
+
+
+def clip_scale(features: NDArray[np.float64], weights: NDArray[np.float64]) -> ClipScale:
+    """The output scale of a clip: ``step_scale`` of its indices is, within 2^(1/16), ``c / s`` with ``s`` the
+    weights floored at 1e-3 of the largest and ``c`` the RMS of the centred features times ``s``: the training
+    targets ``(Y - mean) / u`` then have unit RMS and errors weighted by ``w`` (eq. 3)."""
     Y = np.asarray(features, np.float64)
     w = np.asarray(weights, np.float64)
     top = float(w.max()) if w.size else 0.0
     s = np.maximum(w, 1e-3 * top) if top > 0 else np.ones(Y.shape[1])
     c = float(np.sqrt(np.mean(((Y - Y.mean(axis=0)) * s) ** 2))) if Y.size else 0.0
-    return output_scale((c if c > 0 else 1.0) / s)
+    c = c if c > 0 else 1.0
+    return ClipScale(output_scale(c / s), c)
+
+
+def weight_decay(bound: float | None, rms: float) -> float:
+    """The training's weight decay (:class:`._trainnet.Net`) for a bound in file units and the clip's ``rms``
+    (:class:`ClipScale`): :data:`DECAY` times the squared bound in normalised units ``(bound / rms)^2``, at
+    least :data:`._trainnet.RIDGE` (and that without a bound).  So the decay is about the same share of the
+    loss at the bound whatever the bound and the clip's units, and the weights stay as small as the bound
+    allows: every weight is then coded in fewer bits, and the rounding of the hidden layers is amplified less
+    by the output layer."""
+    if bound is None:
+        return RIDGE
+    return max(RIDGE, DECAY * (bound / rms) ** 2)
 
 
 def fit(features: NDArray[np.float64], weights: NDArray[np.float64], context: EncodeContext, *,
-        schedule: str, name: str, scale: NDArray[np.int64] | None = None) -> Payload:
+        schedule: str, name: str, scale: ClipScale | None = None) -> Payload:
     """Train the network for the codec ``name`` with the frequency ``schedule`` (``"adaptive"``/``"naive"``).
-    ``scale``: the output scale indices (:func:`clip_scale`; windows share the clip's), else those of these
-    features."""
+    ``scale``: the output scale (:func:`clip_scale`; windows share the clip's), else that of these features."""
     Y, w = np.asarray(features, np.float64), np.asarray(weights, np.float64)
     with _one_blas_thread():
         return _fit(Y, w, context, schedule, name, clip_scale(Y, w) if scale is None else scale)
 
 
 def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext, schedule: str,
-         name: str, scale: NDArray[np.int64]) -> Payload:
+         name: str, clip: ClipScale) -> Payload:
     params = context.params
     bound = context.bound
+    scale = clip.indices
+    decay = weight_decay(bound, clip.rms)
     N, D = Y.shape
     times = np.asarray(context.times, dtype=np.float64)
     mean = Y.mean(axis=0)
@@ -146,6 +175,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
     target_k = params.k if params.k is not None else params.max_k
     omega: list[float] = []
     net = initial_net(gen, 1, 2, D)
+    net.decay = decay
     best = math.inf
     percent_per_unit = math.nan  # % of the character height per file unit, from the measurements
     total_iters = 0
@@ -170,7 +200,7 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
         found = quantise_network(
             [A.astype(np.float64) for A in net.layers()], xT, target.T.astype(np.float64), mean / unscale,
             np.rint(2.0 * np.asarray(omega, np.float64)).astype(np.int64), scale,
-            lambda arrays: context.evaluate_payload(Payload(arrays)).max_error, aim, RIDGE, int(context.seed))
+            lambda arrays: context.evaluate_payload(Payload(arrays)).max_error, aim, decay, int(context.seed))
         if found is None:
             return None
         network, _ = found
@@ -246,6 +276,8 @@ def _fit(Y: NDArray[np.float64], w: NDArray[np.float64], context: EncodeContext,
                         context.progress("quantise", K=K, steps=rounded.info["steps"])
                         met.append(rounded)
                         return True
+                if report.max_error > FAR * bound and stage >= FAR_ITERS:
+                    return True  # far from the bound: on to the next frequency
             else:
                 context.progress("train", **fields)
             return last

@@ -25,22 +25,23 @@ def _elu_slope_(z: NDArray[np.float32], slope: NDArray[np.float32]) -> None:
     z -= 1.0
 
 
-#: Ridge weight of the output layer's least-squares fit, per unit of the mean squared error: the loss is
-#: ``mean((net - target)^2) + RIDGE * |W2|^2``.  It keeps the fit unique when hidden units are (nearly) collinear
-#: and the weights small enough for float16 and quantised storage, at a cost far below the errors that matter.
+#: The least weight decay, per unit of the mean squared error: the loss is ``mean((net - target)^2) + decay *
+#: (|W0|^2 + |W1|^2 + |W2|^2)`` (biases not penalised) with ``decay >= RIDGE`` (:class:`Net`).  It keeps the output
+#: layer's fit unique when hidden units are (nearly) collinear and the weights small enough for float16 and
+#: quantised storage, at a cost far below the errors that matter.
 RIDGE = 1e-9
 
 
 def solve_output(a1T: NDArray[np.float32], targetT: NDArray[np.float32], count: int,
-                  out: NDArray[np.float32]) -> float:
-    """``out (d, h + 1) = [W2 | b2]`` minimising ``|[W2 | b2] a1T - target^T|^2 / count + RIDGE |W2|^2`` for
+                  out: NDArray[np.float32], ridge: float = RIDGE) -> float:
+    """``out (d, h + 1) = [W2 | b2]`` minimising ``|[W2 | b2] a1T - target^T|^2 / count + ridge |W2|^2`` for
     activations ``a1T (h + 1, N)`` (last row ones); returns the ridge term.  Normal equations in float64 (the
     right-hand side accumulated in the network's precision), Cholesky through LAPACK directly (the bias is not
     penalised; a singular system falls back to lstsq)."""
     a = a1T.astype(np.float64)
     G = a @ a.T
     h = G.shape[0] - 1
-    G.flat[:h * (h + 2):h + 2] += RIDGE * count
+    G.flat[:h * (h + 2):h + 2] += ridge * count
     B = (targetT @ a1T.T).astype(np.float64)  # (d, h + 1): solve G X = B^T, i.e. X^T = B G^-1 (G symmetric)
     factor, info = dpotrf(G, lower=1, clean=0, overwrite_a=1)
     if info == 0:
@@ -49,7 +50,7 @@ def solve_output(a1T: NDArray[np.float32], targetT: NDArray[np.float32], count: 
         solution = np.linalg.lstsq(a @ a.T, B.T, rcond=None)[0]
     out[:] = solution.T
     W2 = out[:, :h]
-    return float(RIDGE * np.vdot(W2, W2))
+    return float(ridge * np.vdot(W2, W2))
 
 
 class Net:
@@ -57,11 +58,14 @@ class Net:
 
     Each layer is stored as one matrix with its bias as the last column (``A0 = [W0 | b0]`` ``(h, i + 1)``,
     ``A1 = [W1 | b1]`` ``(h, h + 1)``, ``A2 = [W2 | b2]`` ``(d, h + 1)``), so that a layer and its gradient are
-    one matrix product each; :meth:`views` gives the six arrays of eq. 2.
+    one matrix product each; :meth:`views` gives the six arrays of eq. 2.  ``decay``: the weight decay of the
+    loss (:data:`RIDGE` and up).
     """
 
-    def __init__(self, inputs: int, hidden: int, width: int, theta: NDArray[np.float32], dtype: type = np.float32):
+    def __init__(self, inputs: int, hidden: int, width: int, theta: NDArray[np.float32], dtype: type = np.float32,
+                 decay: float = RIDGE):
         self.inputs, self.hidden, self.width, self.dtype = inputs, hidden, width, dtype
+        self.decay = float(decay)
         self.theta = np.ascontiguousarray(theta, dtype=dtype)
         self._x = np.empty_like(self.theta)  # evaluation point and gradient buffers with fixed views
         self._g = np.empty_like(self.theta)
@@ -119,9 +123,10 @@ class Net:
 
         ``theta`` holds ``A0`` and ``A1`` (:attr:`nonlinear_size` values); the output layer ``A2`` is linear in
         the network's output, so for each ``theta`` it is solved for exactly: the ridge least-squares fit of
-        ``target`` on the second layer's activations (:func:`_solve_output`), written into the evaluation
+        ``target`` on the second layer's activations (:func:`solve_output`), written into the evaluation
         buffer (:meth:`weights_at` reads it back).  The loss is the mean squared error of that network on
-        ``(x (N, i), target (N, d))`` plus the ridge term; because ``A2`` minimises it, its gradient with
+        ``(x (N, i), target (N, d))`` plus the weight decay ``decay (|W0|^2 + |W1|^2 + |W2|^2)``; because ``A2``
+        minimises it, its gradient with
         respect to ``theta`` is the partial gradient at the solved ``A2`` (Golub and Pereyra 1973), computed by
         backpropagation written out for this fixed network, on feature-major activations ``(h + 1, N)`` whose
         last row is ones so that each layer's product includes its bias.  float32, except the ``(h + 1)^2``
@@ -137,7 +142,7 @@ class Net:
         a1 = np.matmul(A1, a0T, out=a1T[:h])
         _elu_slope_(a1, slope1)
         count = rT.size
-        penalty = solve_output(a1T, targetT, count, out=A2)
+        penalty = solve_output(a1T, targetT, count, out=A2, ridge=self.decay)
         np.matmul(A2, a1T, out=rT)  # (d, N): network minus target
         rT -= targetT
         flat = rT.reshape(-1)
@@ -149,6 +154,10 @@ class Net:
         g0 = np.matmul(A1[:, :h].T, g1, out=slope1)  # slope1 is no longer needed
         g0 *= slope0
         np.matmul(g0, xT.T, out=gA0)
+        for A, gA in ((A0, gA0), (A1, gA1)):  # the weight decay of the first two layers (not their biases)
+            W = A[:, :-1]
+            loss += self.decay * float(np.vdot(W, W))
+            gA[:, :-1] += np.float32(2.0 * self.decay) * W
         return loss, self._g[:n0].astype(np.float64)
 
     def weights_at(self, x: NDArray[np.float32], target: NDArray[np.float32],
@@ -209,4 +218,6 @@ def grow(net: Net, gen: np.random.Generator) -> Net:
     nW2[:] = 0.0
     nW2[:, :h0] = W2
     nb2[:] = b2
-    return net_of(nW0, nb0, nW1, nb1, nW2, nb2)
+    grown = net_of(nW0, nb0, nW1, nb1, nW2, nb2)
+    grown.decay = net.decay
+    return grown

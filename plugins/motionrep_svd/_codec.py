@@ -7,9 +7,9 @@ is stored as ``coefficients = U_r S_r`` ``(F, r)`` and ``basis = V_r^T / s`` ``(
 Fourier codecs' loss.
 
 Decoding at normalised times ``t``: the coefficient rows are interpolated linearly between frames
-(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in one compiled loop (:class:`SVDDecoder`):
-in float32 (the payload's own precision) for payload version 2, in float64 for version 1, whose files were
-measured in float64 when they were written.
+(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in one C loop (:class:`SVDDecoder`,
+``_c/module.c``): in float32 (the payload's own precision) for payload version 2, in float64 for version 1, whose
+files were measured in float64 when they were written.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.plugin.codec import (Codec, CompiledDecoder, EncodeContext, Payload, check_decode_work, check_frames,
                              check_info_numbers)
 from motionrep.errors import BoundNotMetError, ParameterError, naming
-from motionrep.jit import affine_block, affine_one, jit
+
+from . import _csvd
 
 __all__ = ["SVDCodec", "SVDParams", "SVDDecoder"]
 
@@ -137,53 +138,16 @@ class SVDCodec(Codec):
         return self.decoder(payload)(times).astype(np.float64)
 
 
-#: Times decoded together (the block's coefficients and features stay in the CPU cache).
-_ROWS = 64
-
-
-@jit
-def _decode_kernel(times, out, coeff, mean, basis_t, basis):
-    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = ``mean + c(t) @ basis`` at ``times (T,)``, ``c(t)``
-    the coefficient rows ``coeff (F, r)`` interpolated linearly at ``t`` (clipped to [0, 1]); arithmetic in the
-    arrays' dtype, the sums as ``motionrep.jit.affine_block`` / ``affine_one`` (mean first, then the rank
-    components in order), so a time decodes to the same bits alone or in a batch."""
-    T, F, r, D = times.shape[0], coeff.shape[0], coeff.shape[1], mean.shape[0]
-    cast = coeff.dtype.type
-    C = np.empty((r, _ROWS), coeff.dtype)
-    Y = np.empty((D, _ROWS), coeff.dtype)
-    c1 = np.empty(r, coeff.dtype)
-    y1 = np.empty(D, coeff.dtype)
-    for a in range(0, T, _ROWS):
-        m = min(_ROWS, T - a)
-        for i in range(m):
-            t = min(max(times[a + i], 0.0), 1.0)
-            pos = t * (F - 1)
-            j = min(np.int64(np.floor(pos)), max(F - 2, 0))
-            frac = cast(pos - j)
-            rest = cast(1.0) - frac
-            k1 = min(j + 1, F - 1)
-            for k in range(r):
-                C[k, i] = coeff[j, k] * rest + coeff[k1, k] * frac
-        if m == 1:
-            for k in range(r):
-                c1[k] = C[k, 0]
-            affine_one(basis, mean, c1, y1)
-            for d in range(D):
-                out[d, a] = y1[d]
-            continue
-        affine_block(basis_t, mean, C, Y, m)
-        for d in range(D):
-            for i in range(m):
-                out[d, a + i] = Y[d, i]
-
-
 class SVDDecoder(CompiledDecoder):
-    """An ``svd`` payload checked and converted once, ready to decode any number of times: one compiled pass per
-    block of times (``_decode_kernel``), in ``dtype`` (float32 for payload version 2, float64 for version 1).
+    """An ``svd`` payload checked and converted once, ready to decode any number of times: one C pass per block of
+    times (``_c/module.c``), in ``dtype`` (float32 for payload version 2, float64 for version 1): the coefficient
+    rows interpolated linearly at each time, then ``mean + c(t) @ basis``, each sum in a fixed order (the mean
+    first, then the rank components in order), so a time decodes to the same bits alone or in a batch.
 
     Attributes:
-        width, kernel, kernel_args: the compiled decoder (``Codec.decoder``): ``kernel(times, out, *kernel_args)``
-            writes ``(D, >= T)`` float64 features, feature-major.
+        width, kernel, kernel_args: the decoder (``Codec.decoder``): ``kernel(times, out, *kernel_args)`` writes
+            ``(D, >= T)`` float64 features, feature-major.
+        sampler: the same for C callers (``motionrep.open``; ``motionrep/_c/include/motionrep/sampler.h``).
 
     Raises:
         ValueError: if the arrays' shapes do not fit together.
@@ -195,7 +159,12 @@ class SVDDecoder(CompiledDecoder):
             raise ValueError(f"inconsistent svd payload shapes: mean {mean.shape}, coefficients {coeff.shape}, "
                              f"basis {basis.shape}")
         self.width, self.dtype = mean.shape[0], np.dtype(dtype)
-        basis = np.ascontiguousarray(basis, dtype=dtype)
-        self.kernel = _decode_kernel
-        self.kernel_args = (np.ascontiguousarray(coeff, dtype=dtype), np.ascontiguousarray(mean, dtype=dtype),
-                            np.ascontiguousarray(basis.T), basis)
+        self._decoder = _csvd.Decoder(np.ascontiguousarray(coeff, dtype=dtype), np.ascontiguousarray(mean, dtype=dtype),
+                                      np.ascontiguousarray(basis, dtype=dtype))
+        self.kernel = _csvd.sample
+        self.kernel_args = (self._decoder,)
+
+    @property
+    def sampler(self):
+        """The C sampler (a capsule) that ``motionrep.open`` calls for each block of poses."""
+        return self._decoder.sampler

@@ -8,7 +8,8 @@ from __future__ import annotations
 from motionrep import __version__
 from motionrep.plugin.hookspecs import hookimpl
 
-from ._codec import TransformCodec, TransformDecoder, TransformParams, interpolate_rows
+from ._codec import TransformCodec, TransformParams
+from ._decoder import TransformDecoder, interpolate_rows
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows", "register_codecs",
            "__version__"]

@@ -21,16 +21,15 @@ Encoding (``specs/codecs.md`` has the full description):
    (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
    read).
 
-Decoding (:class:`TransformDecoder`, prepared once per payload): parse and decode the integers, multiply by the steps,
-inverse wavelet; then each call samples the decoded frames (linear interpolation for times between frames): in
-numpy (:func:`interpolate_rows`), or in one compiled loop for the runtime decoder (the same arithmetic, so the
-same bits).
+Decoding (:mod:`._decoder`: :class:`TransformDecoder`, prepared once per payload) is the C library
+``_c/mrtransform.h`` / ``.c``.  The encoder measures every candidate with that same decoder (:func:`reconstruct`),
+so the bound it measured is the bound of what decodes.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -39,15 +38,15 @@ from numpy.typing import ArrayLike, NDArray
 from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
 from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
-from motionrep.jit import jit
 
-from . import _stream, _stream2
+from . import _stream2
+from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
 from ._greedy import spend_slack_exact
 from ._slack import frame_sensitivity, reduction_savings, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
-from ._wavelet import coefficient_frames, forward, inverse, num_levels
+from ._wavelet import coefficient_frames, forward, num_levels
 
-__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows"]
+__all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows", "reconstruct", "unpack"]
 
 #: Step exponents are in eighths of an octave: step = 2 ** (exponent / 8).
 _PER_OCTAVE = 8
@@ -127,10 +126,6 @@ class _Plan:
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
-        return self._quantise_with_steps(region_exp, rounding)[0]
-
-    def _quantise_with_steps(self, region_exp: NDArray[np.int64], rounding: float
-                             ) -> tuple[list[NDArray[np.int64]], list[NDArray[np.float64]]]:
         out = []
         steps = steps_of(self.exponents(region_exp))
         for c, step in zip(self.coefficients, steps):
@@ -139,13 +134,12 @@ class _Plan:
                 raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
                                               "max_error", None, None), "max_error")
             out.append((np.sign(c) * a).astype(np.int64))
-        return out, steps
+        return out
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
-        """``(F, D)`` features the payload of region exponents ``k`` decodes to: ``reconstruct(self.quantised(k,
-        rounding))`` without computing the steps twice (the same operations, so the same bits)."""
-        q, steps = self._quantise_with_steps(region_exp, rounding)
-        return _synthesised([c * step for c, step in zip(q, steps)], self.levels)
+        """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
+        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
+        return reconstruct(self.quantised(region_exp, rounding))
 
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
@@ -191,117 +185,6 @@ def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
         m = np.minimum(m[:-p], m[p:])
         p *= 2
     return np.minimum(m[:n], m[width - p:width - p + n])
-
-
-def reconstruct(q: Quantised) -> NDArray[np.float64]:
-    """``(F, D)`` features of the frames of a quantised payload."""
-    levels = num_levels(q.num_frames)
-    region_of = [np.minimum(f // q.region_frames, q.region_exponents.size - 1)
-                 for f in coefficient_frames(q.num_frames, levels)]
-    spans = [levels] + list(range(levels, 0, -1))
-    reach = [int(math.ceil(_REACH * 2 ** j / q.region_frames)) for j in spans]
-    exps = coefficient_exponents(q.region_exponents, region_of, reach, q.feature_exponents)
-    if any(c.shape != e.shape for c, e in zip(q.coefficients, exps)) or len(exps) != len(q.coefficients):
-        raise PayloadError("transform payload: coefficient arrays do not fit the clip")
-    if any(e.size and int(np.abs(e).max()) > MAX_EXPONENT for e in exps):
-        raise PayloadError("transform payload: a step is out of range")
-    with np.errstate(all="ignore"):  # a crafted step overflows to inf: refused below, one line, no warning
-        return _synthesised([c * step for c, step in zip(q.coefficients, steps_of(exps))], levels)
-
-
-def _synthesised(values: list[NDArray[np.float64]], levels: int) -> NDArray[np.float64]:
-    """The inverse wavelet of dequantised coefficients, checked to be finite."""
-    out = inverse(values) if levels else values[0]
-    if not np.all(np.isfinite(out)):
-        raise PayloadError("transform payload: the coefficients decode to values that are not finite")
-    return out
-
-
-def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[np.float64] | None = None
-                     ) -> NDArray[np.float64]:
-    """Rows ``(F, D)`` of the frames (frame ``i`` at ``t = i / (F - 1)``) at ``times`` ``(T,)`` (clipped to
-    [0, 1]): a time on a frame gives that frame's row exactly (one gather), a time between two frames
-    ``r_i + (r_(i+1) - r_i) a``.  Written into ``out`` ``(T, D)`` float64 when given."""
-    t = np.clip(np.asarray(times, dtype=np.float64).reshape(-1), 0.0, 1.0)
-    F = rows.shape[0]
-    if out is None:
-        out = np.empty((t.size,) + rows.shape[1:], dtype=np.float64)
-    if F == 1:
-        out[...] = rows[0]
-        return out
-    pos = t * (F - 1)
-    i = np.minimum(np.floor(pos).astype(np.int64), F - 1)
-    np.take(rows, i, axis=0, out=out)
-    a = pos - i
-    between = np.flatnonzero(a)
-    if between.size:
-        j = i[between]
-        out[between] += (rows[j + 1] - rows[j]) * a[between, None]
-    return out
-
-
-@jit
-def _sample_kernel(times, out, rows_t):
-    """``out[:, :T]`` (``(D, >= T)`` float64, feature-major) = :func:`interpolate_rows` of the frames at
-    ``times (T,)``, given transposed, ``rows_t (D, F)``; value for value (a time on a frame copies its row, a time
-    between frames ``r_i + (r_(i+1) - r_i) a``).  Feature by feature, so the writes are contiguous."""
-    D, F = rows_t.shape
-    T = times.shape[0]
-    first = np.empty(T, np.int64)
-    second = np.empty(T, np.int64)
-    frac = np.empty(T)
-    for i in range(T):
-        t = min(max(times[i], 0.0), 1.0)
-        j, a = 0, 0.0
-        if F > 1:
-            pos = t * (F - 1)
-            j = min(np.int64(np.floor(pos)), F - 1)
-            a = pos - j
-        first[i], second[i], frac[i] = j, min(j + 1, F - 1), a
-    for d in range(D):
-        r = rows_t[d]
-        for i in range(T):
-            v = r[first[i]]
-            w = v + (r[second[i]] - v) * frac[i]
-            out[d, i] = v if frac[i] == 0.0 else w  # on a frame, its value exactly (v + 0 could turn -0 to 0)
-
-
-#: The stream module of each payload format version.
-_STREAMS = {1: _stream, 2: _stream2}
-
-
-def unpack(data: bytes, version: int) -> Quantised:
-    """The quantised content of payload bytes of format ``version`` (1 or 2)."""
-    return _STREAMS[version].unpack(data)
-
-
-class TransformDecoder:
-    """A payload prepared for decoding many times: its integers decoded and transformed back once, to the
-    ``(F, D)`` features of its frames; each call only samples them (:func:`interpolate_rows`).  ``version``: the
-    payload's format (1 or 2; default the current one).
-
-    Attributes:
-        width, kernel, kernel_args: the compiled sampler for the runtime decoder (``Codec.decoder``):
-            ``kernel(times, out, *kernel_args)`` writes ``(D, >= T)`` float64 features, feature-major.
-
-    Raises:
-        PayloadError: for a damaged or inconsistent payload (when it is prepared).
-    """
-
-    def __init__(self, payload: Payload, version: int = 2):
-        data = np.asarray(payload.arrays["data"])
-        if data.dtype != np.uint8 or data.ndim != 1:
-            raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        frames_t = np.ascontiguousarray(reconstruct(unpack(data.tobytes(), version)).T, dtype=np.float64)
-        frames_t.flags.writeable = False
-        self.frames = frames_t.T  # (F, D), stored feature-major for the compiled sampler
-        self.width = self.frames.shape[1]
-        self.kernel = _sample_kernel
-        self.kernel_args = (frames_t,)
-
-    def __call__(self, times: ArrayLike, out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """``(T, D)`` float64 features at normalised ``times`` ``(T,)`` (into ``out`` when given)."""
-        return interpolate_rows(self.frames, times, out)
 
 
 def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
@@ -432,30 +315,30 @@ class TransformCodec(Codec):
             except MotionrepError:  # a candidate that does not even decode
                 return np.full(plan.num_frames, np.inf)
 
-        def synthesised(values: list[NDArray[np.int64]]) -> NDArray[np.float64]:
-            return _synthesised([c * s for c, s in zip(values, steps)], plan.levels)
+        def dequantised(values: list[NDArray[np.int64]]) -> NDArray[np.float64]:
+            return synthesised([c * s for c, s in zip(values, steps)], plan.levels)
 
         make_edits = getattr(context, "feature_edits", None)
         try:
-            edits = None if make_edits is None else make_edits(synthesised(quantised.coefficients))
+            edits = None if make_edits is None else make_edits(dequantised(quantised.coefficients))
         except MotionrepError:
             edits = None
         if edits is not None:
             coefficients, figures = spend_slack_exact(
                 quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
                 lambda values: reduction_savings(values, plan.levels), passes=slack)
-            # the edits keep the features as a sum of changes; the stored values are the inverse wavelet's, which
-            # differ in the last bits: measured again (within the margin, never seen to fail)
-            if not float(np.max(errors(synthesised(coefficients)))) <= bound:
+            # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
+            # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
+            # never seen to fail)
+            if not float(np.max(errors(reconstruct(replace(quantised, coefficients=coefficients))))) <= bound:
                 coefficients, figures["moved"] = quantised.coefficients, 0
         else:
             coefficients, figures = spend_slack(
                 quantised.coefficients, steps, plan.levels, frame_sensitivity(sampled, plan.num_frames),
-                errors, bound, lambda values: _synthesised(values, plan.levels),
+                errors, bound, lambda values: synthesised(values, plan.levels),
                 coefficient_frames(plan.num_frames, plan.levels), blocks=slack)
         context.progress("slack", **figures, diagnostic=True)
-        return Quantised(quantised.num_frames, quantised.num_features, quantised.region_frames,
-                         quantised.feature_exponents, quantised.region_exponents, coefficients)
+        return replace(quantised, coefficients=coefficients)
 
     @staticmethod
     def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int) -> NDArray[np.int64]:
@@ -508,7 +391,7 @@ class TransformCodec(Codec):
         data = np.asarray(payload.arrays.get("data", np.zeros(0, np.uint8)))
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")
-        F, D, _ = _STREAMS[self.payload_version(payload)].declared(data.tobytes())
+        F, D, _ = STREAMS[self.payload_version(payload)].declared(data.tobytes())
         check_frames(F, num_frames, "transform payload")
         check_decode_work(F * D * COEFFICIENT_WORK, payload, f"transform payload of {F} frames x {D} features")
 

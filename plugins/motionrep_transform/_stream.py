@@ -1,5 +1,6 @@
 """The bytes of a ``transform`` payload (format 1): quantised wavelet coefficients, range-coded with context
-models (``motionrep.plugin.coding``). Layout in ``specs/codecs.md``; every count and range read is checked.
+models (``motionrep.plugin.coding``). Layout in ``specs/codecs.md``.  :func:`pack` writes them (numpy and the
+range coder); :func:`unpack` reads them with the C decoder (``_c/mrtransform.c``, every count and range checked).
 
 Coefficients are coded coarse to fine. The approximation is coded as differences between neighbouring samples.
 Each detail level is coded in two passes, its even then its odd coefficients; a coefficient's context is the
@@ -16,8 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.plugin.coding import IntegerDecoder, IntegerEncoder, Model, fit_model, max_values
-from motionrep.errors import PayloadError
+from motionrep.plugin.coding import IntegerEncoder, Model, fit_model
 
 from ._wavelet import level_sizes, num_levels
 
@@ -35,13 +35,6 @@ MAX_ZERO = 208
 
 def _fit(values: NDArray[np.int64]) -> Model:
     return fit_model(values, max_zero=MAX_ZERO)
-
-
-def _models(dec: IntegerDecoder, count: int) -> list[Model]:
-    models = dec.decode_models(count)
-    if any(m.zero > MAX_ZERO for m in models):
-        raise PayloadError("transform payload: a stored model is out of range (damaged data)")
-    return models
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,16 +122,6 @@ def _encode_signed(enc: IntegerEncoder, v: NDArray[np.int64]) -> None:
     enc.encode(d, model)
 
 
-def _decode_signed(dec: IntegerDecoder, n: int) -> NDArray[np.int64]:
-    z = int(dec.decode_raw(1, 16)[0])
-    first = z // 2 if z % 2 == 0 else -(z + 1) // 2
-    (model,) = _models(dec, 1)
-    v = np.cumsum(np.concatenate([[first], dec.decode(n - 1, model)]))
-    if np.any(np.abs(v) > MAX_EXPONENT):
-        raise PayloadError("transform payload: a step exponent is out of range")
-    return v
-
-
 def _passes(levels: int):
     """``(array index, level j, odd, group)`` in coding order."""
     for index in range(1, levels + 1):
@@ -192,48 +175,28 @@ COEFFICIENT_WORK = 256
 
 def declared(data: bytes) -> tuple[int, int, int]:
     """``(frames F, features D, region frames)`` the head of payload bytes declares (3 raw fields; nothing else
-    is decoded), for ``Codec.check_payload``."""
-    dec = IntegerDecoder(data)
-    return (int(dec.decode_raw(1, 32)[0]) + 1, int(dec.decode_raw(1, 20)[0]) + 1,
-            int(dec.decode_raw(1, 16)[0]) + 1)
+    is decoded), for ``Codec.check_payload``.
+
+    Raises:
+        PayloadError: for data that is not a whole number of 32-bit words.
+    """
+    from ._cdecode import declared as c_declared
+
+    return c_declared(data, 1)
 
 
-def unpack(data: bytes) -> Quantised:
-    """The :class:`Quantised` content of payload bytes.
+def unpack(data: bytes, version: int = 1) -> Quantised:
+    """The :class:`Quantised` content of payload bytes (the C decoder, ``_c/mrtransform.c``).
 
     Raises:
         PayloadError: for damaged or inconsistent data (one line saying what).
     """
-    dec = IntegerDecoder(data)
-    F = int(dec.decode_raw(1, 32)[0]) + 1
-    D = int(dec.decode_raw(1, 20)[0]) + 1
-    region = int(dec.decode_raw(1, 16)[0]) + 1
-    regions = -(-F // region)
-    if F * D + D + regions > max_values(len(data), MAX_ZERO):
-        raise PayloadError(f"transform payload: {F} frames x {D} features cannot be held in {len(data)} bytes "
-                           "(damaged data)")
-    feature_exp = _decode_signed(dec, D)
-    region_exp = _decode_signed(dec, regions)
-    levels = num_levels(F)
-    sizes = level_sizes(F, levels)
-    bitmap = int(dec.decode_raw(1, _CONTEXTS)[0])
-    used = [c for c in range(_CONTEXTS) if bitmap >> c & 1]
-    models: dict[int, Model] = dict(zip(used, _models(dec, len(used))))
-    m_first, m_steps = _models(dec, 2)
-    first = dec.decode(D, m_first)
-    steps = dec.decode((sizes[0] - 1) * D, m_steps).reshape(sizes[0] - 1, D)
-    approx = np.cumsum(np.concatenate([first[None], steps], axis=0), axis=0)
-    coeffs = [approx] + [np.zeros((n, D), np.int64) for n in sizes[1:]]
-    mags = [_approx_steps(approx)] + [np.zeros((n, D), np.int64) for n in sizes[1:]]
-    for index, odd, group in _passes(levels):
-        ctx = _contexts(_parents(mags, index), mags[index], odd, group).reshape(-1)
-        order, groups = _grouped(ctx)
-        values = np.empty(ctx.size, np.int64)
-        for c, start, stop in groups:
-            if c not in models:
-                raise PayloadError("transform payload: a coefficient's context has no stored model (damaged data)")
-            values[order[start:stop]] = dec.decode(stop - start, models[c])
-        coeffs[index][int(odd)::2] = values.reshape(-1, D)
-        mags[index][int(odd)::2] = np.abs(values).reshape(-1, D)
-    dec.finish()
-    return Quantised(F, D, region, feature_exp, region_exp, coeffs)
+    from ._cdecode import unpack as c_unpack
+
+    F, D, region, feature_exp, region_exp, coefficients = c_unpack(data, version)
+    values = np.frombuffer(coefficients, np.int64).reshape(F, D)
+    arrays, start = [], 0
+    for n in level_sizes(F, num_levels(F)):
+        arrays.append(values[start:start + n])
+        start += n
+    return Quantised(F, D, region, np.frombuffer(feature_exp, np.int64), np.frombuffer(region_exp, np.int64), arrays)

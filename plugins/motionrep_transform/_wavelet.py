@@ -7,8 +7,8 @@ the signal, in the L2 sense).
 PyWavelets has the same filters but only with extension modes that either add coefficients at the ends
 (``symmetric``: more bits on short clips) or make the clip periodic (``periodization``: a jump from the last
 frame to the first, more bits on long clips); this critically sampled symmetric form has neither cost. Arrays
-are ``(frames, features)``; numpy only, additions and multiplications in a fixed order (the same result on every
-run).
+are ``(frames, features)``; additions and multiplications in a fixed order (the same result on every run): the
+forward transform (encoding) in numpy, the inverse in C (``_c/mrtransform.c``, the decoder's own).
 """
 
 from __future__ import annotations
@@ -92,21 +92,6 @@ def _split(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.floa
     return s, d
 
 
-def _merge(s: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
-    s, d = s / _LOW, d / _HIGH
-    ns, nd = s.shape[0], d.shape[0]
-    for k in range(len(_STEPS) - 1, -1, -1):
-        a = _STEPS[k]
-        if k % 2 == 0:
-            d -= a * (s[:nd] + _right(s, nd))
-        else:
-            s -= a * (_left(d, ns) + _here(d, ns))
-    x = np.empty((ns + nd,) + s.shape[1:])
-    x[0::2] = s
-    x[1::2] = d
-    return x
-
-
 def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
     """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`)."""
     out = []
@@ -119,8 +104,11 @@ def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
 
 
 def inverse(coefficients: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-    """The ``(n, D)`` samples of :func:`forward`'s output (exact up to float rounding)."""
-    s = coefficients[0]
-    for d in coefficients[1:]:
-        s = _merge(s, d)
-    return s
+    """The ``(n, D)`` samples of :func:`forward`'s output (exact up to float rounding): the C decoder's inverse
+    (``_c/mrtransform.c``, ``mrt_inverse``), the one the payloads are decoded with."""
+    from ._cdecode import inverse as c_inverse
+
+    values = np.ascontiguousarray(np.concatenate(coefficients, axis=0), dtype=np.float64)
+    out = np.empty_like(values)
+    c_inverse(values, out)
+    return out

@@ -49,14 +49,17 @@ def test_warm_start_growth_leaves_the_function_unchanged():
     np.testing.assert_allclose(grown.forward(x_new), before, rtol=0, atol=4 * np.finfo(np.float32).eps)
 
 
-def test_variable_projection_loss_and_gradient():
-    """The loss of the first two layers with the output layer solved by ridge least squares: its gradient
-    matches central differences (float64 network), and the solved output layer is the least-squares one."""
+@pytest.mark.parametrize("decay", [None, 1e-2])
+def test_variable_projection_loss_and_gradient(decay):
+    """The loss of the first two layers with the output layer solved by ridge least squares, plus the weight decay
+    of every layer's weights (not the biases): its gradient matches central differences (float64 network), and
+    the solved output layer is the least-squares one."""
     from motionrep_fourier._trainnet import RIDGE, Net as _Net, grow as _grow, initial_net as _initial
 
     gen = np.random.default_rng(4)
     grown = _grow(_initial(gen, 3, 6, 5), gen)
-    net = _Net(grown.inputs, grown.hidden, grown.width, grown.theta, dtype=np.float64)
+    decay = RIDGE if decay is None else decay
+    net = _Net(grown.inputs, grown.hidden, grown.width, grown.theta, dtype=np.float64, decay=decay)
     x, z = gen.random((25, 5)), gen.random((25, 5))
     theta = net.theta[:net.nonlinear_size].astype(np.float64)
     value, grad = net.loss_and_grad(x, z, theta)
@@ -66,14 +69,16 @@ def test_variable_projection_loss_and_gradient():
     np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-9)
     full = net.weights_at(x, z, theta)
     out = net.forward(x, full)
-    W2 = net.views(full)[4]
-    assert value == pytest.approx(np.mean((out - z) ** 2) + RIDGE * np.sum(W2 ** 2), rel=1e-12)
+    W0, _, W1, _, W2, _ = net.views(full)
+    hidden = np.sum(W0 ** 2) + np.sum(W1 ** 2)
+    assert value == pytest.approx(np.mean((out - z) ** 2) + decay * (hidden + np.sum(W2 ** 2)), rel=1e-12)
     # no other output layer does better on the same hidden activations
     for _ in range(5):
         other = full.copy()
         other[net.nonlinear_size:] += 1e-3 * gen.standard_normal(other.size - net.nonlinear_size)
         W2o = net.views(other)[4]
-        assert np.mean((net.forward(x, other) - z) ** 2) + RIDGE * np.sum(W2o ** 2) > value
+        assert np.mean((net.forward(x, other) - z) ** 2) + decay * (hidden + np.sum(W2o ** 2)) > value
+    assert _grow(net, gen).decay == decay
 
 
 def _two_loop_direction(g, pairs):
@@ -679,3 +684,73 @@ def test_quantised_without_a_bound_rounds_finely(chain_motion):
     a, b = decompress(q.data), decompress(f.data)
     # the same training; the rounding moves joints by far less than the network's own error
     assert max_joint_error(b, a).max_error < 0.05 * f.report.max_error + 1e-9
+
+
+def test_rounding_compensates_each_column_on_the_inputs():
+    """``_quantise.rounded`` (GPTQ): on correlated inputs the layer's output moves far less than with each
+    weight rounded to its nearest multiple, every integer stays within a few steps of its weight, and columns
+    of inputs that are never non-zero are rounded to the nearest, as nothing can compensate them."""
+    from motionrep_fourier._quantise import rounded
+
+    rng = np.random.default_rng(3)
+    N, n, m = 400, 12, 30
+    mix = rng.normal(size=(n, n))
+    inputsT = np.vstack([(rng.normal(size=(N, n)) @ mix).T[:-2], np.zeros((1, N)), np.ones((1, N))])
+    A = rng.normal(size=(m, n))
+    steps = np.full(n, 0.05)
+    steps[3] = 0.2  # per-column steps
+    Q = rounded(A, inputsT, steps)
+    nearest = np.rint(A / steps)
+    error = lambda q: float(np.sum(((A - q * steps) @ inputsT) ** 2))  # noqa: E731
+    assert error(Q) < 0.5 * error(nearest)
+    assert np.max(np.abs(Q - nearest)) <= 8
+    assert np.array_equal(Q[:, -2], nearest[:, -2])
+    assert np.array_equal(rounded(A, inputsT, steps), Q)  # deterministic
+
+
+def test_weight_decay_follows_the_bound_in_normalised_units():
+    """The decay is the same share of the loss at the bound for any units (bound and RMS scaled together), four
+    times smaller at half the bound, and the floor ``RIDGE`` without a bound or at a bound far below the motion."""
+    from motionrep_fourier._train import DECAY, clip_scale, weight_decay
+    from motionrep_fourier._trainnet import RIDGE
+
+    assert weight_decay(0.5, 2.0) == pytest.approx(DECAY * 0.0625)
+    assert weight_decay(50.0, 200.0) == pytest.approx(weight_decay(0.5, 2.0))
+    assert weight_decay(0.25, 2.0) == pytest.approx(weight_decay(0.5, 2.0) / 4)
+    assert weight_decay(None, 2.0) == RIDGE and weight_decay(1e-6, 2.0) == RIDGE
+    rng = np.random.default_rng(2)
+    Y, w = rng.normal(size=(50, 4)) * [1.0, 2.0, 0.0, 3.0], np.array([1.0, 0.5, 2.0, 1.0])
+    scale = clip_scale(Y, w)
+    assert scale.rms == pytest.approx(np.sqrt(np.mean(((Y - Y.mean(axis=0)) * w) ** 2)))
+    assert clip_scale(np.zeros((5, 4)), w).rms == 1.0  # a clip that never moves
+
+
+def test_a_stage_far_from_the_bound_ends_early(chain_motion):
+    """A stage whose measured error is above FAR times the bound ends at its first measurement after FAR_ITERS
+    iterations (measurements come at least every EVAL_EVERY chunks); the stages near the bound train on (to their
+    plateau or ``iters``)."""
+    from motionrep_fourier._train import CHUNK, EVAL_EVERY, FAR, FAR_ITERS
+
+    stages: dict[int, tuple[int, float]] = {}
+
+    def progress(stage, fields):
+        if stage == "train" and "error" in fields:
+            stages[fields["K"]] = (fields["iteration"], fields["error"])
+
+    r = compress_motion(chain_motion, "naive-fourier", max_error="0.3%", params={"window": 0, "iters": 1000},
+                        progress=progress)
+    far = [K for K, (_, error) in stages.items() if error > FAR * r.bound and K < r.container.info["K"]]
+    assert far and all(FAR_ITERS <= stages[K][0] <= FAR_ITERS + EVAL_EVERY * CHUNK for K in far)
+    assert any(iterations > FAR_ITERS for iterations, error in stages.values() if error <= FAR * r.bound)
+
+
+def test_an_uninitialised_compiled_decoder_refuses_to_sample():
+    """A ``_cfourier.Decoder`` never initialised (or whose initialisation failed) raises, never calls through an
+    empty sampler."""
+    from motionrep_fourier import _cfourier
+
+    empty = _cfourier.Decoder.__new__(_cfourier.Decoder)
+    with pytest.raises(ValueError, match="not initialised"):
+        empty.sampler
+    with pytest.raises(ValueError, match="not initialised"):
+        _cfourier.sample(np.zeros(2), np.zeros((3, 2)), empty)

@@ -106,8 +106,9 @@ def test_both_versions_of_the_same_integers_decode_to_the_same_frames_bit_for_bi
 
 
 def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
-    """``motionrep.open`` samples with the compiled kernel, ``decode`` with numpy: the same values."""
-    from motionrep_transform._codec import interpolate_rows
+    """``motionrep.open`` samples with the C sampler (feature-major), ``decode`` with the C rows, and
+    :func:`interpolate_rows` (numpy) defines the values: all three give the same."""
+    from motionrep_transform._decoder import interpolate_rows
 
     data = np.frombuffer(bytes.fromhex(GOLDEN_2_HEX), dtype=np.uint8)
     decoder = get_codec("transform").decoder(Payload({"data": data}))
@@ -118,8 +119,11 @@ def test_the_runtime_sampler_is_interpolate_rows_bit_for_bit():
     decoder.kernel(times, out, *decoder.kernel_args)
     assert np.array_equal(out[:, :times.size].T, interpolate_rows(decoder.frames, times))
     assert np.array_equal(out[:, :times.size].T, decoder(times))
+    one = compress_motion(synthetic_motion(chain_skeleton(3), frames=1, seed=2), "transform").container
+    decoder = get_codec("transform").decoder(Payload(one.arrays))
     single = np.empty((decoder.width, 2))
-    decoder.kernel(np.array([0.0, 0.7]), single, np.ascontiguousarray(decoder.frames[:1].T))
+    decoder.kernel(np.array([0.0, 0.7]), single, *decoder.kernel_args)
+    assert decoder.frames.shape[0] == 1
     assert np.array_equal(single.T, np.repeat(decoder.frames[:1], 2, axis=0))  # a one-frame clip
 
 

@@ -1,0 +1,45 @@
+/* The pose plan in C: a skeleton's feature columns to poses (motionrep.model.poseplan, which packs the plan).
+ * No Python here: motionrep/_c/plan/module.c is the binding (motionrep._cplan). */
+#ifndef MOTIONREP_PLAN_H
+#define MOTIONREP_PLAN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* the conversion kinds (motionrep.model.poseplan) */
+enum { MR_QUAT, MR_AXIS_ANGLE, MR_EULER, MR_EULER_DEGREES, MR_ORTHO6D, MR_WORLD_QUAT, MR_WORLD_IDENTITY };
+
+/* status of mr_plan_run: the numbers poseplan._raise_for turns into messages */
+enum { MR_PLAN_OK = 0, MR_PLAN_NOT_FINITE = 1, MR_PLAN_ZERO_QUAT = 2, MR_PLAN_DEGENERATE_6D = 3 };
+
+/* poses converted together: each joint's inputs and results for them stay in the L1 cache */
+#define MR_PLAN_SUB 64
+
+typedef struct {
+    int64_t R, J, N, M;            /* entries, joints, translation rows (root + P), joints without an entry */
+    int world;                     /* world-rotation plan */
+    const int64_t *kinds, *cols, *axes, *joints, *parents, *ident, *tcols;   /* (R), (R, 6), (R, 3), ... */
+    const double *tvals;           /* (N, 3) */
+    int64_t rows;                  /* the feature rows the plan reads: max column + 1 */
+} mr_plan;
+
+/* The plan in the packed arrays of PosePlan.packed(), checked so that running it reads and writes in bounds.
+ * Returns 0, or -1 for a plan that does not hold together. */
+int mr_plan_parse(const int64_t *plan_i, size_t n_i, const double *plan_f, size_t n_f, mr_plan *out);
+
+/* Doubles of scratch mr_plan_run needs (world plans: the world rotations of a sub-block). */
+size_t mr_plan_scratch(const mr_plan *plan);
+
+/* Decode `count` poses from feature-major X (feature d of pose i at X[d * ldx + i], p->rows rows) into rot
+ * (count, J, 4) float64 (or float32 when rot_f32), root (count, 3) and moved (count, N - 1, 3) (unused when N is 0).
+ * `scratch` holds mr_plan_scratch(plan) doubles (NULL when that is 0).  check_finite: refuse features the plan
+ * reads that are NaN or infinite.  `stage` (MR_PLAN_SUB x J x 4 doubles, or NULL): float64 rotations are gathered
+ * there and streamed to memory with non-temporal stores, for batches larger than the cache (the same values).
+ * Returns an MR_PLAN_* status (everything is written whatever it is). */
+int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
+                int rot_f32, double *root, double *moved, double *scratch, double *stage);
+
+/* poses from which a batch's float64 rotations are streamed past the cache */
+#define MR_PLAN_STREAM 8192
+
+#endif
