@@ -41,7 +41,7 @@ from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, P
 
 from . import _stream2
 from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
-from ._greedy import spend_slack_exact
+from ._greedy import MIN_SAVING, spend_slack_exact
 from ._slack import frame_sensitivity, reduction_savings, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
 from ._wavelet import coefficient_frames, forward, num_levels
@@ -57,6 +57,8 @@ _SEARCH_BELOW, _SEARCH_ABOVE = 12 * _PER_OCTAVE, 3 * _PER_OCTAVE
 #: Moves measured by feature edits keep every point this much (relative) within the bound: the edits hold the
 #: features as sums of changes, the payload decodes them by the inverse wavelet (the same values but for rounding).
 _EDIT_MARGIN = 1e-9
+#: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
+_PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
 
 
@@ -70,14 +72,15 @@ class TransformParams:
                 "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
-    slack: int = field(default=3, metadata={
+    slack: int | None = field(default=None, metadata={
         "help": "with a bound: spend the room frames have under it by moving coefficients towards zero, in this "
-                "many passes of one step each, every move measured (0..64; more passes, smaller files, a longer "
-                "encode; 0 keeps the rounded integers; a context without feature edits searches thresholds in "
-                "this many feature groups instead)"})
-    rounding: float = field(default=0.4, metadata={
+                "many passes of one step each, every move measured (0..64, default 5; more passes, smaller files, "
+                "a longer encode; 0 keeps the rounded integers; a context without feature edits searches "
+                "thresholds in this many feature groups instead, default 3)"})
+    rounding: float = field(default=0.45, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
-                "zone around 0, more zeros at a slightly smaller step"})
+                "zone around 0, more zeros at a slightly smaller step (the slack search then widens it where "
+                "the frames have room)"})
 
     def __post_init__(self) -> None:
         if self.step is not None and not (isinstance(self.step, (int, float)) and math.isfinite(self.step)
@@ -85,7 +88,8 @@ class TransformParams:
             raise ParameterError(f"transform: step must be a number > 0, got {self.step!r}")
         if isinstance(self.region, bool) or not isinstance(self.region, int) or not 4 <= self.region <= 65536:
             raise ParameterError(f"transform: region must be an integer in 4..65536, got {self.region!r}")
-        if isinstance(self.slack, bool) or not isinstance(self.slack, int) or not 0 <= self.slack <= 64:
+        if self.slack is not None and (isinstance(self.slack, bool) or not isinstance(self.slack, int)
+                                       or not 0 <= self.slack <= 64):
             raise ParameterError(f"transform: slack must be an integer in 0..64, got {self.slack!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
@@ -265,7 +269,7 @@ class TransformCodec(Codec):
             raise BoundNotMetError("transform: the steps needed are out of range", None, bound)
         quantised = plan.quantised(k, params.rounding)
         frame_errors = getattr(context, "frame_errors", None)
-        if params.step is None and params.slack and frame_errors is not None and plan.levels:
+        if params.step is None and params.slack != 0 and frame_errors is not None and plan.levels:
             quantised = self._spend_slack(plan, quantised, sampled, frame_errors, bound, params.slack, context)
         payload = self._payload(quantised)
         # the search ends on a whole-clip measurement of exactly these values (frame_errors) within the bound; the
@@ -303,7 +307,7 @@ class TransformCodec(Codec):
 
     @staticmethod
     def _spend_slack(plan: _Plan, quantised: Quantised, sampled: NDArray[np.float64], frame_errors, bound: float,
-                     slack: int, context: EncodeContext) -> Quantised:
+                     slack: int | None, context: EncodeContext) -> Quantised:
         """The same steps, with coefficients moved towards zero where the frames have room: move by move, each
         measured exactly, when the context offers feature edits (:mod:`._greedy`), else by thresholds searched
         with whole-clip measurements (:mod:`._slack`)."""
@@ -326,7 +330,8 @@ class TransformCodec(Codec):
         if edits is not None:
             coefficients, figures = spend_slack_exact(
                 quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
-                lambda values: reduction_savings(values, plan.levels), passes=slack)
+                lambda values: reduction_savings(values, plan.levels), passes=_PASSES if slack is None else slack,
+                min_saving=MIN_SAVING)
             # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
             # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
             # never seen to fail)
@@ -336,7 +341,7 @@ class TransformCodec(Codec):
             coefficients, figures = spend_slack(
                 quantised.coefficients, steps, plan.levels, frame_sensitivity(sampled, plan.num_frames),
                 errors, bound, lambda values: synthesised(values, plan.levels),
-                coefficient_frames(plan.num_frames, plan.levels), blocks=slack)
+                coefficient_frames(plan.num_frames, plan.levels), blocks=_GROUPS if slack is None else slack)
         context.progress("slack", **figures, diagnostic=True)
         return replace(quantised, coefficients=coefficients)
 

@@ -78,10 +78,46 @@ def test_a_context_without_feature_edits_spends_the_slack_by_thresholds(walk):
     f, w = rep.to_features(walk), rep.weights(walk)
 
     def encode(slack, wrap):
-        ctx = MotionContext(walk, rep, codec, codec.parse_params({"slack": slack}), bound, 0, None)
+        params = codec.parse_params({} if slack is None else {"slack": slack})
+        ctx = MotionContext(walk, rep, codec, params, bound, 0, None)
         return unpack(codec.encode(f, w, NoEdits(ctx) if wrap else ctx).arrays["data"].tobytes())
 
     kept, thresholds, exact = encode(0, True), encode(3, True), encode(3, False)
     moved = [np.abs(x - y) for x, y in zip(kept.coefficients[1:], thresholds.coefficients[1:])]
     assert max(int(m.max(initial=0)) for m in moved) == 2 and sum(int(m.sum()) for m in moved) > 0
     assert any(not np.array_equal(x, y) for x, y in zip(thresholds.coefficients, exact.coefficients))
+    # slack unset: three feature groups there (five passes with feature edits)
+    by_default = encode(None, True)
+    assert all(np.array_equal(x, y) for x, y in zip(thresholds.coefficients, by_default.coefficients))
+
+
+def test_moves_saving_too_little_are_not_tried(walk, monkeypatch):
+    """Moves whose estimated savings are at most ``min_saving`` are not tried: none at all above every saving (the
+    integers of slack=0), fewer tried at the default than with every move tried, each result within the bound."""
+    import motionrep_transform._codec as codec_module
+
+    def encode(min_saving):
+        monkeypatch.setattr(codec_module, "MIN_SAVING", min_saving)
+        events = []
+        r = compress_motion(walk, "transform", max_error="1%", params={"slack": 2},
+                            progress=lambda stage, fields: events.append((stage, dict(fields))))
+        assert max_joint_error(walk, decompress(r.data)).max_error <= r.bound
+        return r, [f for stage, f in events if stage == "slack"][0]
+
+    everything, all_tried = encode(0.0)
+    default, default_tried = encode(0.2)
+    nothing, none_tried = encode(float("inf"))
+    kept = compress_motion(walk, "transform", max_error="1%", params={"slack": 0})
+    payload = lambda r: r.container.arrays["data"].tobytes()  # noqa: E731 - the params differ in the header
+    assert none_tried["tried"] == 0 and none_tried["moved"] == 0 and payload(nothing) == payload(kept)
+    assert 0 < default_tried["tried"] < all_tried["tried"] and default_tried["moved"] > 0
+    assert default.container.payload_bytes < kept.container.payload_bytes
+
+
+def test_the_default_slack_is_five_passes_with_feature_edits(walk):
+    """``slack`` unset: five passes of the move-by-move search (the payload of slack=5, not of 3 or 6)."""
+    def payload(**params):
+        return compress_motion(walk, "transform", max_error="1%", params=params).container.arrays["data"].tobytes()
+
+    default = payload()
+    assert default == payload(slack=5) and default != payload(slack=3) and default != payload(slack=6)
