@@ -96,26 +96,38 @@ def table(args: argparse.Namespace) -> None:
 
     acl = acl_figures()
     before, after = _runs(args.before), _runs(args.after)
-    print("| bound | CMU-31 median, before -> after | target | CMU-31 worst, before -> after | target | files "
-          "verified (after) |")
-    print("|---|---|---|---|---|---|")
+    print("| bound | CMU-31 median, before -> after | target | CMU-31 worst, before -> after | target | salsa ratio of "
+          "medians, before -> after | files verified (after) |")
+    print("|---|---|---|---|---|---|---|")
     for bound in BOUNDS:
         cells = []
         for runs in (before, after):
             ratios = [r["payload_bpbf"] / acl[key] for key, r in runs.items()
                       if key[1] == bound and key in acl and r["status"] == "ok"]
             cells.append((statistics.median(ratios), max(ratios)))
+        salsa = []
+        for runs in (before, after):
+            sizes = [r["payload_bpbf"] for k, r in runs.items() if k[1] == bound and "salsa" in k[0]
+                     and r["status"] == "ok"]
+            salsa.append(f"{statistics.median(sizes) / acl[('salsa-median', bound)]:.3f}" if sizes else "-")
         ok = sum(1 for k, r in after.items() if k[1] == bound and r["status"] == "ok" and r.get("verified"))
         n = sum(1 for k in after if k[1] == bound)
         (mb, wb), (ma, wa) = cells
         print(f"| {bound:g} % | {mb:.3f} -> **{ma:.3f}** | <= {TARGETS[bound]}: "
               f"{'met' if ma <= TARGETS[bound] else 'not met'} | {wb:.3f} -> **{wa:.3f}** | <= {WORST}: "
-              f"{'met' if wa <= WORST else 'not met'} | {ok} / {n} |")
+              f"{'met' if wa <= WORST else 'not met'} | {salsa[0]} -> **{salsa[1]}** | {ok} / {n} |")
+    ratios = {bound: [r["payload_bytes"] / before[k]["payload_bytes"] for k, r in after.items() if k[1] == bound
+                      and r["status"] == "ok" and before.get(k, {}).get("status") == "ok"] for bound in BOUNDS}
     print()
-    print("| clip | frames | bound | before b/b/f | after b/b/f | after / before | after / ACL |")
+    print("Payload bytes after / before, every clip of the runs: "
+          + "; ".join(f"{b:g} %: median {statistics.median(v):.3f} ({min(v):.3f}-{max(v):.3f}, {len(v)} clips)"
+                      for b, v in ratios.items() if v) + ".")
+    print()
+    print("| clip (the salsa clips summed up above) | frames | bound | before b/b/f | after b/b/f | after / before | "
+          "after / ACL |")
     print("|---|---:|---|---:|---:|---:|---:|")
     for bound in BOUNDS:
-        for key in sorted(k for k in after if k[1] == bound):
+        for key in sorted(k for k in after if k[1] == bound and "salsa" not in k[0]):
             a, b = after[key], before.get(key)
             if a["status"] != "ok" or b is None or b["status"] != "ok":
                 print(f"| {key[0]} | | {bound:g} % | {b and b['status']} | {a['status']} | | |")
