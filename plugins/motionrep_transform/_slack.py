@@ -57,8 +57,7 @@ def _code_lengths(model: Model, magnitudes: NDArray[np.int64]) -> NDArray[np.flo
     """Ideal code length in bits of integers of these magnitudes under ``model`` (token, sign and raw bits), as
     :meth:`Model.cost` counts them (a token's probability given a non-zero value floored at ``2 ** -24``)."""
     a = np.asarray(magnitudes, dtype=np.int64)
-    p = np.broadcast_to(model.probabilities, (a.size, NUM_TOKENS))
-    return _code_length_of(p, a.reshape(-1)).reshape(a.shape)
+    return _code_length_of(model.probabilities[None], np.zeros(a.size, np.int64), a.reshape(-1)).reshape(a.shape)
 
 
 def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -80,17 +79,18 @@ def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64]) -> tuple[NDArra
     return zero.astype(np.int64), decay.astype(np.int64)
 
 
-def _code_length_of(p: NDArray[np.float64], magnitudes: NDArray[np.int64]) -> NDArray[np.float64]:
-    """:func:`_code_lengths` elementwise, each magnitude under its own model's probabilities (rows of ``p``,
-    ``(n, NUM_TOKENS)``): the same operations on the same numbers."""
-    z = p[:, 0]
+def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitudes: NDArray[np.int64]
+                    ) -> NDArray[np.float64]:
+    """:func:`_code_lengths` elementwise, magnitude ``i`` under the model whose probabilities are
+    ``table[rows[i]]`` (``table`` ``(n, NUM_TOKENS)``): the same operations on the same numbers."""
+    z = table[rows, 0]
     a = np.asarray(magnitudes, dtype=np.int64)
     big = a >= _TOKENS_DIRECT
     e = np.zeros(a.shape, np.int64)
     if big.any():
         e[big] = np.frexp(a[big].astype(np.float64))[1] - 1
     token = np.where(big, _TOKENS_DIRECT + e - 4, a)
-    tail = p[np.arange(a.size), np.maximum(token, 1)] / (1.0 - z)
+    tail = table[rows, np.maximum(token, 1)] / (1.0 - z)
     nonzero = -np.log2(1.0 - z) - np.log2(np.maximum(tail, 2.0 ** -24)) + 1 + e
     return np.where(a > 0, nonzero, -np.log2(z))
 
@@ -118,8 +118,8 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
         used = np.unique(ctx[moved])
         table = np.zeros((zero.size, NUM_TOKENS))
         table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
-        p = table[ctx[moved]]
-        saved[moved] = _code_length_of(p, mag[moved]) - _code_length_of(p, mag[moved] - 1)
+        rows = ctx[moved]
+        saved[moved] = _code_length_of(table, rows, mag[moved]) - _code_length_of(table, rows, mag[moved] - 1)
     start = 0
     for index, odd, c in passes:
         out[index][int(odd)::2] = saved[start:start + c.size].reshape(c.shape)
