@@ -24,7 +24,8 @@ setup(ext_modules=[
     # BVH numbers and writer, FK, rotation conversions and continuity (motionrep.io, motionrep.model)
     Extension("motionrep._ccore",
               sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
-                       "motionrep/_c/fk.c", "motionrep/_c/rotations.c", "motionrep/_c/euler.c"],
+                       "motionrep/_c/fk.c", "motionrep/_c/rotations.c", "motionrep/_c/edits.c",
+                       "motionrep/_c/euler.c"],
               depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
                        "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
               extra_compile_args=FLAGS),

@@ -52,8 +52,9 @@ def main(path: str, before: str = "transform:slack=0", after: str = "transform")
                      and r["status"] == "ok"]
             at = [r for (c, b), r in rows.items() if b == bound]
             ok = sum(1 for r in at if r["status"] == "ok" and r.get("verified"))
+            sal = f"{statistics.median(salsa) / acl[('salsa-median', bound)]:.3f}" if salsa else "–"
             print(f"| {bound:g} % | {name} | {statistics.median(cmu31):.3f} | {max(cmu31):.3f} | "
-                  f"{statistics.median(salsa) / acl[('salsa-median', bound)]:.3f} | {ok} / {len(at)} | "
+                  f"{sal} | {ok} / {len(at)} | "
                   f"{statistics.median(r['seconds'] for r in at if r['status'] == 'ok'):.2f} | "
                   f"{1e3 * statistics.median(r['decode_seconds'] for r in at if r['status'] == 'ok'):.1f} |")
     print()

@@ -118,6 +118,8 @@ def check_representation(rep: Representation, motions: Iterable[Motion] | None =
       jumps between frames by more than half its largest jump on the original clip (a continuous encoding
       shrinks its steps with the time step; a sign flip or wrap keeps its size);
     * features perturbed as a lossy codec would still decode to a valid Motion;
+    * with a pose plan, the encode context (``frame_errors``, ``feature_edits``) measures such features through it
+      as through ``from_features`` (within ``tolerance`` times the character height);
     * features of the wrong width, of the wrong rank, or with NaN raise a one-line
       :class:`~motionrep.errors.ValidationError`.
 
@@ -188,6 +190,13 @@ def check_representation(rep: Representation, motions: Iterable[Motion] | None =
                   f"{type(exc).__name__}: {exc}")
         if not isinstance(lossy, Motion) or lossy.num_frames != F:
             _fail(f"{where}: perturbed features did not decode to a {F}-frame Motion")
+        if rep.pose_plan(sk) is not None:  # the encode context measures through the plan (and edits by it)
+            planned, through = ConformanceContext(m, rep, None, None), ConformanceContext(m, rep, None, None)
+            through._plan = None  # the Motion path: from_features, then FK
+            gap = np.abs(planned.frame_errors(feats + noise) - through.frame_errors(feats + noise)).max()
+            if not gap <= tolerance * scale:
+                _fail(f"{where}: the pose plan decodes features otherwise than from_features (frame errors "
+                      f"differ by {gap:.3g})")
         _expect_validation_error(lambda: rep.from_features(np.zeros((F, D + 1)), sk, m.fps),
                                  f"{where}: features of width {D + 1}")
         _expect_validation_error(lambda: rep.from_features(np.zeros(D), sk, m.fps), f"{where}: 1-D features")

@@ -51,6 +51,46 @@ int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64
                        const int64_t *axes, const int64_t *joints, int64_t R, void *out, int out32, int64_t J);
 void mr_axis_angle_continuous(const double *theta, const double *axis, double *out, int64_t F, int64_t N);
 
+/* edits.c: a candidate's features with their poses, FK and per-point distances, edited column by column (see
+ * motionrep/pipeline/edits.py).  Arrays: the packed pose plan (plan_i, plan_f), the skeleton (parents, slot: each
+ * joint's translation slot, 0 for the root and k + 1 for the k-th translated joint, else -1; site_parents; entry:
+ * each joint's plan entry or -1; offsets, site_offsets), per feature column c a bound on how far a change moves
+ * any point (lip_kind[c] 0: none, 1: |change| lip[c], 2 + r: lip[c] 2 x / sqrt(1 - x^2), x = |change| / |q| of the
+ * quaternion of plan entry r, for x < 1/2), the joints it moves
+ * cjoints[cstart[c] .. cstart[c + 1]) (2 j + 1 where joint j's entry is decoded again, 2 j where only its FK is;
+ * increasing j) and end sites csites[sstart[c] .. sstart[c + 1]), and the state: X (D, F) feature-major, L (F, J, 4)
+ * local rotations, GP (F, J, 4) the plan's world rotations (world plans), T (F, N, 3) translations, G (F, J, 4)
+ * FK world rotations, W (F, J + E, 3) positions, ref (F, J + E, 3), dist (F, J + E). */
+typedef struct {
+    int64_t F, J, E, D, N;
+    int world;
+    const int64_t *plan_i;
+    const double *plan_f;
+    const int64_t *parents, *slot, *site_parents, *entry, *lip_kind, *cstart, *cjoints, *sstart, *csites;
+    const double *offsets, *site_offsets, *lip, *ref;
+    double *X, *L, *GP, *T, *G, *W, *dist;
+} mr_edits;
+/* The state from X, every frame: 0, 1 (a distance not finite), 2 (a quaternion of zero length), 3 (a degenerate
+ * 6D encoding), -1 (no memory). */
+int mr_edits_init(const mr_edits *s);
+/* Edits (m, 3) int64 (column, first frame, count), deltas the counts' values one after the other: each in turn is
+ * checked and, if every point it moves is within bound in every frame it touches, accepted[e] = 1 and (with
+ * commit) applied; the state is exact again when it returns.  Returns the number accepted, or -1 (no memory). */
+int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
+                       int commit, uint8_t *accepted);
+
+/* out = base + the rotation of v by the unit xyzw quaternion g (fk.c's arithmetic, one point). */
+static inline void mr_rotate_add(const double *g, const double *base, double vx, double vy, double vz, double *out)
+{
+    double qx = g[0], qy = g[1], qz = g[2], qw = g[3];
+    double tx = 2.0 * (qy * vz - qz * vy);
+    double ty = 2.0 * (qz * vx - qx * vz);
+    double tz = 2.0 * (qx * vy - qy * vx);
+    out[0] = base[0] + vx + qw * tx + (qy * tz - qz * ty);
+    out[1] = base[1] + vy + qw * ty + (qz * tx - qx * tz);
+    out[2] = base[2] + vz + qw * tz + (qx * ty - qy * tx);
+}
+
 /* euler.c: (n, 4) xyzw quaternions to (n, 3) Euler angles for seq (three of "xyz", lower case extrinsic, upper
  * case intrinsic, no axis twice in a row), radians or degrees, as scipy's Rotation.from_quat(q).as_euler(seq,
  * degrees); returns -1, or the index of the first quaternion of zero or NaN length (out is then

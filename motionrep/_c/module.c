@@ -1,9 +1,9 @@
 /* motionrep._ccore: the Python glue of the compiled core (the kernels are plain C: numbers.c, shortest.c, fk.c,
- * rotations.c, euler.c).  Arrays come in through the buffer protocol (numpy arrays, bytes); each is checked here for its
+ * rotations.c, edits.c, euler.c).  Arrays come in through the buffer protocol (numpy arrays, bytes); each is checked here for its
  * element type, its number of dimensions, C order and the sizes the kernel will touch, so a wrong call raises
  * TypeError or ValueError instead of reading or writing out of bounds.  The kernels run without the GIL.
  * The Python modules that call these (motionrep/io/_numbers.py, motionrep/io/_shortest.py,
- * motionrep/model/kinematics.py, motionrep/model/rotations.py) validate arguments with motionrep's own errors
+ * motionrep/model/kinematics.py, motionrep/model/rotations.py, motionrep/pipeline/edits.py) validate arguments with motionrep's own errors
  * first; this layer is the last line, not the user-facing one. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -13,7 +13,7 @@
 #include "ccore.h"
 #include "mr_rotconv.h"
 
-#define MAX_BUFFERS 10
+#define MAX_BUFFERS 12
 
 typedef struct {
     Py_buffer b[MAX_BUFFERS];
@@ -363,6 +363,177 @@ static PyObject *py_sincos(PyObject *self, PyObject *arg)
     return Py_BuildValue("dd", s, c);
 }
 
+/* ------------------------------------------------------------------------------------------------------------ */
+#define K_QUAT_KIND 0 /* motionrep.model.poseplan.QUAT */
+/* The edits' arrays (ccore.h, mr_edits), checked so that no index the kernels follow leaves its array:
+ * layout int64 = [F, J, E, D, N, world, parents (J), slot (J), site_parents (E), entry (J), lip_kind (D),
+ * cstart (D + 1), sstart (D + 1), cjoints, csites]; geom float64 = [offsets (J, 3), site_offsets (E, 3), lip (D)];
+ * state float64 = [X (D, F),
+ * L (F, J, 4), GP (F, J, 4), T (F, N, 3), G (F, J, 4), W (F, J + E, 3), ref (F, J + E, 3), dist (F, J + E)].
+ * Returns NULL, or the message of what is wrong. */
+static const char *edits_setup(mr_edits *s, const Py_buffer *layout, const Py_buffer *plan_i, const Py_buffer *plan_f,
+                               const Py_buffer *geom, const Py_buffer *state)
+{
+    const int64_t *l = layout->buf, nl = dim(layout, 0), *pi = plan_i->buf, np_ = dim(plan_i, 0);
+    if (nl < 6)
+        return "edits: layout too short";
+    const int64_t F = l[0], J = l[1], E = l[2], D = l[3], N = l[4];
+    if (F < 0 || J < 1 || E < 0 || D < 0 || N < 1 || F > ((int64_t)1 << 40) || J > 65536 || E > 65536
+        || D > ((int64_t)1 << 20) || N > J)
+        return "edits: counts out of range";
+    int64_t fixed = 6 + 3 * J + E + D + 2 * (D + 1);
+    if (nl < fixed)
+        return "edits: layout too short";
+    const int64_t *parents = l + 6, *slot = parents + J, *sp = slot + J, *entry = sp + E, *lip_kind = entry + J;
+    const int64_t *cstart = lip_kind + D;
+    const int64_t *sstart = cstart + D + 1;
+    if (cstart[0] != 0 || sstart[0] != 0)
+        return "edits: column lists must start at 0";
+    for (int64_t c = 0; c < D; c++)
+        if (cstart[c + 1] < cstart[c] || sstart[c + 1] < sstart[c])
+            return "edits: column lists must not decrease";
+    if (cstart[D] > 2 * J * (D + 1) || sstart[D] > E * (D + 1) || nl != fixed + cstart[D] + sstart[D])
+        return "edits: layout size does not match its lists";
+    const int64_t *cjoints = sstart + D + 1, *csites = cjoints + cstart[D];
+    for (int64_t k = 0; k < cstart[D]; k++)
+        if (cjoints[k] < 0 || cjoints[k] >= 2 * J)
+            return "edits: joints out of range";
+    for (int64_t k = 0; k < sstart[D]; k++)
+        if (csites[k] < 0 || csites[k] >= E)
+            return "edits: end sites out of range";
+    if (parents[0] != -1 || slot[0] != 0)
+        return "edits: joint 0 must be the root, in translation slot 0";
+    for (int64_t j = 1; j < J; j++)
+        if (parents[j] < 0 || parents[j] >= j)
+            return "edits: parents must come before their children";
+    for (int64_t j = 0; j < J; j++)
+        if (slot[j] < -1 || slot[j] >= N)
+            return "edits: translation slots out of range";
+    for (int64_t e = 0; e < E; e++)
+        if (sp[e] < 0 || sp[e] >= J)
+            return "edits: end-site parents out of range";
+    if (np_ < 12 || pi[1] != J || pi[2] != N)
+        return "edits: the plan does not fit the skeleton";
+    const int64_t R = pi[0];
+    if (R < 0 || R > J)
+        return "edits: plan entries out of range";
+    const int64_t need[7][2] = {{4, R}, {5, 6 * R}, {6, 3 * R}, {7, R}, {8, J}, {9, pi[3]}, {10, 3 * N}};
+    for (int k = 0; k < 7; k++)
+        if (need[k][1] < 0 || pi[need[k][0]] < 12 || pi[need[k][0]] > np_ - need[k][1])
+            return "edits: the plan's parts are out of range";
+    for (int64_t r = 0; r < R; r++) {
+        if (pi[pi[4] + r] < 0 || pi[pi[4] + r] > 6 || pi[pi[7] + r] < 0 || pi[pi[7] + r] >= J)
+            return "edits: a plan entry out of range";
+        for (int k = 0; k < 6; k++)
+            if (pi[pi[5] + 6 * r + k] < -1 || pi[pi[5] + 6 * r + k] >= D)
+                return "edits: a plan column out of range";
+        for (int k = 0; k < 3; k++)
+            if (pi[pi[6] + 3 * r + k] < -1 || pi[pi[6] + 3 * r + k] > 2)
+                return "edits: a plan axis out of range";
+        static const int width[7] = {4, 3, 1, 1, 6, 4, 0};
+        for (int k = 0; k < width[pi[pi[4] + r]]; k++)
+            if (pi[pi[5] + 6 * r + k] < 0)
+                return "edits: a plan entry lacks a column";
+    }
+    for (int64_t k = 0; k < 3 * N; k++)
+        if (pi[pi[10] + k] < -1 || pi[pi[10] + k] >= D)
+            return "edits: a translation column out of range";
+    for (int64_t j = 0; j < J; j++)
+        if (entry[j] < -1 || entry[j] >= R || (entry[j] >= 0 && pi[pi[7] + entry[j]] != j))
+            return "edits: entries do not match the plan";
+    for (int64_t c = 0; c < D; c++)
+        if (lip_kind[c] < 0 || lip_kind[c] >= 2 + R
+            || (lip_kind[c] >= 2 && pi[pi[4] + lip_kind[c] - 2] != K_QUAT_KIND))
+            return "edits: a column's bound kind out of range";
+    if (dim(plan_f, 0) < 3 * N || dim(geom, 0) != 3 * (J + E) + D)
+        return "edits: plan values or geometry of the wrong size";
+    const int64_t P = J + E, sizes[8] = {D * F, F * J * 4, F * J * 4, F * N * 3, F * J * 4, F * P * 3, F * P * 3, F * P};
+    int64_t total = 0;
+    for (int k = 0; k < 8; k++)
+        total += sizes[k];
+    if (dim(state, 0) != total)
+        return "edits: state of the wrong size";
+    double *st = state->buf;
+    const double *g = geom->buf;
+    *s = (mr_edits){.F = F, .J = J, .E = E, .D = D, .N = N, .world = pi[11] != 0, .plan_i = pi, .plan_f = plan_f->buf,
+                    .parents = parents, .slot = slot, .site_parents = sp, .entry = entry, .lip_kind = lip_kind,
+                    .cstart = cstart, .cjoints = cjoints, .sstart = sstart, .csites = csites, .offsets = g,
+                    .site_offsets = g + 3 * J, .lip = g + 3 * (J + E)};
+    s->X = st;
+    s->L = s->X + sizes[0];
+    s->GP = s->L + sizes[1];
+    s->T = s->GP + sizes[2];
+    s->G = s->T + sizes[3];
+    s->W = s->G + sizes[4];
+    s->ref = s->W + sizes[5];
+    s->dist = (double *)s->ref + sizes[6];
+    return NULL;
+}
+
+PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted) -> count\n"
+                        "--\n\n"
+                        "motionrep.pipeline.edits: with edits None, the state's poses, FK and distances from its\n"
+                        "features (returns 0, or 1: a distance not finite, 2: a quaternion of zero length, 3: a\n"
+                        "degenerate 6D encoding).  Else each edit (column, first, count) of edits (m, 3) int64 in\n"
+                        "turn, its deltas the next count values of deltas: accepted[e] = 1 (uint8) if every point it\n"
+                        "moves stays within bound in every frame it touches, and with commit it is applied; returns\n"
+                        "the number accepted.");
+
+static PyObject *py_edits(PyObject *self, PyObject *args)
+{
+    PyObject *o[5], *oedits, *odeltas, *oacc;
+    double bound;
+    int commit;
+    if (!PyArg_ParseTuple(args, "OOOOOOOdpO", &o[0], &o[1], &o[2], &o[3], &o[4], &oedits, &odeltas, &bound, &commit,
+                          &oacc))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *b[5], *edits = NULL, *deltas = NULL, *acc = NULL;
+    const char *names[5] = {"layout", "plan_i", "plan_f", "geom", "state"};
+    const char kinds[5] = {'q', 'q', 'd', 'd', 'd'};
+    for (int k = 0; k < 5; k++)
+        if (!(b[k] = get(&bs, o[k], names[k], kinds[k], 1, k == 4))) {
+            release(&bs);
+            return NULL;
+        }
+    if (oedits != Py_None
+        && (!(edits = get(&bs, oedits, "edits", 'q', 2, 0)) || !(deltas = get(&bs, odeltas, "deltas", 'd', 1, 0))
+            || !(acc = get(&bs, oacc, "accepted", 'B', 1, 1)))) {
+        release(&bs);
+        return NULL;
+    }
+    mr_edits s;
+    const char *wrong = edits_setup(&s, b[0], b[1], b[2], b[3], b[4]);
+    if (wrong)
+        return fail(&bs, wrong);
+    int64_t result;
+    if (!edits) {
+        Py_BEGIN_ALLOW_THREADS
+        result = mr_edits_init(&s);
+        Py_END_ALLOW_THREADS
+    } else {
+        const int64_t m = dim(edits, 0), *e = edits->buf;
+        if (dim(edits, 1) != 3 || dim(acc, 0) != m)
+            return fail(&bs, "edits: edits must be (m, 3) and accepted (m,)");
+        int64_t total = 0;
+        for (int64_t k = 0; k < m; k++) {
+            if (e[3 * k] < 0 || e[3 * k] >= s.D || e[3 * k + 1] < 0 || e[3 * k + 2] < 0 || e[3 * k + 2] > s.F
+                || e[3 * k + 1] > s.F - e[3 * k + 2])
+                return fail(&bs, "edits: an edit outside the features");
+            total += e[3 * k + 2];
+        }
+        if (dim(deltas, 0) != total)
+            return fail(&bs, "edits: deltas must hold every edit's values");
+        Py_BEGIN_ALLOW_THREADS
+        result = mr_edits_apply(&s, e, m, deltas->buf, bound, commit, acc->buf);
+        Py_END_ALLOW_THREADS
+    }
+    release(&bs);
+    if (result < 0)
+        return PyErr_NoMemory();
+    return PyLong_FromLongLong(result);
+}
+
 static PyMethodDef methods[] = {
     {"scan", py_scan, METH_VARARGS, scan_doc},
     {"format_shortest", py_format_shortest, METH_VARARGS, format_doc},
@@ -372,6 +543,7 @@ static PyMethodDef methods[] = {
     {"axis_angle_continuous", py_axis_angle_continuous, METH_VARARGS, continuous_doc},
     {"quat_to_euler", py_quat_to_euler, METH_VARARGS, euler_doc},
     {"sincos", py_sincos, METH_O, sincos_doc},
+    {"edits", py_edits, METH_VARARGS, edits_doc},
     {NULL, NULL, 0, NULL},
 };
 

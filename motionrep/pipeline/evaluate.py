@@ -34,6 +34,7 @@ from ..errors import ValidationError, naming
 from .._ccore import max_distances
 from ..model.kinematics import character_height, fk_arrays, global_positions, point_names
 from ..model.ops import fixed_axes, fixed_axes_restored
+from .edits import FeatureEdits
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
 
 if TYPE_CHECKING:
@@ -311,6 +312,15 @@ class MotionContext:
         """``(n,)`` error of each frame of candidate ``(n, D)`` features of the frames ``first ..
         first + n - 1``, in one evaluation."""
         return self.evaluator.frame_errors(self._positions(features), first=int(first))
+
+    def feature_edits(self, features: ArrayLike) -> FeatureEdits | None:
+        """Candidate ``(F, D)`` features held for editing (:class:`~motionrep.pipeline.edits.FeatureEdits`): the
+        error of a change to one feature over a stretch of frames, computed only where it moves something, and
+        the distance of every point in every frame.  None for a representation without a pose plan."""
+        if self._plan is None:
+            return None
+        self.evaluations += 1
+        return FeatureEdits(features, self.motion.skeleton, self._plan, self.evaluator.reference_positions)
 
     def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
         """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:

@@ -12,9 +12,11 @@ Encoding (``specs/codecs.md`` has the full description):
 4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
    bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
    neighbour's change pushed over the bound are lowered until all pass);
-5. the room the frames still have under the bound is spent (:mod:`._slack`): non-zero detail coefficients move one
-   step towards zero where that saves the most bits per error and the frames stay within the bound (the same
-   steps: any decoder of the payload's version reads the result);
+5. the room the frames still have under the bound is spent: non-zero detail coefficients move one step towards
+   zero where that saves bits and every point stays within the bound, move by move, each measured exactly
+   through the context's feature edits (:mod:`._greedy`; by thresholds over whole-clip measurements,
+   :mod:`._slack`, for a context without them); the same steps, so any decoder of the payload's version reads
+   the result;
 6. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
    (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
    read).
@@ -27,7 +29,7 @@ so the bound it measured is the bound of what decodes.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -39,7 +41,8 @@ from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, P
 
 from . import _stream2
 from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
-from ._slack import frame_sensitivity, spend_slack
+from ._greedy import MIN_SAVING, spend_slack_exact
+from ._slack import frame_sensitivity, reduction_savings, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
 from ._wavelet import coefficient_frames, forward, num_levels
 
@@ -51,6 +54,11 @@ _PER_OCTAVE = 8
 _REACH = 3
 #: The bisection of region exponents spans 2 ** -12 .. 2 ** 3 times the bound (in position units).
 _SEARCH_BELOW, _SEARCH_ABOVE = 12 * _PER_OCTAVE, 3 * _PER_OCTAVE
+#: Moves measured by feature edits keep every point this much (relative) within the bound: the edits hold the
+#: features as sums of changes, the payload decodes them by the inverse wavelet (the same values but for rounding).
+_EDIT_MARGIN = 1e-9
+#: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
+_PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
 
 
@@ -64,13 +72,15 @@ class TransformParams:
                 "region"})
     region: int = field(default=16, metadata={
         "help": "frames per region of the step envelope (4..65536): each region's step is bisected to the bound"})
-    slack: int = field(default=3, metadata={
-        "help": "with a bound: spend the room frames have under it by moving coefficients towards zero, searched "
-                "in this many feature groups one after the other, then again in half as many with fresh "
-                "priorities (0..64; 0 keeps the rounded integers)"})
-    rounding: float = field(default=0.4, metadata={
+    slack: int | None = field(default=None, metadata={
+        "help": "with a bound: spend the room frames have under it by moving coefficients towards zero, in this "
+                "many passes of one step each, every move measured (0..64, default 5; more passes, smaller files, "
+                "a longer encode; 0 keeps the rounded integers; a context without feature edits searches "
+                "thresholds in this many feature groups instead, default 3)"})
+    rounding: float = field(default=0.45, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
-                "zone around 0, more zeros at a slightly smaller step"})
+                "zone around 0, more zeros at a slightly smaller step (the slack search then widens it where "
+                "the frames have room)"})
 
     def __post_init__(self) -> None:
         if self.step is not None and not (isinstance(self.step, (int, float)) and math.isfinite(self.step)
@@ -78,7 +88,8 @@ class TransformParams:
             raise ParameterError(f"transform: step must be a number > 0, got {self.step!r}")
         if isinstance(self.region, bool) or not isinstance(self.region, int) or not 4 <= self.region <= 65536:
             raise ParameterError(f"transform: region must be an integer in 4..65536, got {self.region!r}")
-        if isinstance(self.slack, bool) or not isinstance(self.slack, int) or not 0 <= self.slack <= 64:
+        if self.slack is not None and (isinstance(self.slack, bool) or not isinstance(self.slack, int)
+                                       or not 0 <= self.slack <= 64):
             raise ParameterError(f"transform: slack must be an integer in 0..64, got {self.slack!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
@@ -258,7 +269,7 @@ class TransformCodec(Codec):
             raise BoundNotMetError("transform: the steps needed are out of range", None, bound)
         quantised = plan.quantised(k, params.rounding)
         frame_errors = getattr(context, "frame_errors", None)
-        if params.step is None and params.slack and frame_errors is not None and plan.levels:
+        if params.step is None and params.slack != 0 and frame_errors is not None and plan.levels:
             quantised = self._spend_slack(plan, quantised, sampled, frame_errors, bound, params.slack, context)
         payload = self._payload(quantised)
         # the search ends on a whole-clip measurement of exactly these values (frame_errors) within the bound; the
@@ -296,8 +307,10 @@ class TransformCodec(Codec):
 
     @staticmethod
     def _spend_slack(plan: _Plan, quantised: Quantised, sampled: NDArray[np.float64], frame_errors, bound: float,
-                     blocks: int, context: EncodeContext) -> Quantised:
-        """The same steps, with coefficients moved towards zero where the frames have room (:mod:`._slack`)."""
+                     slack: int | None, context: EncodeContext) -> Quantised:
+        """The same steps, with coefficients moved towards zero where the frames have room: move by move, each
+        measured exactly, when the context offers feature edits (:mod:`._greedy`), else by thresholds searched
+        with whole-clip measurements (:mod:`._slack`)."""
         steps = steps_of(plan.exponents(quantised.region_exponents))
 
         def errors(features: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -306,13 +319,31 @@ class TransformCodec(Codec):
             except MotionrepError:  # a candidate that does not even decode
                 return np.full(plan.num_frames, np.inf)
 
-        coefficients, figures = spend_slack(
-            quantised.coefficients, steps, plan.levels, frame_sensitivity(sampled, plan.num_frames),
-            errors, bound, lambda values: synthesised(values, plan.levels),
-            coefficient_frames(plan.num_frames, plan.levels), blocks=blocks)
-        context.progress("slack", moved=figures["moved"], evaluations=figures["evaluations"], diagnostic=True)
-        return Quantised(quantised.num_frames, quantised.num_features, quantised.region_frames,
-                         quantised.feature_exponents, quantised.region_exponents, coefficients)
+        def dequantised(values: list[NDArray[np.int64]]) -> NDArray[np.float64]:
+            return synthesised([c * s for c, s in zip(values, steps)], plan.levels)
+
+        make_edits = getattr(context, "feature_edits", None)
+        try:
+            edits = None if make_edits is None else make_edits(dequantised(quantised.coefficients))
+        except MotionrepError:
+            edits = None
+        if edits is not None:
+            coefficients, figures = spend_slack_exact(
+                quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
+                lambda values: reduction_savings(values, plan.levels), passes=_PASSES if slack is None else slack,
+                min_saving=MIN_SAVING)
+            # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
+            # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
+            # never seen to fail)
+            if not float(np.max(errors(reconstruct(replace(quantised, coefficients=coefficients))))) <= bound:
+                coefficients, figures["moved"] = quantised.coefficients, 0
+        else:
+            coefficients, figures = spend_slack(
+                quantised.coefficients, steps, plan.levels, frame_sensitivity(sampled, plan.num_frames),
+                errors, bound, lambda values: synthesised(values, plan.levels),
+                coefficient_frames(plan.num_frames, plan.levels), blocks=_GROUPS if slack is None else slack)
+        context.progress("slack", **figures, diagnostic=True)
+        return replace(quantised, coefficients=coefficients)
 
     @staticmethod
     def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int) -> NDArray[np.int64]:

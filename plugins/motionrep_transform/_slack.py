@@ -1,4 +1,6 @@
-"""Spending the bound's slack: smaller integers where the frames have room under the bound.
+"""Spending the bound's slack by thresholds: smaller integers where the frames have room under the bound, for a
+context without feature edits (with them, :mod:`._greedy` measures every move exactly and saves more). The savings
+estimate (:func:`reduction_savings`) orders the moves of both.
 
 The region search (:mod:`._codec`) gives every region the coarsest step whose frames all stay within the bound,
 so the worst frame of each region sits at the bound, but the other frames do not: on the CMU clips the median
@@ -39,9 +41,9 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from motionrep.plugin.coding import Model
+from motionrep.plugin.coding import NUM_TOKENS, Model, _fit_tables, _probabilities, _tokenize
 
-from ._stream import _approx_steps, _contexts, _fit, _parents, _passes
+from ._stream import MAX_ZERO, _approx_steps, _contexts, _parents, _passes
 
 __all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
@@ -54,16 +56,42 @@ _SETTLE = 8  # rounds of lowering stretches over the bound before a group's move
 def _code_lengths(model: Model, magnitudes: NDArray[np.int64]) -> NDArray[np.float64]:
     """Ideal code length in bits of integers of these magnitudes under ``model`` (token, sign and raw bits), as
     :meth:`Model.cost` counts them (a token's probability given a non-zero value floored at ``2 ** -24``)."""
-    p = model.probabilities
-    z = p[0]
-    tail = p[1:] / (1.0 - z)
+    a = np.asarray(magnitudes, dtype=np.int64)
+    return _code_length_of(model.probabilities[None], np.zeros(a.size, np.int64), a.reshape(-1)).reshape(a.shape)
+
+
+def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The model :func:`._stream._fit` gives the values of each context, ``(zero, decay)`` indices per context
+    number ``0 .. ctx.max()`` (contexts without values: ``(MAX_ZERO, 0)``), all contexts at once: the same
+    costs as :func:`motionrep.plugin.coding.fit_model`, each a sum of products formed and added elementwise
+    (no BLAS, whose kernels differ between CPUs), the first index of the smallest kept."""
+    n = int(ctx.max()) + 1
+    tokens, _, _ = _tokenize(values)
+    counts = np.bincount(ctx * NUM_TOKENS + tokens, minlength=n * NUM_TOKENS).reshape(n, NUM_TOKENS)
+    counts = counts.astype(np.float64)
+    nonzero = np.bincount(ctx, weights=(values != 0).astype(np.float64), minlength=n)
+    zero_bits, tail_bits = _fit_tables()
+    zb = zero_bits[:MAX_ZERO + 1]
+    zero = np.argmin(zb[None, :, 0] * counts[:, 0, None] + zb[None, :, 1] * nonzero[:, None], axis=1)
+    decay = np.argmin((tail_bits[None, :, :] * counts[:, None, 1:]).sum(axis=2), axis=1)
+    decay[nonzero == 0] = 0
+    zero[counts.sum(axis=1) == 0] = MAX_ZERO  # fit_model of no values
+    return zero.astype(np.int64), decay.astype(np.int64)
+
+
+def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitudes: NDArray[np.int64]
+                    ) -> NDArray[np.float64]:
+    """:func:`_code_lengths` elementwise, magnitude ``i`` under the model whose probabilities are
+    ``table[rows[i]]`` (``table`` ``(n, NUM_TOKENS)``): the same operations on the same numbers."""
+    z = table[rows, 0]
     a = np.asarray(magnitudes, dtype=np.int64)
     big = a >= _TOKENS_DIRECT
     e = np.zeros(a.shape, np.int64)
     if big.any():
         e[big] = np.frexp(a[big].astype(np.float64))[1] - 1
     token = np.where(big, _TOKENS_DIRECT + e - 4, a)
-    nonzero = -np.log2(1.0 - z) - np.log2(np.maximum(tail[np.maximum(token, 1) - 1], 2.0 ** -24)) + 1 + e
+    tail = table[rows, np.maximum(token, 1)] / (1.0 - z)
+    nonzero = -np.log2(1.0 - z) - np.log2(np.maximum(tail, 2.0 ** -24)) + 1 + e
     return np.where(a > 0, nonzero, -np.log2(z))
 
 
@@ -71,7 +99,8 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     """Per coefficient array ``(n, D)``: the bits saved by moving each non-zero detail coefficient one step
     towards zero, under the context models the stream would fit to ``coefficients`` (0 for zeros and for the
     approximation, which is not moved). The contexts of the neighbours are taken as they are (a zero more
-    usually makes them cheaper too, so the real saving is somewhat larger)."""
+    usually makes them cheaper too, so the real saving is somewhat larger). Every context's model is fitted at
+    once (:func:`_fit_each`)."""
     mags = [np.abs(c) for c in coefficients]
     mags[0] = _approx_steps(coefficients[0])
     out = [np.zeros(c.shape) for c in coefficients]
@@ -82,14 +111,15 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     ctx = np.concatenate([c.reshape(-1) for _, _, c in passes])
     val = np.concatenate([coefficients[i][int(odd)::2].reshape(-1) for i, odd, _ in passes])
     mag = np.abs(val)
-    order = np.argsort(ctx, kind="stable")
-    bounds = np.flatnonzero(np.diff(ctx[order])) + 1
     saved = np.zeros(ctx.size)
-    for at in np.split(order, bounds):  # the values of one context
-        model = _fit(val[at])
-        moved = at[mag[at] > 0]
-        if moved.size:
-            saved[moved] = _code_lengths(model, mag[moved]) - _code_lengths(model, mag[moved] - 1)
+    moved = np.flatnonzero(mag > 0)
+    if moved.size:
+        zero, decay = _fit_each(ctx, val)
+        used = np.unique(ctx[moved])
+        table = np.zeros((zero.size, NUM_TOKENS))
+        table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
+        rows = ctx[moved]
+        saved[moved] = _code_length_of(table, rows, mag[moved]) - _code_length_of(table, rows, mag[moved] - 1)
     start = 0
     for index, odd, c in passes:
         out[index][int(odd)::2] = saved[start:start + c.size].reshape(c.shape)

@@ -1,5 +1,6 @@
-"""Spending the bound's slack (``motionrep_transform._slack``): its pieces, and what the search may change in a
-payload (only integers, each at most one step towards zero per round, the bound kept). Determinism across processes and
+"""Spending the bound's slack (``motionrep_transform._slack``, the threshold search of a context without feature
+edits; ``_greedy`` for the exact one): its pieces, and what the search may change in a payload (only integers, each
+at most one step towards zero per round or pass, the bound kept). Determinism across processes and
 thread counts is tested on the whole codec in ``tests/test_transform.py``."""
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from motionrep.pipeline.compress import compress_motion, decompress
 from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.plugin.coding import Model
 from motionrep_transform._codec import window_minimum
-from motionrep_transform._slack import _bisect_each, _code_lengths, frame_sensitivity, reduction_savings
+from motionrep_transform._slack import _bisect_each, _code_lengths, _fit_each, frame_sensitivity, reduction_savings
+from motionrep_transform._stream import _fit
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, num_levels
 
@@ -36,6 +38,21 @@ def test_savings_are_zero_on_zeros_and_large_on_isolated_ones():
     assert np.mean(finest == 0) > 0.8 and np.any(np.abs(finest) == 1)
     # where a zero is likelier than a +-1 (here: everywhere), zeroing a +-1 saves more than its sign bit
     assert np.all(s[np.abs(finest) == 1] > 1)
+
+
+def test_every_context_is_fitted_as_one_at_a_time():
+    """All contexts' models at once (:func:`_fit_each`, elementwise sums) are those of ``_fit`` on each
+    context's values (the same indices), on values of small and large magnitudes, a context of zeros only and
+    context numbers that are not used."""
+    rng = np.random.default_rng(4)
+    for scale in (0.3, 3.0, 300.0):
+        values = np.rint(rng.laplace(scale=scale, size=3000)).astype(np.int64)
+        ctx = rng.choice([0, 2, 3, 7, 9], size=values.size)
+        values[ctx == 9] = 0
+        zero, decay = _fit_each(ctx, values)
+        for k in range(10):
+            model = _fit(values[ctx == k])
+            assert (zero[k], decay[k]) == (model.zero, model.decay), (scale, k)
 
 
 def test_frame_sensitivity_interpolates_samples_spread_over_the_clip():
@@ -76,7 +93,7 @@ def walk():
 def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, max_error):
     events = []
     kept = compress_motion(walk, "transform", max_error=max_error, params={"slack": 0})
-    spent = compress_motion(walk, "transform", max_error=max_error,
+    spent = compress_motion(walk, "transform", max_error=max_error, params={"slack": 2},
                             progress=lambda stage, fields: events.append((stage, dict(fields))))
     a = unpack(kept.container.arrays["data"].tobytes())
     b = unpack(spent.container.arrays["data"].tobytes())
@@ -88,7 +105,7 @@ def test_the_search_only_moves_integers_towards_zero_and_keeps_the_bound(walk, m
     assert np.array_equal(a.coefficients[0], b.coefficients[0])  # nor is the approximation
     moved = 0
     for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
-        # at most one step per round, two rounds
+        # at most one step per pass, two passes
         assert np.all((np.abs(y) <= np.abs(x)) & (np.abs(y) >= np.abs(x) - 2))
         assert np.all((y == 0) | (np.sign(y) == np.sign(x)))
         moved += int(np.abs(x - y).sum())

@@ -1,0 +1,123 @@
+"""The exact slack search (``motionrep_transform._greedy``): synthesis functions, and what it may change."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.compress import compress_motion, decompress
+from motionrep.pipeline.evaluate import MotionContext, max_joint_error
+from motionrep.plugin.registry import get_codec, get_representation
+from motionrep_transform._greedy import _ranges, synthesis
+from motionrep_transform._stream2 import unpack
+from motionrep_transform._wavelet import inverse, level_sizes, num_levels
+
+
+@pytest.mark.parametrize("frames", [1, 3, 4, 9, 33, 64, 65, 130, 517])
+def test_synthesis_functions_are_the_inverse_wavelet_of_each_coefficient(frames):
+    """Every row's function, shifted from one row or computed directly, has the values of the inverse wavelet of
+    that unit coefficient (the same operations on the same numbers: compared exactly)."""
+    levels = num_levels(frames)
+    sizes = level_sizes(frames, levels)
+    firsts, counts, starts, pool = synthesis(frames, levels)
+    for a, n in enumerate(sizes):
+        arrays = [np.zeros((s, n)) for s in sizes]
+        arrays[a][np.arange(n), np.arange(n)] = 1.0
+        full = inverse(arrays) if levels else arrays[0]
+        for i in range(n):
+            expect = np.zeros(frames)
+            expect[firsts[a][i]:firsts[a][i] + counts[a][i]] = pool[starts[a][i]:starts[a][i] + counts[a][i]]
+            assert np.array_equal(expect, full[:, i]), (a, i)
+
+
+def test_ranges():
+    assert _ranges(np.array([5, 0, 9]), np.array([2, 0, 3])).tolist() == [5, 6, 9, 10, 11]
+    assert _ranges(np.array([], np.int64), np.array([], np.int64)).size == 0
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_motion(humanoid_skeleton(), frames=240, fps=60, seed=5)
+
+
+@pytest.mark.parametrize("passes", [1, 3])
+def test_each_pass_moves_a_coefficient_at_most_one_step_and_keeps_the_bound(walk, passes):
+    kept = compress_motion(walk, "transform", max_error="1%", params={"slack": 0})
+    spent = compress_motion(walk, "transform", max_error="1%", params={"slack": passes})
+    a = unpack(kept.container.arrays["data"].tobytes())
+    b = unpack(spent.container.arrays["data"].tobytes())
+    assert a.region_exponents.tolist() == b.region_exponents.tolist()
+    assert np.array_equal(a.coefficients[0], b.coefficients[0])
+    steps = 0
+    for x, y in zip(a.coefficients[1:], b.coefficients[1:]):
+        assert np.all((np.abs(y) <= np.abs(x)) & (np.abs(y) >= np.abs(x) - passes))
+        assert np.all((y == 0) | (np.sign(y) == np.sign(x)))
+        steps = max(steps, int(np.abs(x - y).max(initial=0)))
+    assert steps == passes  # some coefficient moved in every pass
+    assert spent.container.payload_bytes < kept.container.payload_bytes
+    assert max_joint_error(walk, decompress(spent.data)).max_error <= spent.bound
+
+
+def test_a_context_without_feature_edits_spends_the_slack_by_thresholds(walk):
+    """A context without ``feature_edits`` (a third party's, or a representation without a pose plan) gets the
+    threshold search of ``_slack``: at most one step per round, two rounds."""
+
+    class NoEdits:
+        def __init__(self, inner):
+            self._inner = inner
+            self.params, self.bound, self.seed, self.times = inner.params, inner.bound, inner.seed, inner.times
+
+        def __getattr__(self, name):
+            if name == "feature_edits":
+                raise AttributeError(name)
+            return getattr(self._inner, name)
+
+    codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
+    bound = 0.01 * 170.0
+    f, w = rep.to_features(walk), rep.weights(walk)
+
+    def encode(slack, wrap):
+        params = codec.parse_params({} if slack is None else {"slack": slack})
+        ctx = MotionContext(walk, rep, codec, params, bound, 0, None)
+        return unpack(codec.encode(f, w, NoEdits(ctx) if wrap else ctx).arrays["data"].tobytes())
+
+    kept, thresholds, exact = encode(0, True), encode(3, True), encode(3, False)
+    moved = [np.abs(x - y) for x, y in zip(kept.coefficients[1:], thresholds.coefficients[1:])]
+    assert max(int(m.max(initial=0)) for m in moved) == 2 and sum(int(m.sum()) for m in moved) > 0
+    assert any(not np.array_equal(x, y) for x, y in zip(thresholds.coefficients, exact.coefficients))
+    # slack unset: three feature groups there (five passes with feature edits)
+    by_default = encode(None, True)
+    assert all(np.array_equal(x, y) for x, y in zip(thresholds.coefficients, by_default.coefficients))
+
+
+def test_moves_saving_too_little_are_not_tried(walk, monkeypatch):
+    """Moves whose estimated savings are at most ``min_saving`` are not tried: none at all above every saving (the
+    integers of slack=0), fewer tried at the default than with every move tried, each result within the bound."""
+    import motionrep_transform._codec as codec_module
+
+    def encode(min_saving):
+        monkeypatch.setattr(codec_module, "MIN_SAVING", min_saving)
+        events = []
+        r = compress_motion(walk, "transform", max_error="1%", params={"slack": 2},
+                            progress=lambda stage, fields: events.append((stage, dict(fields))))
+        assert max_joint_error(walk, decompress(r.data)).max_error <= r.bound
+        return r, [f for stage, f in events if stage == "slack"][0]
+
+    everything, all_tried = encode(0.0)
+    default, default_tried = encode(0.2)
+    nothing, none_tried = encode(float("inf"))
+    kept = compress_motion(walk, "transform", max_error="1%", params={"slack": 0})
+    payload = lambda r: r.container.arrays["data"].tobytes()  # noqa: E731 - the params differ in the header
+    assert none_tried["tried"] == 0 and none_tried["moved"] == 0 and payload(nothing) == payload(kept)
+    assert 0 < default_tried["tried"] < all_tried["tried"] and default_tried["moved"] > 0
+    assert default.container.payload_bytes < kept.container.payload_bytes
+
+
+def test_the_default_slack_is_five_passes_with_feature_edits(walk):
+    """``slack`` unset: five passes of the move-by-move search (the payload of slack=5, not of 3 or 6)."""
+    def payload(**params):
+        return compress_motion(walk, "transform", max_error="1%", params=params).container.arrays["data"].tobytes()
+
+    default = payload()
+    assert default == payload(slack=5) and default != payload(slack=3) and default != payload(slack=6)

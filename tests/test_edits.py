@@ -1,0 +1,240 @@
+"""Feature edits (``motionrep.pipeline.edits``, ``MotionContext.feature_edits``): the error of changes to one feature
+column over a stretch of frames, computed in C only where the change moves something.
+
+The kernel runs the pose plan's conversions and FK's arithmetic operation for operation (scalar IEEE float64, no
+fused multiply-add, ``setup.py``), so its distances are compared with the context's ``frame_errors`` bit for bit,
+on this machine, in one process."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep import Skeleton
+from motionrep.errors import ValidationError
+from motionrep.model.synthetic import humanoid_skeleton, odd_skeleton, synthetic_motion
+from motionrep.pipeline.edits import FeatureEdits
+from motionrep.pipeline.evaluate import MotionContext
+from motionrep.plugin.registry import get_codec, get_representation
+
+REPRESENTATIONS = ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"]
+
+
+def _skeleton() -> Skeleton:
+    """The humanoid with a fixed root axis and a joint that moves along Y (a translated joint)."""
+    sk = humanoid_skeleton()
+    chans = list(sk.channels)
+    chans[0] = ("Xposition", "Zposition") + tuple(c for c in chans[0] if c.endswith("rotation"))
+    chans[5] = ("Yposition",) + tuple(c for c in chans[5] if c.endswith("rotation"))
+    return Skeleton(sk.names, sk.parents, sk.offsets, tuple(chans), sk.end_site_parents, sk.end_site_offsets)
+
+
+def _context(name: str, skeleton: Skeleton | None = None, frames: int = 60, seed: int = 3):
+    m = synthetic_motion(skeleton or _skeleton(), frames=frames, seed=seed)
+    rep = get_representation(name)
+    ctx = MotionContext(m, rep, get_codec("transform"), None)
+    rng = np.random.default_rng(seed)
+    f = rep.to_features(m) + rng.normal(scale=1e-2, size=(frames, rep.width(m.skeleton)))
+    return ctx, f, rng
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64).view(np.uint64)
+
+
+def _random_edits(rng, F: int, D: int, m: int, scale: float):
+    cols = rng.integers(0, D, m)
+    counts = rng.integers(1, 12, m)
+    firsts = rng.integers(0, F - counts + 1)
+    return cols, firsts, counts, scale * rng.normal(size=int(counts.sum()))
+
+
+@pytest.mark.parametrize("name", REPRESENTATIONS)
+@pytest.mark.parametrize("skeleton", ["humanoid", "odd"])
+def test_edits_keep_the_distances_the_context_measures(name, skeleton):
+    ctx, f, rng = _context(name, odd_skeleton() if skeleton == "odd" else None)
+    edits = ctx.feature_edits(f)
+    assert np.array_equal(_bits(edits.frame_errors()), _bits(ctx.frame_errors(f)))
+    assert np.array_equal(edits.features, f)
+    F, D = f.shape
+    bound = float(np.quantile(ctx.frame_errors(f), 0.8))
+    cols, firsts, counts, deltas = _random_edits(rng, F, D, 300, 3e-3)
+    accepted = edits.apply(cols, firsts, counts, deltas, bound)
+    assert 0 < accepted.sum() < accepted.size
+    now = edits.features.copy()
+    # the state is that of the features the accepted edits made, bit for bit
+    expected = f.copy()
+    start = np.concatenate([[0], np.cumsum(counts)])
+    for e in np.flatnonzero(accepted):
+        rows = np.arange(firsts[e], firsts[e] + counts[e])
+        expected[rows, cols[e]] = expected[rows, cols[e]] + deltas[start[e]:start[e + 1]]
+    assert np.array_equal(now, expected)
+    assert np.array_equal(_bits(edits.frame_errors()), _bits(ctx.frame_errors(now)))
+    full = ctx.evaluator._distances(ctx._positions(now), None)
+    assert np.array_equal(_bits(edits.point_errors()), _bits(full))
+
+
+@pytest.mark.parametrize("name", REPRESENTATIONS)
+def test_an_edit_is_accepted_when_every_point_it_moves_stays_within_the_bound(name):
+    """The decisions, edit by edit, against measuring each candidate whole: accepted exactly when no point the
+    column moves is over the bound in a frame the edit touches."""
+    ctx, f, rng = _context(name, frames=40, seed=5)
+    edits = ctx.feature_edits(f)
+    F, D = f.shape
+    bound = float(np.quantile(ctx.frame_errors(f), 0.9))
+    cols, firsts, counts, deltas = _random_edits(rng, F, D, 120, 4e-3)
+    state = f.copy()
+    start = np.concatenate([[0], np.cumsum(counts)])
+    for e in range(cols.size):
+        trial = state.copy()
+        rows = np.arange(firsts[e], firsts[e] + counts[e])
+        trial[rows, cols[e]] = trial[rows, cols[e]] + deltas[start[e]:start[e + 1]]
+        dist = ctx.evaluator._distances(ctx._positions(trial), None)[rows][:, edits.moved_points[cols[e]]]
+        expect = bool(np.all(dist <= bound))
+        got = edits.apply(cols[e:e + 1], firsts[e:e + 1], counts[e:e + 1], deltas[start[e]:start[e + 1]], bound)
+        assert got.tolist() == [expect]
+        if expect:
+            state = trial
+    assert np.array_equal(edits.features, state)
+
+
+def test_without_commit_nothing_changes():
+    ctx, f, rng = _context("root-quat-axis-angle")
+    edits = ctx.feature_edits(f)
+    before = edits.point_errors()
+    F, D = f.shape
+    bound = float(np.quantile(ctx.frame_errors(f), 0.7))
+    cols, firsts, counts, deltas = _random_edits(rng, F, D, 100, 3e-3)
+    tried = edits.apply(cols, firsts, counts, deltas, bound, commit=False)
+    assert np.array_equal(edits.features, f) and np.array_equal(_bits(edits.point_errors()), _bits(before))
+    start = np.concatenate([[0], np.cumsum(counts)])
+    alone = [bool(edits.apply(cols[e:e + 1], firsts[e:e + 1], counts[e:e + 1], deltas[start[e]:start[e + 1]],
+                              bound, commit=False)[0]) for e in range(cols.size)]
+    assert tried.tolist() == alone and 0 < sum(alone) < len(alone)
+
+
+@pytest.mark.parametrize("name", REPRESENTATIONS)
+def test_moved_points_are_the_points_a_column_moves(name):
+    ctx, f, _ = _context(name, odd_skeleton(), frames=8)
+    edits = ctx.feature_edits(f)
+    base = ctx.evaluator._distances(ctx._positions(f), None)
+    pos = ctx._positions(f)
+    for c in range(f.shape[1]):
+        g = f.copy()
+        g[:, c] += 1e-3
+        moved = np.any(ctx._positions(g) != pos, axis=(0, 2))
+        # a point a column cannot move keeps its position exactly; the points it may move are those below its
+        # joint (the joint itself too, which its own rotation does not move)
+        assert not np.any(moved & ~edits.moved_points[c]), c
+        assert np.sum(edits.moved_points[c] & ~moved) <= 1, c
+    assert base.shape == (8, edits.moved_points.shape[1])
+
+
+@pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
+def test_changes_let_through_on_room_alone_are_bounded_correctly(name):
+    """Changes the kernel lets through without computing them (a bound on how far they move any point leaves room
+    under the bound) are computed when the call ends: large random changes under a generous bound, then the same
+    under a tight one, end in the state of the accepted changes, bit for bit."""
+    from motionrep.pipeline.edits import _layout
+
+    ctx, f, rng = _context(name, humanoid_skeleton(), frames=30, seed=7)  # no translated joint: every bound
+    F, D = f.shape
+    skeleton, plan = ctx.motion.skeleton, ctx._plan
+    layout, _, lip = _layout(F, D, skeleton, plan)
+    at = 6 + 3 * skeleton.num_joints + skeleton.num_end_sites  # the layout's lip_kind (D,)
+    kind = layout[at:at + D]
+    assert np.any(kind == 1) and (name != "root-quat-axis-angle" or np.any(kind >= 2))
+    pos = ctx._positions(f)
+    # each bound holds: a change of one column at one frame moves no point farther than it says
+    for c in np.flatnonzero(kind > 0):
+        for t in range(0, F, 7):
+            for delta in (1e-3, 0.05, -0.2):
+                g = f.copy()
+                g[t, c] += delta
+                shift = np.linalg.norm(ctx._positions(g)[t] - pos[t], axis=-1).max()
+                if kind[c] == 1:
+                    limit = abs(delta) * lip[c]
+                else:
+                    cols = plan.columns[kind[c] - 2][:4]
+                    x = abs(delta) / min(np.linalg.norm(f[t, cols]), np.linalg.norm(g[t, cols]))
+                    limit = lip[c] * 2 * x / np.sqrt(1 - x * x) if x < 0.5 else np.inf
+                assert shift <= limit * (1 + 1e-9) + 1e-12, (c, t, delta)
+    for bound in (1e3, float(np.quantile(ctx.frame_errors(f), 0.6))):
+        edits = ctx.feature_edits(f)
+        cols, firsts, counts, deltas = _random_edits(rng, F, D, 400, 2e-3)
+        edits.apply(cols, firsts, counts, deltas, bound)
+        now = edits.features.copy()
+        assert np.array_equal(_bits(edits.point_errors()),
+                              _bits(ctx.evaluator._distances(ctx._positions(now), None)))
+
+
+def test_bad_edits_and_features_are_refused():
+    ctx, f, _ = _context("root-quat-axis-angle", frames=10)
+    edits = ctx.feature_edits(f)
+    D = f.shape[1]
+    for cols, firsts, counts in (([D], [0], [1]), ([0], [9], [2]), ([0], [-1], [1]), ([-1], [0], [1])):
+        with pytest.raises(ValidationError):
+            edits.apply(cols, firsts, counts, np.zeros(int(np.sum(counts))), 1.0)
+    with pytest.raises(ValidationError, match="deltas"):
+        edits.apply([0], [0], [3], np.zeros(2), 1.0)
+    with pytest.raises(ValidationError):
+        ctx.feature_edits(f[:, :-1])
+    bad = f.copy()
+    bad[2, 4] = np.nan
+    with pytest.raises(ValidationError):
+        ctx.feature_edits(bad)
+    assert edits.apply([], [], [], np.zeros(0), 1.0).shape == (0,)
+
+
+def test_a_representation_without_a_plan_gets_no_edits():
+    ctx, f, _ = _context("root-quat-axis-angle", frames=10)
+    ctx._plan = None
+    assert ctx.feature_edits(f) is None
+
+
+def test_the_kernel_checks_its_arrays():
+    """The C layer refuses arrays that would make it read or write out of bounds (the Python class builds them
+    right; this is the last line)."""
+    from motionrep._ccore import edits as kernel
+
+    ctx, f, _ = _context("root-quat-axis-angle", frames=6)
+    e = ctx.feature_edits(f)
+    layout = e._layout.copy()
+    layout[6] = 3  # the root's parent
+    with pytest.raises(ValueError):
+        kernel(layout, *e._plan, e._geom, e._state, None, None, 0.0, False, None)
+    with pytest.raises(ValueError):
+        kernel(e._layout, *e._plan, e._geom, e._state[:-1], None, None, 0.0, False, None)
+    with pytest.raises(ValueError):
+        kernel(e._layout, *e._plan, e._geom, e._state, np.array([[0, 5, 2]]), np.zeros(2), 1.0, True,
+               np.zeros(1, np.uint8))
+    with pytest.raises(TypeError):
+        kernel(e._layout, *e._plan, e._geom, e._state.astype(np.float32), None, None, 0.0, False, None)
+    assert isinstance(e, FeatureEdits)
+
+
+def test_the_conformance_suite_checks_a_pose_plan_through_the_context():
+    """A representation whose plan decodes otherwise than its ``from_features`` (here: one that decodes without
+    the plan) fails ``check_representation``."""
+    from dataclasses import replace
+
+    from motionrep.model.poseplan import EULER
+    from motionrep.testing import check_representation
+
+    base = get_representation("root-quat-axis-angle")
+
+    class WrongPlan(type(base)):
+        def pose_plan(self, skeleton):
+            plan = super().pose_plan(skeleton)
+            kinds = plan.kinds.copy()
+            kinds[1:] = EULER  # rotation vectors read as Euler angles
+            axes = plan.axes.copy()
+            axes[1:] = [0, 1, 2]
+            return replace(plan, kinds=kinds, axes=axes)
+
+        def from_features(self, features, skeleton, fps):
+            return base.from_features(features, skeleton, fps)
+
+    check_representation(base, [synthetic_motion(frames=12, seed=1)])
+    with pytest.raises(AssertionError, match="pose plan decodes features otherwise"):
+        check_representation(WrongPlan(), [synthetic_motion(frames=12, seed=1)])
