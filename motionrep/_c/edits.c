@@ -35,7 +35,8 @@ enum { K_QUAT, K_AXIS_ANGLE, K_EULER, K_EULER_DEGREES, K_ORTHO6D, K_WORLD_QUAT, 
  * decoded again, 2 j where only its FK is; increasing j, so a parent is done before its children), then the end
  * sites ss[0..ns), from the features X as they are.  The state keeps each joint's local rotation normalised, as FK
  * uses it.  Returns 0, or 2 for a quaternion of zero length, 3 for a degenerate 6D encoding. */
-static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns)
+static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns,
+                       int rotations, double limit)
 {
     const int64_t F = s->F, J = s->J, P = s->J + s->E, *pi = s->plan_i;
     const double *X = s->X;
@@ -43,6 +44,7 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
     double *T = s->T + t * s->N * 3, *dist = s->dist + t * P;
     const double *ref = s->ref + t * P * 3;
 #define VAL(col) (X[(col) * F + t])
+    const int early = limit < INFINITY;
     int status = 0;
     for (int64_t k = 0; k < nj; k++) {
         const int64_t j = js[k] >> 1, p = s->parents[j], r = s->entry[j];
@@ -74,6 +76,8 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
                 default: /* K_WORLD_IDENTITY: the identity */
                     break;
                 }
+                if (status && early)
+                    return status;
                 if (kind == K_WORLD_QUAT || kind == K_WORLD_IDENTITY) {
                     /* the joint's world rotation r / |r| (or its parent's), made local: conj(G_parent) r */
                     double *gp = GP + 4 * j;
@@ -110,15 +114,19 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
         } else {
             const double *gp = G + 4 * p, *lt = tr ? tr : s->offsets + 3 * j;
             mr_rotate_add(gp, W + 3 * p, lt[0], lt[1], lt[2], wj);
-            double ax = gp[0], ay = gp[1], az = gp[2], aw = gp[3];
-            g[0] = aw * x + ax * w + ay * z - az * y;
-            g[1] = aw * y - ax * z + ay * w + az * x;
-            g[2] = aw * z + ax * y - ay * x + az * w;
-            g[3] = aw * w - ax * x - ay * y - az * z;
+            if (rotations) {
+                double ax = gp[0], ay = gp[1], az = gp[2], aw = gp[3];
+                g[0] = aw * x + ax * w + ay * z - az * y;
+                g[1] = aw * y - ax * z + ay * w + az * x;
+                g[2] = aw * z + ax * y - ay * x + az * w;
+                g[3] = aw * w - ax * x - ay * y - az * z;
+            }
         }
         const double *b = ref + 3 * j;
         double dx = wj[0] - b[0], dy = wj[1] - b[1], dz = wj[2] - b[2];
         dist[j] = sqrt((dx * dx + dy * dy) + dz * dz); /* max_distances' arithmetic */
+        if (early && !(dist[j] <= limit))
+            return 4;
     }
 #undef VAL
     for (int64_t k = 0; k < ns; k++) {
@@ -129,6 +137,8 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
         const double *b = ref + 3 * (J + e);
         double dx = we[0] - b[0], dy = we[1] - b[1], dz = we[2] - b[2];
         dist[J + e] = sqrt((dx * dx + dy * dy) + dz * dz);
+        if (early && !(dist[J + e] <= limit))
+            return 4;
     }
     return status;
 }
@@ -146,7 +156,7 @@ int mr_edits_init(const mr_edits *s)
         ss[e] = e;
     int status = 0;
     for (int64_t t = 0; t < s->F && !status; t++) {
-        status = frame_again(s, t, js, J, ss, E);
+        status = frame_again(s, t, js, J, ss, E, 1, INFINITY);
         for (int64_t pt = 0; pt < J + E && !status; pt++)
             if (!(s->dist[t * (J + E) + pt] <= 1.79769313486231570815e308))
                 status = 1;
@@ -213,10 +223,48 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
             sites[m++] = e;
             dr[J + e] = 0.0;
         }
-    return frame_again(s, t, list, n, sites, m);
+    return frame_again(s, t, list, n, sites, m, 1, INFINITY);
 }
 
-enum { PATH_ROOM, PATH_EXACT };
+enum { PATH_ROOM, PATH_EXACT, PATH_SAVED };
+
+/* The state of frame t that computing the joints js[0..nj) and the end sites ss[0..ns) of one column can change,
+ * copied to or from buf (save 1: to, 0: from): the joints' range js[0] .. js[nj - 1] (local and world rotations,
+ * the plan's world rotations in world plans, positions, distances), the sites' range, the frame's translations.
+ * Restoring it gives the bits computing those joints again from the same features would (the same inputs, the
+ * same operations).  Returns how many doubles it holds. */
+static size_t frame_copy(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns,
+                         double *buf, int save)
+{
+    const int64_t J = s->J, P = s->J + s->E;
+    size_t used = 0;
+#define MOVE(ptr, count)                                                                                              \
+    do {                                                                                                             \
+        const size_t c_ = (size_t)(count);                                                                           \
+        if (save)                                                                                                    \
+            memcpy(buf + used, (ptr), sizeof(double) * c_);                                                          \
+        else                                                                                                         \
+            memcpy((ptr), buf + used, sizeof(double) * c_);                                                          \
+        used += c_;                                                                                                  \
+    } while (0)
+    if (nj) {
+        const int64_t lo = js[0] >> 1, n = (js[nj - 1] >> 1) - lo + 1;
+        MOVE(s->L + (t * J + lo) * 4, 4 * n);
+        MOVE(s->G + (t * J + lo) * 4, 4 * n);
+        if (s->world)
+            MOVE(s->GP + (t * J + lo) * 4, 4 * n);
+        MOVE(s->W + (t * P + lo) * 3, 3 * n);
+        MOVE(s->dist + t * P + lo, n);
+    }
+    if (ns) {
+        const int64_t lo = J + ss[0], n = ss[ns - 1] - ss[0] + 1;
+        MOVE(s->W + (t * P + lo) * 3, 3 * n);
+        MOVE(s->dist + t * P + lo, n);
+    }
+    MOVE(s->T + t * s->N * 3, 3 * s->N);
+#undef MOVE
+    return used;
+}
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
                        int commit, uint8_t *accepted)
@@ -225,16 +273,18 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     int64_t longest = 0;
     for (int64_t e = 0; e < m; e++)
         longest = edits[3 * e + 2] > longest ? edits[3 * e + 2] : longest;
-    /* per frame of an edit: the feature's value before it and how the frame was checked; per frame and point:
+    /* per frame of an edit: the feature's value before it, how the frame was checked and, for a frame computed
+     * exactly that had nothing marked, its state before (restored if the edit fails); per frame and point:
      * drift, a bound on how far the point may be from where the state has it (changes let through on room alone
      * are computed only when a frame must be, or when the call ends), and per joint what is to compute again */
-    const size_t L = (size_t)(longest ? longest : 1);
+    const size_t L = (size_t)(longest ? longest : 1), stride = (size_t)(J * 16 + E * 4 + s->N * 3);
     double *before = malloc(sizeof(double) * L), *drift = calloc((size_t)(F * P + 1), sizeof(double));
+    double *saved = malloc(sizeof(double) * L * stride);
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
     int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1));
-    if (!before || !drift || !path || !mark || !dirty || !in || !list) {
-        free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
+    if (!before || !drift || !saved || !path || !mark || !dirty || !in || !list) {
+        free(before), free(drift), free(saved), free(path), free(mark), free(dirty), free(in), free(list);
         return -1;
     }
     int64_t count = 0;
@@ -244,6 +294,10 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         const int64_t *js = s->cjoints + s->cstart[c], *ss = s->csites + s->sstart[c];
         const int64_t nj = s->cstart[c + 1] - s->cstart[c], ns = s->sstart[c + 1] - s->sstart[c];
         double *x = s->X + c * F + first;
+        /* a column that decodes no plan entry (a translation) leaves every rotation as it is */
+        int rotations = 0;
+        for (int64_t k = 0; k < nj && !rotations; k++)
+            rotations = (int)(js[k] & 1);
         int ok = 1;
         /* the frame of the largest change first (where an edit that fails most likely fails), then the others */
         int64_t peak = 0;
@@ -279,21 +333,25 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             }
             if (dirty[t]) {
                 ok = !frame_marked(s, t, mark, drift, js, nj, list, list + J, in);
-            } else {
-                ok = !frame_again(s, t, js, nj, ss, ns);
+                path[i] = PATH_EXACT;
+                for (int64_t k = 0; k < nj && ok; k++)
+                    ok = dist[js[k] >> 1] <= bound;
+                for (int64_t k = 0; k < ns && ok; k++)
+                    ok = dist[J + ss[k]] <= bound;
+            } else { /* the frame's state kept, then computed, stopping at the first point over the bound */
+                frame_copy(s, t, js, nj, ss, ns, saved + (size_t)i * stride, 1);
+                ok = !frame_again(s, t, js, nj, ss, ns, rotations, bound);
+                path[i] = PATH_SAVED;
             }
-            path[i] = PATH_EXACT;
-            for (int64_t k = 0; k < nj && ok; k++)
-                ok = dist[js[k] >> 1] <= bound;
-            for (int64_t k = 0; k < ns && ok; k++)
-                ok = dist[J + ss[k]] <= bound;
         }
         if (!ok || !commit)
             for (int64_t k = 0; k < done; k++) { /* a frame let through on room keeps its (larger) drift */
                 const int64_t i = k == 0 ? peak : k <= peak ? k - 1 : k;
                 x[i] = before[i];
                 if (path[i] == PATH_EXACT)
-                    frame_again(s, first + i, js, nj, ss, ns);
+                    frame_again(s, first + i, js, nj, ss, ns, 1, INFINITY);
+                else if (path[i] == PATH_SAVED)
+                    frame_copy(s, first + i, js, nj, ss, ns, saved + (size_t)i * stride, 0);
             }
         accepted[e] = (uint8_t)ok;
         count += ok;
@@ -302,6 +360,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     for (int64_t t = 0; t < F; t++) /* the state exact again */
         if (dirty[t])
             frame_marked(s, t, mark, drift, NULL, 0, list, list + J, in);
-    free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
+    free(before), free(drift), free(saved), free(path), free(mark), free(dirty), free(in), free(list);
     return count;
 }
