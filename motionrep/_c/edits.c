@@ -14,7 +14,10 @@
  *   subtree (its parent's world rotation and position kept), its end sites and their distances, and with them
  *   any joint above still marked from changes let through before;
  * - the frame of the largest change is tried first, where an edit that fails most likely fails; a failed edit is
- *   undone (its frames computed again from the features as they were: the same inputs, the same bits).
+ *   undone (its frames computed again from the features as they were: the same inputs, the same bits);
+ * - where nothing the column moves is marked, nor the joint above it, the frame's part the column changes is copied
+ *   first and computed stopping at the first point over the bound; a failed edit copies it back (the bits computing
+ *   it again would give), and a translation column's frames keep their world rotations (it changes none).
  *
  * Every frame still marked is computed when the call ends, so the state is then exact again. The arithmetic is
  * the pose plan's (motionrep/model/poseplan.py, through mr_rotconv.h), FK's (fk.c: the same operations in the same
@@ -23,6 +26,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "ccore.h"
 #include "mr_rotconv.h"
@@ -228,6 +234,31 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
 
 enum { PATH_ROOM, PATH_EXACT, PATH_SAVED };
 
+/* The largest of far and a[k] + b[k], k < n, as the loop `v = a[k] + b[k]; far = v > far ? v : far` finds it (a NaN
+ * sum passes over; the same value whatever the order, as no rounding is involved), in two lanes of two (MAXPD
+ * keeps its second operand unless the first is larger: the loop's comparison). */
+static double far_of(const double *a, const double *b, int64_t n, double far)
+{
+    int64_t k = 0;
+#ifdef __SSE2__
+    if (n >= 4) {
+        __m128d f0 = _mm_set1_pd(far), f1 = f0;
+        for (; k + 4 <= n; k += 4) {
+            f0 = _mm_max_pd(_mm_add_pd(_mm_loadu_pd(a + k), _mm_loadu_pd(b + k)), f0);
+            f1 = _mm_max_pd(_mm_add_pd(_mm_loadu_pd(a + k + 2), _mm_loadu_pd(b + k + 2)), f1);
+        }
+        double lanes[2];
+        _mm_storeu_pd(lanes, _mm_max_pd(f1, f0));
+        far = lanes[1] > lanes[0] ? lanes[1] : lanes[0];
+    }
+#endif
+    for (; k < n; k++) {
+        const double v = a[k] + b[k];
+        far = v > far ? v : far;
+    }
+    return far;
+}
+
 /* The state of frame t that computing the joints js[0..nj) and the end sites ss[0..ns) of one column can change,
  * copied to or from buf (save 1: to, 0: from): the joints' range js[0] .. js[nj - 1] (local and world rotations,
  * the plan's world rotations in world plans, positions, distances), the sites' range, the frame's translations.
@@ -298,6 +329,9 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         int rotations = 0;
         for (int64_t k = 0; k < nj && !rotations; k++)
             rotations = (int)(js[k] & 1);
+        /* the joints (end sites) it moves as one run of indices jlo .. (slo ..), as in a depth-first order */
+        const int64_t jlo = nj ? js[0] >> 1 : 0, slo = ns ? ss[0] : 0;
+        const int jrun = nj && (js[nj - 1] >> 1) - jlo + 1 == nj, srun = ns && ss[ns - 1] - slo + 1 == ns;
         int ok = 1;
         /* the frame of the largest change first (where an edit that fails most likely fails), then the others */
         int64_t peak = 0;
@@ -311,27 +345,57 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             before[i] = x[i];
             x[i] = x[i] + d[i];
             const double move = commit ? reach(s, c, t, before[i], x[i]) : INFINITY;
-            /* the farthest any point it moves may be */
+            /* the farthest any point it moves may be (the joints, then the end sites) */
             double far = 0.0;
-            for (int64_t k = 0; k < nj; k++) {
-                const int64_t j = js[k] >> 1;
-                far = dist[j] + dr[j] > far ? dist[j] + dr[j] : far;
-            }
-            for (int64_t k = 0; k < ns; k++)
-                far = dist[J + ss[k]] + dr[J + ss[k]] > far ? dist[J + ss[k]] + dr[J + ss[k]] : far;
+            if (jrun)
+                far = far_of(dist + jlo, dr + jlo, nj, far);
+            else
+                for (int64_t k = 0; k < nj; k++) {
+                    const int64_t j = js[k] >> 1;
+                    far = dist[j] + dr[j] > far ? dist[j] + dr[j] : far;
+                }
+            if (srun)
+                far = far_of(dist + J + slo, dr + J + slo, ns, far);
+            else
+                for (int64_t k = 0; k < ns; k++)
+                    far = dist[J + ss[k]] + dr[J + ss[k]] > far ? dist[J + ss[k]] + dr[J + ss[k]] : far;
             if (far + move <= bound) { /* room enough whatever the change does: computed later */
                 uint8_t *mk = mark + t * J;
-                for (int64_t k = 0; k < nj; k++) {
+                for (int64_t k = 0; k < nj; k++)
                     mk[js[k] >> 1] |= (uint8_t)(2 | (js[k] & 1));
-                    dr[js[k] >> 1] += move;
-                }
-                for (int64_t k = 0; k < ns; k++)
-                    dr[J + ss[k]] += move;
+                if (jrun)
+                    for (int64_t k = 0; k < nj; k++)
+                        dr[jlo + k] += move;
+                else
+                    for (int64_t k = 0; k < nj; k++)
+                        dr[js[k] >> 1] += move;
+                if (srun)
+                    for (int64_t k = 0; k < ns; k++)
+                        dr[J + slo + k] += move;
+                else
+                    for (int64_t k = 0; k < ns; k++)
+                        dr[J + ss[k]] += move;
                 dirty[t] = 1;
                 path[i] = PATH_ROOM;
                 continue;
             }
-            if (dirty[t]) {
+            /* marks in the frame, but none on the joints it moves nor on the parent above them: computing them
+             * again is all there is to do, as in a frame without marks (their drift is then 0, as it is set) */
+            int clear = !dirty[t];
+            if (!clear && nj) {
+                const uint8_t *mk = mark + t * J;
+                const int64_t up = s->parents[js[0] >> 1];
+                clear = up < 0 || !mk[up];
+                for (int64_t k = 0; k < nj && clear; k++)
+                    clear = !mk[js[k] >> 1];
+                if (clear) {
+                    for (int64_t k = 0; k < nj; k++)
+                        dr[js[k] >> 1] = 0.0;
+                    for (int64_t k = 0; k < ns; k++)
+                        dr[J + ss[k]] = 0.0;
+                }
+            }
+            if (!clear) {
                 ok = !frame_marked(s, t, mark, drift, js, nj, list, list + J, in);
                 path[i] = PATH_EXACT;
                 for (int64_t k = 0; k < nj && ok; k++)
