@@ -171,11 +171,10 @@ def test_changes_let_through_on_room_alone_are_bounded_correctly(name):
 
 @pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
 def test_one_call_decides_as_the_edits_one_by_one(name):
-    """Many edits in one call (changes let through on room alone leave frames marked; later edits in those frames
-    are computed with the marked joints above them, or kept and restored when nothing they move is marked; an edit
-    that fails stops at its first point over the bound and is undone) decide as the same edits one call each, and
-    leave the state of the accepted ones, bit for bit (scalar IEEE C without fused multiply-add: see the module
-    docstring)."""
+    """Many edits in one call, half of them small (let through on room alone: their frames stay marked, and later
+    edits there are computed with the marked joints above them) and half large (most fail after some of their
+    frames were let through or computed, and are undone), decide as the same edits one call each and leave the
+    state of the accepted ones, bit for bit (scalar IEEE C without fused multiply-add: see the module docstring)."""
     ctx, f, rng = _context(name, humanoid_skeleton(), frames=50, seed=11)
     F, D = f.shape
     bound = float(np.quantile(ctx.frame_errors(f), 0.7))

@@ -14,10 +14,7 @@
  *   subtree (its parent's world rotation and position kept), its end sites and their distances, and with them
  *   any joint above still marked from changes let through before;
  * - the frame of the largest change is tried first, where an edit that fails most likely fails; a failed edit is
- *   undone (its frames computed again from the features as they were: the same inputs, the same bits);
- * - where nothing the column moves is marked, nor the joint above it, the frame's part the column changes is copied
- *   first and computed stopping at the first point over the bound; a failed edit copies it back (the bits computing
- *   it again would give), and a translation column's frames keep their world rotations (it changes none).
+ *   undone (its frames computed again from the features as they were: the same inputs, the same bits).
  *
  * Every frame still marked is computed when the call ends, so the state is then exact again. The arithmetic is
  * the pose plan's (motionrep/model/poseplan.py, through mr_rotconv.h), FK's (fk.c: the same operations in the same
@@ -26,9 +23,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
 
 #include "ccore.h"
 #include "mr_rotconv.h"
@@ -41,8 +35,7 @@ enum { K_QUAT, K_AXIS_ANGLE, K_EULER, K_EULER_DEGREES, K_ORTHO6D, K_WORLD_QUAT, 
  * decoded again, 2 j where only its FK is; increasing j, so a parent is done before its children), then the end
  * sites ss[0..ns), from the features X as they are.  The state keeps each joint's local rotation normalised, as FK
  * uses it.  Returns 0, or 2 for a quaternion of zero length, 3 for a degenerate 6D encoding. */
-static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns,
-                       int rotations, double limit)
+static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns)
 {
     const int64_t F = s->F, J = s->J, P = s->J + s->E, *pi = s->plan_i;
     const double *X = s->X;
@@ -50,7 +43,6 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
     double *T = s->T + t * s->N * 3, *dist = s->dist + t * P;
     const double *ref = s->ref + t * P * 3;
 #define VAL(col) (X[(col) * F + t])
-    const int early = limit < INFINITY;
     int status = 0;
     for (int64_t k = 0; k < nj; k++) {
         const int64_t j = js[k] >> 1, p = s->parents[j], r = s->entry[j];
@@ -82,8 +74,6 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
                 default: /* K_WORLD_IDENTITY: the identity */
                     break;
                 }
-                if (status && early)
-                    return status;
                 if (kind == K_WORLD_QUAT || kind == K_WORLD_IDENTITY) {
                     /* the joint's world rotation r / |r| (or its parent's), made local: conj(G_parent) r */
                     double *gp = GP + 4 * j;
@@ -120,19 +110,15 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
         } else {
             const double *gp = G + 4 * p, *lt = tr ? tr : s->offsets + 3 * j;
             mr_rotate_add(gp, W + 3 * p, lt[0], lt[1], lt[2], wj);
-            if (rotations) {
-                double ax = gp[0], ay = gp[1], az = gp[2], aw = gp[3];
-                g[0] = aw * x + ax * w + ay * z - az * y;
-                g[1] = aw * y - ax * z + ay * w + az * x;
-                g[2] = aw * z + ax * y - ay * x + az * w;
-                g[3] = aw * w - ax * x - ay * y - az * z;
-            }
+            double ax = gp[0], ay = gp[1], az = gp[2], aw = gp[3];
+            g[0] = aw * x + ax * w + ay * z - az * y;
+            g[1] = aw * y - ax * z + ay * w + az * x;
+            g[2] = aw * z + ax * y - ay * x + az * w;
+            g[3] = aw * w - ax * x - ay * y - az * z;
         }
         const double *b = ref + 3 * j;
         double dx = wj[0] - b[0], dy = wj[1] - b[1], dz = wj[2] - b[2];
         dist[j] = sqrt((dx * dx + dy * dy) + dz * dz); /* max_distances' arithmetic */
-        if (early && !(dist[j] <= limit))
-            return 4;
     }
 #undef VAL
     for (int64_t k = 0; k < ns; k++) {
@@ -143,8 +129,6 @@ static int frame_again(const mr_edits *s, int64_t t, const int64_t *js, int64_t 
         const double *b = ref + 3 * (J + e);
         double dx = we[0] - b[0], dy = we[1] - b[1], dz = we[2] - b[2];
         dist[J + e] = sqrt((dx * dx + dy * dy) + dz * dz);
-        if (early && !(dist[J + e] <= limit))
-            return 4;
     }
     return status;
 }
@@ -162,7 +146,7 @@ int mr_edits_init(const mr_edits *s)
         ss[e] = e;
     int status = 0;
     for (int64_t t = 0; t < s->F && !status; t++) {
-        status = frame_again(s, t, js, J, ss, E, 1, INFINITY);
+        status = frame_again(s, t, js, J, ss, E);
         for (int64_t pt = 0; pt < J + E && !status; pt++)
             if (!(s->dist[t * (J + E) + pt] <= 1.79769313486231570815e308))
                 status = 1;
@@ -229,73 +213,10 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
             sites[m++] = e;
             dr[J + e] = 0.0;
         }
-    return frame_again(s, t, list, n, sites, m, 1, INFINITY);
+    return frame_again(s, t, list, n, sites, m);
 }
 
-enum { PATH_ROOM, PATH_EXACT, PATH_SAVED };
-
-/* The largest of far and a[k] + b[k], k < n, as the loop `v = a[k] + b[k]; far = v > far ? v : far` finds it (a NaN
- * sum passes over; the same value whatever the order, as no rounding is involved), in two lanes of two (MAXPD
- * keeps its second operand unless the first is larger: the loop's comparison). */
-static double far_of(const double *a, const double *b, int64_t n, double far)
-{
-    int64_t k = 0;
-#ifdef __SSE2__
-    if (n >= 4) {
-        __m128d f0 = _mm_set1_pd(far), f1 = f0;
-        for (; k + 4 <= n; k += 4) {
-            f0 = _mm_max_pd(_mm_add_pd(_mm_loadu_pd(a + k), _mm_loadu_pd(b + k)), f0);
-            f1 = _mm_max_pd(_mm_add_pd(_mm_loadu_pd(a + k + 2), _mm_loadu_pd(b + k + 2)), f1);
-        }
-        double lanes[2];
-        _mm_storeu_pd(lanes, _mm_max_pd(f1, f0));
-        far = lanes[1] > lanes[0] ? lanes[1] : lanes[0];
-    }
-#endif
-    for (; k < n; k++) {
-        const double v = a[k] + b[k];
-        far = v > far ? v : far;
-    }
-    return far;
-}
-
-/* The state of frame t that computing the joints js[0..nj) and the end sites ss[0..ns) of one column can change,
- * copied to or from buf (save 1: to, 0: from): the joints' range js[0] .. js[nj - 1] (local and world rotations,
- * the plan's world rotations in world plans, positions, distances), the sites' range, the frame's translations.
- * Restoring it gives the bits computing those joints again from the same features would (the same inputs, the
- * same operations).  Returns how many doubles it holds. */
-static size_t frame_copy(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns,
-                         double *buf, int save)
-{
-    const int64_t J = s->J, P = s->J + s->E;
-    size_t used = 0;
-#define MOVE(ptr, count)                                                                                              \
-    do {                                                                                                             \
-        const size_t c_ = (size_t)(count);                                                                           \
-        if (save)                                                                                                    \
-            memcpy(buf + used, (ptr), sizeof(double) * c_);                                                          \
-        else                                                                                                         \
-            memcpy((ptr), buf + used, sizeof(double) * c_);                                                          \
-        used += c_;                                                                                                  \
-    } while (0)
-    if (nj) {
-        const int64_t lo = js[0] >> 1, n = (js[nj - 1] >> 1) - lo + 1;
-        MOVE(s->L + (t * J + lo) * 4, 4 * n);
-        MOVE(s->G + (t * J + lo) * 4, 4 * n);
-        if (s->world)
-            MOVE(s->GP + (t * J + lo) * 4, 4 * n);
-        MOVE(s->W + (t * P + lo) * 3, 3 * n);
-        MOVE(s->dist + t * P + lo, n);
-    }
-    if (ns) {
-        const int64_t lo = J + ss[0], n = ss[ns - 1] - ss[0] + 1;
-        MOVE(s->W + (t * P + lo) * 3, 3 * n);
-        MOVE(s->dist + t * P + lo, n);
-    }
-    MOVE(s->T + t * s->N * 3, 3 * s->N);
-#undef MOVE
-    return used;
-}
+enum { PATH_ROOM, PATH_EXACT };
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
                        int commit, uint8_t *accepted)
@@ -304,18 +225,16 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     int64_t longest = 0;
     for (int64_t e = 0; e < m; e++)
         longest = edits[3 * e + 2] > longest ? edits[3 * e + 2] : longest;
-    /* per frame of an edit: the feature's value before it, how the frame was checked and, for a frame computed
-     * exactly that had nothing marked, its state before (restored if the edit fails); per frame and point:
+    /* per frame of an edit: the feature's value before it and how the frame was checked; per frame and point:
      * drift, a bound on how far the point may be from where the state has it (changes let through on room alone
      * are computed only when a frame must be, or when the call ends), and per joint what is to compute again */
-    const size_t L = (size_t)(longest ? longest : 1), stride = (size_t)(J * 16 + E * 4 + s->N * 3);
+    const size_t L = (size_t)(longest ? longest : 1);
     double *before = malloc(sizeof(double) * L), *drift = calloc((size_t)(F * P + 1), sizeof(double));
-    double *saved = malloc(sizeof(double) * L * stride);
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
     int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1));
-    if (!before || !drift || !saved || !path || !mark || !dirty || !in || !list) {
-        free(before), free(drift), free(saved), free(path), free(mark), free(dirty), free(in), free(list);
+    if (!before || !drift || !path || !mark || !dirty || !in || !list) {
+        free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
         return -1;
     }
     int64_t count = 0;
@@ -325,13 +244,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         const int64_t *js = s->cjoints + s->cstart[c], *ss = s->csites + s->sstart[c];
         const int64_t nj = s->cstart[c + 1] - s->cstart[c], ns = s->sstart[c + 1] - s->sstart[c];
         double *x = s->X + c * F + first;
-        /* a column that decodes no plan entry (a translation) leaves every rotation as it is */
-        int rotations = 0;
-        for (int64_t k = 0; k < nj && !rotations; k++)
-            rotations = (int)(js[k] & 1);
-        /* the joints (end sites) it moves as one run of indices jlo .. (slo ..), as in a depth-first order */
-        const int64_t jlo = nj ? js[0] >> 1 : 0, slo = ns ? ss[0] : 0;
-        const int jrun = nj && (js[nj - 1] >> 1) - jlo + 1 == nj, srun = ns && ss[ns - 1] - slo + 1 == ns;
         int ok = 1;
         /* the frame of the largest change first (where an edit that fails most likely fails), then the others */
         int64_t peak = 0;
@@ -345,77 +257,43 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             before[i] = x[i];
             x[i] = x[i] + d[i];
             const double move = commit ? reach(s, c, t, before[i], x[i]) : INFINITY;
-            /* the farthest any point it moves may be (the joints, then the end sites) */
+            /* the farthest any point it moves may be */
             double far = 0.0;
-            if (jrun)
-                far = far_of(dist + jlo, dr + jlo, nj, far);
-            else
-                for (int64_t k = 0; k < nj; k++) {
-                    const int64_t j = js[k] >> 1;
-                    far = dist[j] + dr[j] > far ? dist[j] + dr[j] : far;
-                }
-            if (srun)
-                far = far_of(dist + J + slo, dr + J + slo, ns, far);
-            else
-                for (int64_t k = 0; k < ns; k++)
-                    far = dist[J + ss[k]] + dr[J + ss[k]] > far ? dist[J + ss[k]] + dr[J + ss[k]] : far;
+            for (int64_t k = 0; k < nj; k++) {
+                const int64_t j = js[k] >> 1;
+                far = dist[j] + dr[j] > far ? dist[j] + dr[j] : far;
+            }
+            for (int64_t k = 0; k < ns; k++)
+                far = dist[J + ss[k]] + dr[J + ss[k]] > far ? dist[J + ss[k]] + dr[J + ss[k]] : far;
             if (far + move <= bound) { /* room enough whatever the change does: computed later */
                 uint8_t *mk = mark + t * J;
-                for (int64_t k = 0; k < nj; k++)
+                for (int64_t k = 0; k < nj; k++) {
                     mk[js[k] >> 1] |= (uint8_t)(2 | (js[k] & 1));
-                if (jrun)
-                    for (int64_t k = 0; k < nj; k++)
-                        dr[jlo + k] += move;
-                else
-                    for (int64_t k = 0; k < nj; k++)
-                        dr[js[k] >> 1] += move;
-                if (srun)
-                    for (int64_t k = 0; k < ns; k++)
-                        dr[J + slo + k] += move;
-                else
-                    for (int64_t k = 0; k < ns; k++)
-                        dr[J + ss[k]] += move;
+                    dr[js[k] >> 1] += move;
+                }
+                for (int64_t k = 0; k < ns; k++)
+                    dr[J + ss[k]] += move;
                 dirty[t] = 1;
                 path[i] = PATH_ROOM;
                 continue;
             }
-            /* marks in the frame, but none on the joints it moves nor on the parent above them: computing them
-             * again is all there is to do, as in a frame without marks (their drift is then 0, as it is set) */
-            int clear = !dirty[t];
-            if (!clear && nj) {
-                const uint8_t *mk = mark + t * J;
-                const int64_t up = s->parents[js[0] >> 1];
-                clear = up < 0 || !mk[up];
-                for (int64_t k = 0; k < nj && clear; k++)
-                    clear = !mk[js[k] >> 1];
-                if (clear) {
-                    for (int64_t k = 0; k < nj; k++)
-                        dr[js[k] >> 1] = 0.0;
-                    for (int64_t k = 0; k < ns; k++)
-                        dr[J + ss[k]] = 0.0;
-                }
-            }
-            if (!clear) {
+            if (dirty[t]) {
                 ok = !frame_marked(s, t, mark, drift, js, nj, list, list + J, in);
-                path[i] = PATH_EXACT;
-                for (int64_t k = 0; k < nj && ok; k++)
-                    ok = dist[js[k] >> 1] <= bound;
-                for (int64_t k = 0; k < ns && ok; k++)
-                    ok = dist[J + ss[k]] <= bound;
-            } else { /* the frame's state kept, then computed, stopping at the first point over the bound */
-                frame_copy(s, t, js, nj, ss, ns, saved + (size_t)i * stride, 1);
-                ok = !frame_again(s, t, js, nj, ss, ns, rotations, bound);
-                path[i] = PATH_SAVED;
+            } else {
+                ok = !frame_again(s, t, js, nj, ss, ns);
             }
+            path[i] = PATH_EXACT;
+            for (int64_t k = 0; k < nj && ok; k++)
+                ok = dist[js[k] >> 1] <= bound;
+            for (int64_t k = 0; k < ns && ok; k++)
+                ok = dist[J + ss[k]] <= bound;
         }
         if (!ok || !commit)
             for (int64_t k = 0; k < done; k++) { /* a frame let through on room keeps its (larger) drift */
                 const int64_t i = k == 0 ? peak : k <= peak ? k - 1 : k;
                 x[i] = before[i];
                 if (path[i] == PATH_EXACT)
-                    frame_again(s, first + i, js, nj, ss, ns, 1, INFINITY);
-                else if (path[i] == PATH_SAVED)
-                    frame_copy(s, first + i, js, nj, ss, ns, saved + (size_t)i * stride, 0);
+                    frame_again(s, first + i, js, nj, ss, ns);
             }
         accepted[e] = (uint8_t)ok;
         count += ok;
@@ -424,6 +302,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     for (int64_t t = 0; t < F; t++) /* the state exact again */
         if (dirty[t])
             frame_marked(s, t, mark, drift, NULL, 0, list, list + J, in);
-    free(before), free(drift), free(saved), free(path), free(mark), free(dirty), free(in), free(list);
+    free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
     return count;
 }
