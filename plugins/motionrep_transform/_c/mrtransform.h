@@ -19,8 +19,8 @@
  * messages motionrep's Python decoder gave (mrt_status.message), never in a crash.
  *
  * Versions: `version` is the payload's format version: 1 (static models stored in the payload, a range coder:
- * parsed here) or 2 (an adaptive binary coder with context mixing: its integers decoded by mrcoder.c, which an
- * engine builds beside this file).  A version has its own integer decoder (mrt_unpack) and shares the rest
+ * parsed here), 2 (an adaptive binary coder with context mixing: its integers decoded by mrcoder.c, which an
+ * engine builds beside this file) or 3 (version 2's coder with trained starting states, mrcoder.c and mrprior3.h).  A version has its own integer decoder (mrt_unpack) and shares the rest
  * (dequantisation, wavelet, sampling).
  */
 #ifndef MRTRANSFORM_H
