@@ -33,7 +33,7 @@
 extern "C" {
 #endif
 
-#define MRT_MAX_VERSION 2
+#define MRT_MAX_VERSION 3
 #define MRT_MAX_LEVELS 20
 #define MRT_MAX_EXPONENT 32767  /* largest magnitude of a step exponent (steps are 2 ** (exponent / 8)) */
 #define MRT_MAX_ZERO 208        /* largest zero index of a stored model */
