@@ -7,10 +7,11 @@ targets (those are held out: ``benchmarks/results/rate5.md``).
 Every ``*.bvh`` under DIR (sorted), each encoded by ``transform`` at 2 %, 0.588 % and 0.0588 % (the bounds of
 ``acl.py``); the integers of each payload coded by version 2's models (``_ccoder.states``: no trained start), and
 the final state of each fixed-context counter kept: its probability in stretch units (1/256 of a natural-log odds,
-mrcoder.c's table) and its update count n (capped at 63). A counter's start state is the n-weighted mean of its
-stretches over the clips, rounded to the nearest integer (integer arithmetic: the same table on every machine);
-a counter no clip updated keeps version 2's start (``MRC_PRIOR3_NONE``). Every trained counter starts with
-``MRC_PRIOR3_COUNT`` = 16 updates seen (the rate it adapts at; 16 measured best of 1, 2, 4, 8, 16 on these clips).
+mrcoder.c's table) and its update count n (capped at 63). A counter's start is the n-weighted mean ``s`` of its
+stretches over the clips, rounded to the nearest integer, as ``P(1) = 16 squash(s)`` in 1/65536 (mrcoder.c's
+squash, :func:`squash` here, clamped to ``[16, 65520]``) with ``COUNT`` = 16 updates seen (the rate it adapts at;
+16 measured best of 1, 2, 4, 8, 16 on these clips); a counter no clip updated keeps version 2's start (``P(1) =
+32768``, 0 updates). Integer arithmetic throughout: the same table on every machine.
 
 The table depends on the encoder's integers (its rate search); it is part of the format once files are written
 with it: a new table is a new payload version.
@@ -26,6 +27,21 @@ import numpy as np
 
 BOUNDS = (2.0, 0.588, 0.0588)
 COUNT = 16
+#: mrcoder.c's SQUASH_T: PAQ's squash at 33 points of the stretch domain
+SQUASH_T = (1, 2, 3, 6, 10, 16, 27, 45, 73, 120, 194, 310, 488, 747, 1101, 1546, 2047, 2549, 2994, 3348, 3607, 3785,
+            3901, 3975, 4022, 4050, 4068, 4079, 4085, 4089, 4092, 4093, 4094)
+
+
+def squash(d: int) -> int:
+    """mrcoder.c's squash: the 12-bit probability of stretch ``d`` (1/256 of a natural-log odds), by linear
+    interpolation of :data:`SQUASH_T` in integers."""
+    if d > 2047:
+        return 4095
+    if d < -2047:
+        return 1
+    u = d + 2048
+    i, w = u >> 7, u & 127
+    return (SQUASH_T[i] * (128 - w) + SQUASH_T[i + 1] * w + 64) >> 7
 HEADER = Path(__file__).resolve().parents[1] / "plugins/motionrep_transform/_c/mrprior3.h"
 
 
@@ -58,21 +74,25 @@ def main() -> None:
             total += stretch * count
             weight += count
             print(f"{path.relative_to(root)} {bound:g}%: {int(result.container.payload_bytes)} B", flush=True)
-    seen = weight > 0
-    start = np.full(total.size, -32768, np.int64)
-    start[seen] = (2 * total[seen] + weight[seen]) // (2 * weight[seen])  # nearest, halves up
-    rows = [", ".join(str(int(v)) for v in start[i:i + 16]) for i in range(0, start.size, 16)]
+    states = []
+    for t, w in zip(total.tolist(), weight.tolist()):
+        if w == 0:
+            states.append("{32768, 0}")
+            continue
+        p = 16 * squash((2 * t + w) // (2 * w))  # the mean stretch, nearest (halves up)
+        states.append(f"{{{min(max(p, 16), 65520)}, {COUNT}}}")
+    rows = [", ".join(states[i:i + 8]) for i in range(0, len(states), 8)]
     HEADER.write_text(
-        "/* Start states of payload version 3's fixed-context counters (mrcoder.c, models_prior; specs/codecs.md,\n"
-        " * \"Payload version 3\"), in the order of mrcoder.c's fixed_spans: P(1) in stretch units, MRC_PRIOR3_NONE for\n"
-        f" * a counter that keeps version 2's start. Written by benchmarks/prior3.py from {len(paths)} clips x "
-        f"{len(BOUNDS)} bounds\n"
+        "/* Start states of payload version 3's fixed-context counters (mrcoder.c, fixed_init; specs/codecs.md,\n"
+        " * \"Payload version 3\"), in the order of mrcoder.c's fixed_spans: {P(1) in 1/65536, updates seen}; {32768, 0}\n"
+        f" * is version 2's start. Written by benchmarks/prior3.py from {len(paths)} clips x {len(BOUNDS)} bounds\n"
         " * (../shared/data/other); part of the format: never edit, a new table is a new payload version. */\n"
         "#ifndef MRPRIOR3_H\n#define MRPRIOR3_H\n\n#include <stdint.h>\n\n"
-        f"#define MRC_PRIOR3_SIZE {start.size}\n#define MRC_PRIOR3_NONE (-32768)\n#define MRC_PRIOR3_COUNT {COUNT}\n\n"
-        "static const int16_t MRC_PRIOR3_STRETCH[MRC_PRIOR3_SIZE] = {\n"
+        f"#define MRC_PRIOR3_SIZE {len(states)}\n\n"
+        "static const uint16_t MRC_PRIOR3[MRC_PRIOR3_SIZE][2] = {\n"
         + "".join(f"    {r},\n" for r in rows) + "};\n\n#endif\n")
-    print(f"prior3: {int(seen.sum())} of {start.size} counters trained -> {HEADER}")
+    seen = weight > 0
+    print(f"prior3: {int(seen.sum())} of {len(states)} counters trained -> {HEADER}")
 
 
 if __name__ == "__main__":

@@ -507,30 +507,26 @@ static void fixed_spans(Models *m, Span s[7]) {
     s[6].count = 64 * 2;
 }
 
-/* version 3: every fixed counter the table has a state for starts at P(1) = squash(stretch) with MRC_PRIOR3_COUNT
- * updates seen (so it adapts at the rate it would after that many); the rest as in version 2 */
-static void models_prior(Models *m, const Tables *t) {
+/* the fixed counters' start: version 2's (P(1) = 1/2, no update seen) or version 3's (mrprior3.h: for each
+ * counter its P(1) in 1/65536 and its count of updates seen, 0 where it keeps version 2's start) */
+static void fixed_init(Models *m, int version) {
     Span s[7];
     fixed_spans(m, s);
     int idx = 0;
-    for (int a = 0; a < 7; a++)
-        for (int i = 0; i < s[a].count; i++, idx++) {
-            int st = MRC_PRIOR3_STRETCH[idx];
-            if (st == MRC_PRIOR3_NONE) continue;
-            uint32_t p = (uint32_t)t->squash[st + 2047] * 16u;
-            s[a].at[i].p = (uint16_t)(p < P_LOW ? P_LOW : (p > P_HIGH ? P_HIGH : p));
-            s[a].at[i].n = MRC_PRIOR3_COUNT;
+    for (int a = 0; a < 7; a++) {
+        if (version < 3) {
+            counters_init(s[a].at, (size_t)s[a].count);
+            continue;
         }
+        for (int i = 0; i < s[a].count; i++, idx++) {
+            s[a].at[i].p = MRC_PRIOR3[idx][0];
+            s[a].at[i].n = MRC_PRIOR3[idx][1];
+        }
+    }
 }
 
-static int models_init(Models *m, int64_t D) {
-    counters_init(&m->gen[0][0], sizeof m->gen / sizeof(Counter));
-    counters_init(m->z0, C0);
-    counters_init(m->z1, C1);
-    counters_init(m->s0, SIGNS);
-    counters_init(m->m0, C0 * MAGS);
-    counters_init(m->m1, C1 * MAGS);
-    counters_init(m->mant, 64 * 2);
+static int models_init(Models *m, int64_t D, int version) {
+    fixed_init(m, version);
     m->feat = D < FEAT ? D : FEAT;
     size_t c2 = (size_t)(LEVELS * m->feat), n2 = c2 * (1 + 1 + MAGS);
     Counter *all = (Counter *)malloc(n2 * sizeof(Counter));
@@ -675,9 +671,8 @@ MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t 
     Coder *outer = c;
     c = &local;
     Models m;
-    int e = models_init(&m, D);
+    int e = models_init(&m, D, version);
     if (e) return e;
-    if (version >= 3) models_prior(&m, c->t);
     uint8_t *active = (uint8_t *)calloc((size_t)D, 1);
     if (!active) {
         models_free(&m);
