@@ -84,8 +84,8 @@ def main() -> None:
     rows = [", ".join(states[i:i + 8]) for i in range(0, len(states), 8)]
     HEADER.write_text(
         "/* Start states of payload version 3's fixed-context counters (mrcoder.c, fixed_init; specs/codecs.md,\n"
-        " * \"Payload version 3\"), in the order of mrcoder.c's fixed_spans: {P(1) in 1/65536, updates seen}; {32768, 0}\n"
-        f" * is version 2's start. Written by benchmarks/prior3.py from {len(paths)} clips x {len(BOUNDS)} bounds\n"
+        " * \"Payload version 3\"), in the order of mrcoder.c's fixed_spans: {P(1) in 1/65536, updates seen};\n"
+        f" * {{32768, 0}} is version 2's start. Written by benchmarks/prior3.py from {len(paths)} clips x {len(BOUNDS)} bounds\n"
         " * (../shared/data/other); part of the format: never edit, a new table is a new payload version. */\n"
         "#ifndef MRPRIOR3_H\n#define MRPRIOR3_H\n\n#include <stdint.h>\n\n"
         f"#define MRC_PRIOR3_SIZE {len(states)}\n\n"

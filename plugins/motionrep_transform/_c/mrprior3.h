@@ -1,6 +1,6 @@
 /* Start states of payload version 3's fixed-context counters (mrcoder.c, fixed_init; specs/codecs.md,
- * "Payload version 3"), in the order of mrcoder.c's fixed_spans: {P(1) in 1/65536, updates seen}; {32768, 0}
- * is version 2's start. Written by benchmarks/prior3.py from 20 clips x 3 bounds
+ * "Payload version 3"), in the order of mrcoder.c's fixed_spans: {P(1) in 1/65536, updates seen};
+ * {32768, 0} is version 2's start. Written by benchmarks/prior3.py from 20 clips x 3 bounds
  * (../shared/data/other); part of the format: never edit, a new table is a new payload version. */
 #ifndef MRPRIOR3_H
 #define MRPRIOR3_H

@@ -267,9 +267,9 @@ int main(int argc, char **argv) {
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
 def test_the_library_builds_and_decodes_alone_without_python(payloads, payloads_v2, payloads_v3, tmp_path):
-    """mrtransform.c (with mrcoder.c and mrprior3.h for versions 2 and 3) is plain C99 with the standard library and libm: an engine
-    builds it with its own compiler (no Python headers, no motionrep headers) and gets the same values as
-    motionrep, and the same one-line errors."""
+    """mrtransform.c (with mrcoder.c and mrprior3.h for versions 2 and 3) is plain C99 with the standard library
+    and libm: an engine builds it with its own compiler (no Python headers, no motionrep headers) and gets the same
+    values as motionrep, and the same one-line errors."""
     main = tmp_path / "embed.c"
     main.write_text(_EMBED)
     exe = tmp_path / "embed"

@@ -1,5 +1,5 @@
-"""The version-2 and version-3 payload stream of ``transform`` (:mod:`motionrep_transform._stream2`, the compiled coder in
-``_c/mrcoder.c``): lossless round trips of any integers the format holds, the same bytes every time and from
+"""The version-2 and version-3 payload stream of ``transform`` (:mod:`motionrep_transform._stream2`, the compiled
+coder in ``_c/mrcoder.c``): lossless round trips of any integers the format holds, the same bytes every time and from
 every thread, and hostile bytes refused with one ``PayloadError`` (never a crash, never a huge allocation)."""
 
 from __future__ import annotations
