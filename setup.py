@@ -34,15 +34,16 @@ setup(ext_modules=[
     Extension("motionrep._cplan", sources=["motionrep/_c/plan/plan.c", "motionrep/_c/plan/module.c"],
               include_dirs=INCLUDE + ["motionrep/_c/plan", numpy.get_include()], depends=["motionrep/_c/plan/plan.h"],
               extra_compile_args=FLAGS),
-    # the transform payload decoder: mrtransform.h/.c (no Python; an engine can embed it, with mrcoder.c for
-    # payload version 2) and its binding
+    # the transform payload decoder: mrtransform.h/.c (no Python; an engine can embed it, with mrcoder.c and
+    # mrprior3.h for payload versions 2 and 3) and its binding
     Extension("motionrep_transform._cdecode",
               sources=[f"{TRANSFORM}/mrtransform.c", f"{TRANSFORM}/mrcoder.c", f"{TRANSFORM}/module.c"],
-              include_dirs=INCLUDE + [TRANSFORM], depends=[f"{TRANSFORM}/mrtransform.h", f"{TRANSFORM}/mrcoder.h"],
+              include_dirs=INCLUDE + [TRANSFORM],
+              depends=[f"{TRANSFORM}/mrtransform.h", f"{TRANSFORM}/mrcoder.h", f"{TRANSFORM}/mrprior3.h"],
               extra_compile_args=FLAGS),
-    # the entropy coder of transform payloads of version 2 (integer arithmetic only), for encoding
+    # the entropy coder of transform payloads of versions 2 and 3 (integer arithmetic only), for encoding
     Extension("motionrep_transform._ccoder", sources=[f"{TRANSFORM}/ccoder.c", f"{TRANSFORM}/mrcoder.c"],
-              depends=[f"{TRANSFORM}/mrcoder.h"], extra_compile_args=FLAGS),
+              depends=[f"{TRANSFORM}/mrcoder.h", f"{TRANSFORM}/mrprior3.h"], extra_compile_args=FLAGS),
     # the svd codec's decoder
     Extension("motionrep_svd._csvd", sources=["plugins/motionrep_svd/_c/module.c"], include_dirs=INCLUDE,
               extra_compile_args=FLAGS),

@@ -18,8 +18,8 @@ Encoding (``specs/codecs.md`` has the full description):
    :mod:`._slack`, for a context without them); the same steps, so any decoder of the payload's version reads
    the result;
 6. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
-   (:mod:`._stream2`, payload version 2; version 1, static models and a range coder, :mod:`._stream`, is still
-   read).
+   (:mod:`._stream2`, payload version 3: version 2's coder with trained start states; version 2 and version 1,
+   static models and a range coder, :mod:`._stream`, are still read).
 
 Decoding (:mod:`._decoder`: :class:`TransformDecoder`, prepared once per payload) is the C library
 ``_c/mrtransform.h`` / ``.c``.  The encoder measures every candidate with that same decoder (:func:`reconstruct`),
@@ -237,15 +237,15 @@ class TransformCodec(Codec):
     """Error-bounded transform coding: CDF 9/7 wavelet over frames, steps from the features' FK sensitivity
     and a per-region envelope bisected to the bound, context-modelled range coding (``motionrep.plugin.coding``).
 
-    Payload (format version 2): ``data`` ``(n,)`` uint8, the stream of :mod:`._stream2` (version 1, the
-    range-coded stream of :mod:`._stream`, is still read).
+    Payload (format version 3): ``data`` ``(n,)`` uint8, the stream of :mod:`._stream2` (versions 2, the same
+    coder without trained start states, and 1, the range-coded stream of :mod:`._stream`, are still read).
     Info: ``{"bytes": n, "regions": R, "region_frames": region, "step": [smallest, largest]}`` (the position
     steps ``2 ** (k_r / 8)`` of the regions).
     """
 
     name = "transform"
-    format_version = 2
-    readable_versions = (1, 2)
+    format_version = 3
+    readable_versions = (1, 2, 3)
     description = "error-bounded wavelet coding with FK-sensitivity steps and a range coder (smallest files)"
     Params = TransformParams
 
@@ -374,7 +374,7 @@ class TransformCodec(Codec):
 
     @staticmethod
     def _payload(q: Quantised) -> Payload:
-        data = np.frombuffer(_stream2.pack(q), dtype=np.uint8).copy()
+        data = np.frombuffer(_stream2.pack(q, _stream2.VERSION), dtype=np.uint8).copy()
         steps = step_scale(q.region_exponents)
         info = {"bytes": int(data.size), "regions": int(q.region_exponents.size), "region_frames": q.region_frames,
                 "step": [float(np.min(steps)), float(np.max(steps))]}

@@ -7,6 +7,8 @@ The encoder measures its candidates with these same functions (:func:`reconstruc
 
 from __future__ import annotations
 
+from functools import partial
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -73,19 +75,26 @@ def interpolate_rows(rows: NDArray[np.float64], times: ArrayLike, out: NDArray[n
     return out
 
 
-#: The stream module of each payload format version (encoding; the head a payload declares).
-STREAMS = {1: _stream, 2: _stream2}
+def _adaptive(version: int) -> SimpleNamespace:
+    return SimpleNamespace(pack=partial(_stream2.pack, version=version),
+                           unpack=partial(_stream2.unpack, version=version),
+                           declared=partial(_stream2.declared, version=version))
+
+
+#: The stream of each payload format version: ``pack``, ``unpack``, ``declared`` (encoding; the head a payload
+#: declares). Versions 2 and 3 are :mod:`._stream2`'s (the adaptive coder, with or without trained start states).
+STREAMS = {1: _stream, 2: _adaptive(2), 3: _adaptive(3)}
 
 
 def unpack(data: bytes, version: int) -> Quantised:
-    """The quantised content of payload bytes of format ``version`` (1 or 2)."""
+    """The quantised content of payload bytes of format ``version`` (1, 2 or 3)."""
     return STREAMS[version].unpack(data)
 
 
 class TransformDecoder:
     """A payload prepared for decoding many times: its integers decoded and transformed back once by the C
     decoder, to the ``(F, D)`` features of its frames (:attr:`frames`, read-only); each call only samples them (the
-    values of :func:`interpolate_rows`).  ``version``: the payload's format (1 or 2; default the current one).
+    values of :func:`interpolate_rows`).  ``version``: the payload's format (1, 2 or 3; default the current one).
 
     Attributes:
         width, kernel, kernel_args: the sampler for the runtime decoder (``Codec.decoder``): ``kernel(times, out,
@@ -97,7 +106,7 @@ class TransformDecoder:
         PayloadError: for a damaged or inconsistent payload (when it is prepared).
     """
 
-    def __init__(self, payload: Payload, version: int = 2):
+    def __init__(self, payload: Payload, version: int = _stream2.VERSION):
         data = np.asarray(payload.arrays["data"])
         if data.dtype != np.uint8 or data.ndim != 1:
             raise PayloadError(f"transform payload: data must be a 1-D uint8 array, got {data.dtype} {data.shape}")

@@ -1,9 +1,11 @@
 /* motionrep_transform._ccoder: the thin Python binding of mrcoder.c (the entropy coder of transform payloads of
- * version 2). Arrays cross as buffers (numpy int64 arrays, C-contiguous); the GIL is released while coding.
+ * versions 2 and 3). Arrays cross as buffers (numpy int64 arrays, C-contiguous); the GIL is released while coding.
  *
  *   declared(data) -> (frames, features, region)     (the head only; decode checks they fit the bytes)
- *   encode(frames, features, region, fexp, rexp, coef) -> bytes
- *   decode(data, fexp, rexp, coef) -> None      (writes into the three writable int64 buffers)
+ *   encode(frames, features, region, fexp, rexp, coef, version) -> bytes
+ *   decode(data, fexp, rexp, coef, version) -> None      (writes into the three writable int64 buffers)
+ *   states(frames, features, region, fexp, rexp, coef) -> bytes   (mrc_states: MRC_STATES int16 stretches, then
+ *                                                                  MRC_STATES uint16 counts, native order)
  *
  * Errors: ValueError with mrcoder's one-line text (the Python side turns it into a PayloadError).
  */
@@ -60,8 +62,10 @@ static PyObject *py_encode(PyObject *self, PyObject *args) {
     long long F, D, region;
     PyObject *fo, *ro, *co;
     (void)self;
-    if (!PyArg_ParseTuple(args, "LLLOOO", &F, &D, &region, &fo, &ro, &co)) return NULL;
-    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
+    int version;
+    if (!PyArg_ParseTuple(args, "LLLOOOi", &F, &D, &region, &fo, &ro, &co, &version)) return NULL;
+    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION ||
+        (version != 2 && version != 3))
         return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(MRC_E_ARGUMENT));
     PyObject *const objs[3] = {fo, ro, co};
     Py_buffer v[3];
@@ -70,8 +74,8 @@ static PyObject *py_encode(PyObject *self, PyObject *args) {
     size_t n = 0;
     int e;
     Py_BEGIN_ALLOW_THREADS
-    e = mrc_encode(F, D, region, (const int64_t *)v[0].buf, (const int64_t *)v[1].buf, (const int64_t *)v[2].buf,
-                   &out, &n);
+    e = mrc_encode_version(version, F, D, region, (const int64_t *)v[0].buf, (const int64_t *)v[1].buf,
+                           (const int64_t *)v[2].buf, &out, &n);
     Py_END_ALLOW_THREADS
     release_arrays(v);
     if (e) {
@@ -87,9 +91,11 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
     Py_buffer data;
     PyObject *fo, *ro, *co;
     (void)self;
-    if (!PyArg_ParseTuple(args, "y*OOO", &data, &fo, &ro, &co)) return NULL;
+    int version;
+    if (!PyArg_ParseTuple(args, "y*OOOi", &data, &fo, &ro, &co, &version)) return NULL;
     int64_t F, D, region;
-    int e = mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region);
+    int e = (version == 2 || version == 3) ? mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region)
+                                           : MRC_E_ARGUMENT;
     if (!e && !mrc_fits(F, D, region, (size_t)data.len)) e = MRC_E_TOO_MANY;
     if (e) {
         PyBuffer_Release(&data);
@@ -102,8 +108,8 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    e = mrc_decode((const uint8_t *)data.buf, (size_t)data.len, (int64_t *)v[0].buf, (int64_t *)v[1].buf,
-                   (int64_t *)v[2].buf);
+    e = mrc_decode_version(version, (const uint8_t *)data.buf, (size_t)data.len, (int64_t *)v[0].buf,
+                           (int64_t *)v[1].buf, (int64_t *)v[2].buf, 0);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&data);
     release_arrays(v);
@@ -114,17 +120,51 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+static PyObject *py_states(PyObject *self, PyObject *args) {
+    long long F, D, region;
+    PyObject *fo, *ro, *co;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "LLLOOO", &F, &D, &region, &fo, &ro, &co)) return NULL;
+    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(MRC_E_ARGUMENT));
+    PyObject *const objs[3] = {fo, ro, co};
+    Py_buffer v[3];
+    if (get_arrays(objs, v, F, D, region, 0) < 0) return NULL;
+    PyObject *result = PyBytes_FromStringAndSize(NULL, (Py_ssize_t)(MRC_STATES * 4));
+    if (!result) {
+        release_arrays(v);
+        return NULL;
+    }
+    char *buf = PyBytes_AS_STRING(result);
+    int e;
+    Py_BEGIN_ALLOW_THREADS
+    e = mrc_states(F, D, region, (const int64_t *)v[0].buf, (const int64_t *)v[1].buf, (const int64_t *)v[2].buf,
+                   (int16_t *)buf, (uint16_t *)(buf + 2 * MRC_STATES));
+    Py_END_ALLOW_THREADS
+    release_arrays(v);
+    if (e) {
+        Py_DECREF(result);
+        if (e == MRC_E_MEMORY) return PyErr_NoMemory();
+        return PyErr_Format(PyExc_ValueError, "%s", mrc_error_text(e));
+    }
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"declared", py_declared, METH_VARARGS, "declared(data) -> (frames, features, region): the payload's head."},
     {"encode", py_encode, METH_VARARGS,
-     "encode(frames, features, region, fexp, rexp, coef) -> bytes: the version-2 payload of int64 arrays."},
+     "encode(frames, features, region, fexp, rexp, coef, version) -> bytes: the payload (version 2 or 3) of int64 "
+     "arrays."},
     {"decode", py_decode, METH_VARARGS,
-     "decode(data, fexp, rexp, coef): decode a version-2 payload into writable int64 arrays of the declared "
-     "sizes."},
+     "decode(data, fexp, rexp, coef, version): decode a payload (version 2 or 3) into writable int64 arrays of the "
+     "declared sizes."},
+    {"states", py_states, METH_VARARGS,
+     "states(frames, features, region, fexp, rexp, coef) -> bytes: the final fixed-counter states of version 2's "
+     "models (int16 stretches, then uint16 counts; for benchmarks/prior3.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ccoder",
-                                    "The entropy coder of transform payloads of version 2 (C).", -1, methods,
+                                    "The entropy coder of transform payloads of versions 2 and 3 (C).", -1, methods,
                                     NULL, NULL, NULL, NULL};
 
 PyMODINIT_FUNC PyInit__ccoder(void) { return PyModule_Create(&module); }

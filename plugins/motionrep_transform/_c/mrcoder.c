@@ -1,4 +1,5 @@
-/* The entropy coder of `transform` payloads of version 2 (mrcoder.h; specs/codecs.md, "Payload version 2").
+/* The entropy coder of `transform` payloads of versions 2 and 3 (mrcoder.h; specs/codecs.md, "Payload version 2"
+ * and "Payload version 3": version 3 is version 2 with its fixed counters starting from trained states, mrprior3.h).
  *
  * A binary arithmetic coder (the carry-less range coder of LZMA: 32-bit range, bytes out with carry
  * propagation) codes every decision with a 12-bit probability. Probabilities come from adaptive counters
@@ -9,6 +10,7 @@
  * leaves to the implementation.
  */
 #include "mrcoder.h"
+#include "mrprior3.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -283,6 +285,11 @@ MRC_INLINE int dec_bit(Dec *d, int p12) {
 /* ------------------------------------------------------------------------------------------------------- */
 
 typedef struct {
+    int16_t *stretch; /* FIXED_COUNT each */
+    uint16_t *count;
+} MrcStates;
+
+typedef struct {
     Enc *enc;
     Dec d;           /* the decoder's state, by value: code_body works on a local copy the compiler keeps in registers */
     const Tables *t;
@@ -475,14 +482,51 @@ typedef struct {
 
 /* (The per-feature contexts (level, feature modulo FEAT) are stored for the features a clip has only: the same
  * contexts, fewer counters to set up.) */
-static int models_init(Models *m, int64_t D) {
-    counters_init(&m->gen[0][0], sizeof m->gen / sizeof(Counter));
-    counters_init(m->z0, C0);
-    counters_init(m->z1, C1);
-    counters_init(m->s0, SIGNS);
-    counters_init(m->m0, C0 * MAGS);
-    counters_init(m->m1, C1 * MAGS);
-    counters_init(m->mant, 64 * 2);
+/* The fixed counters of Models in one order (the order of mrprior3.h's table): gen, z0, z1, s0, m0, m1, mant. */
+#define FIXED_COUNT (5 * G_SIZE + C0 + C1 + SIGNS + C0 * MAGS + C1 * MAGS + 64 * 2)
+
+typedef struct {
+    Counter *at;
+    int count;
+} Span;
+
+static void fixed_spans(Models *m, Span s[7]) {
+    s[0].at = &m->gen[0][0];
+    s[0].count = 5 * G_SIZE;
+    s[1].at = m->z0;
+    s[1].count = C0;
+    s[2].at = m->z1;
+    s[2].count = C1;
+    s[3].at = m->s0;
+    s[3].count = SIGNS;
+    s[4].at = m->m0;
+    s[4].count = C0 * MAGS;
+    s[5].at = m->m1;
+    s[5].count = C1 * MAGS;
+    s[6].at = m->mant;
+    s[6].count = 64 * 2;
+}
+
+/* the fixed counters' start: version 2's (P(1) = 1/2, no update seen) or version 3's (mrprior3.h: for each
+ * counter its P(1) in 1/65536 and its count of updates seen, 0 where it keeps version 2's start) */
+static void fixed_init(Models *m, int version) {
+    Span s[7];
+    fixed_spans(m, s);
+    int idx = 0;
+    for (int a = 0; a < 7; a++) {
+        if (version < 3) {
+            counters_init(s[a].at, (size_t)s[a].count);
+            continue;
+        }
+        for (int i = 0; i < s[a].count; i++, idx++) {
+            s[a].at[i].p = MRC_PRIOR3[idx][0];
+            s[a].at[i].n = MRC_PRIOR3[idx][1];
+        }
+    }
+}
+
+static int models_init(Models *m, int64_t D, int version) {
+    fixed_init(m, version);
     m->feat = D < FEAT ? D : FEAT;
     size_t c2 = (size_t)(LEVELS * m->feat), n2 = c2 * (1 + 1 + MAGS);
     Counter *all = (Counter *)malloc(n2 * sizeof(Counter));
@@ -495,6 +539,8 @@ static int models_init(Models *m, int64_t D) {
 }
 
 static void models_free(Models *m) { free(m->z2); }
+
+typedef char fixed_count_matches_table[(FIXED_COUNT == MRC_PRIOR3_SIZE && FIXED_COUNT == MRC_STATES) ? 1 : -1];
 
 enum { GEN_ACTIVE = 0, GEN_FEXP = 1, GEN_REXP = 2, GEN_FIRST = 3, GEN_DIFF = 4 };
 
@@ -620,12 +666,12 @@ MRC_INLINE int code_exponents(const int dec, Coder *c, Counter *set, int64_t *va
 
 /* The body in both directions. Arrays: fexp (D), rexp (R), coef (F x D); on decoding they are written. */
 MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp,
-                         int64_t *coef, int64_t rs, int64_t cs) {
+                         int64_t *coef, int64_t rs, int64_t cs, int version, MrcStates *states) {
     Coder local = *c; /* a copy whose address does not escape: its fields stay in registers */
     Coder *outer = c;
     c = &local;
     Models m;
-    int e = models_init(&m, D);
+    int e = models_init(&m, D, version);
     if (e) return e;
     uint8_t *active = (uint8_t *)calloc((size_t)D, 1);
     if (!active) {
@@ -689,26 +735,61 @@ MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t 
     }
     memcpy(c->mix->w[0], wzero, sizeof wzero);
     *outer = local;
+    if (states && !e) { /* the final states of the fixed counters (mrc_states) */
+        Span sp[7];
+        fixed_spans(&m, sp);
+        int idx = 0;
+        for (int a = 0; a < 7; a++)
+            for (int i = 0; i < sp[a].count; i++, idx++) {
+                states->stretch[idx] = c->t->stretch[counter_p12(&sp[a].at[i])];
+                states->count[idx] = sp[a].at[i].n;
+            }
+    }
     free(active);
     models_free(&m);
     return e;
 }
 
 /* the body's two directions, each its own compiled copy */
-static int code_body_enc(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef) {
-    return code_body(0, c, F, D, R, fexp, rexp, coef, D, 1);
+static int code_body_enc(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                         int version, MrcStates *states) {
+    return code_body(0, c, F, D, R, fexp, rexp, coef, D, 1, version, states);
 }
 
 static int code_body_dec(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef,
-                         int64_t rs, int64_t cs) {
-    return code_body(1, c, F, D, R, fexp, rexp, coef, rs, cs);
+                         int64_t rs, int64_t cs, int version) {
+    return code_body(1, c, F, D, R, fexp, rexp, coef, rs, cs, version, NULL);
 }
 
 int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
                const int64_t *coef, uint8_t **out, size_t *out_len) {
+    return mrc_encode_version(2, F, D, region, fexp, rexp, coef, out, out_len);
+}
+
+static int encode_states(int version, int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
+                         const int64_t *coef, uint8_t **out, size_t *out_len, MrcStates *states);
+
+int mrc_encode_version(int version, int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
+                       const int64_t *coef, uint8_t **out, size_t *out_len) {
+    return encode_states(version, F, D, region, fexp, rexp, coef, out, out_len, NULL);
+}
+
+int mrc_states(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp, const int64_t *coef,
+               int16_t *stretch, uint16_t *count) {
+    MrcStates states = {stretch, count};
+    uint8_t *out = NULL;
+    size_t len = 0;
+    int e = encode_states(2, F, D, region, fexp, rexp, coef, &out, &len, &states);
+    free(out);
+    return e;
+}
+
+static int encode_states(int version, int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
+                         const int64_t *coef, uint8_t **out, size_t *out_len, MrcStates *states) {
     *out = NULL;
     *out_len = 0;
-    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION)
+    if (F < 1 || F > MRC_MAX_FRAMES || D < 1 || D > MRC_MAX_FEATURES || region < 1 || region > MRC_MAX_REGION ||
+        (version != 2 && version != 3))
         return MRC_E_ARGUMENT;
     int64_t R = count_regions(F, region);
     for (int64_t d = 0; d < D; d++)
@@ -738,7 +819,7 @@ int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const 
         c.t = t;
         c.mix = &mix;
         mixer_init(&mix);
-        e = code_body_enc(&c, F, D, R, fx, rx, work);
+        e = code_body_enc(&c, F, D, R, fx, rx, work, version, states);
         if (!e) enc_finish(&enc);
         if (!e && enc.err) e = enc.err;
     }
@@ -773,11 +854,17 @@ int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const 
 }
 
 int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef) {
-    return mrc_decode_layout(data, len, fexp, rexp, coef, 0);
+    return mrc_decode_version(2, data, len, fexp, rexp, coef, 0);
 }
 
 int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
                       int feature_major) {
+    return mrc_decode_version(2, data, len, fexp, rexp, coef, feature_major);
+}
+
+int mrc_decode_version(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                       int feature_major) {
+    if (version != 2 && version != 3) return MRC_E_ARGUMENT;
     int64_t F, D, region;
     size_t body;
     int e = head(data, len, &F, &D, &region, &body);
@@ -794,7 +881,7 @@ int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *r
     c.mix = &mix;
     mixer_init(&mix);
     e = code_body_dec(&c, F, D, count_regions(F, region), fexp, rexp, coef, feature_major ? 1 : D,
-                      feature_major ? F : 1);
+                      feature_major ? F : 1, version);
     free(t);
     if (e) return e;
     /* the decoder reads as many bytes as the encoder wrote, of which at most the last 5 (the ending) are

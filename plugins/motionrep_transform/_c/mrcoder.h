@@ -1,5 +1,6 @@
-/* The entropy coder of `transform` payloads of version 2: an adaptive binary arithmetic coder with context
- * mixing over the quantised wavelet coefficients of a clip (specs/codecs.md, "Payload version 2").
+/* The entropy coder of `transform` payloads of versions 2 and 3: an adaptive binary arithmetic coder with context
+ * mixing over the quantised wavelet coefficients of a clip (specs/codecs.md, "Payload version 2"; version 3 is the
+ * same coder whose fixed-context counters start from trained states, "Payload version 3").
  *
  * Plain C99, no Python, integer arithmetic only (the same bytes on every CPU and compiler that follows the C
  * standard's integer rules). Every count and range read from a payload is checked before it is used; a damaged
@@ -62,6 +63,20 @@ int mrc_decode(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, in
  * after the other in storage order, as mrtransform's in-place synthesis takes them), else row-major (mrc_decode). */
 int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
                       int feature_major);
+
+/* The same three for a payload `version` 2 or 3 (the functions above are version 2; the head and the limits are
+ * the same in both; MRC_E_ARGUMENT for another version). */
+int mrc_encode_version(int version, int64_t frames, int64_t features, int64_t region, const int64_t *fexp,
+                       const int64_t *rexp, const int64_t *coef, uint8_t **out, size_t *out_len);
+int mrc_decode_version(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                       int feature_major);
+
+/* For the generator of mrprior3.h (benchmarks/prior3.py) only: code these integers as version 2 does and give the
+ * final state of each fixed-context counter (MRC_STATES of them, in mrprior3.h's order): its probability in
+ * stretch units and its update count (capped at 63). Returns an error code. */
+#define MRC_STATES 6683
+int mrc_states(int64_t frames, int64_t features, int64_t region, const int64_t *fexp, const int64_t *rexp,
+               const int64_t *coef, int16_t *stretch, uint16_t *count);
 
 #ifdef __cplusplus
 }

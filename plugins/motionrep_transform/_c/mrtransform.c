@@ -1,5 +1,5 @@
 /* mrtransform: the `transform` payload decoder (see mrtransform.h; the format is specs/codecs.md, "## `transform`",
- * and specs/coding.md for version 1's integer coding; version 2's integers are mrcoder.c's).  Standard C99 and
+ * and specs/coding.md for version 1's integer coding; versions 2 and 3's integers are mrcoder.c's).  Standard C99 and
  * libm's floor, ceil and ldexp (exact operations), nothing else. */
 #include "mrtransform.h"
 
@@ -358,11 +358,11 @@ int mrt_declared(const uint8_t *data, size_t size, int version, uint64_t *frames
 {
     mrt_range_decoder rd;
     ok(st);
-    if (version == 2) {
+    if (version == 2 || version == 3) {
         int64_t F, D, region;
         int e = mrc_declared(data, size, &F, &D, &region);
         if (e)
-            return fail(st, MRT_DAMAGED, "transform payload (version 2): %s", mrc_error_text(e));
+            return fail(st, MRT_DAMAGED, "transform payload (version %d): %s", version, mrc_error_text(e));
         *frames = (uint64_t)F;
         *features = (uint64_t)D;
         *region_frames = (uint64_t)region;
@@ -624,39 +624,41 @@ static int finish(const mrt_range_decoder *rd, mrt_status *st)
     return MRT_OK;
 }
 
-/* A version-2 payload: its integers decoded by mrcoder.c (the adaptive coder of specs/codecs.md, "Payload version
- * 2"), after its counts are checked against its bytes: row-major into q (q->coefficients), or, with `feature_major`
+/* A version-2 or version-3 payload: its integers decoded by mrcoder.c (the adaptive coder of specs/codecs.md,
+ * "Payload version 2" and "Payload version 3"), after its counts are checked against its bytes: row-major into q
+ * (q->coefficients), or, with `feature_major`
  * (mrt_decode), feature-major into a buffer of F x D int64 allocated here (*buffer, which mrt_decode dequantises and
  * transforms back in place, as version 1's). */
-static int unpack_v2(const uint8_t *data, size_t size, mrt_quantised *q, int64_t **buffer, mrt_status *st)
+static int unpack_v2(const uint8_t *data, size_t size, int version, mrt_quantised *q, int64_t **buffer,
+                     mrt_status *st)
 {
     uint64_t F = 0, D = 0, region = 0;
-    if (mrt_declared(data, size, 2, &F, &D, &region, st))
+    if (mrt_declared(data, size, version, &F, &D, &region, st))
         return st->code;
     uint64_t regions = (F + region - 1) / region;
     if (F * D + D + regions > (uint64_t)MRC_VALUES_PER_BYTE * size)  /* before anything is allocated */
-        return fail(st, MRT_DAMAGED, "transform payload (version 2): %llu frames x %llu features cannot be held in %zu "
-                    "bytes (damaged data)", (unsigned long long)F, (unsigned long long)D, size);
+        return fail(st, MRT_DAMAGED, "transform payload (version %d): %llu frames x %llu features cannot be held in "
+                    "%zu bytes (damaged data)", version, (unsigned long long)F, (unsigned long long)D, size);
     if (head_into(q, F, D, region, !buffer, st))
         return st->code;
     if (buffer && !(*buffer = malloc(F * D * sizeof(int64_t))))
         return fail(st, MRT_NO_MEMORY, "out of memory");
-    int e = mrc_decode_layout(data, size, q->feature_exponents, q->region_exponents,
-                              buffer ? *buffer : q->coefficients, buffer != NULL);
+    int e = mrc_decode_version(version, data, size, q->feature_exponents, q->region_exponents,
+                               buffer ? *buffer : q->coefficients, buffer != NULL);
     if (e == MRC_E_MEMORY)
         return fail(st, MRT_NO_MEMORY, "out of memory");
     if (e)
-        return fail(st, MRT_DAMAGED, "transform payload (version 2): %s", mrc_error_text(e));
+        return fail(st, MRT_DAMAGED, "transform payload (version %d): %s", version, mrc_error_text(e));
     return MRT_OK;
 }
 
 int mrt_unpack(const uint8_t *data, size_t size, int version, mrt_quantised *q, mrt_status *st)
 {
     mrt_range_decoder rd;
-    if (version == 2) {
+    if (version == 2 || version == 3) {
         memset(q, 0, sizeof *q);
         ok(st);
-        return unpack_v2(data, size, q, NULL, st);
+        return unpack_v2(data, size, version, q, NULL, st);
     }
     if (begin(data, size, version, &rd, q, st))
         return st->code;
@@ -899,17 +901,18 @@ int mrt_reconstruct(const mrt_quantised *q, mrt_frames *out, mrt_status *st)
 
 int mrt_decode(const uint8_t *data, size_t size, int version, mrt_frames *out, mrt_status *st)
 {
-    /* one buffer: the coefficients decoded feature-major into it (version 1 parsed here, version 2 by mrcoder.c),
+    /* one buffer: the coefficients decoded feature-major into it (version 1 parsed here, versions 2 and 3 by
+     * mrcoder.c),
      * then dequantised and transformed back in place */
     mrt_range_decoder rd;
     mrt_quantised q;
     memset(out, 0, sizeof *out);
     int64_t *buffer = NULL;
     int code;
-    if (version == 2) {
+    if (version == 2 || version == 3) {
         memset(&q, 0, sizeof q);
         ok(st);
-        code = unpack_v2(data, size, &q, &buffer, st);
+        code = unpack_v2(data, size, version, &q, &buffer, st);
     } else {
         code = begin(data, size, version, &rd, &q, st);
         if (!code && !(buffer = malloc(q.frames * q.features * sizeof(int64_t))))

@@ -19,8 +19,8 @@
  * messages motionrep's Python decoder gave (mrt_status.message), never in a crash.
  *
  * Versions: `version` is the payload's format version: 1 (static models stored in the payload, a range coder:
- * parsed here) or 2 (an adaptive binary coder with context mixing: its integers decoded by mrcoder.c, which an
- * engine builds beside this file).  A version has its own integer decoder (mrt_unpack) and shares the rest
+ * parsed here), 2 (an adaptive binary coder with context mixing: its integers decoded by mrcoder.c, which an
+ * engine builds beside this file) or 3 (version 2's coder with trained starting states, mrcoder.c and mrprior3.h).  A version has its own integer decoder (mrt_unpack) and shares the rest
  * (dequantisation, wavelet, sampling).
  */
 #ifndef MRTRANSFORM_H
@@ -33,7 +33,7 @@
 extern "C" {
 #endif
 
-#define MRT_MAX_VERSION 2
+#define MRT_MAX_VERSION 3
 #define MRT_MAX_LEVELS 20
 #define MRT_MAX_EXPONENT 32767  /* largest magnitude of a step exponent (steps are 2 ** (exponent / 8)) */
 #define MRT_MAX_ZERO 208        /* largest zero index of a stored model */

@@ -25,6 +25,7 @@ from motionrep.model.synthetic import chain_skeleton, humanoid_skeleton, synthet
 from motionrep.pipeline.compress import compress_motion
 from motionrep.plugin.coding import MAX_MAGNITUDE, IntegerDecoder, IntegerEncoder, Model
 from motionrep_transform import _cdecode
+from motionrep_transform._decoder import STREAMS
 from motionrep_transform._stream import unpack
 
 HERE = Path(__file__).resolve().parent
@@ -108,7 +109,7 @@ def test_integer_coding_is_constrictions_on_random_models_and_streams():
 
 
 def _payloads(version: int = 1) -> list[bytes]:
-    """Payloads of synthetic clips in format ``version``: the encoder's integers (it writes version 2), packed as
+    """Payloads of synthetic clips in format ``version``: the encoder's integers (it writes version 3), packed as
     that version."""
     from motionrep_transform import _stream, _stream2
 
@@ -118,7 +119,8 @@ def _payloads(version: int = 1) -> list[bytes]:
              (chain_skeleton(4), 5, "2%", "euler")]
     written = [compress_motion(synthetic_motion(s, frames=f, seed=i), "transform", representation=r,
                                max_error=b).container.arrays["data"].tobytes() for i, (s, f, b, r) in enumerate(cases)]
-    return written if version == 2 else [_stream.pack(_stream2.unpack(data)) for data in written]
+    qs = [_stream2.unpack(data, 3) for data in written]
+    return [_stream.pack(q) if version == 1 else _stream2.pack(q, version) for q in qs]
 
 
 @pytest.fixture(scope="module")
@@ -131,11 +133,17 @@ def payloads_v2():
     return _payloads(2)
 
 
-def _reference_v2(data: bytes) -> np.ndarray:
-    """Version 2 as main decoded it: mrcoder's integers (``_stream2.unpack``), then the numpy reconstruction."""
+@pytest.fixture(scope="module")
+def payloads_v3():
+    return _payloads(3)
+
+
+def _reference_v2(data: bytes, version: int = 2) -> np.ndarray:
+    """Version 2 (or 3) as main decoded it: mrcoder's integers (``_stream2.unpack``), then the numpy
+    reconstruction."""
     from motionrep_transform import _stream2
 
-    return reference.reconstruct(_stream2.unpack(data))
+    return reference.reconstruct(_stream2.unpack(data, version))
 
 
 def _c_frames(data: bytes) -> tuple[np.ndarray]:
@@ -160,16 +168,18 @@ def test_valid_payloads_decode_to_the_python_decoders_bits(payloads):
         assert _same(_outcome(_reference_quantised, data), _outcome(_c_quantised, data))
 
 
-def test_version_2_payloads_decode_to_the_numpy_reconstructions_bits(payloads_v2):
-    """Version 2's integers are mrcoder.c's in both decoders; dequantisation and the inverse wavelet are the C
-    library's here, numpy's in the decoder it replaced: the same bits, valid or damaged (the same messages)."""
+@pytest.mark.parametrize("version", [2, 3])
+def test_version_2_and_3_payloads_decode_to_the_numpy_reconstructions_bits(payloads_v2, payloads_v3, version):
+    """Version 2's and 3's integers are mrcoder.c's in both decoders; dequantisation and the inverse wavelet are
+    the C library's here, numpy's in the decoder it replaced: the same bits, valid or damaged (the same messages)."""
     rng = random.Random(2)
-    for data in payloads_v2:
-        assert np.asarray(_cdecode.decode(data, 2)).T.tobytes() == _reference_v2(data).tobytes()
+    payloads = payloads_v2 if version == 2 else payloads_v3
+    for data in payloads:
+        assert np.asarray(_cdecode.decode(data, version)).T.tobytes() == _reference_v2(data, version).tobytes()
     for i in range(400):
-        bad = mutate_bytes(payloads_v2[i % len(payloads_v2)], rng)
-        assert _same(_outcome(lambda d: (_reference_v2(d),), bad),
-                     _outcome(lambda d: (np.asarray(_cdecode.decode(d, 2)).T,), bad)), i
+        bad = mutate_bytes(payloads[i % len(payloads)], rng)
+        assert _same(_outcome(lambda d: (_reference_v2(d, version),), bad),
+                     _outcome(lambda d: (np.asarray(_cdecode.decode(d, version)).T,), bad)), i
 
 
 def test_damaged_payloads_give_the_python_decoders_values_or_errors(payloads):
@@ -256,10 +266,10 @@ int main(int argc, char **argv) {
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
-def test_the_library_builds_and_decodes_alone_without_python(payloads, payloads_v2, tmp_path):
-    """mrtransform.c (with mrcoder.c for version 2) is plain C99 with the standard library and libm: an engine
-    builds it with its own compiler (no Python headers, no motionrep headers) and gets the same values as
-    motionrep, and the same one-line errors."""
+def test_the_library_builds_and_decodes_alone_without_python(payloads, payloads_v2, payloads_v3, tmp_path):
+    """mrtransform.c (with mrcoder.c and mrprior3.h for versions 2 and 3) is plain C99 with the standard library
+    and libm: an engine builds it with its own compiler (no Python headers, no motionrep headers) and gets the same
+    values as motionrep, and the same one-line errors."""
     main = tmp_path / "embed.c"
     main.write_text(_EMBED)
     exe = tmp_path / "embed"
@@ -267,7 +277,7 @@ def test_the_library_builds_and_decodes_alone_without_python(payloads, payloads_
                     f"-I{C_DIR}", str(main), str(C_DIR / "mrtransform.c"), str(C_DIR / "mrcoder.c"), "-o", str(exe),
                     "-lm"], check=True)
     payload = tmp_path / "payload.bin"
-    for version, data in ((1, payloads[0]), (2, payloads_v2[0])):
+    for version, data in ((1, payloads[0]), (2, payloads_v2[0]), (3, payloads_v3[0])):
         payload.write_bytes(data)
         done = subprocess.run([str(exe), str(payload), str(version)], capture_output=True, check=True)
         decoder = _cdecode.decode(data, version)
@@ -291,8 +301,8 @@ REAL_CLIPS = ["cmu/bvh11/131_01.bvh", "cmu/bvh-matlab/walk.bvh", "other/bandai_n
 @pytest.mark.realdata
 @pytest.mark.parametrize("rel", REAL_CLIPS)
 def test_real_clips_decode_to_the_python_decoders_bits_within_their_bound(rel):
-    """Real clips coded at 2 %: the C decoder gives the frames of the decoders it replaced bit for bit (version 2,
-    and the same integers as version 1), and the file decodes within the bound it stores.  (Every real clip, transform and svd, decodes to main's numba decoders' bits:
+    """Real clips coded at 2 %: the C decoder gives the frames of the decoders it replaced bit for bit (version 3,
+    and the same integers as versions 2 and 1), and the file decodes within the bound it stores.  (Every real clip, transform and svd, decodes to main's numba decoders' bits:
     benchmarks/results/c_decode.md.)"""
     from motionrep.io import read
     from motionrep.io.container import unpack as unpack_container
@@ -303,9 +313,11 @@ def test_real_clips_decode_to_the_python_decoders_bits_within_their_bound(rel):
 
     motion = read(SHARED_DATA / rel)
     result = compress_motion(motion, "transform", max_error="2%")
-    data = result.container.arrays["data"].tobytes()  # version 2
-    assert np.asarray(_cdecode.decode(data, 2)).T.tobytes() == _reference_v2(data).tobytes()
-    v1 = _stream.pack(unpack(data, 2))  # the same integers as version 1
+    data = result.container.arrays["data"].tobytes()  # version 3
+    assert np.asarray(_cdecode.decode(data, 3)).T.tobytes() == _reference_v2(data, 3).tobytes()
+    v2 = STREAMS[2].pack(unpack(data, 3))  # the same integers as version 2: the same frames
+    assert np.asarray(_cdecode.decode(v2, 2)).T.tobytes() == np.asarray(_cdecode.decode(data, 3)).T.tobytes()
+    v1 = _stream.pack(unpack(data, 3))  # the same integers as version 1
     assert np.asarray(_cdecode.decode(v1, 1)).T.tobytes() == reference.decode_frames(v1).tobytes()
     decoded = decompress(unpack_container(result.data))
     assert max_joint_error(motion, decoded).max_error_percent <= 2.0

@@ -1,5 +1,5 @@
-"""The version-2 payload stream of ``transform`` (:mod:`motionrep_transform._stream2`, the compiled coder in
-``_c/mrcoder.c``): lossless round trips of any integers the format holds, the same bytes every time and from
+"""The version-2 and version-3 payload stream of ``transform`` (:mod:`motionrep_transform._stream2`, the compiled
+coder in ``_c/mrcoder.c``): lossless round trips of any integers the format holds, the same bytes every time and from
 every thread, and hostile bytes refused with one ``PayloadError`` (never a crash, never a huge allocation)."""
 
 from __future__ import annotations
@@ -47,11 +47,22 @@ def assert_same(a: Quantised, b: Quantised) -> None:
 
 @pytest.mark.parametrize("frames,features,region", [(1, 1, 4), (3, 2, 4), (4, 1, 16), (5, 7, 4), (24, 3, 16),
                                                      (100, 13, 16), (257, 40, 7), (1000, 5, 65536)])
-def test_round_trip(frames, features, region):
+@pytest.mark.parametrize("version", [2, 3])
+def test_round_trip(frames, features, region, version):
     q = quantised(frames, features, region, seed=frames, constant=(0,) if features > 2 else ())
-    data = _stream2.pack(q)
-    assert _stream2.declared(data) == (frames, features, region)
-    assert_same(q, _stream2.unpack(data))
+    data = _stream2.pack(q, version)
+    assert _stream2.declared(data, version) == (frames, features, region)
+    assert_same(q, _stream2.unpack(data, version))
+
+
+def test_version_3_is_the_default_and_other_versions_are_refused():
+    q = quantised(257, 40, 7, seed=3)
+    assert _stream2.pack(q) == _stream2.pack(q, 3) != _stream2.pack(q, 2)
+    for version in (1, 4):
+        with pytest.raises(ValueError, match="version"):
+            _stream2.pack(q, version)
+        with pytest.raises(ValueError, match="version"):
+            _stream2.unpack(_stream2.pack(q), version)
 
 
 def test_extreme_values_round_trip():

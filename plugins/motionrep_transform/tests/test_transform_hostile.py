@@ -11,7 +11,8 @@ import pytest
 
 from motionrep.model.synthetic import synthetic_motion
 from motionrep.pipeline.compress import Pipeline
-from motionrep_transform import _stream, _stream2
+from motionrep_transform import _stream2
+from motionrep_transform._decoder import STREAMS
 
 from helpers import refused_mrc
 
@@ -21,9 +22,9 @@ def transform():
     return Pipeline.build("transform").compress(synthetic_motion(frames=60)).container
 
 
-@pytest.mark.parametrize("version", [1, 2])
+@pytest.mark.parametrize("version", [1, 2, 3])
 def test_transform_step_that_overflows_is_one_error_without_warnings(transform, version):
-    stream = _stream2 if version == 2 else _stream
+    stream = STREAMS[version]
     q = _stream2.unpack(np.asarray(transform.arrays["data"]).tobytes())
     q = dataclasses.replace(q, region_exponents=np.full_like(q.region_exponents, 32_000))
     bad = dataclasses.replace(transform, arrays={"data": np.frombuffer(stream.pack(q), np.uint8)},
