@@ -149,3 +149,16 @@ def representation_alone(monkeypatch, plugin: str, name: str):
 def mutant(obj, **methods):
     """An instance of a subclass of ``obj``'s class with ``methods`` replaced: a broken plugin for a check to catch."""
     return type("Mutant", (type(obj),), methods)()
+
+
+def without(obj, name: str):
+    """A stand-in for ``obj`` that lacks its attribute ``name`` (``hasattr`` is False) and forwards every other
+    attribute: e.g. a codec's context without one of its capabilities, as a third party's may be."""
+
+    class Without:
+        def __getattr__(self, attribute):
+            if attribute == name:
+                raise AttributeError(attribute)
+            return getattr(obj, attribute)
+
+    return Without()

@@ -13,6 +13,8 @@ from motionrep_transform._greedy import _ranges, synthesis
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import inverse, level_sizes, num_levels
 
+from helpers import without
+
 
 @pytest.mark.parametrize("frames", [1, 3, 4, 9, 33, 64, 65, 130, 517])
 def test_synthesis_functions_are_the_inverse_wavelet_of_each_coefficient(frames):
@@ -62,17 +64,6 @@ def test_each_pass_moves_a_coefficient_at_most_one_step_and_keeps_the_bound(walk
 def test_a_context_without_feature_edits_spends_the_slack_by_thresholds(walk):
     """A context without ``feature_edits`` (a third party's, or a representation without a pose plan) gets the
     threshold search of ``_slack``: at most one step per round, two rounds."""
-
-    class NoEdits:
-        def __init__(self, inner):
-            self._inner = inner
-            self.params, self.bound, self.seed, self.times = inner.params, inner.bound, inner.seed, inner.times
-
-        def __getattr__(self, name):
-            if name == "feature_edits":
-                raise AttributeError(name)
-            return getattr(self._inner, name)
-
     codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
     bound = 0.01 * 170.0
     f, w = rep.to_features(walk), rep.weights(walk)
@@ -80,7 +71,7 @@ def test_a_context_without_feature_edits_spends_the_slack_by_thresholds(walk):
     def encode(slack, wrap):
         params = codec.parse_params({} if slack is None else {"slack": slack})
         ctx = MotionContext(walk, rep, codec, params, bound, 0, None)
-        return unpack(codec.encode(f, w, NoEdits(ctx) if wrap else ctx).arrays["data"].tobytes())
+        return unpack(codec.encode(f, w, without(ctx, "feature_edits") if wrap else ctx).arrays["data"].tobytes())
 
     kept, thresholds, exact = encode(0, True), encode(3, True), encode(3, False)
     moved = [np.abs(x - y) for x, y in zip(kept.coefficients[1:], thresholds.coefficients[1:])]

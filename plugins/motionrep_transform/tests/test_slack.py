@@ -18,6 +18,8 @@ from motionrep_transform._stream import _fit
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, num_levels
 
+from helpers import without
+
 
 def test_code_lengths_are_the_models_costs():
     model = Model(150, 20)
@@ -121,21 +123,11 @@ def test_without_frame_errors_nothing_is_searched():
     from motionrep.plugin.registry import get_codec, get_representation
     from motionrep.pipeline.evaluate import MotionContext
 
-    class RegionsOnly:
-        def __init__(self, inner):
-            self._inner = inner
-            self.params, self.bound, self.seed, self.times = inner.params, inner.bound, inner.seed, inner.times
-
-        def __getattr__(self, name):
-            if name == "frame_errors":
-                raise AttributeError(name)
-            return getattr(self._inner, name)
-
     m = synthetic_motion(humanoid_skeleton(), frames=64, fps=30, seed=1)
     codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
     params = codec.parse_params({})
     inner = MotionContext(m, rep, codec, params, 0.02 * 1.7, 0, None)
-    a = codec.encode(rep.to_features(m), rep.weights(m), RegionsOnly(inner))
+    a = codec.encode(rep.to_features(m), rep.weights(m), without(inner, "frame_errors"))
     inner0 = MotionContext(m, rep, codec, codec.parse_params({"slack": 0}), 0.02 * 1.7, 0, None)
-    b = codec.encode(rep.to_features(m), rep.weights(m), RegionsOnly(inner0))
+    b = codec.encode(rep.to_features(m), rep.weights(m), without(inner0, "frame_errors"))
     assert a.arrays["data"].tobytes() == b.arrays["data"].tobytes()
