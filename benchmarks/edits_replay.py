@@ -2,7 +2,8 @@
 
 ``capture CLIP BOUND OUT.pkl``
     encodes ``CLIP`` (a BVH file) with ``transform`` at ``BOUND`` (e.g. ``0.0588%``) and keeps every call the slack
-    search makes to the kernel: the state it starts from and each batch of edits (columns, frames, deltas, bound).
+    search makes to the kernel: the state it starts from and each batch of edits (columns, frames, deltas, bound,
+    and the frames the search names to check first).
 
 ``replay OUT.pkl [SO ...] [--repeat N]``
     runs those calls again through each compiled core given (a ``_ccore*.so`` built from another ``edits.c``;
@@ -33,11 +34,14 @@ def capture(clip: str, bound: str, out: str) -> None:
     kernel = edits._edits
 
     def spy(layout, *rest):
-        if rest[-5] is None:  # the state set up from the features
+        # rest: plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted[, leads]
+        if rest[4] is None:  # the state set up from the features
             record["init"] = (np.array(layout), [np.array(a) if isinstance(a, np.ndarray) else a for a in rest])
             record["calls"] = []
         else:
-            record["calls"].append((np.array(rest[-5]), np.array(rest[-4]), rest[-3], rest[-2]))
+            leads = rest[9] if len(rest) > 9 else None
+            record["calls"].append((np.array(rest[4]), np.array(rest[5]), rest[6], rest[7],
+                                    None if leads is None else np.array(leads)))
         return kernel(layout, *rest)
 
     edits._edits = spy
@@ -73,9 +77,10 @@ def replay(record: str, sos: list[str], repeat: int) -> None:
             kernel(layout, *a)
             h = hashlib.sha256()
             t0 = time.thread_time()
-            for edits, deltas, bound, commit in rec["calls"]:
+            for edits, deltas, bound, commit, *leads in rec["calls"]:  # leads (the frames to check first): since 2026-12
                 accepted = np.zeros(edits.shape[0], np.uint8)
-                kernel(layout, *a[:-6], state, edits, deltas, bound, commit, accepted)
+                lead = leads[0].copy() if leads and leads[0] is not None else None
+                kernel(layout, *a[:-6], state, edits, deltas, bound, commit, accepted, *([] if lead is None else [lead]))
                 h.update(accepted.tobytes())
             best = min(best, time.thread_time() - t0)
             h.update(state.tobytes())

@@ -6,7 +6,8 @@ Usage::
     python benchmarks/encode_speed.py [--base REV ...] [--rounds 3] [--repeat 5] [--clip cmu/bvh11/131_01]
 
 For this checkout and each ``--base`` revision (``git archive`` of its ``motionrep/`` and ``plugins/`` first on
-``PYTHONPATH``; a base with numba kernels has them loaded by a warm-up), in child processes that alternate
+``PYTHONPATH``, its compiled extensions built in place from its own sources by its ``setup.py``, so that a base
+whose C differs runs its own; a base with numba kernels has them loaded by a warm-up), in child processes that alternate
 ``--rounds`` times so that all see the same load:
 
 * **time**: ``compress_motion(motion, "transform", max_error="2%")`` of ``--clip``, the clip already in memory and
@@ -127,10 +128,13 @@ def main() -> int:
         tmp = Path(tmp_name)
         trees: dict[str, Path] = {}
         for rev in args.base:
-            archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "motionrep", "plugins"],
-                                     capture_output=True, check=True)
+            archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "motionrep", "plugins", "setup.py",
+                                      "pyproject.toml"], capture_output=True, check=True)
             (tmp / rev).mkdir()
             subprocess.run(["tar", "-x", "-C", str(tmp / rev)], input=archive.stdout, check=True)
+            # the base's own compiled core (else the installed one of this checkout would be imported)
+            subprocess.run([sys.executable, "setup.py", "-q", "build_ext", "--inplace"], cwd=tmp / rev, check=True,
+                           capture_output=True)
             trees[f"base {rev}"] = tmp / rev
         trees[f"this {head}"] = REPO
         for r in range(args.rounds):

@@ -9,7 +9,8 @@ with an empty numba cache (``NUMBA_CACHE_DIR`` set to a fresh directory for each
 Medians of ``--repeats`` runs after one warm-up, wall-clock time and the CPU time (user + system) of the same
 runs, which a loaded machine inflates less, with the load average (``os.getloadavg``) before and after.  With
 ``--base REV`` (default ``main``) the same commands also run on that revision's code (``git archive`` of its
-``motionrep/`` and ``plugins/`` into a temporary directory, put first on ``PYTHONPATH``), interleaved run by
+``motionrep/`` and ``plugins/`` into a temporary directory, its compiled extensions built there from its own
+sources, put first on ``PYTHONPATH``), interleaved run by
 run with this checkout's, so both see the same load: the before / after of a change.
 
 The package's Python files are byte-compiled first (`compileall`), as `pip install` does: with
@@ -69,13 +70,17 @@ def code_env(code: Path | None) -> dict[str, str]:
 
 
 def export_revision(rev: str, into: Path) -> Path | None:
-    """``rev``'s motionrep and plugins in ``into`` (None when git cannot give them)."""
-    archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "motionrep", "plugins"], capture_output=True)
+    """``rev``'s motionrep and plugins in ``into``, with its compiled extensions built in place from its own
+    sources (else this checkout's installed ones would be imported), or None when git cannot give them."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "motionrep", "plugins", "setup.py",
+                              "pyproject.toml"], capture_output=True)
     if archive.returncode:
         print(f"--base {rev}: {archive.stderr.decode().strip()}; measuring this checkout only", file=sys.stderr)
         return None
     into.mkdir(parents=True)
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive.stdout, check=True)
+    subprocess.run([sys.executable, "setup.py", "-q", "build_ext", "--inplace"], cwd=into, check=True,
+                   capture_output=True)
     return into
 
 

@@ -145,20 +145,22 @@ def test_changes_let_through_on_room_alone_are_bounded_correctly(name):
     kind = layout[at:at + D]
     assert np.any(kind == 1) and (name != "root-quat-axis-angle" or np.any(kind >= 2))
     pos = ctx._positions(f)
-    # each bound holds: a change of one column at one frame moves no point farther than it says
+    # each bound holds: a change of one column at one frame moves no point farther than it says for that point
+    # (points near the column's joint less than those far below it: the bounds differ point by point)
+    assert np.any((lip[kind > 0] > 0) & (lip[kind > 0] < lip[kind > 0].max(axis=1, keepdims=True)))
     for c in np.flatnonzero(kind > 0):
         for t in range(0, F, 7):
             for delta in (1e-3, 0.05, -0.2):
                 g = f.copy()
                 g[t, c] += delta
-                shift = np.linalg.norm(ctx._positions(g)[t] - pos[t], axis=-1).max()
+                shift = np.linalg.norm(ctx._positions(g)[t] - pos[t], axis=-1)
                 if kind[c] == 1:
                     limit = abs(delta) * lip[c]
                 else:
                     cols = plan.columns[kind[c] - 2][:4]
                     x = abs(delta) / min(np.linalg.norm(f[t, cols]), np.linalg.norm(g[t, cols]))
-                    limit = lip[c] * 2 * x / np.sqrt(1 - x * x) if x < 0.5 else np.inf
-                assert shift <= limit * (1 + 1e-9) + 1e-12, (c, t, delta)
+                    limit = lip[c] * 2 * x / np.sqrt(1 - x * x) if x < 0.5 else np.full(lip.shape[1], np.inf)
+                assert np.all(shift <= limit * (1 + 1e-9) + 1e-12), (c, t, delta)
     for bound in (1e3, float(np.quantile(ctx.frame_errors(f), 0.6))):
         edits = ctx.feature_edits(f)
         cols, firsts, counts, deltas = _random_edits(rng, F, D, 400, 2e-3)
@@ -169,21 +171,27 @@ def test_changes_let_through_on_room_alone_are_bounded_correctly(name):
 
 
 
+def _mixed_edits(name: str, seed: int, m: int):
+    """A 50-frame context, its features, a bound at the 70th percentile of their frames' errors and ``m`` edits
+    of 1-29 frames, half of them small (they pass on room) and half large (most fail)."""
+    ctx, f, rng = _context(name, humanoid_skeleton(), frames=50, seed=seed)
+    F, D = f.shape
+    cols = rng.integers(0, D, m)
+    counts = rng.integers(1, 30, m)
+    firsts = rng.integers(0, F - counts + 1)
+    scale = np.where(rng.random(m) < 0.5, 1e-4, 2e-2)
+    deltas = np.repeat(scale, counts) * rng.normal(size=int(counts.sum()))
+    return ctx, f, rng, float(np.quantile(ctx.frame_errors(f), 0.7)), (cols, firsts, counts, deltas)
+
+
 @pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
 def test_one_call_decides_as_the_edits_one_by_one(name):
     """Many edits in one call, half of them small (let through on room alone: their frames stay marked, and later
     edits there are computed with the marked joints above them) and half large (most fail after some of their
     frames were let through or computed, and are undone), decide as the same edits one call each and leave the
     state of the accepted ones, bit for bit (scalar IEEE C without fused multiply-add: see the module docstring)."""
-    ctx, f, rng = _context(name, humanoid_skeleton(), frames=50, seed=11)
-    F, D = f.shape
-    bound = float(np.quantile(ctx.frame_errors(f), 0.7))
     m = 400
-    cols = rng.integers(0, D, m)
-    counts = rng.integers(1, 30, m)
-    firsts = rng.integers(0, F - counts + 1)
-    scale = np.where(rng.random(m) < 0.5, 1e-4, 2e-2)  # small changes pass on room, large ones mostly fail
-    deltas = np.repeat(scale, counts) * rng.normal(size=int(counts.sum()))
+    ctx, f, rng, bound, (cols, firsts, counts, deltas) = _mixed_edits(name, 11, m)
     together = ctx.feature_edits(f)
     got = together.apply(cols, firsts, counts, deltas, bound)
     alone = ctx.feature_edits(f)
@@ -195,6 +203,38 @@ def test_one_call_decides_as_the_edits_one_by_one(name):
     full = ctx.evaluator._distances(ctx._positions(together.features.copy()), None)
     assert np.array_equal(_bits(together.point_errors()), _bits(full))
     assert np.array_equal(_bits(alone.point_errors()), _bits(full))
+
+
+@pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
+def test_the_frame_checked_first_changes_no_decision(name):
+    """``leads`` names the frame of each edit to check first: any choice decides every edit as the default (the
+    frame of the largest change) and leaves the same state, bit for bit; where an edit fails it is set to a frame
+    where it fails (that frame's change alone, checked on the same state, fails too)."""
+    m = 300
+    ctx, f, rng, bound, (cols, firsts, counts, deltas) = _mixed_edits(name, 13, m)
+    default = ctx.feature_edits(f)
+    expect = default.apply(cols, firsts, counts, deltas, bound)
+    led = ctx.feature_edits(f)
+    leads = np.where(rng.random(m) < 0.5, -1, rng.integers(0, counts))
+    given = leads.copy()
+    assert np.array_equal(led.apply(cols, firsts, counts, deltas, bound, leads=leads), expect)
+    assert 0.2 * m < expect.sum() < 0.8 * m
+    assert np.array_equal(_bits(led.features), _bits(default.features))
+    assert np.array_equal(_bits(led.point_errors()), _bits(default.point_errors()))
+    assert np.array_equal(leads[expect], given[expect])
+    assert np.all((leads[~expect] >= 0) & (leads[~expect] < counts[~expect]))
+    # one edit at a time: the frame told back fails on its own
+    one = ctx.feature_edits(f)
+    start = np.concatenate([[0], np.cumsum(counts)])
+    for e in range(m):
+        d = deltas[start[e]:start[e + 1]]
+        lead = np.array([-1])
+        if not one.apply(cols[e:e + 1], firsts[e:e + 1], counts[e:e + 1], d, bound, leads=lead)[0]:
+            k = int(lead[0])
+            assert not one.apply([cols[e]], [firsts[e] + k], [1], d[k:k + 1], bound, commit=False)[0], e
+    with pytest.raises(ValidationError, match="leads"):
+        led.apply(cols[:2], firsts[:2], counts[:2], deltas[:int(counts[:2].sum())], bound, leads=np.zeros(2))
+
 
 def test_bad_edits_and_features_are_refused():
     ctx, f, _ = _context("root-quat-axis-angle", frames=10)

@@ -54,11 +54,12 @@ void mr_axis_angle_continuous(const double *theta, const double *axis, double *o
 /* edits.c: a candidate's features with their poses, FK and per-point distances, edited column by column (see
  * motionrep/pipeline/edits.py).  Arrays: the packed pose plan (plan_i, plan_f), the skeleton (parents, slot: each
  * joint's translation slot, 0 for the root and k + 1 for the k-th translated joint, else -1; site_parents; entry:
- * each joint's plan entry or -1; offsets, site_offsets), per feature column c a bound on how far a change moves
- * any point (lip_kind[c] 0: none, 1: |change| lip[c], 2 + r: lip[c] 2 x / sqrt(1 - x^2), x = |change| / |q| of the
- * quaternion of plan entry r, for x < 1/2), the joints it moves
+ * each joint's plan entry or -1; offsets, site_offsets), per feature column c the joints it moves
  * cjoints[cstart[c] .. cstart[c + 1]) (2 j + 1 where joint j's entry is decoded again, 2 j where only its FK is;
- * increasing j) and end sites csites[sstart[c] .. sstart[c + 1]), and the state: X (D, F) feature-major, L (F, J, 4)
+ * increasing j) and end sites csites[sstart[c] .. sstart[c + 1]), a bound on how far a change moves each of those
+ * points (lip_kind[c] 0: none, 1: |change| l, 2 + r: l 2 x / sqrt(1 - x^2), x = |change| / |q| of the quaternion of
+ * plan entry r, for x < 1/2; l the point's factor, lip[cstart[c] + k] for the joint cjoints[cstart[c] + k], then
+ * lip[cstart[D] + sstart[c] + k] for the end site csites[sstart[c] + k]), and the state: X (D, F) feature-major, L (F, J, 4)
  * local rotations, GP (F, J, 4) the plan's world rotations (world plans), T (F, N, 3) translations, G (F, J, 4)
  * FK world rotations, W (F, J + E, 3) positions, ref (F, J + E, 3), dist (F, J + E). */
 typedef struct {
@@ -75,9 +76,11 @@ typedef struct {
 int mr_edits_init(const mr_edits *s);
 /* Edits (m, 3) int64 (column, first frame, count), deltas the counts' values one after the other: each in turn is
  * checked and, if every point it moves is within bound in every frame it touches, accepted[e] = 1 and (with
- * commit) applied; the state is exact again when it returns.  Returns the number accepted, or -1 (no memory). */
+ * commit) applied; the state is exact again when it returns.  leads (m,) or NULL: the frame of each edit (from its
+ * first) to check first, -1 for the frame of the largest change; set, for each edit that fails, to the frame
+ * where it failed.  Returns the number accepted, or -1 (no memory). */
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
-                       int commit, uint8_t *accepted);
+                       int commit, uint8_t *accepted, int64_t *leads);
 
 /* out = base + the rotation of v by the unit xyzw quaternion g (fk.c's arithmetic, one point). */
 static inline void mr_rotate_add(const double *g, const double *base, double vx, double vy, double vz, double *out)

@@ -4,17 +4,23 @@
  * An edit adds deltas to one column over consecutive frames and is accepted if every point the column moves stays
  * within the bound in every frame it touches (points it does not move keep their distance). In each frame:
  *
- * - if a bound on how far the change can move any point (the column's kind: a translation moves its points by the
- *   change, a rotation vector or Euler angle turns the subtree by at most the change, a quaternion by at most
- *   2 asin(change / |q|); times the bones' length below the joint) plus how far each moved point already is from
- *   the reference (and may have drifted, see below) stays within the bound, the frame passes without any
- *   computation: the point's drift grows by that bound and the joints are marked to compute later;
+ * - if, for every point it moves, a bound on how far the change can move that point (the column's kind: a
+ *   translation moves its points by the change, a rotation vector or Euler angle turns the subtree by at most the
+ *   change, a quaternion by at most 2 asin(change / |q|); times the bones' length from the joint down to the
+ *   point) plus how far the point already is from the reference (and may have drifted, see below) stays within
+ *   the bound, the frame passes without any computation: each point's drift grows by its bound and the joints
+ *   are marked to compute later;
  * - else the frame is computed again, only what the column moves: the plan entry that reads it (every entry of
  *   the subtree for a plan of world rotations, whose local rotations depend on their parent's), the FK of the
  *   subtree (its parent's world rotation and position kept), its end sites and their distances, and with them
  *   any joint above still marked from changes let through before;
- * - the frame of the largest change is tried first, where an edit that fails most likely fails; a failed edit is
- *   undone (its frames computed again from the features as they were: the same inputs, the same bits).
+ * - the frame of the largest change is tried first, where an edit that fails most likely fails, or the frame the
+ *   caller names (where the same edit failed in an earlier call; told back for every edit that fails); a failed
+ *   edit is undone (its frames computed again from the features as they were: the same inputs, the same bits).
+ *   Which frame comes first does not change whether an edit is accepted: a frame passes on room only where its
+ *   computation would pass too, so an edit is accepted exactly when every frame it touches, computed, is within
+ *   the bound (but for a rounding of the computed distances across the bound within the room's own margin, never
+ *   seen).
  *
  * Every frame still marked is computed when the call ends, so the state is then exact again. The arithmetic is
  * the pose plan's (motionrep/model/poseplan.py, through mr_rotconv.h), FK's (fk.c: the same operations in the same
@@ -155,14 +161,14 @@ int mr_edits_init(const mr_edits *s)
     return status;
 }
 
-/* How far a change of column c by delta at frame t (the column holding `after`, `before` it) can move any point:
- * a bound from the column's kind (ccore.h, lip_kind), or infinity where there is none. */
+/* How far a change of column c at frame t (the column holding `after`, `before` it) can move a point, per unit of
+ * the point's factor (lip, ccore.h): from the column's kind, or infinity where there is no bound. */
 static double reach(const mr_edits *s, int64_t c, int64_t t, double before, double after)
 {
     const int64_t kind = s->lip_kind[c];
     const double change = fabs(after - before);
     if (kind == 1)
-        return change * s->lip[c];
+        return change;
     if (kind < 2)
         return INFINITY;
     const int64_t *cols = s->plan_i + s->plan_i[H_COLS] + 6 * (kind - 2);
@@ -174,7 +180,7 @@ static double reach(const mr_edits *s, int64_t c, int64_t t, double before, doub
     }
     const double x = change / sqrt(q2 < p2 ? q2 : p2);
     /* the two unit quaternions are at most asin(x) apart, their rotations twice that, and asin(x) <= x / sqrt(1 - x^2) */
-    return x < 0.5 ? s->lip[c] * 2.0 * x / sqrt(1.0 - x * x) : INFINITY;
+    return x < 0.5 ? 2.0 * x / sqrt(1.0 - x * x) : INFINITY;
 }
 
 /* Frame t exact again for the joints js of the edit at hand (and their end sites) where changes were let through
@@ -219,7 +225,7 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
 enum { PATH_ROOM, PATH_EXACT };
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
-                       int commit, uint8_t *accepted)
+                       int commit, uint8_t *accepted, int64_t *leads)
 {
     const int64_t F = s->F, J = s->J, E = s->E, P = s->J + s->E;
     int64_t longest = 0;
@@ -243,12 +249,17 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         const int64_t c = edits[3 * e], first = edits[3 * e + 1], n = edits[3 * e + 2];
         const int64_t *js = s->cjoints + s->cstart[c], *ss = s->csites + s->sstart[c];
         const int64_t nj = s->cstart[c + 1] - s->cstart[c], ns = s->sstart[c + 1] - s->sstart[c];
+        const double *jl = s->lip + s->cstart[c], *sl = s->lip + s->cstart[s->D] + s->sstart[c];
         double *x = s->X + c * F + first;
         int ok = 1;
-        /* the frame of the largest change first (where an edit that fails most likely fails), then the others */
+        /* the frame the caller names first (where the same edit failed before), else the frame of the largest
+         * change (where an edit that fails most likely fails), then the others in order */
         int64_t peak = 0;
-        for (int64_t i = 1; i < n; i++)
-            peak = fabs(d[i]) > fabs(d[peak]) ? i : peak;
+        if (leads && leads[e] >= 0 && leads[e] < n)
+            peak = leads[e];
+        else
+            for (int64_t i = 1; i < n; i++)
+                peak = fabs(d[i]) > fabs(d[peak]) ? i : peak;
         int64_t done = 0;
         for (; done < n && ok; done++) {
             const int64_t i = done == 0 ? peak : done <= peak ? done - 1 : done;
@@ -257,22 +268,22 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             before[i] = x[i];
             x[i] = x[i] + d[i];
             const double move = commit ? reach(s, c, t, before[i], x[i]) : INFINITY;
-            /* the farthest any point it moves may be */
-            double far = 0.0;
-            for (int64_t k = 0; k < nj; k++) {
+            /* room enough for every point it moves: as far as the point may be, plus as far as it may move */
+            int room = move < INFINITY;
+            for (int64_t k = 0; k < nj && room; k++) {
                 const int64_t j = js[k] >> 1;
-                far = dist[j] + dr[j] > far ? dist[j] + dr[j] : far;
+                room = dist[j] + dr[j] + move * jl[k] <= bound;
             }
-            for (int64_t k = 0; k < ns; k++)
-                far = dist[J + ss[k]] + dr[J + ss[k]] > far ? dist[J + ss[k]] + dr[J + ss[k]] : far;
-            if (far + move <= bound) { /* room enough whatever the change does: computed later */
+            for (int64_t k = 0; k < ns && room; k++)
+                room = dist[J + ss[k]] + dr[J + ss[k]] + move * sl[k] <= bound;
+            if (room) { /* whatever the change does: computed later */
                 uint8_t *mk = mark + t * J;
                 for (int64_t k = 0; k < nj; k++) {
                     mk[js[k] >> 1] |= (uint8_t)(2 | (js[k] & 1));
-                    dr[js[k] >> 1] += move;
+                    dr[js[k] >> 1] += move * jl[k];
                 }
                 for (int64_t k = 0; k < ns; k++)
-                    dr[J + ss[k]] += move;
+                    dr[J + ss[k]] += move * sl[k];
                 dirty[t] = 1;
                 path[i] = PATH_ROOM;
                 continue;
@@ -296,6 +307,8 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
                     frame_again(s, first + i, js, nj, ss, ns);
             }
         accepted[e] = (uint8_t)ok;
+        if (leads && !ok) /* the frame that failed (the last one checked) */
+            leads[e] = done == 1 ? peak : done - 1 <= peak ? done - 2 : done - 1;
         count += ok;
         d += n;
     }

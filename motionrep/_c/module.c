@@ -367,7 +367,8 @@ static PyObject *py_sincos(PyObject *self, PyObject *arg)
 #define K_QUAT_KIND 0 /* motionrep.model.poseplan.QUAT */
 /* The edits' arrays (ccore.h, mr_edits), checked so that no index the kernels follow leaves its array:
  * layout int64 = [F, J, E, D, N, world, parents (J), slot (J), site_parents (E), entry (J), lip_kind (D),
- * cstart (D + 1), sstart (D + 1), cjoints, csites]; geom float64 = [offsets (J, 3), site_offsets (E, 3), lip (D)];
+ * cstart (D + 1), sstart (D + 1), cjoints, csites]; geom float64 = [offsets (J, 3), site_offsets (E, 3),
+ * lip (cstart[D] + sstart[D]): the factor of each column's bound per point it moves, as cjoints then csites];
  * state float64 = [X (D, F),
  * L (F, J, 4), GP (F, J, 4), T (F, N, 3), G (F, J, 4), W (F, J + E, 3), ref (F, J + E, 3), dist (F, J + E)].
  * Returns NULL, or the message of what is wrong. */
@@ -445,7 +446,7 @@ static const char *edits_setup(mr_edits *s, const Py_buffer *layout, const Py_bu
         if (lip_kind[c] < 0 || lip_kind[c] >= 2 + R
             || (lip_kind[c] >= 2 && pi[pi[4] + lip_kind[c] - 2] != K_QUAT_KIND))
             return "edits: a column's bound kind out of range";
-    if (dim(plan_f, 0) < 3 * N || dim(geom, 0) != 3 * (J + E) + D)
+    if (dim(plan_f, 0) < 3 * N || dim(geom, 0) != 3 * (J + E) + cstart[D] + sstart[D])
         return "edits: plan values or geometry of the wrong size";
     const int64_t P = J + E, sizes[8] = {D * F, F * J * 4, F * J * 4, F * N * 3, F * J * 4, F * P * 3, F * P * 3, F * P};
     int64_t total = 0;
@@ -470,25 +471,27 @@ static const char *edits_setup(mr_edits *s, const Py_buffer *layout, const Py_bu
     return NULL;
 }
 
-PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted) -> count\n"
+PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted, leads=None)"
+                        " -> count\n"
                         "--\n\n"
                         "motionrep.pipeline.edits: with edits None, the state's poses, FK and distances from its\n"
                         "features (returns 0, or 1: a distance not finite, 2: a quaternion of zero length, 3: a\n"
                         "degenerate 6D encoding).  Else each edit (column, first, count) of edits (m, 3) int64 in\n"
                         "turn, its deltas the next count values of deltas: accepted[e] = 1 (uint8) if every point it\n"
                         "moves stays within bound in every frame it touches, and with commit it is applied; returns\n"
-                        "the number accepted.");
+                        "the number accepted.  leads (m,) int64 or None: each edit's frame (from its first) to check\n"
+                        "first, -1 for the frame of the largest change; set where an edit fails to the frame it failed.");
 
 static PyObject *py_edits(PyObject *self, PyObject *args)
 {
-    PyObject *o[5], *oedits, *odeltas, *oacc;
+    PyObject *o[5], *oedits, *odeltas, *oacc, *oleads = Py_None;
     double bound;
     int commit;
-    if (!PyArg_ParseTuple(args, "OOOOOOOdpO", &o[0], &o[1], &o[2], &o[3], &o[4], &oedits, &odeltas, &bound, &commit,
-                          &oacc))
+    if (!PyArg_ParseTuple(args, "OOOOOOOdpO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &oedits, &odeltas, &bound, &commit,
+                          &oacc, &oleads))
         return NULL;
     buffers bs = {.n = 0};
-    Py_buffer *b[5], *edits = NULL, *deltas = NULL, *acc = NULL;
+    Py_buffer *b[5], *edits = NULL, *deltas = NULL, *acc = NULL, *leads = NULL;
     const char *names[5] = {"layout", "plan_i", "plan_f", "geom", "state"};
     const char kinds[5] = {'q', 'q', 'd', 'd', 'd'};
     for (int k = 0; k < 5; k++)
@@ -498,7 +501,8 @@ static PyObject *py_edits(PyObject *self, PyObject *args)
         }
     if (oedits != Py_None
         && (!(edits = get(&bs, oedits, "edits", 'q', 2, 0)) || !(deltas = get(&bs, odeltas, "deltas", 'd', 1, 0))
-            || !(acc = get(&bs, oacc, "accepted", 'B', 1, 1)))) {
+            || !(acc = get(&bs, oacc, "accepted", 'B', 1, 1))
+            || (oleads != Py_None && !(leads = get(&bs, oleads, "leads", 'q', 1, 1))))) {
         release(&bs);
         return NULL;
     }
@@ -513,8 +517,8 @@ static PyObject *py_edits(PyObject *self, PyObject *args)
         Py_END_ALLOW_THREADS
     } else {
         const int64_t m = dim(edits, 0), *e = edits->buf;
-        if (dim(edits, 1) != 3 || dim(acc, 0) != m)
-            return fail(&bs, "edits: edits must be (m, 3) and accepted (m,)");
+        if (dim(edits, 1) != 3 || dim(acc, 0) != m || (leads && dim(leads, 0) != m))
+            return fail(&bs, "edits: edits must be (m, 3), accepted and leads (m,)");
         int64_t total = 0;
         for (int64_t k = 0; k < m; k++) {
             if (e[3 * k] < 0 || e[3 * k] >= s.D || e[3 * k + 1] < 0 || e[3 * k + 2] < 0 || e[3 * k + 2] > s.F
@@ -525,7 +529,7 @@ static PyObject *py_edits(PyObject *self, PyObject *args)
         if (dim(deltas, 0) != total)
             return fail(&bs, "edits: deltas must hold every edit's values");
         Py_BEGIN_ALLOW_THREADS
-        result = mr_edits_apply(&s, e, m, deltas->buf, bound, commit, acc->buf);
+        result = mr_edits_apply(&s, e, m, deltas->buf, bound, commit, acc->buf, leads ? leads->buf : NULL);
         Py_END_ALLOW_THREADS
     }
     release(&bs);

@@ -125,6 +125,9 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
     F = edits.features.shape[0]
     firsts, counts, starts, pool = synthesis(F, levels)
     current = [c.copy() for c in q]
+    # per coefficient, the frame (from its synthesis function's first) where its move last failed, -1 if none:
+    # the kernel checks it first when the move is tried again (the same decisions, fewer frames computed)
+    failed_at = [np.full(c.shape, -1, np.int64) for c in current]
     figures = {"moved": 0, "tried": 0}
     for _ in range(passes):
         savings = savings_of(current)
@@ -143,19 +146,23 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
         first = np.empty(level.size, np.int64)
         count = np.empty(level.size, np.int64)
         start = np.empty(level.size, np.int64)
+        leads = np.empty(level.size, np.int64)
         for a in range(1, len(current)):
             at = np.flatnonzero(level == a)
             r, c = rows[at], cols[at]
             sign[at] = np.sign(current[a][r, c])
             step[at] = steps[a][r, c]
             first[at], count[at], start[at] = firsts[a][r], counts[a][r], starts[a][r]
+            leads[at] = failed_at[a][r, c]
         deltas = pool[_ranges(start, count)] * np.repeat(-sign * step, count)
-        accepted = edits.apply(cols, first, count, deltas, bound)
+        accepted = edits.apply(cols, first, count, deltas, bound, leads=leads)
         figures["tried"] += int(level.size)
         figures["moved"] += int(accepted.sum())
         if not accepted.any():
             break
         for a in range(1, len(current)):
-            at = np.flatnonzero(accepted & (level == a))
+            at = np.flatnonzero(level == a)
+            failed_at[a][rows[at], cols[at]] = np.where(accepted[at], -1, leads[at])
+            at = at[accepted[at]]
             current[a][rows[at], cols[at]] -= sign[at]
     return current, figures

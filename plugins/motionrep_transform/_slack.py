@@ -60,23 +60,32 @@ def _code_lengths(model: Model, magnitudes: NDArray[np.int64]) -> NDArray[np.flo
     return _code_length_of(model.probabilities[None], np.zeros(a.size, np.int64), a.reshape(-1)).reshape(a.shape)
 
 
-def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64], wanted: NDArray[np.int64] | None = None
+              ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """The model :func:`._stream._fit` gives the values of each context, ``(zero, decay)`` indices per context
     number ``0 .. ctx.max()`` (contexts without values: ``(MAX_ZERO, 0)``), all contexts at once: the same
     costs as :func:`motionrep.plugin.coding.fit_model`, each a sum of products formed and added elementwise
-    (no BLAS, whose kernels differ between CPUs), the first index of the smallest kept."""
+    (no BLAS, whose kernels differ between CPUs), the first index of the smallest kept.  ``wanted``: only these
+    context numbers are fitted (each as it would be among all: a context's sums are its own), the others get
+    ``(MAX_ZERO, 0)``."""
     n = int(ctx.max()) + 1
     tokens, _, _ = _tokenize(values)
     counts = np.bincount(ctx * NUM_TOKENS + tokens, minlength=n * NUM_TOKENS).reshape(n, NUM_TOKENS)
     counts = counts.astype(np.float64)
     nonzero = np.bincount(ctx, weights=(values != 0).astype(np.float64), minlength=n)
+    rows = np.arange(n) if wanted is None else np.asarray(wanted, np.int64)
+    counts, nonzero = counts[rows], nonzero[rows]
     zero_bits, tail_bits = _fit_tables()
     zb = zero_bits[:MAX_ZERO + 1]
-    zero = np.argmin(zb[None, :, 0] * counts[:, 0, None] + zb[None, :, 1] * nonzero[:, None], axis=1)
-    decay = np.argmin((tail_bits[None, :, :] * counts[:, None, 1:]).sum(axis=2), axis=1)
-    decay[nonzero == 0] = 0
-    zero[counts.sum(axis=1) == 0] = MAX_ZERO  # fit_model of no values
-    return zero.astype(np.int64), decay.astype(np.int64)
+    zero = np.full(n, MAX_ZERO, np.int64)
+    decay = np.zeros(n, np.int64)
+    z = np.argmin(zb[None, :, 0] * counts[:, 0, None] + zb[None, :, 1] * nonzero[:, None], axis=1)
+    # context by context: each context's (256, tokens) products stay in the cache (all at once they do not)
+    d = np.array([np.argmin((tail_bits * c[1:]).sum(axis=1)) for c in counts], np.int64)
+    d[nonzero == 0] = 0
+    z[counts.sum(axis=1) == 0] = MAX_ZERO  # fit_model of no values
+    zero[rows], decay[rows] = z, d
+    return zero, decay
 
 
 def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitudes: NDArray[np.int64]
@@ -104,7 +113,8 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     mags = [np.abs(c) for c in coefficients]
     mags[0] = _approx_steps(coefficients[0])
     out = [np.zeros(c.shape) for c in coefficients]
-    passes = [(index, odd, _contexts(_parents(mags, index), mags[index], odd, group))
+    parents = {index: _parents(mags, index) for index in range(1, levels + 1)}  # the same for both passes
+    passes = [(index, odd, _contexts(parents[index], mags[index], odd, group))
               for index, odd, group in _passes(levels)]
     if not passes:
         return out
@@ -114,8 +124,8 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     saved = np.zeros(ctx.size)
     moved = np.flatnonzero(mag > 0)
     if moved.size:
-        zero, decay = _fit_each(ctx, val)
         used = np.unique(ctx[moved])
+        zero, decay = _fit_each(ctx, val, used)  # only the contexts of coefficients that may move
         table = np.zeros((zero.size, NUM_TOKENS))
         table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
         rows = ctx[moved]

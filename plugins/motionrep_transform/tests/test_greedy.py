@@ -112,3 +112,27 @@ def test_the_default_slack_is_five_passes_with_feature_edits(walk):
 
     default = payload()
     assert default == payload(slack=5) and default != payload(slack=3) and default != payload(slack=6)
+
+
+@pytest.mark.parametrize("bound", ["0.3%", "1%", "4%"])
+def test_failed_moves_checked_first_where_they_failed_decide_as_before(walk, monkeypatch, bound):
+    """The search tells the kernel where each move that failed did fail, and the kernel checks that frame first
+    when the move is tried again (``leads``): the same moves are accepted as when every move starts at its
+    largest change, so the payload is the same."""
+    from motionrep.pipeline.edits import FeatureEdits
+
+    apply = FeatureEdits.apply
+    named = []
+
+    def encode(keep):
+        def patched(self, columns, firsts, counts, deltas, bound, commit=True, leads=None):
+            if leads is not None:
+                named.append(int(np.sum(leads >= 0)))
+            return apply(self, columns, firsts, counts, deltas, bound, commit, leads if keep else None)
+
+        monkeypatch.setattr(FeatureEdits, "apply", patched)
+        return compress_motion(walk, "transform", max_error=bound).container.arrays["data"].tobytes()
+
+    led = encode(True)
+    assert len(named) > 1 and named[0] == 0 and sum(named) > 0  # later passes name the frames that failed
+    assert led == encode(False)
