@@ -236,6 +236,28 @@ def test_the_frame_checked_first_changes_no_decision(name):
         led.apply(cols[:2], firsts[:2], counts[:2], deltas[:int(counts[:2].sum())], bound, leads=np.zeros(2))
 
 
+def test_edits_of_shared_values_times_a_scale_are_the_same_edits():
+    """``starts`` and ``scales``: edit ``e`` adds ``deltas[starts[e]:][:counts[e]] * scales[e]`` (a pool of
+    shapes the edits share, as the slack search's synthesis functions): the same decisions and state, bit for bit,
+    as the products written out."""
+    m = 300
+    ctx, f, rng, bound, (cols, firsts, counts, _) = _mixed_edits("root-quat-axis-angle", 17, m)
+    pool = rng.normal(size=64)
+    starts = rng.integers(0, pool.size - counts + 1)
+    scales = np.where(rng.random(m) < 0.5, 1e-4, 2e-2) * rng.choice([-1.0, 1.0], m)
+    written = np.concatenate([pool[s:s + n] * k for s, n, k in zip(starts, counts, scales)])
+    a, b = ctx.feature_edits(f), ctx.feature_edits(f)
+    expect = a.apply(cols, firsts, counts, written, bound)
+    assert 0.2 * m < expect.sum() < 0.8 * m
+    assert np.array_equal(b.apply(cols, firsts, counts, pool, bound, starts=starts, scales=scales), expect)
+    assert np.array_equal(_bits(a.features), _bits(b.features))
+    assert np.array_equal(_bits(a.point_errors()), _bits(b.point_errors()))
+    for bad in (dict(starts=starts), dict(starts=starts[:-1], scales=scales[:-1]),
+                dict(starts=np.full(m, pool.size - 1), scales=scales), dict(starts=-starts - 1, scales=scales)):
+        with pytest.raises(ValidationError):
+            b.apply(cols, firsts, counts, pool, bound, **bad)
+
+
 def test_bad_edits_and_features_are_refused():
     ctx, f, _ = _context("root-quat-axis-angle", frames=10)
     edits = ctx.feature_edits(f)

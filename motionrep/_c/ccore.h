@@ -78,9 +78,11 @@ int mr_edits_init(const mr_edits *s);
  * checked and, if every point it moves is within bound in every frame it touches, accepted[e] = 1 and (with
  * commit) applied; the state is exact again when it returns.  leads (m,) or NULL: the frame of each edit (from its
  * first) to check first, -1 for the frame of the largest change; set, for each edit that fails, to the frame
- * where it failed.  Returns the number accepted, or -1 (no memory). */
+ * where it failed.  starts, scales (m,) or NULL: edit e's values are deltas[starts[e] + i] * scales[e] (deltas
+ * then a pool of shapes the edits share) instead of the next counts[e] values of deltas.  Returns the number
+ * accepted, or -1 (no memory). */
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
-                       int commit, uint8_t *accepted, int64_t *leads);
+                       int commit, uint8_t *accepted, int64_t *leads, const int64_t *starts, const double *scales);
 
 /* out = base + the rotation of v by the unit xyzw quaternion g (fk.c's arithmetic, one point). */
 static inline void mr_rotate_add(const double *g, const double *base, double vx, double vy, double vz, double *out)

@@ -225,7 +225,7 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
 enum { PATH_ROOM, PATH_EXACT };
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
-                       int commit, uint8_t *accepted, int64_t *leads)
+                       int commit, uint8_t *accepted, int64_t *leads, const int64_t *starts, const double *scales)
 {
     const int64_t F = s->F, J = s->J, E = s->E, P = s->J + s->E;
     int64_t longest = 0;
@@ -236,17 +236,26 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
      * are computed only when a frame must be, or when the call ends), and per joint what is to compute again */
     const size_t L = (size_t)(longest ? longest : 1);
     double *before = malloc(sizeof(double) * L), *drift = calloc((size_t)(F * P + 1), sizeof(double));
+    double *scaled = malloc(sizeof(double) * L);
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
     int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1));
-    if (!before || !drift || !path || !mark || !dirty || !in || !list) {
-        free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
+    if (!before || !drift || !scaled || !path || !mark || !dirty || !in || !list) {
+        free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
         return -1;
     }
     int64_t count = 0;
-    const double *d = deltas;
+    const double *next = deltas;
     for (int64_t e = 0; e < m; e++) {
         const int64_t c = edits[3 * e], first = edits[3 * e + 1], n = edits[3 * e + 2];
+        const double *d = next;
+        if (starts) { /* the edit's values: its scale times its stretch of the shared values */
+            for (int64_t i = 0; i < n; i++)
+                scaled[i] = deltas[starts[e] + i] * scales[e];
+            d = scaled;
+        } else {
+            next += n;
+        }
         const int64_t *js = s->cjoints + s->cstart[c], *ss = s->csites + s->sstart[c];
         const int64_t nj = s->cstart[c + 1] - s->cstart[c], ns = s->sstart[c + 1] - s->sstart[c];
         const double *jl = s->lip + s->cstart[c], *sl = s->lip + s->cstart[s->D] + s->sstart[c];
@@ -310,11 +319,10 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         if (leads && !ok) /* the frame that failed (the last one checked) */
             leads[e] = done == 1 ? peak : done - 1 <= peak ? done - 2 : done - 1;
         count += ok;
-        d += n;
     }
     for (int64_t t = 0; t < F; t++) /* the state exact again */
         if (dirty[t])
             frame_marked(s, t, mark, drift, NULL, 0, list, list + J, in);
-    free(before), free(drift), free(path), free(mark), free(dirty), free(in), free(list);
+    free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
     return count;
 }

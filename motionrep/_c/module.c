@@ -471,8 +471,8 @@ static const char *edits_setup(mr_edits *s, const Py_buffer *layout, const Py_bu
     return NULL;
 }
 
-PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted, leads=None)"
-                        " -> count\n"
+PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, deltas, bound, commit, accepted, leads=None,"
+                        " starts=None, scales=None) -> count\n"
                         "--\n\n"
                         "motionrep.pipeline.edits: with edits None, the state's poses, FK and distances from its\n"
                         "features (returns 0, or 1: a distance not finite, 2: a quaternion of zero length, 3: a\n"
@@ -480,18 +480,22 @@ PyDoc_STRVAR(edits_doc, "edits(layout, plan_i, plan_f, geom, state, edits, delta
                         "turn, its deltas the next count values of deltas: accepted[e] = 1 (uint8) if every point it\n"
                         "moves stays within bound in every frame it touches, and with commit it is applied; returns\n"
                         "the number accepted.  leads (m,) int64 or None: each edit's frame (from its first) to check\n"
-                        "first, -1 for the frame of the largest change; set where an edit fails to the frame it failed.");
+                        "first, -1 for the frame of the largest change; set where an edit fails to the frame it failed.\n"
+                        "starts (m,) int64 and scales (m,) float64: edit e's values are deltas[starts[e] + i] * scales[e]\n"
+                        "(deltas a pool the edits share) instead of the next count values of deltas.");
 
 static PyObject *py_edits(PyObject *self, PyObject *args)
 {
-    PyObject *o[5], *oedits, *odeltas, *oacc, *oleads = Py_None;
+    PyObject *o[5], *oedits, *odeltas, *oacc, *oleads = Py_None, *ostarts = Py_None, *oscales = Py_None;
     double bound;
     int commit;
-    if (!PyArg_ParseTuple(args, "OOOOOOOdpO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &oedits, &odeltas, &bound, &commit,
-                          &oacc, &oleads))
+    if (!PyArg_ParseTuple(args, "OOOOOOOdpO|OOO", &o[0], &o[1], &o[2], &o[3], &o[4], &oedits, &odeltas, &bound,
+                          &commit, &oacc, &oleads, &ostarts, &oscales))
         return NULL;
+    if ((ostarts == Py_None) != (oscales == Py_None))
+        return PyErr_Format(PyExc_ValueError, "edits: starts and scales go together");
     buffers bs = {.n = 0};
-    Py_buffer *b[5], *edits = NULL, *deltas = NULL, *acc = NULL, *leads = NULL;
+    Py_buffer *b[5], *edits = NULL, *deltas = NULL, *acc = NULL, *leads = NULL, *starts = NULL, *scales = NULL;
     const char *names[5] = {"layout", "plan_i", "plan_f", "geom", "state"};
     const char kinds[5] = {'q', 'q', 'd', 'd', 'd'};
     for (int k = 0; k < 5; k++)
@@ -502,7 +506,9 @@ static PyObject *py_edits(PyObject *self, PyObject *args)
     if (oedits != Py_None
         && (!(edits = get(&bs, oedits, "edits", 'q', 2, 0)) || !(deltas = get(&bs, odeltas, "deltas", 'd', 1, 0))
             || !(acc = get(&bs, oacc, "accepted", 'B', 1, 1))
-            || (oleads != Py_None && !(leads = get(&bs, oleads, "leads", 'q', 1, 1))))) {
+            || (oleads != Py_None && !(leads = get(&bs, oleads, "leads", 'q', 1, 1)))
+            || (ostarts != Py_None && (!(starts = get(&bs, ostarts, "starts", 'q', 1, 0))
+                                       || !(scales = get(&bs, oscales, "scales", 'd', 1, 0)))))) {
         release(&bs);
         return NULL;
     }
@@ -517,19 +523,24 @@ static PyObject *py_edits(PyObject *self, PyObject *args)
         Py_END_ALLOW_THREADS
     } else {
         const int64_t m = dim(edits, 0), *e = edits->buf;
-        if (dim(edits, 1) != 3 || dim(acc, 0) != m || (leads && dim(leads, 0) != m))
-            return fail(&bs, "edits: edits must be (m, 3), accepted and leads (m,)");
+        if (dim(edits, 1) != 3 || dim(acc, 0) != m || (leads && dim(leads, 0) != m)
+            || (starts && (dim(starts, 0) != m || dim(scales, 0) != m)))
+            return fail(&bs, "edits: edits must be (m, 3), accepted, leads, starts and scales (m,)");
+        const int64_t *st = starts ? starts->buf : NULL;
         int64_t total = 0;
         for (int64_t k = 0; k < m; k++) {
             if (e[3 * k] < 0 || e[3 * k] >= s.D || e[3 * k + 1] < 0 || e[3 * k + 2] < 0 || e[3 * k + 2] > s.F
                 || e[3 * k + 1] > s.F - e[3 * k + 2])
                 return fail(&bs, "edits: an edit outside the features");
+            if (st && (st[k] < 0 || st[k] > dim(deltas, 0) - e[3 * k + 2]))
+                return fail(&bs, "edits: an edit's values outside deltas");
             total += e[3 * k + 2];
         }
-        if (dim(deltas, 0) != total)
+        if (!st && dim(deltas, 0) != total)
             return fail(&bs, "edits: deltas must hold every edit's values");
         Py_BEGIN_ALLOW_THREADS
-        result = mr_edits_apply(&s, e, m, deltas->buf, bound, commit, acc->buf, leads ? leads->buf : NULL);
+        result = mr_edits_apply(&s, e, m, deltas->buf, bound, commit, acc->buf, leads ? leads->buf : NULL, st,
+                                scales ? scales->buf : NULL);
         Py_END_ALLOW_THREADS
     }
     release(&bs);

@@ -92,14 +92,17 @@ class FeatureEdits:
         return self._dist.max(axis=1) if self._dist.shape[1] else np.zeros(self._dist.shape[0])
 
     def apply(self, columns: ArrayLike, firsts: ArrayLike, counts: ArrayLike, deltas: ArrayLike, bound: float,
-              commit: bool = True, leads: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
+              commit: bool = True, leads: NDArray[np.int64] | None = None, starts: ArrayLike | None = None,
+              scales: ArrayLike | None = None) -> NDArray[np.bool_]:
         """Edits in turn: edit ``e`` adds the next ``counts[e]`` values of ``deltas`` to column ``columns[e]`` of the
         frames ``firsts[e] ..``; it is accepted if every point that column moves stays within ``bound`` of the
         reference in every frame it touches, computed on the features as the edits before it left them.
 
         Args:
             columns, firsts, counts: ``(m,)`` integers.
-            deltas: ``(sum(counts),)`` float64.
+            deltas: ``(sum(counts),)`` float64; with ``starts`` and ``scales``, values the edits share: edit ``e``
+                adds ``deltas[starts[e] : starts[e] + counts[e]] * scales[e]`` (each product as numpy forms it).
+            starts, scales: ``(m,)`` integers and floats, or None (both or neither).
             bound: the largest distance allowed, in file units.
             commit: apply the accepted edits (else only say which would pass, each on the current features).
             leads: ``(m,)`` int64 array or None: the frame of each edit (counted from its first) to check first, -1
@@ -111,7 +114,8 @@ class FeatureEdits:
             ``(m,)`` bool, which edits were accepted.
 
         Raises:
-            ValidationError: an edit outside the features, or deltas that do not match the counts.
+            ValidationError: an edit outside the features, deltas that do not match the counts, or ``starts``
+                that reach outside them.
         """
         F, D = self._shape[:2]
         edits = np.ascontiguousarray(np.stack([np.asarray(columns, np.int64).reshape(-1),
@@ -121,7 +125,16 @@ class FeatureEdits:
         c, a, n = edits.T
         if edits.size and (c.min() < 0 or c.max() >= D or a.min() < 0 or n.min() < 0 or np.any(a + n > F)):
             raise ValidationError(f"edits must lie within the {F} frames and {D} features")
-        if d.size != int(n.sum()):
+        if (starts is None) != (scales is None):
+            raise ValidationError("starts and scales go together")
+        if starts is not None:
+            starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1)
+            scales = np.ascontiguousarray(scales, dtype=np.float64).reshape(-1)
+            if starts.shape != n.shape or scales.shape != n.shape:
+                raise ValidationError(f"starts and scales must have {n.size} entries, got {starts.size}, {scales.size}")
+            if starts.size and (starts.min() < 0 or np.any(starts + n > d.size)):
+                raise ValidationError(f"starts must keep every edit within the {d.size} deltas")
+        elif d.size != int(n.sum()):
             raise ValidationError(f"deltas must hold {int(n.sum())} values (the counts' sum), got {d.size}")
         if leads is not None and (not isinstance(leads, np.ndarray) or leads.dtype != np.int64
                                   or leads.shape != (edits.shape[0],) or not leads.flags.c_contiguous
@@ -129,7 +142,7 @@ class FeatureEdits:
             raise ValidationError(f"leads must be a writable contiguous int64 array of shape ({edits.shape[0]},)")
         accepted = np.zeros(edits.shape[0], np.uint8)
         _edits(self._layout, *self._plan, self._geom, self._state, edits, d, float(bound), bool(commit), accepted,
-               leads)
+               leads, starts, scales)
         return accepted.view(bool)
 
 

@@ -124,20 +124,34 @@ class _Plan:
         spans = [self.levels] + list(range(self.levels, 0, -1))
         self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
         self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
+        # what every quantisation of the bisection reads: |c| and sign(c) (as integers), computed once
+        self._magnitudes = [np.abs(c) for c in self.coefficients]
+        self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
 
     def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+        """``sign(c) floor(|c| / step + rounding)`` of every coefficient, its step ``2 ** ((b_c + k) / 8)``
+        (:meth:`exponents`) taken from a table of the rows' few distinct ``k`` (rows of one ``k`` share their
+        steps; the same numbers as :func:`steps_of`)."""
         out = []
-        steps = steps_of(self.exponents(region_exp))
-        for c, step in zip(self.coefficients, steps):
-            a = np.floor(np.abs(c) / step + rounding)
+        minima: dict[int, NDArray[np.int64]] = {}  # arrays of one reach share their windows' minima
+        for mag, sign, rows, span in zip(self._magnitudes, self._signs, self.region_of, self.reach):
+            if span not in minima:
+                minima[span] = window_minimum(region_exp, span)
+            distinct, row = np.unique(minima[span][rows], return_inverse=True)
+            table = step_scale(distinct[:, None] + self.feature_exp[None, :])
+            a = np.divide(mag, table[row.reshape(-1)])
+            a += rounding
+            np.floor(a, out=a)
             if a.size and not float(a.max()) <= MAX_MAGNITUDE:
                 raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
                                               "max_error", None, None), "max_error")
-            out.append((np.sign(c) * a).astype(np.int64))
+            q = a.astype(np.int64)
+            q *= sign
+            out.append(q)
         return out
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:

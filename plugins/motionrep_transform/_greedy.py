@@ -92,15 +92,6 @@ def synthesis(num_frames: int, levels: int) -> tuple[list[NDArray[np.int64]], li
     return firsts, counts, starts, np.concatenate(pool) if pool else np.zeros(0)
 
 
-def _ranges(starts: NDArray[np.int64], counts: NDArray[np.int64]) -> NDArray[np.int64]:
-    """The indices ``starts[0] .. starts[0] + counts[0] - 1, starts[1] ..`` in one array."""
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, np.int64)
-    offsets = np.cumsum(counts) - counts
-    return np.repeat(starts - offsets, counts) + np.arange(total)
-
-
 def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], levels: int, edits,
                       bound: float, savings_of: Callable[[list[NDArray[np.int64]]], list[NDArray[np.float64]]],
                       passes: int, min_saving: float = 0.0) -> tuple[list[NDArray[np.int64]], dict]:
@@ -154,8 +145,8 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
             step[at] = steps[a][r, c]
             first[at], count[at], start[at] = firsts[a][r], counts[a][r], starts[a][r]
             leads[at] = failed_at[a][r, c]
-        deltas = pool[_ranges(start, count)] * np.repeat(-sign * step, count)
-        accepted = edits.apply(cols, first, count, deltas, bound, leads=leads)
+        # each move's deltas: its synthesis function's values times -sign(q) step, formed by the kernel
+        accepted = edits.apply(cols, first, count, pool, bound, leads=leads, starts=start, scales=-sign * step)
         figures["tried"] += int(level.size)
         figures["moved"] += int(accepted.sum())
         if not accepted.any():

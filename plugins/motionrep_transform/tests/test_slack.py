@@ -14,7 +14,7 @@ from motionrep.pipeline.evaluate import max_joint_error
 from motionrep.plugin.coding import Model
 from motionrep_transform._codec import window_minimum
 from motionrep_transform._slack import _bisect_each, _code_lengths, _fit_each, frame_sensitivity, reduction_savings
-from motionrep_transform._stream import _fit
+from motionrep_transform._stream import MAX_ZERO, _fit
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, num_levels
 
@@ -55,6 +55,11 @@ def test_every_context_is_fitted_as_one_at_a_time():
         for k in range(10):
             model = _fit(values[ctx == k])
             assert (zero[k], decay[k]) == (model.zero, model.decay), (scale, k)
+        # only some contexts fitted: those as among all, the others (MAX_ZERO, 0)
+        some_zero, some_decay = _fit_each(ctx, values, np.array([2, 7]))
+        assert some_zero.tolist() == [MAX_ZERO, MAX_ZERO, zero[2], MAX_ZERO, MAX_ZERO, MAX_ZERO, MAX_ZERO, zero[7],
+                                      MAX_ZERO, MAX_ZERO]
+        assert some_decay.tolist() == [0, 0, decay[2], 0, 0, 0, 0, decay[7], 0, 0]
 
 
 def test_frame_sensitivity_interpolates_samples_spread_over_the_clip():
