@@ -116,44 +116,36 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
     F = edits.features.shape[0]
     firsts, counts, starts, pool = synthesis(F, levels)
     current = [c.copy() for c in q]
+    figures = {"moved": 0, "tried": 0}
+    if len(current) < 2 or not current[1].size:
+        return current, figures
+    D = current[1].shape[1]
+    # the detail arrays as views of one flat array (storage order: level, row, column), beside each coefficient's
+    # step and synthesis function (first frame, count, start in the pool), so that a pass gathers its moves at once
+    flat = np.concatenate([c.reshape(-1) for c in current[1:]])
+    ends = np.cumsum([c.size for c in current[1:]])[:-1]
+    current[1:] = [part.reshape(c.shape) for part, c in zip(np.split(flat, ends), current[1:])]
+    step_of = np.concatenate([s.reshape(-1) for s in steps[1:]])
+    first_of, count_of, start_of = (np.concatenate([np.repeat(x, D) for x in xs[1:]]) for xs in (firsts, counts, starts))
     # per coefficient, the frame (from its synthesis function's first) where its move last failed, -1 if none:
     # the kernel checks it first when the move is tried again (the same decisions, fewer frames computed)
-    failed_at = [np.full(c.shape, -1, np.int64) for c in current]
-    figures = {"moved": 0, "tried": 0}
+    failed_at = np.full(flat.size, -1, np.int64)
+    floor = max(min_saving, 0.0)
     for _ in range(passes):
-        savings = savings_of(current)
-        floor = max(min_saving, 0.0)
-        found = [np.nonzero((current[a] != 0) & (savings[a] > floor)) for a in range(1, len(current))]
-        level = np.concatenate([np.full(r.size, a, np.int64) for a, (r, _) in enumerate(found, start=1)])
-        rows = np.concatenate([r for r, _ in found])
-        cols = np.concatenate([c for _, c in found])
-        if not level.size:
+        value = np.concatenate([s.reshape(-1) for s in savings_of(current)[1:]])
+        at = np.flatnonzero((flat != 0) & (value > floor))
+        if not at.size:
             break
-        value = np.concatenate([savings[a][r, c] for a, (r, c) in enumerate(found, start=1)])
-        order = np.lexsort((cols, rows, level, -value))  # the most bits first; ties in storage order
-        level, rows, cols = level[order], rows[order], cols[order]
-        sign = np.empty(level.size, np.int64)
-        step = np.empty(level.size)
-        first = np.empty(level.size, np.int64)
-        count = np.empty(level.size, np.int64)
-        start = np.empty(level.size, np.int64)
-        leads = np.empty(level.size, np.int64)
-        for a in range(1, len(current)):
-            at = np.flatnonzero(level == a)
-            r, c = rows[at], cols[at]
-            sign[at] = np.sign(current[a][r, c])
-            step[at] = steps[a][r, c]
-            first[at], count[at], start[at] = firsts[a][r], counts[a][r], starts[a][r]
-            leads[at] = failed_at[a][r, c]
+        at = at[np.lexsort((at, -value[at]))]  # the most bits first; ties in storage order
+        sign = np.sign(flat[at])
+        leads = failed_at[at]
         # each move's deltas: its synthesis function's values times -sign(q) step, formed by the kernel
-        accepted = edits.apply(cols, first, count, pool, bound, leads=leads, starts=start, scales=-sign * step)
-        figures["tried"] += int(level.size)
+        accepted = edits.apply(at % D, first_of[at], count_of[at], pool, bound, leads=leads, starts=start_of[at],
+                               scales=-sign * step_of[at])
+        figures["tried"] += int(at.size)
         figures["moved"] += int(accepted.sum())
         if not accepted.any():
             break
-        for a in range(1, len(current)):
-            at = np.flatnonzero(level == a)
-            failed_at[a][rows[at], cols[at]] = np.where(accepted[at], -1, leads[at])
-            at = at[accepted[at]]
-            current[a][rows[at], cols[at]] -= sign[at]
+        failed_at[at] = np.where(accepted, -1, leads)
+        flat[at[accepted]] -= sign[accepted]
     return current, figures
