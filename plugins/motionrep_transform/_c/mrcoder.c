@@ -776,62 +776,154 @@ static MRC_NOINLINE void decode_nonzero(Coder *c, Models *m, const Rows *rw, Col
     if (next) x[1].k0 = &m->z0[bc * N0 + cls0(c->t, x[1].nb + cap(v))];
 }
 
-/* The details of the active features act[0..na-1] (the others, idle[0..ni-1], are written 0), level L to 1, row
- * by row: the decisions of code_body's loop. cc: na + 1 entries of scratch. */
-static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *act, int64_t na,
-                           const int32_t *idle, int64_t ni, const int64_t *sizes, int levels, int64_t rs,
-                           int64_t cs, int32_t *wzero, ColCtx *cc) {
+/* The zero flags of a quiet row from column k on (every active column's neighbourhood zero: the contexts of
+ * an all-zero neighbourhood, the counters k0 and k1 the same two for every column, kept in registers here), as
+ * decode_details' loop decodes them, up to the first non-zero flag: returns its column (the flag's decision is
+ * left to the caller: *p and *bound, the stretches s[3]), or na when the row's flags are all zero. */
+MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row, const int32_t *act,
+                             int64_t k, int64_t na, int64_t cs, int32_t *w, uint32_t *range_, uint32_t *code_,
+                             int *s, int *p_, uint32_t *bound_) {
     const int16_t *ST = c->t->stretch, *SQ = c->t->squash + 2047;
     const int32_t *FALL = c->t->fall + 2047;
-    int32_t w0 = wzero[0], w1 = wzero[1], w2 = wzero[2];
+    int32_t w0 = w[0], w1 = w[1], w2 = w[2];
+    uint32_t range = *range_, code = *code_;
+    Counter q0 = *K0, q1 = *K1;
+    int s0 = ST[counter_p12(&q0)], s1 = ST[counter_p12(&q1)];
+    for (; k < na; k++) {
+        Counter *k2 = &z2[(uint64_t)act[k] % FEAT];
+        int s2 = ST[counter_p12(k2)];
+        int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
+        e = e > 2047 ? 2047 : (e < -2047 ? -2047 : e);
+        int p = SQ[e]; /* 1..4095 */
+        uint32_t bound = (range >> 12) * (uint32_t)p;
+        if (MRC_UNLIKELY(code < bound)) {
+            s[0] = s0;
+            s[1] = s1;
+            s[2] = s2;
+            *p_ = p;
+            *bound_ = bound;
+            break;
+        }
+        code -= bound;
+        range -= bound;
+        int32_t f = FALL[e]; /* -p MIX_RATE */
+        w0 = mix_step(w0, s0, f);
+        w1 = mix_step(w1, s1, f);
+        w2 = mix_step(w2, s2, f);
+        counter_update0(&q0);
+        counter_update0(&q1);
+        counter_update0(k2);
+        s0 = ST[counter_p12(&q0)];
+        s1 = ST[counter_p12(&q1)];
+        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
+        row[act[k] * cs] = 0;
+    }
+    *K0 = q0;
+    *K1 = q1;
+    w[0] = w0;
+    w[1] = w1;
+    w[2] = w2;
+    *range_ = range;
+    *code_ = code;
+    return k;
+}
+
+/* The details of the active features act[0..na-1] (the others, idle[0..ni-1], are written 0), level L to 1, row
+ * by row: the decisions of code_body's loop. cc: na entries of scratch; nz: F bytes, whether each coefficient row
+ * has a non-zero (a parent row of the band next to the approximation: whether its difference to the next does). */
+static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *act, int64_t na,
+                           const int32_t *idle, int64_t ni, const int64_t *sizes, int levels, int64_t rs,
+                           int64_t cs, int32_t *wzero, ColCtx *cc, uint8_t *nz) {
+    const int16_t *ST = c->t->stretch, *SQ = c->t->squash + 2047;
+    const int32_t *FALL = c->t->fall + 2047;
+    int32_t w0 = wzero[0], w1 = wzero[1], w2 = wzero[2], w[3];
+    for (int64_t i = 0; i < sizes[0]; i++) { /* the approximation's differences: rows_of's pk2 - pk */
+        int64_t i2 = i + 1 < sizes[0] - 1 ? i + 1 : sizes[0] - 1;
+        nz[i] = 0;
+        for (int64_t k = 0; k < na; k++) nz[i] |= coef[i * rs + act[k] * cs] != coef[i2 * rs + act[k] * cs];
+    }
     int64_t start = sizes[0], pstart = 0;
     for (int b = 1; b <= levels; b++) {
         int j = levels - b + 1, bc = j <= 1 ? 0 : 1;
         int64_t n = sizes[b], np = sizes[b - 1];
         int64_t *cur = coef + start * rs;
         const int64_t *par = coef + pstart * rs;
+        uint8_t *nzc = nz + start;
+        const uint8_t *nzp = nz + pstart;
         Counter *z2 = m->z2 + (j < LEVELS - 1 ? j : LEVELS - 1) * m->feat;
         for (int64_t i = 0; i < n; i++) {
             Rows rw = rows_of(cur, i, par, np, b == 1, j, rs, cs);
             int64_t *row = cur + i * rs;
+            int64_t k1 = (rw.pk - par) / rs, k2 = (rw.pk2 - par) / rs; /* the parent rows */
+            int quiet = !(rw.has1 && nzc[i - 1]) && !(rw.has2 && nzc[i - 2]) &&
+                        (b == 1 ? !nzp[k1] : !nzp[k1] && !nzp[k2]);
+            int any = 0;
             for (int64_t k = 0; k < ni; k++) row[idle[k] * cs] = 0;
-            row_contexts(c->t, m, &rw, row, act, na, bc, z2, cc);
             uint32_t range = c->d.range, code = c->d.code;
-            for (int64_t k = 0; k < na; k++) {
-                ColCtx *x = &cc[k];
-                Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
-                int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
-                int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
-                e = e > 2047 ? 2047 : (e < -2047 ? -2047 : e);
-                int p = SQ[e]; /* 1..4095 */
-                uint32_t bound = (range >> 12) * (uint32_t)p;
-                if (MRC_LIKELY(code >= bound)) { /* a zero */
-                    code -= bound;
-                    range -= bound;
-                    int32_t f = FALL[e]; /* -p MIX_RATE */
-                    w0 = mix_step(w0, s0, f);
-                    w1 = mix_step(w1, s1, f);
-                    w2 = mix_step(w2, s2, f);
-                    counter_update0(k0);
-                    counter_update0(k1);
-                    counter_update0(k2);
-                    if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
-                    continue;
+            int64_t k = 0;
+            int s[3], p = 0;
+            uint32_t bound = 0;
+            if (quiet) {
+                w[0] = w0;
+                w[1] = w1;
+                w[2] = w2;
+                k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, w, &range, &code, s,
+                              &p, &bound);
+                w0 = w[0];
+                w1 = w[1];
+                w2 = w[2];
+                if (k < na) row_contexts(c->t, m, &rw, row, act + k, na - k, bc, z2, cc + k);
+            } else {
+                row_contexts(c->t, m, &rw, row, act, na, bc, z2, cc);
+            }
+            while (k < na) {
+                if (!quiet || any) { /* the general loop (a row with a non-zero somewhere around, or after one) */
+                    for (; k < na; k++) {
+                        ColCtx *x = &cc[k];
+                        Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
+                        int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
+                        int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
+                        e = e > 2047 ? 2047 : (e < -2047 ? -2047 : e);
+                        p = SQ[e]; /* 1..4095 */
+                        bound = (range >> 12) * (uint32_t)p;
+                        if (MRC_UNLIKELY(code < bound)) {
+                            s[0] = s0;
+                            s[1] = s1;
+                            s[2] = s2;
+                            break;
+                        }
+                        code -= bound;
+                        range -= bound;
+                        int32_t f = FALL[e]; /* -p MIX_RATE */
+                        w0 = mix_step(w0, s0, f);
+                        w1 = mix_step(w1, s1, f);
+                        w2 = mix_step(w2, s2, f);
+                        counter_update0(k0);
+                        counter_update0(k1);
+                        counter_update0(k2);
+                        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
+                    }
+                    if (k == na) break;
                 }
-                int32_t w[3] = {w0, w1, w2};
-                int s[3] = {s0, s1, s2};
+                /* a non-zero at column k */
                 const int64_t at = act[k] * cs;
                 c->d.code = code;
-                decode_nonzero(c, m, &rw, x, at, &row[at], k + 1 < na && act[k + 1] == act[k] + 1, bc, w, s, p,
+                w[0] = w0;
+                w[1] = w1;
+                w[2] = w2;
+                decode_nonzero(c, m, &rw, &cc[k], at, &row[at], k + 1 < na && act[k + 1] == act[k] + 1, bc, w, s, p,
                                bound);
                 w0 = w[0];
                 w1 = w[1];
                 w2 = w[2];
                 range = c->d.range;
                 code = c->d.code;
+                any = 1;
+                k++;
             }
             c->d.range = range;
             c->d.code = code;
+            nzc[i] = (uint8_t)any;
         }
         pstart = start;
         start += n;
@@ -912,18 +1004,18 @@ MRC_INLINE int code_body(const int dec, const int fast, Coder *c, int64_t F, int
     int32_t wzero[MIX_INPUTS];
     memcpy(wzero, c->mix->w[0], sizeof wzero);
     if (dec && fast && !e) { /* decode_details: the same decisions */
-        int32_t *act = (int32_t *)malloc((size_t)D * (sizeof(int32_t) + sizeof(ColCtx)));
-        if (!act) e = MRC_E_MEMORY;
+        ColCtx *cc = (ColCtx *)malloc((size_t)D * (sizeof(ColCtx) + sizeof(int32_t)) + (size_t)F);
+        if (!cc) e = MRC_E_MEMORY;
         else {
+            int32_t *act = (int32_t *)(void *)(cc + D), *idle = act + D; /* act[0..na-1], idle[-ni..-1] */
             int64_t na = 0, ni = 0;
-            int32_t *idle = act + D; /* filled from the end: act[0..na-1], then idle[-ni..-1] */
             for (int64_t d = 0; d < D; d++) {
                 if (active[d]) act[na++] = (int32_t)d;
                 else *(idle - ++ni) = (int32_t)d;
             }
-            decode_details(c, &m, coef, act, na, idle - ni, ni, sizes, levels, rs, cs, wzero,
-                           (ColCtx *)(void *)(act + D));
-            free(act);
+            decode_details(c, &m, coef, act, na, idle - ni, ni, sizes, levels, rs, cs, wzero, cc,
+                           (uint8_t *)(void *)idle);
+            free(cc);
         }
         levels = 0; /* done: the loop below does nothing */
     }
