@@ -306,6 +306,29 @@ typedef struct {
     Mixer *mix;
 } Coder;
 
+#if defined(__GNUC__)
+#define MRC_LIKELY(x) __builtin_expect(!!(x), 1)
+#define MRC_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#define MRC_NOINLINE __attribute__((noinline))
+#else
+#define MRC_LIKELY(x) (x)
+#define MRC_UNLIKELY(x) (x)
+#define MRC_NOINLINE
+#endif
+
+/* floor(x / 2 ** s) of an int32_t (asr's) */
+MRC_INLINE int32_t asr32(int32_t x, int s) {
+    return x >= 0 ? (x >> s) : ~(~x >> s);
+}
+
+/* code_mixed's weight update w + floor(st err MIX_RATE / 65536), clamped, with f = err MIX_RATE: |st err MIX_RATE|
+ * <= 2047 x 4095 x 82 < 2 ** 31 and |w| <= 2 ** 24, so int32 throughout, the same integers */
+MRC_INLINE int32_t mix_step(int32_t w, int st, int32_t f) {
+    int32_t v = w + asr32(st * f, 16);
+    if (MRC_UNLIKELY((uint32_t)(v + MIX_LIMIT) > 2u * MIX_LIMIT)) v = v > 0 ? MIX_LIMIT : -MIX_LIMIT;
+    return v;
+}
+
 MRC_INLINE int code_bit(const int dec, Coder *c, int p12, int y) {
     if (dec) return dec_bit(&c->d, p12);
     enc_bit(c->enc, p12, y);
@@ -324,20 +347,17 @@ MRC_INLINE int code_raw(const int dec, Coder *c, int y) { return code_bit(dec, c
  * caller keeps in registers) */
 MRC_INLINE int code_mixed(const int dec, Coder *c, Counter **k, int n, int32_t *w, int y) {
     int st[MIX_INPUTS];
-    int64_t st_rate[MIX_INPUTS]; /* st * MIX_RATE before the decision is known: off the path from one to the next */
     int64_t dot = 0;
     for (int i = 0; i < n; i++) {
         st[i] = c->t->stretch[counter_p12(k[i])];
-        st_rate[i] = (int64_t)st[i] * MIX_RATE;
         dot += (int64_t)w[i] * st[i];
     }
     int64_t x = asr(dot, 16);
     int p = c->t->squash[(x > 2047 ? 2047 : (x < -2047 ? -2047 : (int)x)) + 2047]; /* 1..4095 */
     y = code_bit(dec, c, p, y);
-    int err = (y << 12) - p;
+    int f = ((y << 12) - p) * MIX_RATE; /* the error times the rate */
     for (int i = 0; i < n; i++) {
-        int64_t v = w[i] + asr(st_rate[i] * err, 16); /* st * err * MIX_RATE: the same integer */
-        w[i] = (int32_t)(v > MIX_LIMIT ? MIX_LIMIT : (v < -MIX_LIMIT ? -MIX_LIMIT : v));
+        w[i] = mix_step(w[i], st[i], f);
         counter_update(k[i], y);
     }
     return y;
@@ -672,16 +692,6 @@ MRC_INLINE int64_t code_detail(const int dec, Coder *c, Models *m, int64_t *row,
  * nearly every decision of a clip, are decoded with the zero outcome straight-line (weights in registers, the
  * counters of y = 0), and a non-zero coefficient's sign and magnitude go through code_nonzero as before. */
 
-#if defined(__GNUC__)
-#define MRC_LIKELY(x) __builtin_expect(!!(x), 1)
-#define MRC_UNLIKELY(x) __builtin_expect(!!(x), 0)
-#define MRC_NOINLINE __attribute__((noinline))
-#else
-#define MRC_LIKELY(x) (x)
-#define MRC_UNLIKELY(x) (x)
-#define MRC_NOINLINE
-#endif
-
 typedef struct {
     Counter *k0, *k1, *k2; /* the zero flag's counters (k0 where r1 is 0: decode_details replaces it after a non-zero) */
     int32_t nb;            /* 3 t1 + t2 + 2 pa + pn (capped magnitudes: below 2 ** 27): a0's sum without r1 */
@@ -728,19 +738,6 @@ static void row_contexts(const Tables *t, Models *m, const Rows *rw, int64_t *ro
         cc[k].nb = (int32_t)nb;
         cc[k].a1 = a1;
     }
-}
-
-/* floor(x / 2 ** s) of an int32_t (asr's) */
-MRC_INLINE int32_t asr32(int32_t x, int s) {
-    return x >= 0 ? (x >> s) : ~(~x >> s);
-}
-
-/* code_mixed's weight update w + floor(st err MIX_RATE / 65536), clamped, with f = err MIX_RATE: |st err MIX_RATE|
- * <= 2047 x 4095 x 82 < 2 ** 31 and |w| <= 2 ** 24, so int32 throughout, the same integers */
-MRC_INLINE int32_t mix_step(int32_t w, int st, int32_t f) {
-    int32_t v = w + asr32(st * f, 16);
-    if (MRC_UNLIKELY((uint32_t)(v + MIX_LIMIT) > 2u * MIX_LIMIT)) v = v > 0 ? MIX_LIMIT : -MIX_LIMIT;
-    return v;
 }
 
 /* counter_update(k, 0): a counter past 62 updates has the rate 1024, p - (p * 1024 >> 16) = p - (p >> 6), which
@@ -793,7 +790,7 @@ MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, in
         Counter *k2 = &z2[(uint64_t)act[k] % FEAT];
         int s2 = ST[counter_p12(k2)];
         int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
-        e = e > 2047 ? 2047 : (e < -2047 ? -2047 : e);
+        if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
         int p = SQ[e]; /* 1..4095 */
         uint32_t bound = (range >> 12) * (uint32_t)p;
         if (MRC_UNLIKELY(code < bound)) {
@@ -883,7 +880,7 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
                         Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
                         int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
                         int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
-                        e = e > 2047 ? 2047 : (e < -2047 ? -2047 : e);
+                        if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
                         p = SQ[e]; /* 1..4095 */
                         bound = (range >> 12) * (uint32_t)p;
                         if (MRC_UNLIKELY(code < bound)) {
