@@ -773,17 +773,21 @@ static MRC_NOINLINE void decode_nonzero(Coder *c, Models *m, const Rows *rw, Col
     if (next) x[1].k0 = &m->z0[bc * N0 + cls0(c->t, x[1].nb + cap(v))];
 }
 
-/* The zero flags of a quiet row from column k on (every active column's neighbourhood zero: the contexts of
- * an all-zero neighbourhood, the counters k0 and k1 the same two for every column, kept in registers here), as
- * decode_details' loop decodes them, up to the first non-zero flag: returns its column (the flag's decision is
- * left to the caller: *p and *bound, the stretches s[3]), or na when the row's flags are all zero. */
-MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row, const int32_t *act,
-                             int64_t k, int64_t na, int64_t cs, int32_t *w, uint32_t *range_, uint32_t *code_,
-                             int *s, int *p_, uint32_t *bound_) {
+/* The state quiet_run reads and leaves: the range decoder's, the zero flags' weights, and where it stopped. */
+typedef struct {
+    uint32_t range, code;
+    int32_t w[3];
+    int s[3], p;     /* at a non-zero flag: the stretches and the probability of its decision */
+    uint32_t bound;  /* and its bound (the decision itself is left to the caller) */
+} Run;
+
+/* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep) */
+MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
+                              const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
     const int16_t *ST = c->t->stretch, *SQ = c->t->squash + 2047;
     const int32_t *FALL = c->t->fall + 2047;
-    int32_t w0 = w[0], w1 = w[1], w2 = w[2];
-    uint32_t range = *range_, code = *code_;
+    int32_t w0 = run->w[0], w1 = run->w[1], w2 = run->w[2];
+    uint32_t range = run->range, code = run->code;
     Counter q0 = *K0, q1 = *K1;
     int s0 = ST[counter_p12(&q0)], s1 = ST[counter_p12(&q1)];
     for (; k < na; k++) {
@@ -794,11 +798,11 @@ MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, in
         int p = SQ[e]; /* 1..4095 */
         uint32_t bound = (range >> 12) * (uint32_t)p;
         if (MRC_UNLIKELY(code < bound)) {
-            s[0] = s0;
-            s[1] = s1;
-            s[2] = s2;
-            *p_ = p;
-            *bound_ = bound;
+            run->s[0] = s0;
+            run->s[1] = s1;
+            run->s[2] = s2;
+            run->p = p;
+            run->bound = bound;
             break;
         }
         code -= bound;
@@ -807,8 +811,13 @@ MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, in
         w0 = mix_step(w0, s0, f);
         w1 = mix_step(w1, s1, f);
         w2 = mix_step(w2, s2, f);
-        counter_update0(&q0);
-        counter_update0(&q1);
+        if (sat) { /* counter_update0 of a counter at 63 */
+            q0.p = (uint16_t)(q0.p - (q0.p >> 6));
+            q1.p = (uint16_t)(q1.p - (q1.p >> 6));
+        } else {
+            counter_update0(&q0);
+            counter_update0(&q1);
+        }
         counter_update0(k2);
         s0 = ST[counter_p12(&q0)];
         s1 = ST[counter_p12(&q1)];
@@ -817,12 +826,23 @@ MRC_INLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, in
     }
     *K0 = q0;
     *K1 = q1;
-    w[0] = w0;
-    w[1] = w1;
-    w[2] = w2;
-    *range_ = range;
-    *code_ = code;
+    run->w[0] = w0;
+    run->w[1] = w1;
+    run->w[2] = w2;
+    run->range = range;
+    run->code = code;
     return k;
+}
+
+/* The zero flags of a quiet row from column k on (every active column's neighbourhood zero: the contexts of
+ * an all-zero neighbourhood, the counters K0 and K1 the same two for every column, kept in registers here), as
+ * decode_details' loop decodes them, up to the first non-zero flag: returns its column (the flag's decision is
+ * left to the caller, with run's s, p and bound), or na when the row's flags are all zero. Its own function: few
+ * values live, all in registers. */
+static MRC_NOINLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
+                                      const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
+    if (K0->n == 63 && K1->n == 63) return quiet_loop(1, c, K0, K1, z2, row, act, k, na, cs, run);
+    return quiet_loop(0, c, K0, K1, z2, row, act, k, na, cs, run);
 }
 
 /* The details of the active features act[0..na-1] (the others, idle[0..ni-1], are written 0), level L to 1, row
@@ -861,14 +881,16 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
             int s[3], p = 0;
             uint32_t bound = 0;
             if (quiet) {
-                w[0] = w0;
-                w[1] = w1;
-                w[2] = w2;
-                k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, w, &range, &code, s,
-                              &p, &bound);
-                w0 = w[0];
-                w1 = w[1];
-                w2 = w[2];
+                Run run = {range, code, {w0, w1, w2}, {0, 0, 0}, 0, 0};
+                k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, &run);
+                w0 = run.w[0];
+                w1 = run.w[1];
+                w2 = run.w[2];
+                range = run.range;
+                code = run.code;
+                memcpy(s, run.s, sizeof s);
+                p = run.p;
+                bound = run.bound;
                 if (k < na) row_contexts(c->t, m, &rw, row, act + k, na - k, bc, z2, cc + k);
             } else {
                 row_contexts(c->t, m, &rw, row, act, na, bc, z2, cc);
