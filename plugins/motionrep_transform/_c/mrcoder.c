@@ -773,6 +773,25 @@ static MRC_NOINLINE void decode_nonzero(Coder *c, Models *m, const Rows *rw, Col
     if (next) x[1].k0 = &m->z0[bc * N0 + cls0(c->t, x[1].nb + cap(v))];
 }
 
+/* A zero flag's decision from the stretches s0..s2 of its counters under the weights w (decode_details' loops): 0
+ * when it is zero, the range decoder and the weights advanced (the counters are the caller's to update); 1 when it
+ * is not, nothing changed but *p and *bound, with which decode_nonzero finishes the decision. */
+MRC_INLINE int zero_flag(const Tables *t, int s0, int s1, int s2, int32_t *w, uint32_t *range, uint32_t *code, int *p,
+                         uint32_t *bound) {
+    int64_t e = asr((int64_t)w[0] * s0 + (int64_t)w[1] * s1 + (int64_t)w[2] * s2, 16);
+    if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
+    *p = t->squash[e + 2047]; /* 1..4095 */
+    *bound = (*range >> 12) * (uint32_t)*p;
+    if (MRC_UNLIKELY(*code < *bound)) return 1;
+    *code -= *bound;
+    *range -= *bound;
+    int32_t f = t->fall[e + 2047]; /* -p MIX_RATE */
+    w[0] = mix_step(w[0], s0, f);
+    w[1] = mix_step(w[1], s1, f);
+    w[2] = mix_step(w[2], s2, f);
+    return 0;
+}
+
 /* The state quiet_run reads and leaves: the range decoder's, the zero flags' weights, and where it stopped. */
 typedef struct {
     uint32_t range, code;
@@ -784,33 +803,20 @@ typedef struct {
 /* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep) */
 MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
                               const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
-    const int16_t *ST = c->t->stretch, *SQ = c->t->squash + 2047;
-    const int32_t *FALL = c->t->fall + 2047;
-    int32_t w0 = run->w[0], w1 = run->w[1], w2 = run->w[2];
+    const int16_t *ST = c->t->stretch;
+    int32_t w[3] = {run->w[0], run->w[1], run->w[2]};
     uint32_t range = run->range, code = run->code;
     Counter q0 = *K0, q1 = *K1;
     int s0 = ST[counter_p12(&q0)], s1 = ST[counter_p12(&q1)];
     for (; k < na; k++) {
         Counter *k2 = &z2[(uint64_t)act[k] % FEAT];
         int s2 = ST[counter_p12(k2)];
-        int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
-        if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
-        int p = SQ[e]; /* 1..4095 */
-        uint32_t bound = (range >> 12) * (uint32_t)p;
-        if (MRC_UNLIKELY(code < bound)) {
+        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, w, &range, &code, &run->p, &run->bound))) {
             run->s[0] = s0;
             run->s[1] = s1;
             run->s[2] = s2;
-            run->p = p;
-            run->bound = bound;
             break;
         }
-        code -= bound;
-        range -= bound;
-        int32_t f = FALL[e]; /* -p MIX_RATE */
-        w0 = mix_step(w0, s0, f);
-        w1 = mix_step(w1, s1, f);
-        w2 = mix_step(w2, s2, f);
         if (sat) { /* counter_update0 of a counter at 63 */
             q0.p = (uint16_t)(q0.p - (q0.p >> 6));
             q1.p = (uint16_t)(q1.p - (q1.p >> 6));
@@ -826,9 +832,7 @@ MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1,
     }
     *K0 = q0;
     *K1 = q1;
-    run->w[0] = w0;
-    run->w[1] = w1;
-    run->w[2] = w2;
+    memcpy(run->w, w, sizeof w);
     run->range = range;
     run->code = code;
     return k;
@@ -851,9 +855,8 @@ static MRC_NOINLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counte
 static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *act, int64_t na,
                            const int32_t *idle, int64_t ni, const int64_t *sizes, int levels, int64_t rs,
                            int64_t cs, int32_t *wzero, ColCtx *cc, uint8_t *nz) {
-    const int16_t *ST = c->t->stretch, *SQ = c->t->squash + 2047;
-    const int32_t *FALL = c->t->fall + 2047;
-    int32_t w0 = wzero[0], w1 = wzero[1], w2 = wzero[2], w[3];
+    const int16_t *ST = c->t->stretch;
+    int32_t wl[3] = {wzero[0], wzero[1], wzero[2]}, w[3]; /* wl: in registers (its address does not escape) */
     for (int64_t i = 0; i < sizes[0]; i++) { /* the approximation's differences: rows_of's pk2 - pk */
         int64_t i2 = i + 1 < sizes[0] - 1 ? i + 1 : sizes[0] - 1;
         nz[i] = 0;
@@ -881,11 +884,9 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
             int s[3], p = 0;
             uint32_t bound = 0;
             if (quiet) {
-                Run run = {range, code, {w0, w1, w2}, {0, 0, 0}, 0, 0};
+                Run run = {range, code, {wl[0], wl[1], wl[2]}, {0, 0, 0}, 0, 0};
                 k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, &run);
-                w0 = run.w[0];
-                w1 = run.w[1];
-                w2 = run.w[2];
+                memcpy(wl, run.w, sizeof wl);
                 range = run.range;
                 code = run.code;
                 memcpy(s, run.s, sizeof s);
@@ -901,22 +902,12 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
                         ColCtx *x = &cc[k];
                         Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
                         int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
-                        int64_t e = asr((int64_t)w0 * s0 + (int64_t)w1 * s1 + (int64_t)w2 * s2, 16);
-                        if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
-                        p = SQ[e]; /* 1..4095 */
-                        bound = (range >> 12) * (uint32_t)p;
-                        if (MRC_UNLIKELY(code < bound)) {
+                        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, wl, &range, &code, &p, &bound))) {
                             s[0] = s0;
                             s[1] = s1;
                             s[2] = s2;
                             break;
                         }
-                        code -= bound;
-                        range -= bound;
-                        int32_t f = FALL[e]; /* -p MIX_RATE */
-                        w0 = mix_step(w0, s0, f);
-                        w1 = mix_step(w1, s1, f);
-                        w2 = mix_step(w2, s2, f);
                         counter_update0(k0);
                         counter_update0(k1);
                         counter_update0(k2);
@@ -927,14 +918,10 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
                 /* a non-zero at column k */
                 const int64_t at = act[k] * cs;
                 c->d.code = code;
-                w[0] = w0;
-                w[1] = w1;
-                w[2] = w2;
+                memcpy(w, wl, sizeof w);
                 decode_nonzero(c, m, &rw, &cc[k], at, &row[at], k + 1 < na && act[k + 1] == act[k] + 1, bc, w, s, p,
                                bound);
-                w0 = w[0];
-                w1 = w[1];
-                w2 = w[2];
+                memcpy(wl, w, sizeof wl);
                 range = c->d.range;
                 code = c->d.code;
                 any = 1;
@@ -947,9 +934,7 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
         pstart = start;
         start += n;
     }
-    wzero[0] = w0;
-    wzero[1] = w1;
-    wzero[2] = w2;
+    memcpy(wzero, wl, sizeof wl);
 }
 
 /* exponents, each as its difference from the previous one coded; where `active` (may be NULL) is 0 nothing is
