@@ -3,7 +3,10 @@
  *
  *   declared(data) -> (frames, features, region)     (the head only; decode checks they fit the bytes)
  *   encode(frames, features, region, fexp, rexp, coef, version) -> bytes
- *   decode(data, fexp, rexp, coef, version) -> None      (writes into the three writable int64 buffers)
+ *   decode(data, fexp, rexp, coef, version, feature_major=0, reference=0) -> None
+ *                                                      (writes into the three writable int64 buffers; coef F x D,
+ *                                                       or D x F with feature_major; reference: the generic loop,
+ *                                                       mrc_decode_reference, for tests of the decoder's own) 
  *   states(frames, features, region, fexp, rexp, coef) -> bytes   (mrc_states: MRC_STATES int16 stretches, then
  *                                                                  MRC_STATES uint16 counts, native order)
  *
@@ -91,8 +94,9 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
     Py_buffer data;
     PyObject *fo, *ro, *co;
     (void)self;
-    int version;
-    if (!PyArg_ParseTuple(args, "y*OOOi", &data, &fo, &ro, &co, &version)) return NULL;
+    int version, feature_major = 0, reference = 0;
+    if (!PyArg_ParseTuple(args, "y*OOOi|pp", &data, &fo, &ro, &co, &version, &feature_major, &reference))
+        return NULL;
     int64_t F, D, region;
     int e = (version == 2 || version == 3) ? mrc_declared((const uint8_t *)data.buf, (size_t)data.len, &F, &D, &region)
                                            : MRC_E_ARGUMENT;
@@ -108,8 +112,9 @@ static PyObject *py_decode(PyObject *self, PyObject *args) {
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    e = mrc_decode_version(version, (const uint8_t *)data.buf, (size_t)data.len, (int64_t *)v[0].buf,
-                           (int64_t *)v[1].buf, (int64_t *)v[2].buf, 0);
+    e = (reference ? mrc_decode_reference : mrc_decode_version)(version, (const uint8_t *)data.buf, (size_t)data.len,
+                                                                (int64_t *)v[0].buf, (int64_t *)v[1].buf,
+                                                                (int64_t *)v[2].buf, feature_major);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&data);
     release_arrays(v);
@@ -156,8 +161,9 @@ static PyMethodDef methods[] = {
      "encode(frames, features, region, fexp, rexp, coef, version) -> bytes: the payload (version 2 or 3) of int64 "
      "arrays."},
     {"decode", py_decode, METH_VARARGS,
-     "decode(data, fexp, rexp, coef, version): decode a payload (version 2 or 3) into writable int64 arrays of the "
-     "declared sizes."},
+     "decode(data, fexp, rexp, coef, version, feature_major=False, reference=False): decode a payload (version 2 "
+     "or 3) into writable int64 arrays of the declared sizes (coef D x F with feature_major; reference: by the "
+     "generic loop the decoder's own is tested against)."},
     {"states", py_states, METH_VARARGS,
      "states(frames, features, region, fexp, rexp, coef) -> bytes: the final fixed-counter states of version 2's "
      "models (int16 stretches, then uint16 counts; for benchmarks/prior3.py)."},

@@ -124,9 +124,21 @@ static int squash(int d) {
 #define N0 20 /* classes of the whole neighbourhood sum (detail contexts, below) */
 #define N1 12 /* classes of the time and of the parent neighbourhood */
 
+#define MIX_INPUTS 3
+#define MIX_SETS 18
+#define MIX_INIT 19661 /* 0.3 in 1/65536 */
+#define MIX_RATE 82    /* learning rate 0.02: w += err12 * st * 82 / 65536 */
+#define MIX_LIMIT (1 << 24) /* |w| <= 256 (real clips stay within a few units): no overflow on any data */
+
+/* qclass(s, N0) is N0 - 1 from s = 512 on, qclass(s, N1) N1 - 1 from 32 on: tables up to there */
+#define CLS0_TOP 512
+#define CLS1_TOP 32
+
 typedef struct {
     int16_t stretch[4096];
     int16_t squash[4095]; /* squash(d - 2047), d = 0..4094: one load per decision instead of the interpolation */
+    uint8_t cls0[CLS0_TOP + 1], cls1[CLS1_TOP + 1]; /* qclass(s, N0), qclass(s, N1) up to the top (decode_details) */
+    int32_t fall[4095]; /* -MIX_RATE squash(d - 2047): the weights' step after a 0 is floor(st fall / 65536) */
 } Tables;
 
 static void tables_init(Tables *t) {
@@ -138,13 +150,11 @@ static void tables_init(Tables *t) {
         pi = v + 1;
     }
     for (int i = pi; i < 4096; i++) t->stretch[i] = 2047;
+    for (int d = 0; d < 4095; d++) t->fall[d] = -MIX_RATE * t->squash[d];
+    for (int i = 0; i <= CLS0_TOP; i++) t->cls0[i] = (uint8_t)qclass(i, N0);
+    for (int i = 0; i <= CLS1_TOP; i++) t->cls1[i] = (uint8_t)qclass(i, N1);
 }
 
-#define MIX_INPUTS 3
-#define MIX_SETS 18
-#define MIX_INIT 19661 /* 0.3 in 1/65536 */
-#define MIX_RATE 82    /* learning rate 0.02: w += err12 * st * 82 / 65536 */
-#define MIX_LIMIT (1 << 24) /* |w| <= 256 (real clips stay within a few units): no overflow on any data */
 
 typedef struct {
     int32_t w[MIX_SETS][MIX_INPUTS];
@@ -296,6 +306,29 @@ typedef struct {
     Mixer *mix;
 } Coder;
 
+#if defined(__GNUC__)
+#define MRC_LIKELY(x) __builtin_expect(!!(x), 1)
+#define MRC_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#define MRC_NOINLINE __attribute__((noinline))
+#else
+#define MRC_LIKELY(x) (x)
+#define MRC_UNLIKELY(x) (x)
+#define MRC_NOINLINE
+#endif
+
+/* floor(x / 2 ** s) of an int32_t (asr's) */
+MRC_INLINE int32_t asr32(int32_t x, int s) {
+    return x >= 0 ? (x >> s) : ~(~x >> s);
+}
+
+/* code_mixed's weight update w + floor(st err MIX_RATE / 65536), clamped, with f = err MIX_RATE: |st err MIX_RATE|
+ * <= 2047 x 4095 x 82 < 2 ** 31 and |w| <= 2 ** 24, so int32 throughout, the same integers */
+MRC_INLINE int32_t mix_step(int32_t w, int st, int32_t f) {
+    int32_t v = w + asr32(st * f, 16);
+    if (MRC_UNLIKELY((uint32_t)(v + MIX_LIMIT) > 2u * MIX_LIMIT)) v = v > 0 ? MIX_LIMIT : -MIX_LIMIT;
+    return v;
+}
+
 MRC_INLINE int code_bit(const int dec, Coder *c, int p12, int y) {
     if (dec) return dec_bit(&c->d, p12);
     enc_bit(c->enc, p12, y);
@@ -314,20 +347,17 @@ MRC_INLINE int code_raw(const int dec, Coder *c, int y) { return code_bit(dec, c
  * caller keeps in registers) */
 MRC_INLINE int code_mixed(const int dec, Coder *c, Counter **k, int n, int32_t *w, int y) {
     int st[MIX_INPUTS];
-    int64_t st_rate[MIX_INPUTS]; /* st * MIX_RATE before the decision is known: off the path from one to the next */
     int64_t dot = 0;
     for (int i = 0; i < n; i++) {
         st[i] = c->t->stretch[counter_p12(k[i])];
-        st_rate[i] = (int64_t)st[i] * MIX_RATE;
         dot += (int64_t)w[i] * st[i];
     }
     int64_t x = asr(dot, 16);
     int p = c->t->squash[(x > 2047 ? 2047 : (x < -2047 ? -2047 : (int)x)) + 2047]; /* 1..4095 */
     y = code_bit(dec, c, p, y);
-    int err = (y << 12) - p;
+    int f = ((y << 12) - p) * MIX_RATE; /* the error times the rate */
     for (int i = 0; i < n; i++) {
-        int64_t v = w[i] + asr(st_rate[i] * err, 16); /* st * err * MIX_RATE: the same integer */
-        w[i] = (int32_t)(v > MIX_LIMIT ? MIX_LIMIT : (v < -MIX_LIMIT ? -MIX_LIMIT : v));
+        w[i] = mix_step(w[i], st[i], f);
         counter_update(k[i], y);
     }
     return y;
@@ -581,6 +611,36 @@ MRC_INLINE Rows rows_of(int64_t *cur, int64_t i, const int64_t *par, int64_t np,
     return r;
 }
 
+/* the sign and the magnitude of a detail coefficient x whose zero flag was 1, under contexts a0, a1, a2 and the
+ * sign context sc (code_detail's); returns x (decoded when `dec`) */
+MRC_INLINE int64_t code_nonzero(const int dec, Coder *c, Models *m, int a0, int a1, int a2, int sc, int64_t x) {
+    uint64_t mag = x < 0 ? (uint64_t)(-x) : (uint64_t)x;
+    Counter *k[MIX_INPUTS];
+    k[0] = &m->s0[sc];
+    k[1] = &m->s2[a2];
+    int neg = code_mixed(dec, c, k, 2, c->mix->w[1], x < 0);
+    int n = dec ? 0 : bitlen(mag);
+    int b = 1;
+    for (; b < MRC_MAX_BITS; b++) {
+        int q = b < MAGS - 1 ? b : MAGS - 1;
+        k[0] = &m->m0[a0 * MAGS + q];
+        k[1] = &m->m1[a1 * MAGS + q];
+        k[2] = &m->m2[(size_t)a2 * MAGS + q];
+        if (!code_mixed(dec, c, k, 3, c->mix->w[2 + q], b < n)) break;
+    }
+    n = b;
+    uint64_t r = 1;
+    for (int s = n - 2; s >= 0; s--) {
+        int bit = dec ? 0 : (int)((mag >> s) & 1);
+        if (s >= n - 3)
+            bit = code_counter(dec, c, &m->mant[2 * n + (n - 2 - s)], bit);
+        else
+            bit = code_raw(dec, c, bit);
+        r = (r << 1) | (uint64_t)bit;
+    }
+    return neg ? -(int64_t)r : (int64_t)r; /* r < 2 ** 62 */
+}
+
 /* one detail coefficient, row[col * rw->cs], with the rows `rw` around it and r1 = cap(row[col - 1]) (0 for col 0): the
  * contexts of specs/codecs.md, "Payload version 2"; returns cap(row[col]), the next coefficient's r1 (from the
  * value decoded, not from memory: a zero is known as soon as its decision is) */
@@ -615,31 +675,266 @@ MRC_INLINE int64_t code_detail(const int dec, Coder *c, Models *m, int64_t *row,
         row[at] = 0;
         return 0;
     }
-    int sc = 3 * sign3(u1) + sign3(ps);
-    k[0] = &m->s0[sc];
-    k[1] = &m->s2[a2];
-    int neg = code_mixed(dec, c, k, 2, c->mix->w[1], x < 0);
-    int n = dec ? 0 : bitlen(mag);
-    int b = 1;
-    for (; b < MRC_MAX_BITS; b++) {
-        int q = b < MAGS - 1 ? b : MAGS - 1;
-        k[0] = &m->m0[a0 * MAGS + q];
-        k[1] = &m->m1[a1 * MAGS + q];
-        k[2] = &m->m2[(size_t)a2 * MAGS + q];
-        if (!code_mixed(dec, c, k, 3, c->mix->w[2 + q], b < n)) break;
+    x = code_nonzero(dec, c, m, a0, a1, a2, 3 * sign3(u1) + sign3(ps), x);
+    if (dec) row[at] = x;
+    return cap(x);
+}
+
+/* ------------------------------------------------------------------------------------------------------- */
+/* the decoder's own loop over the details                                                                   */
+/* ------------------------------------------------------------------------------------------------------- */
+
+/* mrc_decode_version decodes the details with decode_details: the decisions of code_body's loop (which
+ * mrc_decode_reference still runs, dec = 1), in the same order with the same integer arithmetic, so the same
+ * integers from any bytes, damaged or not (tests/test_stream2.py compares the two). What differs is the work
+ * around the decisions: per row, the parts of each active column's contexts that do not depend on the row being
+ * decoded (its rows above and its parents) are computed first, in a loop without decisions; then the zero flags,
+ * nearly every decision of a clip, are decoded with the zero outcome straight-line (weights in registers, the
+ * counters of y = 0), and a non-zero coefficient's sign and magnitude go through code_nonzero as before. */
+
+typedef struct {
+    Counter *k0, *k1, *k2; /* the zero flag's counters (k0 where r1 is 0: decode_details replaces it after a non-zero) */
+    int32_t nb;            /* 3 t1 + t2 + 2 pa + pn (capped magnitudes: below 2 ** 27): a0's sum without r1 */
+    int32_t a1;
+} ColCtx;
+
+/* qclass(s, N0) and qclass(s, N1) of s >= 0, by table */
+MRC_INLINE int cls0(const Tables *t, int64_t s) { return t->cls0[s < CLS0_TOP ? s : CLS0_TOP]; }
+MRC_INLINE int cls1(const Tables *t, int64_t s) { return t->cls1[s < CLS1_TOP ? s : CLS1_TOP]; }
+
+/* The zero flag's contexts of every active column of the detail row `rw` (the columns act[0..na-1]), and the
+ * row's coefficients set to 0 (decode_details writes the non-zero ones) */
+static void row_contexts(const Tables *t, Models *m, const Rows *rw, int64_t *row, const int32_t *act, int64_t na,
+                         int bc, Counter *z2, ColCtx *cc) {
+    const int64_t cs = rw->cs;
+    const int64_t *up1 = rw->has1 ? rw->up1 : row, *up2 = rw->has2 ? rw->up2 : row; /* row: zeros (below) */
+    Counter *k0 = &m->z0[bc * N0], *k1 = &m->z1[bc * N1 * N1]; /* the contexts of an all-zero neighbourhood */
+    for (int64_t k = 0; k < na; k++) {
+        const int64_t at = act[k] * cs;
+        row[at] = 0;
+        int64_t u1 = up1[at], u2 = up2[at], q1 = rw->pk[at], q2 = rw->pk2[at];
+        cc[k].k2 = &z2[(uint64_t)act[k] % FEAT];
+        if (MRC_LIKELY(!(u1 | u2 | q2 | (rw->approx ? 0 : q1)))) { /* (approx: q2 - q1, 0 when q2 is) */
+            if (!rw->approx || !q1) {
+                cc[k].k0 = k0;
+                cc[k].k1 = k1;
+                cc[k].nb = 0;
+                cc[k].a1 = bc * N1 * N1;
+                continue;
+            }
+        }
+        int64_t t1 = cap(u1), t2 = cap(u2), pa, pn;
+        if (rw->approx) {
+            pa = cap(q2 - q1);
+            pn = pa;
+        } else {
+            pa = cap(q1);
+            pn = cap(q2);
+        }
+        int64_t nb = 3 * t1 + t2 + 2 * pa + pn;
+        int a1 = (bc * N1 + cls1(t, 2 * t1 + t2)) * N1 + cls1(t, 2 * pa + pn);
+        cc[k].k0 = &m->z0[bc * N0 + cls0(t, nb)];
+        cc[k].k1 = &m->z1[a1];
+        cc[k].nb = (int32_t)nb;
+        cc[k].a1 = a1;
     }
-    n = b;
-    uint64_t r = 1;
-    for (int s = n - 2; s >= 0; s--) {
-        int bit = dec ? 0 : (int)((mag >> s) & 1);
-        if (s >= n - 3)
-            bit = code_counter(dec, c, &m->mant[2 * n + (n - 2 - s)], bit);
-        else
-            bit = code_raw(dec, c, bit);
-        r = (r << 1) | (uint64_t)bit;
+}
+
+/* counter_update(k, 0): a counter past 62 updates has the rate 1024, p - (p * 1024 >> 16) = p - (p >> 6), which
+ * stays within [P_LOW, P_HIGH] from there (p >= 16: p >> 6 < p - 15), its count at 63 */
+MRC_INLINE void counter_update0(Counter *k) {
+    if (MRC_LIKELY(k->n == 63)) k->p = (uint16_t)(k->p - (k->p >> 6));
+    else counter_update(k, 0);
+}
+
+static MRC_NOINLINE uint32_t dec_refill(Dec *d, uint32_t *range, uint32_t code) {
+    while (*range < (1u << 24)) {
+        *range <<= 8;
+        code = (code << 8) | dec_next(d);
     }
-    if (dec) row[at] = neg ? -(int64_t)r : (int64_t)r; /* r < 2 ** 62 */
-    return cap(neg ? -(int64_t)r : (int64_t)r);
+    return code;
+}
+
+/* A non-zero detail coefficient (its zero flag decided 1 with probability p from the counters of x and the
+ * stretches s[3] under the weights w): the rest of the flag's decision (range, weights, counters), its sign and its
+ * magnitude (code_nonzero) into *out, and the next column's k0 (x[1], when `next` says it is the next feature).
+ * Out of the hot loop, the decoder's state passed through c. */
+static MRC_NOINLINE void decode_nonzero(Coder *c, Models *m, const Rows *rw, ColCtx *x, int64_t at, int64_t *out,
+                                        int next, int bc, int32_t *w, const int *s, int p, uint32_t bound) {
+    c->d.range = bound;
+    if (bound < (1u << 24)) c->d.code = dec_refill(&c->d, &c->d.range, c->d.code);
+    for (int i = 0; i < 3; i++) w[i] = mix_step(w[i], s[i], (4096 - p) * MIX_RATE);
+    counter_update(x->k0, 1);
+    counter_update(x->k1, 1);
+    counter_update(x->k2, 1);
+    int64_t u1 = rw->has1 ? rw->up1[at] : 0, ps = rw->approx ? 0 : rw->pk[at];
+    int64_t v = code_nonzero(1, c, m, (int)(x->k0 - m->z0), x->a1, (int)(x->k2 - m->z2), 3 * sign3(u1) + sign3(ps), 0);
+    *out = v;
+    if (next) x[1].k0 = &m->z0[bc * N0 + cls0(c->t, x[1].nb + cap(v))];
+}
+
+/* A zero flag's decision from the stretches s0..s2 of its counters under the weights w (decode_details' loops): 0
+ * when it is zero, the range decoder and the weights advanced (the counters are the caller's to update); 1 when it
+ * is not, nothing changed but *p and *bound, with which decode_nonzero finishes the decision. */
+MRC_INLINE int zero_flag(const Tables *t, int s0, int s1, int s2, int32_t *w, uint32_t *range, uint32_t *code, int *p,
+                         uint32_t *bound) {
+    int64_t e = asr((int64_t)w[0] * s0 + (int64_t)w[1] * s1 + (int64_t)w[2] * s2, 16);
+    if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
+    *p = t->squash[e + 2047]; /* 1..4095 */
+    *bound = (*range >> 12) * (uint32_t)*p;
+    if (MRC_UNLIKELY(*code < *bound)) return 1;
+    *code -= *bound;
+    *range -= *bound;
+    int32_t f = t->fall[e + 2047]; /* -p MIX_RATE */
+    w[0] = mix_step(w[0], s0, f);
+    w[1] = mix_step(w[1], s1, f);
+    w[2] = mix_step(w[2], s2, f);
+    return 0;
+}
+
+/* The state quiet_run reads and leaves: the range decoder's, the zero flags' weights, and where it stopped. */
+typedef struct {
+    uint32_t range, code;
+    int32_t w[3];
+    int s[3], p;     /* at a non-zero flag: the stretches and the probability of its decision */
+    uint32_t bound;  /* and its bound (the decision itself is left to the caller) */
+} Run;
+
+/* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep) */
+MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
+                              const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
+    const int16_t *ST = c->t->stretch;
+    int32_t w[3] = {run->w[0], run->w[1], run->w[2]};
+    uint32_t range = run->range, code = run->code;
+    Counter q0 = *K0, q1 = *K1;
+    int s0 = ST[counter_p12(&q0)], s1 = ST[counter_p12(&q1)];
+    for (; k < na; k++) {
+        Counter *k2 = &z2[(uint64_t)act[k] % FEAT];
+        int s2 = ST[counter_p12(k2)];
+        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, w, &range, &code, &run->p, &run->bound))) {
+            run->s[0] = s0;
+            run->s[1] = s1;
+            run->s[2] = s2;
+            break;
+        }
+        if (sat) { /* counter_update0 of a counter at 63 */
+            q0.p = (uint16_t)(q0.p - (q0.p >> 6));
+            q1.p = (uint16_t)(q1.p - (q1.p >> 6));
+        } else {
+            counter_update0(&q0);
+            counter_update0(&q1);
+        }
+        counter_update0(k2);
+        s0 = ST[counter_p12(&q0)];
+        s1 = ST[counter_p12(&q1)];
+        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
+        row[act[k] * cs] = 0;
+    }
+    *K0 = q0;
+    *K1 = q1;
+    memcpy(run->w, w, sizeof w);
+    run->range = range;
+    run->code = code;
+    return k;
+}
+
+/* The zero flags of a quiet row from column k on (every active column's neighbourhood zero: the contexts of
+ * an all-zero neighbourhood, the counters K0 and K1 the same two for every column, kept in registers here), as
+ * decode_details' loop decodes them, up to the first non-zero flag: returns its column (the flag's decision is
+ * left to the caller, with run's s, p and bound), or na when the row's flags are all zero. Its own function: few
+ * values live, all in registers. */
+static MRC_NOINLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
+                                      const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
+    if (K0->n == 63 && K1->n == 63) return quiet_loop(1, c, K0, K1, z2, row, act, k, na, cs, run);
+    return quiet_loop(0, c, K0, K1, z2, row, act, k, na, cs, run);
+}
+
+/* The details of the active features act[0..na-1] (the others, idle[0..ni-1], are written 0), level L to 1, row
+ * by row: the decisions of code_body's loop. cc: na entries of scratch; nz: F bytes, whether each coefficient row
+ * has a non-zero (a parent row of the band next to the approximation: whether its difference to the next does). */
+static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *act, int64_t na,
+                           const int32_t *idle, int64_t ni, const int64_t *sizes, int levels, int64_t rs,
+                           int64_t cs, int32_t *wzero, ColCtx *cc, uint8_t *nz) {
+    const int16_t *ST = c->t->stretch;
+    int32_t wl[3] = {wzero[0], wzero[1], wzero[2]}, w[3]; /* wl: in registers (its address does not escape) */
+    for (int64_t i = 0; i < sizes[0]; i++) { /* the approximation's differences: rows_of's pk2 - pk */
+        int64_t i2 = i + 1 < sizes[0] - 1 ? i + 1 : sizes[0] - 1;
+        nz[i] = 0;
+        for (int64_t k = 0; k < na; k++) nz[i] |= coef[i * rs + act[k] * cs] != coef[i2 * rs + act[k] * cs];
+    }
+    int64_t start = sizes[0], pstart = 0;
+    for (int b = 1; b <= levels; b++) {
+        int j = levels - b + 1, bc = j <= 1 ? 0 : 1;
+        int64_t n = sizes[b], np = sizes[b - 1];
+        int64_t *cur = coef + start * rs;
+        const int64_t *par = coef + pstart * rs;
+        uint8_t *nzc = nz + start;
+        const uint8_t *nzp = nz + pstart;
+        Counter *z2 = m->z2 + (j < LEVELS - 1 ? j : LEVELS - 1) * m->feat;
+        for (int64_t i = 0; i < n; i++) {
+            Rows rw = rows_of(cur, i, par, np, b == 1, j, rs, cs);
+            int64_t *row = cur + i * rs;
+            int64_t k1 = (rw.pk - par) / rs, k2 = (rw.pk2 - par) / rs; /* the parent rows */
+            int quiet = !(rw.has1 && nzc[i - 1]) && !(rw.has2 && nzc[i - 2]) &&
+                        (b == 1 ? !nzp[k1] : !nzp[k1] && !nzp[k2]);
+            int any = 0;
+            for (int64_t k = 0; k < ni; k++) row[idle[k] * cs] = 0;
+            uint32_t range = c->d.range, code = c->d.code;
+            int64_t k = 0;
+            int s[3], p = 0;
+            uint32_t bound = 0;
+            if (quiet) {
+                Run run = {range, code, {wl[0], wl[1], wl[2]}, {0, 0, 0}, 0, 0};
+                k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, &run);
+                memcpy(wl, run.w, sizeof wl);
+                range = run.range;
+                code = run.code;
+                memcpy(s, run.s, sizeof s);
+                p = run.p;
+                bound = run.bound;
+                if (k < na) row_contexts(c->t, m, &rw, row, act + k, na - k, bc, z2, cc + k);
+            } else {
+                row_contexts(c->t, m, &rw, row, act, na, bc, z2, cc);
+            }
+            while (k < na) {
+                if (!quiet || any) { /* the general loop (a row with a non-zero somewhere around, or after one) */
+                    for (; k < na; k++) {
+                        ColCtx *x = &cc[k];
+                        Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
+                        int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
+                        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, wl, &range, &code, &p, &bound))) {
+                            s[0] = s0;
+                            s[1] = s1;
+                            s[2] = s2;
+                            break;
+                        }
+                        counter_update0(k0);
+                        counter_update0(k1);
+                        counter_update0(k2);
+                        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
+                    }
+                    if (k == na) break;
+                }
+                /* a non-zero at column k */
+                const int64_t at = act[k] * cs;
+                c->d.code = code;
+                memcpy(w, wl, sizeof w);
+                decode_nonzero(c, m, &rw, &cc[k], at, &row[at], k + 1 < na && act[k + 1] == act[k] + 1, bc, w, s, p,
+                               bound);
+                memcpy(wl, w, sizeof wl);
+                range = c->d.range;
+                code = c->d.code;
+                any = 1;
+                k++;
+            }
+            c->d.range = range;
+            c->d.code = code;
+            nzc[i] = (uint8_t)any;
+        }
+        pstart = start;
+        start += n;
+    }
+    memcpy(wzero, wl, sizeof wl);
 }
 
 /* exponents, each as its difference from the previous one coded; where `active` (may be NULL) is 0 nothing is
@@ -665,8 +960,8 @@ MRC_INLINE int code_exponents(const int dec, Coder *c, Counter *set, int64_t *va
 }
 
 /* The body in both directions. Arrays: fexp (D), rexp (R), coef (F x D); on decoding they are written. */
-MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp,
-                         int64_t *coef, int64_t rs, int64_t cs, int version, MrcStates *states) {
+MRC_INLINE int code_body(const int dec, const int fast, Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp,
+                         int64_t *rexp, int64_t *coef, int64_t rs, int64_t cs, int version, MrcStates *states) {
     Coder local = *c; /* a copy whose address does not escape: its fields stay in registers */
     Coder *outer = c;
     c = &local;
@@ -712,6 +1007,22 @@ MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t 
     /* details, coarse to fine, row by row; the zero flags' weights (set 0, the most used) in local variables */
     int32_t wzero[MIX_INPUTS];
     memcpy(wzero, c->mix->w[0], sizeof wzero);
+    if (dec && fast && !e) { /* decode_details: the same decisions */
+        ColCtx *cc = (ColCtx *)malloc((size_t)D * (sizeof(ColCtx) + sizeof(int32_t)) + (size_t)F);
+        if (!cc) e = MRC_E_MEMORY;
+        else {
+            int32_t *act = (int32_t *)(void *)(cc + D), *idle = act + D; /* act[0..na-1], idle[-ni..-1] */
+            int64_t na = 0, ni = 0;
+            for (int64_t d = 0; d < D; d++) {
+                if (active[d]) act[na++] = (int32_t)d;
+                else *(idle - ++ni) = (int32_t)d;
+            }
+            decode_details(c, &m, coef, act, na, idle - ni, ni, sizes, levels, rs, cs, wzero, cc,
+                           (uint8_t *)(void *)idle);
+            free(cc);
+        }
+        levels = 0; /* done: the loop below does nothing */
+    }
     int64_t start = sizes[0], pstart = 0;
     for (int b = 1; b <= levels && !e; b++) {
         int j = levels - b + 1;
@@ -753,12 +1064,17 @@ MRC_INLINE int code_body(const int dec, Coder *c, int64_t F, int64_t D, int64_t 
 /* the body's two directions, each its own compiled copy */
 static int code_body_enc(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef,
                          int version, MrcStates *states) {
-    return code_body(0, c, F, D, R, fexp, rexp, coef, D, 1, version, states);
+    return code_body(0, 0, c, F, D, R, fexp, rexp, coef, D, 1, version, states);
 }
 
 static int code_body_dec(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp, int64_t *coef,
                          int64_t rs, int64_t cs, int version) {
-    return code_body(1, c, F, D, R, fexp, rexp, coef, rs, cs, version, NULL);
+    return code_body(1, 1, c, F, D, R, fexp, rexp, coef, rs, cs, version, NULL);
+}
+
+static int code_body_dec_reference(Coder *c, int64_t F, int64_t D, int64_t R, int64_t *fexp, int64_t *rexp,
+                                   int64_t *coef, int64_t rs, int64_t cs, int version) {
+    return code_body(1, 0, c, F, D, R, fexp, rexp, coef, rs, cs, version, NULL);
 }
 
 int mrc_encode(int64_t F, int64_t D, int64_t region, const int64_t *fexp, const int64_t *rexp,
@@ -862,17 +1178,54 @@ int mrc_decode_layout(const uint8_t *data, size_t len, int64_t *fexp, int64_t *r
     return mrc_decode_version(2, data, len, fexp, rexp, coef, feature_major);
 }
 
+static int decode_with(int reference, int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp,
+                       int64_t *coef, int feature_major);
+
 int mrc_decode_version(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
                        int feature_major) {
+    return decode_with(0, version, data, len, fexp, rexp, coef, feature_major);
+}
+
+int mrc_decode_reference(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                         int feature_major) {
+    return decode_with(1, version, data, len, fexp, rexp, coef, feature_major);
+}
+
+/* The decoder's tables are the same for every payload: made once per process and then shared, read-only, by every
+ * call and thread (14 us a decode otherwise); a compiler without GCC's atomics makes them in each call. Returns
+ * the shared tables, or *own (malloc'ed here; NULL when out of memory). */
+#if defined(__GNUC__)
+static Tables shared_tables;
+static int shared_state; /* 0: not made, 1: being made by one thread, 2: ready */
+#endif
+
+static const Tables *decoder_tables(Tables **own) {
+    *own = NULL;
+#if defined(__GNUC__)
+    if (__atomic_load_n(&shared_state, __ATOMIC_ACQUIRE) == 2) return &shared_tables;
+    int expected = 0;
+    if (__atomic_compare_exchange_n(&shared_state, &expected, 1, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        tables_init(&shared_tables);
+        __atomic_store_n(&shared_state, 2, __ATOMIC_RELEASE);
+        return &shared_tables;
+    }
+#endif
+    *own = (Tables *)malloc(sizeof(Tables));
+    if (*own) tables_init(*own);
+    return *own;
+}
+
+static int decode_with(int reference, int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp,
+                       int64_t *coef, int feature_major) {
     if (version != 2 && version != 3) return MRC_E_ARGUMENT;
     int64_t F, D, region;
     size_t body;
     int e = head(data, len, &F, &D, &region, &body);
     if (e) return e;
     if (!values_fit(F, D, region, len)) return MRC_E_TOO_MANY;
-    Tables *t = (Tables *)malloc(sizeof(Tables));
+    Tables *own;
+    const Tables *t = decoder_tables(&own);
     if (!t) return MRC_E_MEMORY;
-    tables_init(t);
     Coder c;
     Mixer mix;
     c.enc = NULL;
@@ -880,9 +1233,9 @@ int mrc_decode_version(int version, const uint8_t *data, size_t len, int64_t *fe
     c.t = t;
     c.mix = &mix;
     mixer_init(&mix);
-    e = code_body_dec(&c, F, D, count_regions(F, region), fexp, rexp, coef, feature_major ? 1 : D,
-                      feature_major ? F : 1, version);
-    free(t);
+    e = (reference ? code_body_dec_reference : code_body_dec)(&c, F, D, count_regions(F, region), fexp, rexp, coef,
+                                                              feature_major ? 1 : D, feature_major ? F : 1, version);
+    free(own);
     if (e) return e;
     /* the decoder reads as many bytes as the encoder wrote, of which at most the last 5 (the ending) are
      * dropped zeros; every byte read, and what was not read must be zero padding */

@@ -71,6 +71,12 @@ int mrc_encode_version(int version, int64_t frames, int64_t features, int64_t re
 int mrc_decode_version(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
                        int feature_major);
 
+/* The same as mrc_decode_version by code_body's generic loop (the encoder's, run in the decoding direction) instead
+ * of the decoder's own loop over the details: the reference the fast loop is tested against (the same integers and
+ * the same error code from any bytes). */
+int mrc_decode_reference(int version, const uint8_t *data, size_t len, int64_t *fexp, int64_t *rexp, int64_t *coef,
+                         int feature_major);
+
 /* For the generator of mrprior3.h (benchmarks/prior3.py) only: code these integers as version 2 does and give the
  * final state of each fixed-context counter (MRC_STATES of them, in mrprior3.h's order): its probability in
  * stretch units and its update count (capped at 63). Returns an error code. */

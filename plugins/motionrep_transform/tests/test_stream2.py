@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from motionrep.errors import PayloadError
-from motionrep_transform import _stream2
+from motionrep_transform import _ccoder, _stream2
 from motionrep_transform._stream import Quantised
 from motionrep_transform._wavelet import level_sizes, num_levels
 
@@ -176,3 +176,65 @@ def test_mutants_are_refused_or_decode_to_their_declared_shapes():
         assert np.abs(q.region_exponents).max() <= 32767 and np.abs(q.feature_exponents).max() <= 32767
         outcomes["decoded"] += 1
     assert outcomes["refused"] > 300, outcomes  # most damage is caught
+
+
+def _both_loops(data: bytes, version: int, feature_major: bool) -> list:
+    """``(error, fexp, rexp, coef)`` of the decoder's own loop over the details and of the generic one
+    (``mrc_decode_reference``), each into arrays filled with 7 first."""
+    F, D, region = _ccoder.declared(data)
+    out = []
+    for reference in (False, True):
+        arrays = [np.full(n, 7, np.int64) for n in (D, -(-F // region), F * D)]
+        try:
+            _ccoder.decode(data, *arrays, version, feature_major, reference)
+            error = None
+        except ValueError as exc:
+            error = str(exc)
+        out.append((error, *arrays))
+    return out
+
+
+def _clip_shaped(frames: int, features: int, seed: int, keep: float) -> Quantised:
+    """Coefficients with what the decoder's loop treats apart: runs of zeros, rows whose neighbourhood is all zero
+    (fewer the larger ``keep``, the fraction of detail coefficients kept), non-zero neighbours in a row (the next
+    feature's context), all-zero features between active ones, magnitudes up to the format's limit."""
+    q = quantised(frames, features, seed=seed, constant=tuple(range(1, features, 3)))
+    rng = np.random.default_rng(seed)
+    for c in q.coefficients[1:]:
+        c[rng.random(c.shape) > keep] = 0
+        big = rng.random(c.shape) < 0.002
+        c[big] = rng.integers(-LIMIT, LIMIT, int(big.sum()))
+    return q
+
+
+@pytest.mark.parametrize("frames,features,keep", [(3, 2, 0.2), (40, 5, 0.2), (333, 30, 0.2), (333, 30, 0.003),
+                                                  (1200, 7, 0.01), (90, 1100, 0.2)])
+@pytest.mark.parametrize("version", [2, 3])
+def test_the_decoders_loop_decodes_what_the_generic_loop_does(frames, features, keep, version):
+    """mrc_decode_version's own loop over the details (the zero flags straight-line, quiet rows apart, contexts per
+    row first) against
+    the encoder's generic loop run in the decoding direction: the same integers from payloads (1100 features: the
+    per-feature contexts wrap at 1024) and from damaged ones (random decisions: every path of the loop), in both
+    layouts, and the same error."""
+    rng = random.Random(frames)
+    data = _stream2.pack(_clip_shaped(frames, features, frames, keep), version)
+    head = len(_head(frames - 1, features - 1, 15))  # (region 16) the body's damage only
+    mutants = [data]
+    for _ in range(40):
+        b = bytearray(data)
+        for _ in range(rng.randrange(1, 4)):
+            b[rng.randrange(head, len(b))] = rng.randrange(256)
+        mutants.append(bytes(b))
+    mutants.append(data[:head] + bytes(rng.randrange(256) for _ in range(len(data) - head)))  # noise as the body
+    decoded = 0
+    for b in mutants:
+        for feature_major in (False, True):
+            (e1, *a1), (e2, *a2) = _both_loops(b, version, feature_major)
+            assert e1 == e2
+            for x, y in zip(a1, a2):
+                np.testing.assert_array_equal(x, y)
+            decoded += e1 is None
+    assert decoded >= 2  # the payload itself, in both layouts
+    (error, *arrays), _ = _both_loops(data, version, False)
+    assert error is None and np.array_equal(arrays[2].reshape(frames, features),
+                                            np.concatenate(_clip_shaped(frames, features, frames, keep).coefficients))
