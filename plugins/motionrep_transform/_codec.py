@@ -60,6 +60,9 @@ _EDIT_MARGIN = 1e-9
 #: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
 _PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
+_SENSITIVITY_PERCENTILE = 90
+_SCHEDULE: list = []
+_ACTIVITY, _ACTIVITY_DELTA, _ACTIVITY_LIMIT = 0.0, 16, 16
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,20 @@ def feature_exponents(sensitivity: NDArray[np.float64]) -> NDArray[np.int64]:
     top = float(s.max()) if s.size and np.all(np.isfinite(s)) else 0.0
     s = np.maximum(s, 1e-3 * top) if top > 0 else np.ones_like(s)
     return np.clip(_log_step(1.0 / s), -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
+
+
+def activity_exponents(coefficients: list[NDArray[np.float64]], feature_exp: NDArray[np.int64], k: int,
+                       rounding: float, gamma: float, limit: int) -> NDArray[np.int64]:
+    """``(D,)`` step exponents ``b_c`` raised for features with many coefficients that a step ``2 ** ((b_c + k)
+    / 8)`` would keep non-zero and lowered for those with few: ``+ round(8 gamma (log2(N_c + 1) - mean))``,
+    within ``+-limit``."""
+    steps = step_scale(feature_exp + k)
+    n = np.zeros(feature_exp.size)
+    for c in coefficients[1:] if len(coefficients) > 1 else coefficients:
+        n += (np.abs(c) / steps[None, :] + rounding >= 1.0).sum(axis=0)
+    lg = np.log2(n + 1.0)
+    adj = np.clip(np.rint(_PER_OCTAVE * gamma * (lg - lg.mean())), -limit, limit).astype(np.int64)
+    return np.clip(feature_exp + adj, -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
 
 
 class _Plan:
@@ -201,7 +218,7 @@ def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights:
         per_frame = np.asarray(measure(features), dtype=np.float64)
         if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and per_frame.shape[0] >= 1 \
                 and np.all(np.isfinite(per_frame)):
-            return np.percentile(per_frame, 90, axis=0), per_frame
+            return np.percentile(per_frame, _SENSITIVITY_PERCENTILE, axis=0), per_frame
     w = np.asarray(weights, dtype=np.float64)
     return w, w[None, :]
 
@@ -261,6 +278,10 @@ class TransformCodec(Codec):
         summary, sampled = _sensitivity(context, Y, weights)
         feature_exp = feature_exponents(summary)
         plan = _Plan(Y, feature_exp, params.region)
+        if _ACTIVITY and bound is not None and params.step is None:
+            plan.feature_exp = activity_exponents(plan.coefficients, feature_exp, int(_log_step(bound)) -
+                                                  _ACTIVITY_DELTA, params.rounding, _ACTIVITY, _ACTIVITY_LIMIT)
+            feature_exp = plan.feature_exp
         if params.step is not None:
             k = np.full(plan.regions, int(_log_step(params.step)), np.int64)
         else:
@@ -328,10 +349,14 @@ class TransformCodec(Codec):
         except MotionrepError:
             edits = None
         if edits is not None:
-            coefficients, figures = spend_slack_exact(
-                quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
-                lambda values: reduction_savings(values, plan.levels), passes=_PASSES if slack is None else slack,
-                min_saving=MIN_SAVING)
+            schedule = _SCHEDULE if slack is None and _SCHEDULE else [(_PASSES if slack is None else slack,
+                                                                       MIN_SAVING)]
+            coefficients, figures = quantised.coefficients, {"moved": 0, "tried": 0}
+            for passes, floor in schedule:
+                coefficients, more = spend_slack_exact(
+                    coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
+                    lambda values: reduction_savings(values, plan.levels), passes=passes, min_saving=floor)
+                figures = {k: figures[k] + more[k] for k in figures}
             # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
             # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
             # never seen to fail)
