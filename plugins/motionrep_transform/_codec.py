@@ -60,9 +60,13 @@ _EDIT_MARGIN = 1e-9
 #: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
 _PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
+#: The floor of the savings of a move tried by the slack search at detail level ``j`` (1 the finest) is
+#: ``MIN_SAVING * 2 ** (j - _FLOOR_LEVEL)``, between ``_FLOOR_LOW`` and ``MIN_SAVING``: a try costs about the frames
+#: the move reaches (``3 * 2 ** (j + 1)``), so fine levels may try smaller savings (``benchmarks/results/rate7.md``).
+_FLOOR_LEVEL, _FLOOR_LOW = 4, 0.05
+#: A feature's sensitivity ``s_c`` (its step exponent ``b_c``) is this percentile over frames of the measured one
+#: (75 and 99 measured no better on the tuning clips: ``benchmarks/results/rate7.md``).
 _SENSITIVITY_PERCENTILE = 90
-_SCHEDULE: list = []
-_ACTIVITY, _ACTIVITY_DELTA, _ACTIVITY_LIMIT = 0.0, 16, 16
 
 
 @dataclass(frozen=True)
@@ -113,18 +117,20 @@ def feature_exponents(sensitivity: NDArray[np.float64]) -> NDArray[np.int64]:
     return np.clip(_log_step(1.0 / s), -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
 
 
-def activity_exponents(coefficients: list[NDArray[np.float64]], feature_exp: NDArray[np.int64], k: int,
-                       rounding: float, gamma: float, limit: int) -> NDArray[np.int64]:
-    """``(D,)`` step exponents ``b_c`` raised for features with many coefficients that a step ``2 ** ((b_c + k)
-    / 8)`` would keep non-zero and lowered for those with few: ``+ round(8 gamma (log2(N_c + 1) - mean))``,
-    within ``+-limit``."""
-    steps = step_scale(feature_exp + k)
-    n = np.zeros(feature_exp.size)
-    for c in coefficients[1:] if len(coefficients) > 1 else coefficients:
-        n += (np.abs(c) / steps[None, :] + rounding >= 1.0).sum(axis=0)
-    lg = np.log2(n + 1.0)
-    adj = np.clip(np.rint(_PER_OCTAVE * gamma * (lg - lg.mean())), -limit, limit).astype(np.int64)
-    return np.clip(feature_exp + adj, -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
+def level_floors(levels: int, top: float) -> list[float]:
+    """Per coefficient array in storage order (the approximation, then the details of levels ``levels`` .. 1), the
+    savings a move must exceed to be tried: ``top * 2 ** (j - _FLOOR_LEVEL)`` for detail level ``j``, at least
+    ``_FLOOR_LOW`` and at most ``top`` (0 stays 0: every move tried; inf: none)."""
+    out = [top]
+    for j in range(levels, 0, -1):
+        out.append(top if not 0 < top < math.inf else
+                   min(top, max(min(_FLOOR_LOW, top), top * 2.0 ** (j - _FLOOR_LEVEL))))
+    return out
+
+
+def above_floors(savings: list[NDArray[np.float64]], floors: list[float]) -> list[NDArray[np.float64]]:
+    """``savings`` with every value at most its array's floor set to 0 (a move saving nothing is not tried)."""
+    return [np.where(s > f, s, 0.0) for s, f in zip(savings, floors)]
 
 
 class _Plan:
@@ -278,10 +284,6 @@ class TransformCodec(Codec):
         summary, sampled = _sensitivity(context, Y, weights)
         feature_exp = feature_exponents(summary)
         plan = _Plan(Y, feature_exp, params.region)
-        if _ACTIVITY and bound is not None and params.step is None:
-            plan.feature_exp = activity_exponents(plan.coefficients, feature_exp, int(_log_step(bound)) -
-                                                  _ACTIVITY_DELTA, params.rounding, _ACTIVITY, _ACTIVITY_LIMIT)
-            feature_exp = plan.feature_exp
         if params.step is not None:
             k = np.full(plan.regions, int(_log_step(params.step)), np.int64)
         else:
@@ -349,14 +351,11 @@ class TransformCodec(Codec):
         except MotionrepError:
             edits = None
         if edits is not None:
-            schedule = _SCHEDULE if slack is None and _SCHEDULE else [(_PASSES if slack is None else slack,
-                                                                       MIN_SAVING)]
-            coefficients, figures = quantised.coefficients, {"moved": 0, "tried": 0}
-            for passes, floor in schedule:
-                coefficients, more = spend_slack_exact(
-                    coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
-                    lambda values: reduction_savings(values, plan.levels), passes=passes, min_saving=floor)
-                figures = {k: figures[k] + more[k] for k in figures}
+            floors = level_floors(plan.levels, MIN_SAVING)
+            coefficients, figures = spend_slack_exact(
+                quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
+                lambda values: above_floors(reduction_savings(values, plan.levels), floors),
+                passes=_PASSES if slack is None else slack)
             # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
             # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
             # never seen to fail)
