@@ -60,10 +60,6 @@ _EDIT_MARGIN = 1e-9
 #: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
 _PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
-#: The floor of the savings of a move tried by the slack search at detail level ``j`` (1 the finest) is
-#: ``MIN_SAVING * 2 ** (j - _FLOOR_LEVEL)``, between ``_FLOOR_LOW`` and ``MIN_SAVING``: a try costs about the frames
-#: the move reaches (``3 * 2 ** (j + 1)``), so fine levels may try smaller savings (``benchmarks/results/rate7.md``).
-_FLOOR_LEVEL, _FLOOR_LOW = 4, 0.05
 #: A feature's sensitivity ``s_c`` (its step exponent ``b_c``) is this percentile over frames of the measured one
 #: (75 and 99 measured no better on the tuning clips: ``benchmarks/results/rate7.md``).
 _SENSITIVITY_PERCENTILE = 90
@@ -115,22 +111,6 @@ def feature_exponents(sensitivity: NDArray[np.float64]) -> NDArray[np.int64]:
     top = float(s.max()) if s.size and np.all(np.isfinite(s)) else 0.0
     s = np.maximum(s, 1e-3 * top) if top > 0 else np.ones_like(s)
     return np.clip(_log_step(1.0 / s), -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
-
-
-def level_floors(levels: int, top: float) -> list[float]:
-    """Per coefficient array in storage order (the approximation, then the details of levels ``levels`` .. 1), the
-    savings a move must exceed to be tried: ``top * 2 ** (j - _FLOOR_LEVEL)`` for detail level ``j``, at least
-    ``_FLOOR_LOW`` and at most ``top`` (0 stays 0: every move tried; inf: none)."""
-    out = [top]
-    for j in range(levels, 0, -1):
-        out.append(top if not 0 < top < math.inf else
-                   min(top, max(min(_FLOOR_LOW, top), top * 2.0 ** (j - _FLOOR_LEVEL))))
-    return out
-
-
-def above_floors(savings: list[NDArray[np.float64]], floors: list[float]) -> list[NDArray[np.float64]]:
-    """``savings`` with every value at most its array's floor set to 0 (a move saving nothing is not tried)."""
-    return [np.where(s > f, s, 0.0) for s, f in zip(savings, floors)]
 
 
 class _Plan:
@@ -351,11 +331,10 @@ class TransformCodec(Codec):
         except MotionrepError:
             edits = None
         if edits is not None:
-            floors = level_floors(plan.levels, MIN_SAVING)
             coefficients, figures = spend_slack_exact(
                 quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
-                lambda values: above_floors(reduction_savings(values, plan.levels), floors),
-                passes=_PASSES if slack is None else slack)
+                lambda values: reduction_savings(values, plan.levels), passes=_PASSES if slack is None else slack,
+                min_saving=MIN_SAVING)
             # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
             # differ in the last bits: what the decoder makes of the result is measured again (within the margin,
             # never seen to fail)

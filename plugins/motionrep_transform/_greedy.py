@@ -31,8 +31,7 @@ from ._wavelet import inverse, level_sizes
 
 __all__ = ["synthesis", "spend_slack_exact", "MIN_SAVING"]
 
-#: The codec's floor: moves estimated to save at most this many bits are not tried (at detail levels 4 and coarser;
-#: finer levels have lower floors, ``_codec.level_floors``, ``benchmarks/results/rate7.md``). Chosen on nine clips
+#: The codec's ``min_saving``: moves estimated to save at most this many bits are not tried. Chosen on nine clips
 #: that are not CMU ones: 5 passes with it wrote as few bytes as 3 passes without, in 0.6-0.8x the time
 #: (``benchmarks/results/rate4.md``).
 MIN_SAVING = 0.2

@@ -105,40 +105,6 @@ def test_moves_saving_too_little_are_not_tried(walk, monkeypatch):
     assert default.container.payload_bytes < kept.container.payload_bytes
 
 
-def test_level_floors():
-    """The floor of a move's savings: ``MIN_SAVING`` (0.2) at detail levels 4 and coarser and for the
-    approximation, halved per level below, at least 0.05; a floor of 0 or inf is the same at every level."""
-    from motionrep_transform._codec import level_floors
-
-    assert level_floors(6, 0.2) == [0.2, 0.2, 0.2, 0.2, 0.1, 0.05, 0.05]  # approximation, levels 6 .. 1
-    assert level_floors(2, 0.2) == [0.2, 0.05, 0.05]
-    assert level_floors(0, 0.2) == [0.2]
-    assert level_floors(3, 0.0) == [0.0] * 4 and level_floors(3, float("inf")) == [float("inf")] * 4
-    assert level_floors(5, 0.03) == [0.03] * 6  # never above the floor given
-    assert level_floors(5, 0.8) == [0.8, 0.8, 0.8, 0.4, 0.2, 0.1]
-
-
-def test_fine_levels_try_smaller_savings(walk, monkeypatch):
-    """Moves of the finest detail levels are tried down to smaller savings than the coarse ones
-    (``benchmarks/results/rate7.md``): more tries than one floor of 0.2 for all (dc9455b's search, a different
-    payload), fewer than every move, each result within the bound."""
-    import motionrep_transform._codec as codec_module
-
-    def encode(**constants):
-        for name, value in constants.items():
-            monkeypatch.setattr(codec_module, name, value)
-        events = []
-        r = compress_motion(walk, "transform", max_error="1%",
-                            progress=lambda stage, fields: events.append((stage, dict(fields))))
-        assert max_joint_error(walk, decompress(r.data)).max_error <= r.bound
-        return r.container.arrays["data"].tobytes(), [f for stage, f in events if stage == "slack"][0]["tried"]
-
-    default, tried = encode()
-    flat, tried_flat = encode(_FLOOR_LOW=0.2)
-    _, tried_all = encode(MIN_SAVING=0.0)
-    assert tried_flat < tried < tried_all and default != flat
-
-
 def test_the_default_slack_is_five_passes_with_feature_edits(walk):
     """``slack`` unset: five passes of the move-by-move search (the payload of slack=5, not of 3 or 6)."""
     def payload(**params):
