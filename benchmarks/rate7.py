@@ -21,7 +21,8 @@ A setting: ``{"params": {"region": 16, "rounding": 0.45, "slack": 5}, "min_savin
 ``consts`` patch ``motionrep_transform._codec``'s module constants for the run. (The variants of
 ``results/rate7.md`` that need code, feature exponents scaled by activity and a schedule of floors, ran with the
 knobs of commit 042f8b8, ``{"consts": {"_ACTIVITY": 0.25}}`` and ``{"consts": {"_SCHEDULE": [[5, 0.2], [1,
-0.05]]}}``.)
+0.05]]}}``; the per-level floors are commit 7781eb5, where ``{"consts": {"_FLOOR_LOW": 0.2}}`` is one floor for
+all levels.)
 
 Results: ``results/rate7.md``; the rows of its tables in ``results/rate7_tuning.jsonl``.
 """
