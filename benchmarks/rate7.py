@@ -144,7 +144,7 @@ def table(path: str, against: str | None) -> None:
             continue
         cells = [f"{r['sums'][b]} ({r['sums'][b] / base['sums'][b]:.4f})" for b in base["sums"]]
         total = sum(r["sums"].values()) / sum(base["sums"].values())
-        when = f"{r['cpu']:.1f} ({r['load']:.1f})" if "cpu" in r else "-"
+        when = (f"{r['cpu']:.1f}" + (f" ({r['load']:.1f})" if "load" in r else "")) if "cpu" in r else "-"
         print(f"| {r['name']} | {' | '.join(cells)} | {total:.4f} | {when} |")
 
 
