@@ -94,7 +94,8 @@ def tune(out: str, pairs: list[str], which: str) -> None:
                 payload = sum(int(np.asarray(a).nbytes) for a in r.container.arrays.values())
                 sizes[f"{clip}@{bound:g}"] = payload
         sums = {f"{b:g}": sum(v for k, v in sizes.items() if k.endswith(f"@{b:g}")) for b in BOUNDS}
-        row = {"name": name, "setting": setting, "clips": which, "sums": sums, "seconds": round(seconds, 2), "cpu": round(cpu, 2), "cpu_bound": {k: round(v, 2) for k, v in cpu_bound.items()},
+        row = {"name": name, "setting": setting, "clips": which, "sums": sums, "seconds": round(seconds, 2),
+               "cpu": round(cpu, 2), "cpu_bound": {k: round(v, 2) for k, v in cpu_bound.items()},
                "load": os.getloadavg()[0], "sizes": sizes}
         with open(out, "a") as f:
             f.write(json.dumps(row) + "\n")
