@@ -60,6 +60,9 @@ _EDIT_MARGIN = 1e-9
 #: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
 _PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
+#: A feature's sensitivity ``s_c`` (its step exponent ``b_c``) is this percentile over frames of the measured one
+#: (75 and 99 measured no better on the tuning clips: ``benchmarks/results/rate7.md``).
+_SENSITIVITY_PERCENTILE = 90
 
 
 @dataclass(frozen=True)
@@ -215,7 +218,7 @@ def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights:
         per_frame = np.asarray(measure(features), dtype=np.float64)
         if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and per_frame.shape[0] >= 1 \
                 and np.all(np.isfinite(per_frame)):
-            return np.percentile(per_frame, 90, axis=0), per_frame
+            return np.percentile(per_frame, _SENSITIVITY_PERCENTILE, axis=0), per_frame
     w = np.asarray(weights, dtype=np.float64)
     return w, w[None, :]
 
