@@ -401,3 +401,39 @@ def test_quaternions_to_euler_angles_are_scipys_bit_for_bit(seq):
         assert _ccore.quat_to_euler(np.array([[0.0, 0.0, 0.0, 1.0], bad]), seq, False, np.empty((2, 3))) == 1
     with pytest.raises(ValueError, match="zero norm"):
         R.quat_to_euler(np.zeros((2, 4)), seq)
+
+
+def test_quaternions_to_rotation_vectors_are_scipys_bit_for_bit():
+    """``rotations.c``'s ``mr_quat_to_axis_angle`` does scipy's operations (``Rotation.from_quat(q).as_rotvec()``)
+    in the same order with the same libm ``atan2`` and ``sin``: the same bits, compared bitwise with the scipy
+    installed beside it (as the Euler test above), on random rotations of every size and sign of w, angles near 0
+    (the series below 1e-3, and on both sides of it), near pi, edge values and overflowing lengths; a zero or NaN
+    quaternion is refused by both, and R.quat_to_axis_angle raises scipy's error for it."""
+    rng = np.random.default_rng(7)
+    edges = np.array([0.0, -0.0, 1.0, -1.0, 0.5, -0.5, math.sqrt(0.5), -math.sqrt(0.5), 1e-9, -1e-9, 1e-300, 2.0,
+                      np.inf, -np.inf])
+    small = rng.normal(size=(3000, 4))
+    small[:, :3] *= 10.0 ** rng.uniform(-12, -2, (3000, 1))  # angles from 1e-12 to about 1e-2
+    small[::2, 3] *= -1.0
+    near_pi = rng.normal(size=(1000, 4))
+    near_pi[:, 3] *= 10.0 ** rng.uniform(-12, -1, 1000)
+    q = np.concatenate([rng.normal(size=(5000, 4)), small, near_pi, rng.normal(size=(500, 4)) * 1e-150,
+                        rng.normal(size=(500, 4)) * 1e150, rng.normal(size=(200, 4)) * 1e200,
+                        rng.choice(edges, (3000, 4))])
+    norm = np.sqrt(((q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1]) + q[:, 2] * q[:, 2]) + q[:, 3] * q[:, 3])
+    refused = (norm == 0) | np.isnan(norm)
+    q = np.ascontiguousarray(q[~refused])
+    with np.errstate(all="ignore"):
+        expected = Rotation.from_quat(q).as_rotvec()
+    out = np.empty((len(q), 3))
+    assert _ccore.quat_to_axis_angle(q, out) == -1
+    assert np.array_equal(bits(out), bits(expected)) or np.array_equal(out, expected, equal_nan=True)
+    assert np.array_equal(bits(R.quat_to_axis_angle(q[:40].reshape(4, 10, 4))), bits(expected[:40]).reshape(4, 10, 3))
+    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0], [1e-300, 1e-300, 0.0, 0.0]):
+        with pytest.raises(ValueError, match="zero norm"):
+            Rotation.from_quat(bad)
+        assert _ccore.quat_to_axis_angle(np.array([[0.0, 0.0, 0.0, 1.0], bad]), np.empty((2, 3))) == 1
+        with pytest.raises(ValueError, match="zero norm"):
+            R.quat_to_axis_angle(np.array([[0.0, 0.0, 0.0, 1.0], bad]))
+    with pytest.raises(ValueError, match="shape"):
+        _ccore.quat_to_axis_angle(np.zeros((2, 3)), np.empty((2, 3)))

@@ -49,6 +49,8 @@ int mr_max_distances(const double *positions, const double *reference, int64_t N
 enum { MR_QUAT, MR_AXIS_ANGLE, MR_EULER, MR_EULER_DEGREES, MR_ORTHO6D };
 int mr_columns_to_quat(int kind, const void *features, int f32, int64_t T, int64_t C, const int64_t *columns,
                        const int64_t *axes, const int64_t *joints, int64_t R, void *out, int out32, int64_t J);
+/* (n, 4) xyzw quaternions to (n, 3) rotation vectors as scipy's as_rotvec: -1, or the first of zero or NaN length */
+int64_t mr_quat_to_axis_angle(const double *quat, int64_t n, double *out);
 void mr_axis_angle_continuous(const double *theta, const double *axis, double *out, int64_t F, int64_t N);
 
 /* edits.c: a candidate's features with their poses, FK and per-point distances, edited column by column (see

@@ -313,6 +313,47 @@ static PyObject *py_axis_angle_continuous(PyObject *self, PyObject *args)
 }
 
 /* ------------------------------------------------------------------------------------------------------------ */
+/* The (N, 4) float64 quaternions q and the (N, 3) float64 out of a conversion from quaternions (`what`): N, or -1
+ * with the error set and the buffers released. */
+static int64_t quat_rows(buffers *bs, PyObject *oq, PyObject *oout, const char *what, Py_buffer **q, Py_buffer **out)
+{
+    if (!(*q = get(bs, oq, "q", 'd', 2, 0)) || !(*out = get(bs, oout, "out", 'd', 2, 1))) {
+        release(bs);
+        return -1;
+    }
+    int64_t n = dim(*q, 0);
+    if (dim(*q, 1) != 4 || dim(*out, 0) != n || dim(*out, 1) != 3) {
+        release(bs);
+        PyErr_Format(PyExc_ValueError, "%s: q must have shape (N, 4) and out (N, 3)", what);
+        return -1;
+    }
+    return n;
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
+PyDoc_STRVAR(rotvec_doc, "quat_to_axis_angle(q, out) -> index\n--\n\n"
+                         "Rotation vectors of q (N, 4) float64 xyzw into out (N, 3) float64, as scipy's "
+                         "Rotation.from_quat(q).as_rotvec():\n-1, or the index of the first quaternion of zero or "
+                         "NaN length (out is then incomplete).");
+
+static PyObject *py_quat_to_axis_angle(PyObject *self, PyObject *args)
+{
+    PyObject *oq, *oout;
+    if (!PyArg_ParseTuple(args, "OO", &oq, &oout))
+        return NULL;
+    buffers bs = {.n = 0};
+    Py_buffer *q, *out;
+    int64_t n = quat_rows(&bs, oq, oout, "quat_to_axis_angle", &q, &out), zero;
+    if (n < 0)
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    zero = mr_quat_to_axis_angle(q->buf, n, out->buf);
+    Py_END_ALLOW_THREADS
+    release(&bs);
+    return PyLong_FromLongLong(zero);
+}
+
+/* ------------------------------------------------------------------------------------------------------------ */
 PyDoc_STRVAR(euler_doc, "quat_to_euler(q, seq, degrees, out) -> index\n--\n\n"
                         "Euler angles of q (N, 4) float64 xyzw into out (N, 3) float64 for seq (3 axes of 'xyz' or "
                         "'XYZ',\nno axis twice in a row), as scipy's Rotation.from_quat(q).as_euler(seq, degrees): "
@@ -335,14 +376,9 @@ static PyObject *py_quat_to_euler(PyObject *self, PyObject *args)
     }
     buffers bs = {.n = 0};
     Py_buffer *q, *out;
-    if (!(q = get(&bs, oq, "q", 'd', 2, 0)) || !(out = get(&bs, oout, "out", 'd', 2, 1))) {
-        release(&bs);
+    int64_t n = quat_rows(&bs, oq, oout, "quat_to_euler", &q, &out), zero;
+    if (n < 0)
         return NULL;
-    }
-    int64_t n = dim(q, 0);
-    if (dim(q, 1) != 4 || dim(out, 0) != n || dim(out, 1) != 3)
-        return fail(&bs, "quat_to_euler: q must have shape (N, 4) and out (N, 3)");
-    int64_t zero;
     Py_BEGIN_ALLOW_THREADS
     zero = mr_quat_to_euler(q->buf, n, seq, degrees, out->buf);
     Py_END_ALLOW_THREADS
@@ -556,6 +592,7 @@ static PyMethodDef methods[] = {
     {"max_distances", py_max_distances, METH_VARARGS, distances_doc},
     {"columns_to_quat", py_columns_to_quat, METH_VARARGS, columns_doc},
     {"axis_angle_continuous", py_axis_angle_continuous, METH_VARARGS, continuous_doc},
+    {"quat_to_axis_angle", py_quat_to_axis_angle, METH_VARARGS, rotvec_doc},
     {"quat_to_euler", py_quat_to_euler, METH_VARARGS, euler_doc},
     {"sincos", py_sincos, METH_O, sincos_doc},
     {"edits", py_edits, METH_VARARGS, edits_doc},

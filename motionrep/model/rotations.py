@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ValidationError
 from .._ccore import axis_angle_continuous as _continuous, columns_to_quat as _columns_to_quat
-from .._ccore import quat_to_euler as _quat_to_euler
+from .._ccore import quat_to_axis_angle as _quat_to_axis_angle, quat_to_euler as _quat_to_euler
 
 __all__ = [
     "quat_identity",
@@ -385,7 +385,11 @@ def quat_to_axis_angle(q: ArrayLike) -> NDArray[np.float64]:
     q = _last_dim(q, 4, "q")
     if q.size == 0:
         return np.zeros(q.shape[:-1] + (3,))
-    return _flat_rotation_from_quat(q).as_rotvec().reshape(q.shape[:-1] + (3,))
+    flat = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
+    out = np.empty((flat.shape[0], 3))
+    if _quat_to_axis_angle(flat, out) >= 0:  # compiled: scipy's as_rotvec operation for operation (rotations.c)
+        raise ValueError("Found zero norm quaternions in `quat`.")  # scipy's own words for it
+    return out.reshape(q.shape[:-1] + (3,))
 
 
 def axis_angle_make_continuous(v: ArrayLike) -> NDArray[np.float64]:
