@@ -103,6 +103,28 @@ def test_one_pose_is_the_batch_row_bit_for_bit(which, request):
     assert np.allclose(norms, 1.0, atol=1e-12)
 
 
+@pytest.mark.parametrize("tail", [1, 2, 3, 40])
+@pytest.mark.parametrize("which", ["svd_clip", "transform_clip"])
+def test_a_batch_streamed_past_the_cache_is_its_poses_bit_for_bit(which, tail, request):
+    """A batch of 8192 poses or more has its float64 rotations gathered sub-block by sub-block and streamed to
+    memory while the next sub-block is converted (motionrep/_c/plan/plan.c, mr_plan_stream); its last block of 1
+    or 2 poses takes the one-pose path (joints side by side), which once wrote past the stage. Every row must be
+    the pose of that time decoded alone, and in a small batch, bit for bit: the decoders are scalar IEEE float64
+    C compiled without FMA contraction and without fast-math, so a time gives the same bits in any vector lane,
+    at any position of any batch."""
+    _, data = request.getfixturevalue(which)
+    clip = motionrep.open(data)
+    times = np.random.default_rng(tail).uniform(0, clip.duration, 8192 + 2 * BLOCK + tail)
+    batch = clip.poses(times)
+    for i in (0, 1, BLOCK, 8191, 8192, times.size - 3, times.size - 2, times.size - 1):
+        assert clip.pose(times[i]).rotations.tobytes() == batch.rotations[i].tobytes()
+    small = clip.poses(times[-tail - 5:])  # the last poses in a batch too small to stream
+    assert small.rotations.tobytes() == batch.rotations[-tail - 5:].tobytes()
+    assert small.root_translation.tobytes() == batch.root_translation[-tail - 5:].tobytes()
+    whole = np.concatenate([clip.poses(times[a:a + 4000]).rotations for a in range(0, times.size, 4000)])
+    assert whole.tobytes() == batch.rotations.tobytes()
+
+
 def test_float32_rotations_are_the_float64_ones_rounded(svd_clip):
     clip = motionrep.open(svd_clip[1])
     t = np.linspace(0, clip.duration, 50)
