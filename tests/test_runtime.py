@@ -106,9 +106,10 @@ def test_one_pose_is_the_batch_row_bit_for_bit(which, request):
 @pytest.mark.parametrize("tail", [1, 2, 3, 40])
 @pytest.mark.parametrize("which", ["svd_clip", "transform_clip"])
 def test_a_batch_streamed_past_the_cache_is_its_poses_bit_for_bit(which, tail, request):
-    """A batch of 8192 poses or more has its float64 rotations gathered sub-block by sub-block and streamed to
-    memory while the next sub-block is converted (motionrep/_c/plan/plan.c, mr_plan_stream); its last block of 1
-    or 2 poses takes the one-pose path (joints side by side), which once wrote past the stage. Every row must be
+    """A batch of 8192 poses or more has its float64 rotations gathered sub-block by sub-block in a stage and
+    streamed from there to memory (motionrep/_c/plan/plan.c); its last block of 1 or 2 poses takes the one-pose
+    path (joints side by side), which once wrote past the stage (whose stale rows then overwrote those poses, on
+    main until this test). Every row must be
     the pose of that time decoded alone, and in a small batch, bit for bit: the decoders are scalar IEEE float64
     C compiled without FMA contraction and without fast-math, so a time gives the same bits in any vector lane,
     at any position of any batch."""

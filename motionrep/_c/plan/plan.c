@@ -7,7 +7,6 @@
 #include "plan.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -275,48 +274,17 @@ MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t 
     return bad;
 }
 
-/* streams up to `most` more doubles of s's pending stage (an even count: pairs of doubles, 16-byte aligned) */
-MR_INLINE void stream_some(mr_plan_stream *s, size_t most)
-{
-    if (!s || !s->src)
-        return;
-    size_t end = s->len - s->done < most ? s->len : s->done + most;
-#if defined(__SSE2__)
-    for (size_t e = s->done; e < end; e += 2)
-        _mm_stream_pd(s->dst + e, _mm_loadu_pd(s->src + e));
-#else
-    memcpy(s->dst + s->done, s->src + s->done, (end - s->done) * sizeof(double));
-#endif
-    s->done = end;
-    if (end == s->len)
-        s->src = NULL;
-}
-
-void mr_plan_stream_flush(mr_plan_stream *s)
-{
-    if (!s)
-        return;
-    stream_some(s, SIZE_MAX);
-#if defined(__SSE2__)
-    _mm_sfence();
-#endif
-}
-
 MR_CLONES
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
-                int rot_f32, double *root, double *moved, double *G, mr_plan_stream *stream)
+                int rot_f32, double *root, double *moved, double *G, double *stage)
 {
     const ptrdiff_t R = p->R, J = p->J, N = p->N, M = p->M;
     double QX[MR_PLAN_SUB], QY[MR_PLAN_SUB], QZ[MR_PLAN_SUB], QW[MR_PLAN_SUB];
     double *final64 = rot_f32 ? NULL : (double *)rot;
     float *out32 = rot_f32 ? (float *)rot : NULL;
-    /* with a stream: each sub-block's float64 rotations are gathered in a stage, then streamed to memory past the
-     * cache (a large batch: no cache line of it is read before it is written; only when the plan writes every
-     * joint), a part after each entry of the next sub-block */
-    if (stream && !(!rot_f32 && ((uintptr_t)rot & 15) == 0 && p->R + p->M == p->J)) {
-        mr_plan_stream_flush(stream);  /* (the rotations of a batch all go one way: nothing pending here) */
-        stream = NULL;
-    }
+    /* with a stage: each sub-block's float64 rotations are gathered there, then streamed to memory past the cache
+     * (a large batch: no cache line of it is read before it is written; only when the plan writes every joint) */
+    int stream = !rot_f32 && stage && ((uintptr_t)rot & 15) == 0 && p->R + p->M == p->J;  /* every joint written */
     double *out64 = final64;
     if (check_finite && check_finite_columns(p, X, ldx, count))  /* every column the plan reads must be finite */
         return MR_PLAN_NOT_FINITE;
@@ -324,17 +292,13 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
     int across = count <= 2 && !p->world && p->R <= ACROSS;  /* one pose or two: its joints side by side */
     for (ptrdiff_t a = 0; a < count; a += MR_PLAN_SUB) {
         ptrdiff_t n = count - a < MR_PLAN_SUB ? count - a : MR_PLAN_SUB;
-        double *stage = stream ? stream->stage[stream->next] : NULL;
-        size_t part = 0;  /* doubles of the pending stage streamed after each entry: all of them over R entries */
-        if (stream) {
+        if (stream)
             out64 = stage - (size_t)a * J * 4;
-            part = stream->src ? ((stream->len - stream->done) / (size_t)(R + 1) + 2) & ~(size_t)1 : 0;
-        }
-        for (ptrdiff_t e = 0; across && e < n; e++)  /* (then the only sub-block) */
+        /* (then the only sub-block; into the stage when streaming, as every entry of the sub-block) */
+        for (ptrdiff_t e = 0; across && e < n; e++)
             across_joints(p, X, ldx, a + e, out64 ? out64 + (size_t)(a + e) * J * 4 : NULL,
                           out32 ? out32 + (size_t)(a + e) * J * 4 : NULL, &zero, &degenerate);
         for (ptrdiff_t r = 0; r < (across ? 0 : R); r++) {
-            stream_some(stream, part);
             int64_t kind = p->kinds[r], j = p->joints[r];
             const int64_t *cc = p->cols + 6 * r;
             const double *c[6];
@@ -433,15 +397,21 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                     moved[(i * (N - 1) + q) * 3 + k] = c >= 0 ? X[c * ldx + i] : p->tvals[3 * (q + 1) + k];
                 }
         }
-        if (stream) {  /* this sub-block's stage is the one streamed next (the rest of the previous one first) */
-            stream_some(stream, SIZE_MAX);
-            stream->src = stage;
-            stream->dst = final64 + (size_t)a * J * 4;
-            stream->len = (size_t)n * J * 4;
-            stream->done = 0;
-            stream->next ^= 1;
+        if (stream) {
+            double *dst = final64 + (size_t)a * J * 4;
+            size_t len = (size_t)n * J * 4;
+#if defined(__SSE2__)
+            for (size_t e = 0; e < len; e += 2)
+                _mm_stream_pd(dst + e, _mm_loadu_pd(stage + e));
+#else
+            memcpy(dst, stage, len * sizeof(double));
+#endif
         }
     }
+#if defined(__SSE2__)
+    if (stream)
+        _mm_sfence();
+#endif
     if (zero)
         return MR_PLAN_ZERO_QUAT;
     if (degenerate)

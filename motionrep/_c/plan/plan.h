@@ -39,30 +39,14 @@ int mr_plan_parse(const int64_t *plan_i, size_t n_i, const double *plan_f, size_
 /* Doubles of scratch mr_plan_run needs (world plans: the world rotations of a sub-block). */
 size_t mr_plan_scratch(const mr_plan *plan);
 
-/* The streaming of float64 rotations past the cache (batches larger than the cache): each sub-block's rotations are
- * gathered in one of two stages (MR_PLAN_SUB x J x 4 doubles each), and that stage is streamed to memory with
- * non-temporal stores while the next sub-block is converted (a part after each entry: the stores drain while the
- * conversions' arithmetic runs), the last one by mr_plan_stream_flush.  Zero it before the first mr_plan_run of a
- * batch; flush it before the rotations are read. */
-typedef struct {
-    double *stage[2];   /* the two stages (the caller's) */
-    int next;           /* the stage the next sub-block gathers into */
-    const double *src;  /* the stage still being streamed (NULL: none), to dst, len doubles, done of them */
-    double *dst;
-    size_t len, done;
-} mr_plan_stream;
-
 /* Decode `count` poses from feature-major X (feature d of pose i at X[d * ldx + i], p->rows rows) into rot
  * (count, J, 4) float64 (or float32 when rot_f32), root (count, 3) and moved (count, N - 1, 3) (unused when N is 0).
  * `scratch` holds mr_plan_scratch(plan) doubles (NULL when that is 0).  check_finite: refuse features the plan
- * reads that are NaN or infinite.  `stream` (or NULL): float64 rotations go to memory through it (the same values;
- * the last sub-block's only with mr_plan_stream_flush).  Returns an MR_PLAN_* status (everything is written
- * whatever it is). */
+ * reads that are NaN or infinite.  `stage` (MR_PLAN_SUB x J x 4 doubles, or NULL): float64 rotations are gathered
+ * there and streamed to memory with non-temporal stores, for batches larger than the cache (the same values).
+ * Returns an MR_PLAN_* status (everything is written whatever it is). */
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
-                int rot_f32, double *root, double *moved, double *scratch, mr_plan_stream *stream);
-
-/* The rest of the stage being streamed, then a store fence: every rotation is in memory. */
-void mr_plan_stream_flush(mr_plan_stream *stream);
+                int rot_f32, double *root, double *moved, double *scratch, double *stage);
 
 /* poses from which a batch's float64 rotations are streamed past the cache */
 #define MR_PLAN_STREAM 8192
