@@ -183,11 +183,16 @@ def test_seconds_are_normalised_in_c_as_numpy_clip_does(which, request):
         assert a.tobytes() == b.tobytes()
 
 
-@pytest.mark.parametrize("representation", ["root-quat-axis-angle", "euler", "ortho6d", "dual-quaternion"])
-def test_joints_constant_over_the_clip_are_converted_once_to_the_same_bits(representation):
-    """transform's decoder reports the features constant over the clip (constant_features); the C loop then
-    converts the joints whose features all are once (motionrep/_c/plan/module.c): the poses are bit for bit those
-    of converting them at every pose (the same Runtime without the constants)."""
+@pytest.mark.parametrize("codec, representation, least", [
+    ("transform", "root-quat-axis-angle", 3), ("transform", "euler", 3), ("transform", "ortho6d", 3),
+    ("transform", "dual-quaternion", 3), ("svd", "root-quat-axis-angle", 2), ("svd", "euler", 2),
+    ("svd", "ortho6d", 2)])
+def test_joints_constant_over_the_clip_are_converted_once_to_the_same_bits(codec, representation, least):
+    """transform's and svd's decoders report the features constant over the clip (constant_features: for svd,
+    those whose basis column is all zeros, which its sampler then writes as their means); the C loop then converts
+    the joints whose features all are once (motionrep/_c/plan/module.c): the poses are bit for bit those of
+    converting them at every pose (the same Runtime without the constants).  Bitwise: the decoders are scalar
+    IEEE float64 C without FMA contraction or fast-math, the same bits in any vector lane."""
     from motionrep._cplan import SUB_BLOCK, Runtime
     from motionrep.pipeline.runtime import Pose
 
@@ -195,11 +200,11 @@ def test_joints_constant_over_the_clip_are_converted_once_to_the_same_bits(repre
     rotations = motion.rotations.copy()
     rotations[:, 2] = [0.0, 0.0, 0.0, 1.0]  # a joint that never moves
     rotations[:, 4] = rotations[0, 4]  # one held at a pose of its own
-    data = compress_motion(motion.replace(rotations=rotations), "transform", representation=representation,
+    data = compress_motion(motion.replace(rotations=rotations), codec, representation=representation,
                            max_error="5%").data
     clip = motionrep.open(data)
     constant = clip._decoder.constant_features
-    assert np.isfinite(constant).sum() >= 3
+    assert np.isfinite(constant).sum() >= least
     t = np.concatenate([[0.0, clip.duration], np.random.default_rng(8).random(500) * clip.duration])
     got = clip.poses(t)
     plain = Runtime(clip._plan, clip._decoder.sampler, constant.size, SUB_BLOCK, Pose)

@@ -12,7 +12,9 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "motionrep/mrkernels.h"
 #include "motionrep/sampler.h"
@@ -23,6 +25,12 @@
 typedef struct {
     size_t F, r, D;
     const void *coeff, *mean, *basis_t, *basis;
+    /* the block path's dense layer leaves out the features constant over the clip (see constant_features): its L
+     * units are the others, rows (L) their features, live_t (L, r) and live_mean (L) their weights and means;
+     * the constant ones, consts (D - L of them), are written as their means */
+    size_t L;
+    const void *live_t, *live_mean;
+    const ptrdiff_t *rows, *consts;
 } svd_arrays;
 
 /* one kernel per dtype: T the arithmetic's type */
@@ -31,7 +39,7 @@ typedef struct {
     {                                                                                                              \
         const svd_arrays *s = state;                                                                               \
         const size_t F = s->F, r = s->r, D = s->D;                                                                 \
-        const T *coeff = s->coeff, *mean = s->mean, *basis_t = s->basis_t, *basis = s->basis;                      \
+        const T *coeff = s->coeff, *mean = s->mean, *basis = s->basis;                                             \
         /* the block's interpolated coefficients (and one time's two vectors) on the stack when they fit: no    \
          * allocation per call; the features go straight into out, converted from T as they are stored */         \
         T small[4096];                                                                                             \
@@ -65,7 +73,11 @@ typedef struct {
                     out[d * ldo + a] = (double)y1[d];                                                              \
                 continue;                                                                                          \
             }                                                                                                      \
-            AFFINE_BLOCK(basis_t, (ptrdiff_t)D, (ptrdiff_t)r, mean, C, ROWS, out + a, (ptrdiff_t)ldo, (ptrdiff_t)m);  \
+            AFFINE_BLOCK((const T *)s->live_t, (ptrdiff_t)s->L, (ptrdiff_t)r, (const T *)s->live_mean, C, ROWS,       \
+                         out + a, (ptrdiff_t)ldo, (ptrdiff_t)m, s->rows);                                          \
+            for (size_t e = 0; e < D - s->L; e++) /* the constant features: their means (the sums' value) */      \
+                for (size_t i = 0; i < m; i++)                                                                     \
+                    out[(size_t)s->consts[e] * ldo + a + i] = (double)mean[s->consts[e]];                          \
         }                                                                                                          \
         if (C != small)                                                                                            \
             free(C);                                                                                               \
@@ -88,10 +100,48 @@ SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64)
 TRANSPOSE(transpose_f32, float)
 TRANSPOSE(transpose_f64, double)
 
+/* Which features are constant over the clip, exactly: those whose basis column is all zeros (+0.0 or -0.0) and
+ * whose mean is finite and not -0.0, when every coefficient is finite and below LIMIT in magnitude (so that each
+ * interpolated coefficient c is finite, each c * 0 a zero, and mean + zero + ... + zero the mean, whatever the zeros'
+ * signs: +0.0 + -0.0 is +0.0).  constant[d] = 1 for those.  T the arrays' type. */
+#define CONSTANT(NAME, T, LIMIT)                                                                                   \
+    static void NAME(const T *coeff, const T *mean, const T *basis, size_t F, size_t r, size_t D,                 \
+                     unsigned char *constant)                                                                     \
+    {                                                                                                              \
+        int ok = 1;                                                                                                \
+        for (size_t e = 0; e < F * r; e++)                                                                         \
+            ok &= fabs((double)coeff[e]) < (LIMIT);                                                                \
+        for (size_t d = 0; d < D; d++) {                                                                           \
+            int c = ok && fabs((double)mean[d]) < INFINITY && !(mean[d] == 0 && signbit(mean[d]));                 \
+            for (size_t k = 0; c && k < r; k++)                                                                    \
+                c = basis[k * D + d] == 0;                                                                         \
+            constant[d] = (unsigned char)c;                                                                        \
+        }                                                                                                          \
+    }
+
+CONSTANT(constant_f32, float, 1e37)
+CONSTANT(constant_f64, double, 1e306)
+
+/* the weights (transposed) and means of the features that are not constant, in order */
+#define LIVE(NAME, T)                                                                                              \
+    static void NAME(const T *basis_t, const T *mean, size_t r, const ptrdiff_t *rows, size_t L, T *live_t,       \
+                     T *live_mean)                                                                                 \
+    {                                                                                                              \
+        for (size_t u = 0; u < L; u++) {                                                                           \
+            memcpy(live_t + u * r, basis_t + (size_t)rows[u] * r, r * sizeof(T));                                 \
+            live_mean[u] = mean[rows[u]];                                                                          \
+        }                                                                                                          \
+    }
+
+LIVE(live_f32, float)
+LIVE(live_f64, double)
+
 typedef struct {
     PyObject_HEAD
     Py_buffer views[3];
-    void *basis_t;
+    void *basis_t, *live;      /* live: live_t then live_mean */
+    ptrdiff_t *rows;           /* rows (L) then consts (D - L) */
+    unsigned char *constant;   /* (D) */
     svd_arrays arrays;
     mr_sampler sampler;
 } DecoderObject;
@@ -102,6 +152,9 @@ static void Decoder_dealloc(DecoderObject *self)
         if (self->views[k].obj)
             PyBuffer_Release(&self->views[k]);
     free(self->basis_t);
+    free(self->live);
+    free(self->rows);
+    free(self->constant);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -137,8 +190,31 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
         transpose_f32(self->views[2].buf, r, D, self->basis_t);
     else
         transpose_f64(self->views[2].buf, r, D, self->basis_t);
+    size_t nD = (size_t)D ? (size_t)D : 1;
+    if (!(self->constant = malloc(nD)) || !(self->rows = malloc(nD * sizeof(ptrdiff_t)))
+        || !(self->live = malloc(item * nD * (size_t)(r + 1)))) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    if (code == 'f')
+        constant_f32(self->views[0].buf, self->views[1].buf, self->views[2].buf, (size_t)F, (size_t)r, (size_t)D,
+                     self->constant);
+    else
+        constant_f64(self->views[0].buf, self->views[1].buf, self->views[2].buf, (size_t)F, (size_t)r, (size_t)D,
+                     self->constant);
+    size_t L = 0;
+    for (Py_ssize_t d = 0; d < D; d++)
+        L += !self->constant[d];
+    for (size_t d = 0, u = 0, e = L; d < (size_t)D; d++)  /* the others in order, then the constant ones */
+        self->rows[self->constant[d] ? e++ : u++] = (ptrdiff_t)d;
+    char *live_mean = (char *)self->live + item * (size_t)r * nD;
+    if (code == 'f')
+        live_f32(self->basis_t, self->views[1].buf, (size_t)r, self->rows, L, self->live, (float *)live_mean);
+    else
+        live_f64(self->basis_t, self->views[1].buf, (size_t)r, self->rows, L, self->live, (double *)live_mean);
     self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, self->views[1].buf,
-                                self->basis_t, self->views[2].buf};
+                                self->basis_t, self->views[2].buf, L, self->live, live_mean, self->rows,
+                                self->rows + L};
     self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays, 0};
     return 0;
 }
@@ -146,8 +222,34 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
 static PyTypeObject DecoderType;
 MR_SAMPLER_BINDING(Decoder, DecoderObject, DecoderType)
 
+/* constant: a list of D floats, each feature's value where it is constant over the clip, NaN where not */
+static PyObject *Decoder_constant_get(DecoderObject *self, void *closure)
+{
+    (void)closure;
+    if (!self->views[0].obj) {
+        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
+        return NULL;
+    }
+    size_t D = self->arrays.D;
+    PyObject *out = PyList_New((Py_ssize_t)D);
+    for (size_t d = 0; out && d < D; d++) {
+        double v = !self->constant[d] ? NAN
+                   : mr_format_is(&self->views[1], 'f') ? (double)((const float *)self->arrays.mean)[d]
+                                                        : ((const double *)self->arrays.mean)[d];
+        PyObject *f = PyFloat_FromDouble(v);
+        if (!f) {
+            Py_CLEAR(out);
+            break;
+        }
+        PyList_SET_ITEM(out, (Py_ssize_t)d, f);
+    }
+    return out;
+}
+
 static PyGetSetDef Decoder_getset[] = {
     {"sampler", Decoder_sampler_get, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
+    {"constant", (getter)Decoder_constant_get, NULL,
+     "each feature's value where it is constant over the clip (the same bits at any time), NaN where not", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
 
 static PyTypeObject DecoderType = {
