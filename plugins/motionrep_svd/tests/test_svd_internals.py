@@ -29,19 +29,21 @@ def _reference(coeff, mean, basis, times):
     frac = (pos - j).astype(coeff.dtype)
     rest = T(1.0) - frac
     k1 = np.minimum(j + 1, F - 1)
-    c = coeff[j] * rest[:, None] + coeff[k1] * frac[:, None]
-    y = np.broadcast_to(mean, (times.size, mean.size)).copy()
-    for k in range(coeff.shape[1]):
-        y = y + c[:, k:k + 1] * basis[k]
+    with np.errstate(invalid="ignore", over="ignore"):  # inf * 0.0 is NaN, as in C
+        c = coeff[j] * rest[:, None] + coeff[k1] * frac[:, None]
+        y = np.broadcast_to(mean, (times.size, mean.size)).copy()
+        for k in range(coeff.shape[1]):
+            y = y + c[:, k:k + 1] * basis[k]
     return y.astype(np.float64)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_features_constant_over_the_clip_are_found_exactly_and_written_as_their_means(dtype):
     """A feature whose basis column is all zeros (+0.0 or -0.0) and whose mean is finite and not -0.0 is the same
-    bits at every time (mean + c * 0 + ...: a sum of zeros of either sign added to the mean, +0.0 + -0.0 being
-    +0.0): the decoder reports it (constant_features, for the runtime decoder) and its block path writes the mean
-    instead of summing zeros.  Compared bit for bit with the arithmetic written out in numpy: scalar IEEE
+    bits at every time where the interpolated coefficients are finite (mean + c * 0 + ...: a sum of zeros of
+    either sign added to the mean, +0.0 + -0.0 being +0.0): the decoder reports it (constant_features, for the
+    runtime decoder) when every coefficient is far from overflowing, and its block path writes the mean instead of
+    summing zeros in any block whose interpolated coefficients are finite (else it sums them: NaN, as written).  Compared bit for bit with the arithmetic written out in numpy: scalar IEEE
     operations in a fixed order, no FMA contraction, no fast-math, so the same bits in any vector lane."""
     from motionrep_svd._codec import SVDDecoder
 
@@ -65,6 +67,13 @@ def test_features_constant_over_the_clip_are_found_exactly_and_written_as_their_
     for i in (0, 3, 7):  # the one-time path (every feature summed) gives the same bits
         assert np.asarray(decoder(times[i:i + 1]), dtype=np.float64).tobytes() == want[i:i + 1].tobytes()
     bad = coeff.copy()
-    bad[3, 2] = np.inf  # inf * 0.0 is NaN: nothing is constant then
-    assert not np.isfinite(SVDDecoder({"coefficients": bad, "mean": mean, "basis": basis}, dtype)
+    bad[3, 2] = np.inf  # inf * 0.0 is NaN: nothing is constant then, and blocks near frame 3 sum every feature
+    decoder = SVDDecoder({"coefficients": bad, "mean": mean, "basis": basis}, dtype)
+    assert not np.isfinite(decoder.constant_features).any()
+    got, want = np.asarray(decoder(times), dtype=np.float64), _reference(bad, mean, basis, times)
+    assert np.isnan(got[:, 1]).any() and np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.nan_to_num(got).tobytes() == np.nan_to_num(want).tobytes()
+    huge = coeff.copy()
+    huge[0, 0] = np.finfo(dtype).max  # finite, but its interpolation could overflow: not reported constant
+    assert not np.isfinite(SVDDecoder({"coefficients": huge, "mean": mean, "basis": basis}, dtype)
                            .constant_features).any()

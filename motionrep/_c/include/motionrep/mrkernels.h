@@ -95,7 +95,7 @@
  * type): faster for blocks of 16 or more columns (the svd decoder's 64), slower on a block's last few columns
  * (summed one at a time), so the Fourier decoder, whose blocks are its windows' times, keeps MR_AFFINE_BLOCK.
  * `rows` (or NULL: u): the row of Z unit u's sums go to, Z + rows[u] * ldz (the svd decoder leaves out the
- * features it knows to be constant). */
+ * features of zero weights). */
 #define MR_ROW(rows, u) ((rows) ? (rows)[u] : (u))
 #if defined(__GNUC__)
 #define MR_AFFINE_BLOCK_TO(NAME, T, TO)                                                                            \
