@@ -52,7 +52,6 @@ typedef struct {
         const size_t stride = count == 1 ? 1 : ROWS; /* of C's rows: one time writes c1 straight away */           \
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
-            unsigned infinite = 0; /* interpolated coefficients that are not finite (c * 0 would not be zero) */   \
             for (size_t i = 0; i < m; i++) {                                                                       \
                 double t = MR_PYMIN(MR_PYMAX(times[a + i], 0.0), 1.0);                                             \
                 t = t != t ? 0.0 : t; /* NaN (never from motionrep): the first frame */                            \
@@ -66,9 +65,6 @@ typedef struct {
                 for (size_t k = 0; k < r; k++)                                                                     \
                     C[k * stride + i] = r0[k] * rest + r1[k] * frac;                                               \
             }                                                                                                      \
-            for (size_t k = 0; s->L < D && k < r; k++) /* (only for a clip with features of zero weights) */       \
-                for (size_t i = 0; i < m; i++)                                                                     \
-                    infinite += (unsigned)((C[k * stride + i] > -(T)INFINITY) & (C[k * stride + i] < (T)INFINITY)) ^ 1u; \
             if (m == 1) { /* one time: the same sums, vectorised over the features */                              \
                 if (count > 1)                                                                                     \
                     for (size_t k = 0; k < r; k++)                                                                 \
@@ -78,6 +74,12 @@ typedef struct {
                     out[d * ldo + a] = (double)y1[d];                                                              \
                 continue;                                                                                          \
             }                                                                                                      \
+            unsigned infinite = 0; /* interpolated coefficients that are not finite (c * 0 would not be zero) */   \
+            for (size_t k = 0; s->L < D && k < r; k++) /* (only for a clip with features of zero weights) */       \
+                for (size_t i = 0; i < m; i++) {                                                                   \
+                    T c = C[k * ROWS + i];                                                                         \
+                    infinite += (unsigned)((c > -(T)INFINITY) & (c < (T)INFINITY)) ^ 1u;                           \
+                }                                                                                                  \
             int skip = s->L < D && !infinite; /* the features of zero weights summed only when c is not finite */ \
             AFFINE_BLOCK((const T *)s->units_t, (ptrdiff_t)(skip ? s->L : D), (ptrdiff_t)r,                        \
                          (const T *)s->units_mean, C, ROWS, out + a, (ptrdiff_t)ldo, (ptrdiff_t)m, s->rows);        \
