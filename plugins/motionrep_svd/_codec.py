@@ -163,8 +163,20 @@ class SVDDecoder(CompiledDecoder):
                                       np.ascontiguousarray(basis, dtype=dtype))
         self.kernel = _csvd.sample
         self.kernel_args = (self._decoder,)
+        self._constant: NDArray[np.float64] | None = None
 
     @property
     def sampler(self):
         """The C sampler (a capsule) that ``motionrep.open`` calls for each block of poses."""
         return self._decoder.sampler
+
+    @property
+    def constant_features(self) -> NDArray[np.float64]:
+        """``(D,)``: each feature's value where it is the same bits at every time (NaN where not): those whose
+        basis column is all zeros and whose mean is finite and not -0.0, when every coefficient is finite and far
+        from overflowing (``_c/module.c``, ``CONSTANT``: each sum is then its mean, exactly).  The runtime decoder
+        converts the joints whose features are all constant once instead of at every pose (``motionrep.open``), and
+        the C sampler writes those features' means instead of summing zeros."""
+        if self._constant is None:
+            self._constant = np.array(self._decoder.constant, dtype=np.float64)
+        return self._constant

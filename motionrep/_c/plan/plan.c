@@ -290,13 +290,14 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
         return MR_PLAN_NOT_FINITE;
     ptrdiff_t zero = 0, degenerate = 0;
     int across = count <= 2 && !p->world && p->R <= ACROSS;  /* one pose or two: its joints side by side */
-    for (ptrdiff_t a = 0; across && a < count; a++)
-        across_joints(p, X, ldx, a, out64 ? out64 + (size_t)a * J * 4 : NULL, out32 ? out32 + (size_t)a * J * 4 : NULL,
-                      &zero, &degenerate);
     for (ptrdiff_t a = 0; a < count; a += MR_PLAN_SUB) {
         ptrdiff_t n = count - a < MR_PLAN_SUB ? count - a : MR_PLAN_SUB;
         if (stream)
             out64 = stage - (size_t)a * J * 4;
+        /* (then the only sub-block; into the stage when streaming, as every entry of the sub-block) */
+        for (ptrdiff_t e = 0; across && e < n; e++)
+            across_joints(p, X, ldx, a + e, out64 ? out64 + (size_t)(a + e) * J * 4 : NULL,
+                          out32 ? out32 + (size_t)(a + e) * J * 4 : NULL, &zero, &degenerate);
         for (ptrdiff_t r = 0; r < (across ? 0 : R); r++) {
             int64_t kind = p->kinds[r], j = p->joints[r];
             const int64_t *cc = p->cols + 6 * r;

@@ -12,7 +12,9 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "motionrep/mrkernels.h"
 #include "motionrep/sampler.h"
@@ -22,7 +24,14 @@
 
 typedef struct {
     size_t F, r, D;
-    const void *coeff, *mean, *basis_t, *basis;
+    const void *coeff, *mean, *basis;
+    /* The block path's dense layer: D units, unit u the feature rows[u] (NULL: u), with the weights units_t (D, r)
+     * (the basis transposed) and means units_mean (D) in that order.  The features of zero weights (ZERO_WEIGHTS)
+     * come last, after the L others: in a block whose interpolated coefficients are all finite, only the first L
+     * units are summed and the others, consts = rows + L, are written as their means (the sums' value). */
+    size_t L;
+    const void *units_t, *units_mean;
+    const ptrdiff_t *rows, *consts;
 } svd_arrays;
 
 /* one kernel per dtype: T the arithmetic's type */
@@ -31,7 +40,7 @@ typedef struct {
     {                                                                                                              \
         const svd_arrays *s = state;                                                                               \
         const size_t F = s->F, r = s->r, D = s->D;                                                                 \
-        const T *coeff = s->coeff, *mean = s->mean, *basis_t = s->basis_t, *basis = s->basis;                      \
+        const T *coeff = s->coeff, *mean = s->mean, *basis = s->basis;                                             \
         /* the block's interpolated coefficients (and one time's two vectors) on the stack when they fit: no    \
          * allocation per call; the features go straight into out, converted from T as they are stored */         \
         T small[4096];                                                                                             \
@@ -65,7 +74,18 @@ typedef struct {
                     out[d * ldo + a] = (double)y1[d];                                                              \
                 continue;                                                                                          \
             }                                                                                                      \
-            AFFINE_BLOCK(basis_t, (ptrdiff_t)D, (ptrdiff_t)r, mean, C, ROWS, out + a, (ptrdiff_t)ldo, (ptrdiff_t)m);  \
+            unsigned infinite = 0; /* interpolated coefficients that are not finite (c * 0 would not be zero) */   \
+            for (size_t k = 0; s->L < D && k < r; k++) /* (only for a clip with features of zero weights) */       \
+                for (size_t i = 0; i < m; i++) {                                                                   \
+                    T c = C[k * ROWS + i];                                                                         \
+                    infinite += (unsigned)((c > -(T)INFINITY) & (c < (T)INFINITY)) ^ 1u;                           \
+                }                                                                                                  \
+            int skip = s->L < D && !infinite; /* the features of zero weights summed only when c is not finite */ \
+            AFFINE_BLOCK((const T *)s->units_t, (ptrdiff_t)(skip ? s->L : D), (ptrdiff_t)r,                        \
+                         (const T *)s->units_mean, C, ROWS, out + a, (ptrdiff_t)ldo, (ptrdiff_t)m, s->rows);        \
+            for (size_t e = 0; skip && e < D - s->L; e++) /* the others: their means (the sums' value) */         \
+                for (size_t i = 0; i < m; i++)                                                                     \
+                    out[(size_t)s->consts[e] * ldo + a + i] = (double)mean[s->consts[e]];                          \
         }                                                                                                          \
         if (C != small)                                                                                            \
             free(C);                                                                                               \
@@ -77,21 +97,68 @@ SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 
+/* out[at[j], i] = a[i, j] (at NULL: j): the basis (rows, cols) transposed, each feature's weights at its unit;
+ * at[cols + j]: the end of the run of columns from j whose units follow at[j] one by one */
 #define TRANSPOSE(NAME, T)                                                                                         \
-    static void NAME(const T *a, Py_ssize_t rows, Py_ssize_t cols, T *out)                                         \
+    static void NAME(const T *a, Py_ssize_t rows, Py_ssize_t cols, const ptrdiff_t *at, T *out)                   \
     {                                                                                                              \
         for (Py_ssize_t i = 0; i < rows; i++)                                                                      \
-            for (Py_ssize_t j = 0; j < cols; j++)                                                                  \
-                out[j * rows + i] = a[i * cols + j];                                                               \
+            for (Py_ssize_t j = 0; j < cols;) { /* a run of columns whose units follow each other */              \
+                Py_ssize_t u = at ? at[j] : j, e = at ? at[cols + j] : cols;                                       \
+                for (; j < e; j++, u++)                                                                            \
+                    out[u * rows + i] = a[i * cols + j];                                                           \
+            }                                                                                                      \
     }
 
 TRANSPOSE(transpose_f32, float)
 TRANSPOSE(transpose_f64, double)
 
+/* the count of the n values x that are not within (-LIMIT, LIMIT) (NaN is not) */
+#define OUTSIDE(NAME, T, LIMIT)                                                                                    \
+    MR_CLONES static size_t NAME(const T *x, size_t n)                                                            \
+    {                                                                                                              \
+        size_t bad = 0;                                                                                            \
+        for (size_t a = 0; a < n; a += (size_t)1 << 30) { /* 32-bit lanes: a count per chunk */                  \
+            size_t end = n - a < ((size_t)1 << 30) ? n : a + ((size_t)1 << 30);                                    \
+            uint32_t part = 0;                                                                                     \
+            for (size_t e = a; e < end; e++)                                                                       \
+                part += (uint32_t)((x[e] > -(T)(LIMIT)) & (x[e] < (T)(LIMIT))) ^ 1u;                              \
+            bad += part;                                                                                           \
+        }                                                                                                          \
+        return bad;                                                                                                \
+    }
+
+OUTSIDE(outside_f32, float, 1e37)
+OUTSIDE(outside_f64, double, 1e306)
+
+/* The features whose weights (basis column) are all zeros (+0.0 or -0.0) and whose mean is finite and not -0.0:
+ * wherever the interpolated coefficients c are finite, each c * 0 is a zero and the mean plus zeros of either sign
+ * is the mean (+0.0 + -0.0 is +0.0), exactly.  zero[d] = 1 for those; returns their count. */
+#define ZERO_WEIGHTS(NAME, T)                                                                                      \
+    static size_t NAME(const T *mean, const T *basis, size_t r, size_t D, unsigned char *zero)                    \
+    {                                                                                                              \
+        size_t any = 0;                                                                                            \
+        for (size_t d = 0; d < D; d++) {                                                                           \
+            T m = mean[d];                                                                                         \
+            int c = m > -(T)INFINITY && m < (T)INFINITY && !(m == 0 && signbit(m));                                \
+            for (size_t k = 0; c && k < r; k++) /* (most columns stop at their first weight) */                   \
+                c = basis[k * D + d] == 0;                                                                         \
+            zero[d] = (unsigned char)c;                                                                            \
+            any += (size_t)c;                                                                                      \
+        }                                                                                                          \
+        return any;                                                                                                \
+    }
+
+ZERO_WEIGHTS(zero_weights_f32, float)
+ZERO_WEIGHTS(zero_weights_f64, double)
+
+
 typedef struct {
     PyObject_HEAD
     Py_buffer views[3];
-    void *basis_t;
+    void *basis_t, *units_mean; /* the arrays' units_t, and units_mean when some feature has zero weights */
+    ptrdiff_t *rows;           /* the arrays' rows (D), then each feature's unit (D) and runs (D) */
+    unsigned char *constant;   /* (D): the features of zero weights (ZERO_WEIGHTS) */
     svd_arrays arrays;
     mr_sampler sampler;
 } DecoderObject;
@@ -101,7 +168,7 @@ static void Decoder_dealloc(DecoderObject *self)
     for (int k = 0; k < 3; k++)
         if (self->views[k].obj)
             PyBuffer_Release(&self->views[k]);
-    free(self->basis_t);
+    free(self->basis_t);  /* (one allocation: basis_t, units_mean, rows, constant) */
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -128,17 +195,42 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
         PyErr_SetString(PyExc_ValueError, "inconsistent svd arrays");
         return -1;
     }
-    size_t item = code == 'f' ? sizeof(float) : sizeof(double);
-    if (!(self->basis_t = malloc(item * (size_t)(r * D > 0 ? r * D : 1)))) {
+    size_t item = code == 'f' ? sizeof(float) : sizeof(double), nD = (size_t)D ? (size_t)D : 1, nconst;
+    /* one allocation: basis_t (D, r), units_mean (D), rows (3 D), constant (D) */
+    size_t nt = item * ((size_t)(r * D) + nD), nall = nt + 3 * nD * sizeof(ptrdiff_t) + nD;
+    if (!(self->basis_t = malloc(nall))) {
         PyErr_NoMemory();
         return -1;
     }
-    if (code == 'f')  /* basis_t[d, k] = basis[k, d] */
-        transpose_f32(self->views[2].buf, r, D, self->basis_t);
+    self->constant = (unsigned char *)self->basis_t + nall - nD;
+    const void *mean = self->views[1].buf, *basis = self->views[2].buf;
+    if (code == 'f')
+        nconst = zero_weights_f32(mean, basis, (size_t)r, (size_t)D, self->constant);
     else
-        transpose_f64(self->views[2].buf, r, D, self->basis_t);
-    self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, self->views[1].buf,
-                                self->basis_t, self->views[2].buf};
+        nconst = zero_weights_f64(mean, basis, (size_t)r, (size_t)D, self->constant);
+    size_t L = (size_t)D - nconst;
+    ptrdiff_t *at = NULL;
+    if (nconst) {  /* the units: the other features in order, then those of zero weights, and their means */
+        self->units_mean = (char *)self->basis_t + item * (size_t)(r * D);
+        self->rows = (ptrdiff_t *)((char *)self->basis_t + nt);
+        at = self->rows + D;  /* at[d]: the unit of feature d (then the runs' ends, TRANSPOSE) */
+        for (size_t d = 0, u = 0, e = L; d < (size_t)D; d++) {
+            at[d] = (ptrdiff_t)(self->constant[d] ? e++ : u++);
+            self->rows[at[d]] = (ptrdiff_t)d;
+            if (code == 'f')
+                ((float *)self->units_mean)[at[d]] = ((const float *)mean)[d];
+            else
+                ((double *)self->units_mean)[at[d]] = ((const double *)mean)[d];
+        }
+        for (Py_ssize_t d = D - 1; d >= 0; d--)
+            at[D + d] = d + 1 < D && at[d + 1] == at[d] + 1 ? at[D + d + 1] : d + 1;
+    }
+    if (code == 'f')  /* basis_t[unit of d, k] = basis[k, d] */
+        transpose_f32(basis, r, D, at, self->basis_t);
+    else
+        transpose_f64(basis, r, D, at, self->basis_t);
+    self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, mean, basis, L, self->basis_t,
+                                nconst ? self->units_mean : mean, self->rows, self->rows ? self->rows + L : NULL};
     self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays, 0};
     return 0;
 }
@@ -146,8 +238,40 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
 static PyTypeObject DecoderType;
 MR_SAMPLER_BINDING(Decoder, DecoderObject, DecoderType)
 
+/* constant: a list of D floats, each feature's value where it is constant over the clip, NaN where not (computed
+ * on request: motionrep.open asks, preparing a payload does not) */
+static PyObject *Decoder_constant_get(DecoderObject *self, void *closure)
+{
+    (void)closure;
+    if (!self->views[0].obj) {
+        PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
+        return NULL;
+    }
+    size_t D = self->arrays.D, nc = self->arrays.F * self->arrays.r;
+    /* those features are constant when every interpolated coefficient is finite: every coefficient below 1e37
+     * (float32; 1e306 for float64) in magnitude, so that c_i (1 - a) + c_{i+1} a cannot overflow */
+    int finite = self->arrays.L == D
+                 || !(mr_format_is(&self->views[1], 'f') ? outside_f32(self->arrays.coeff, nc)
+                                                         : outside_f64(self->arrays.coeff, nc));
+    PyObject *out = PyList_New((Py_ssize_t)D);
+    for (size_t d = 0; out && d < D; d++) {
+        double v = !(finite && self->constant[d]) ? NAN
+                   : mr_format_is(&self->views[1], 'f') ? (double)((const float *)self->arrays.mean)[d]
+                                                        : ((const double *)self->arrays.mean)[d];
+        PyObject *f = PyFloat_FromDouble(v);
+        if (!f) {
+            Py_CLEAR(out);
+            break;
+        }
+        PyList_SET_ITEM(out, (Py_ssize_t)d, f);
+    }
+    return out;
+}
+
 static PyGetSetDef Decoder_getset[] = {
     {"sampler", Decoder_sampler_get, NULL, "the C sampler for motionrep.open (motionrep/sampler.h)", NULL},
+    {"constant", (getter)Decoder_constant_get, NULL,
+     "each feature's value where it is constant over the clip (the same bits at any time), NaN where not", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
 
 static PyTypeObject DecoderType = {

@@ -15,3 +15,65 @@ def test_an_uninitialised_decoder_refuses_to_sample():
         empty.sampler
     with pytest.raises(ValueError, match="not initialised"):
         _csvd.sample(np.zeros(2), np.zeros((3, 2)), empty)
+
+
+def _reference(coeff, mean, basis, times):
+    """The decoder's arithmetic written out in numpy, one IEEE operation at a time in the C code's order (numpy's
+    elementwise + and * are single IEEE operations, never fused): coefficient rows interpolated at each time, then
+    the mean plus each component in order."""
+    T = coeff.dtype.type
+    F = coeff.shape[0]
+    t = np.clip(times, 0.0, 1.0)
+    pos = t * float(F - 1)
+    j = np.minimum(np.floor(pos), max(F - 2, 0)).astype(np.int64)
+    frac = (pos - j).astype(coeff.dtype)
+    rest = T(1.0) - frac
+    k1 = np.minimum(j + 1, F - 1)
+    with np.errstate(invalid="ignore", over="ignore"):  # inf * 0.0 is NaN, as in C
+        c = coeff[j] * rest[:, None] + coeff[k1] * frac[:, None]
+        y = np.broadcast_to(mean, (times.size, mean.size)).copy()
+        for k in range(coeff.shape[1]):
+            y = y + c[:, k:k + 1] * basis[k]
+    return y.astype(np.float64)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_features_constant_over_the_clip_are_found_exactly_and_written_as_their_means(dtype):
+    """A feature whose basis column is all zeros (+0.0 or -0.0) and whose mean is finite and not -0.0 is the same
+    bits at every time where the interpolated coefficients are finite (mean + c * 0 + ...: a sum of zeros of
+    either sign added to the mean, +0.0 + -0.0 being +0.0): the decoder reports it (constant_features, for the
+    runtime decoder) when every coefficient is far from overflowing, and its block path writes the mean instead of
+    summing zeros in any block whose interpolated coefficients are finite (else it sums them: NaN, as written).  Compared bit for bit with the arithmetic written out in numpy: scalar IEEE
+    operations in a fixed order, no FMA contraction, no fast-math, so the same bits in any vector lane."""
+    from motionrep_svd._codec import SVDDecoder
+
+    rng = np.random.default_rng(3)
+    F, r, D = 40, 5, 12
+    coeff = rng.normal(size=(F, r)).astype(dtype) * 3  # negative coefficients: c * 0.0 is -0.0
+    basis = rng.normal(size=(r, D)).astype(dtype)
+    mean = rng.normal(size=D).astype(dtype)
+    basis[:, [1, 4, 5, 7, 9]] = 0.0
+    basis[2, 4] = -0.0
+    mean[[4, 5]] = [0.0, -0.0]  # +0.0 stays +0.0 whatever the zeros' signs; -0.0 may not
+    mean[9] = np.inf
+    decoder = SVDDecoder({"coefficients": coeff, "mean": mean, "basis": basis}, dtype)
+    constant = decoder.constant_features
+    assert np.flatnonzero(np.isfinite(constant)).tolist() == [1, 4, 7]
+    assert constant[[1, 4, 7]].tobytes() == mean[[1, 4, 7]].astype(np.float64).tobytes()
+    times = np.concatenate([[0.0, 1.0, 0.5, -1.0, 2.0], rng.random(300)])
+    want = _reference(coeff, mean, basis, times)
+    got = np.asarray(decoder(times), dtype=np.float64)
+    assert got.tobytes() == want.tobytes()
+    for i in (0, 3, 7):  # the one-time path (every feature summed) gives the same bits
+        assert np.asarray(decoder(times[i:i + 1]), dtype=np.float64).tobytes() == want[i:i + 1].tobytes()
+    bad = coeff.copy()
+    bad[3, 2] = np.inf  # inf * 0.0 is NaN: nothing is constant then, and blocks near frame 3 sum every feature
+    decoder = SVDDecoder({"coefficients": bad, "mean": mean, "basis": basis}, dtype)
+    assert not np.isfinite(decoder.constant_features).any()
+    got, want = np.asarray(decoder(times), dtype=np.float64), _reference(bad, mean, basis, times)
+    assert np.isnan(got[:, 1]).any() and np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.nan_to_num(got).tobytes() == np.nan_to_num(want).tobytes()
+    huge = coeff.copy()
+    huge[0, 0] = np.finfo(dtype).max  # finite, but its interpolation could overflow: not reported constant
+    assert not np.isfinite(SVDDecoder({"coefficients": huge, "mean": mean, "basis": basis}, dtype)
+                           .constant_features).any()

@@ -93,11 +93,15 @@
  * bytes of columns keeping its sums in registers over the whole of k (gcc's vector extension, lowered to the
  * vectors each target copy has), and the results stored converted to TO (exactly: float to double, or the same
  * type): faster for blocks of 16 or more columns (the svd decoder's 64), slower on a block's last few columns
- * (summed one at a time), so the Fourier decoder, whose blocks are its windows' times, keeps MR_AFFINE_BLOCK. */
+ * (summed one at a time), so the Fourier decoder, whose blocks are its windows' times, keeps MR_AFFINE_BLOCK.
+ * `rows` (or NULL: u): the row of Z unit u's sums go to, Z + rows[u] * ldz (the svd decoder leaves out the
+ * features of zero weights). */
+#define MR_ROW(rows, u) ((rows) ? (rows)[u] : (u))
 #if defined(__GNUC__)
 #define MR_AFFINE_BLOCK_TO(NAME, T, TO)                                                                            \
     MR_INLINE void NAME(const T *MR_RESTRICT W, ptrdiff_t U, ptrdiff_t K, const T *MR_RESTRICT b,                 \
-                        const T *MR_RESTRICT X, ptrdiff_t ldx, TO *MR_RESTRICT Z, ptrdiff_t ldz, ptrdiff_t m)     \
+                        const T *MR_RESTRICT X, ptrdiff_t ldx, TO *MR_RESTRICT Z, ptrdiff_t ldz, ptrdiff_t m,     \
+                        const ptrdiff_t *MR_RESTRICT rows)                                                        \
     {                                                                                                             \
         typedef T vec __attribute__((vector_size(64)));                                                          \
         typedef TO tovec __attribute__((vector_size(64 / sizeof(T) * sizeof(TO))));                              \
@@ -119,7 +123,7 @@
                 }                                                                                                 \
                 for (int q = 0; q < UT; q++) {                                                                    \
                     tovec t = __builtin_convertvector(acc[q], tovec);                                             \
-                    memcpy(Z + (u + q) * ldz + i, &t, sizeof t);                                                  \
+                    memcpy(Z + MR_ROW(rows, u + q) * ldz + i, &t, sizeof t);                                            \
                 }                                                                                                 \
             }                                                                                                     \
             for (; u < U; u++) { /* the last units, one at a time */                                              \
@@ -130,7 +134,7 @@
                     acc = acc + x * W[u * K + k];                                                                 \
                 }                                                                                                 \
                 tovec t = __builtin_convertvector(acc, tovec);                                                    \
-                memcpy(Z + u * ldz + i, &t, sizeof t);                                                            \
+                memcpy(Z + MR_ROW(rows, u) * ldz + i, &t, sizeof t);                                                      \
             }                                                                                                     \
         }                                                                                                         \
         for (ptrdiff_t u = 0; i < m && u < U; u++) { /* the last columns */                                       \
@@ -138,21 +142,22 @@
                 T s = b[u];                                                                                       \
                 for (ptrdiff_t k = 0; k < K; k++)                                                                 \
                     s = s + W[u * K + k] * X[k * ldx + c];                                                        \
-                Z[u * ldz + c] = (TO)s;                                                                           \
+                Z[MR_ROW(rows, u) * ldz + c] = (TO)s;                                                                     \
             }                                                                                                     \
         }                                                                                                         \
     }
 #else
 #define MR_AFFINE_BLOCK_TO(NAME, T, TO)                                                                            \
     MR_INLINE void NAME(const T *MR_RESTRICT W, ptrdiff_t U, ptrdiff_t K, const T *MR_RESTRICT b,                 \
-                        const T *MR_RESTRICT X, ptrdiff_t ldx, TO *MR_RESTRICT Z, ptrdiff_t ldz, ptrdiff_t m)     \
+                        const T *MR_RESTRICT X, ptrdiff_t ldx, TO *MR_RESTRICT Z, ptrdiff_t ldz, ptrdiff_t m,     \
+                        const ptrdiff_t *MR_RESTRICT rows)                                                        \
     {                                                                                                             \
         for (ptrdiff_t u = 0; u < U; u++)                                                                         \
             for (ptrdiff_t i = 0; i < m; i++) {                                                                   \
                 T s = b[u];                                                                                       \
                 for (ptrdiff_t k = 0; k < K; k++)                                                                 \
                     s = s + W[u * K + k] * X[k * ldx + i];                                                        \
-                Z[u * ldz + i] = (TO)s;                                                                           \
+                Z[MR_ROW(rows, u) * ldz + i] = (TO)s;                                                                     \
             }                                                                                                     \
     }
 #endif
