@@ -247,6 +247,16 @@ def test_evaluating_and_converting_bvh_import_no_numba(tmp_path, walk):
     assert (tmp_path / "w.bvh").exists() and (tmp_path / "w.npz").exists()
 
 
+def test_compressing_and_decompressing_bvh_import_no_scipy(tmp_path, walk):
+    """The quick start's `compress` (transform of root-quat-axis-angle features) and `decompress` to BVH convert
+    rotations in the compiled core (quaternions to rotation vectors and to Euler angles, scipy's operations in C):
+    neither imports scipy, whose `scipy.spatial` alone costs about 0.15 s of every process."""
+    mrc = tmp_path / "w.mrc"
+    assert not _tops(_imported_by(["compress", str(walk), "-o", str(mrc)])) & {"scipy", "numba", "torch"}
+    assert not _tops(_imported_by(["decompress", str(mrc), "-o", str(tmp_path / "w.bvh")])) & {"scipy", "numba"}
+    assert mrc.exists() and (tmp_path / "w.bvh").exists()
+
+
 def test_info_on_hdf5_leaves_h5py_to_the_reader_process(tmp_path, walk):
     """Reading HDF5 runs h5py in a worker process (motionrep.io._h5read); the command's own process does not
     import it (nor numba or scipy)."""
