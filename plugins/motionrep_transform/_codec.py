@@ -148,7 +148,8 @@ class _Plan:
         for mag, sign, rows, span in zip(self._magnitudes, self._signs, self.region_of, self.reach):
             if span not in minima:
                 minima[span] = window_minimum(index.reshape(-1), span)
-            a = np.divide(mag, table[minima[span][rows]])
+            a = table[minima[span][rows]]  # a fresh array: divided in place
+            np.divide(mag, a, out=a)
             a += rounding
             np.floor(a, out=a)
             if a.size and not float(a.max()) <= MAX_MAGNITUDE:
