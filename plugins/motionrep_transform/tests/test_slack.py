@@ -44,7 +44,7 @@ def test_savings_are_zero_on_zeros_and_large_on_isolated_ones():
 
 
 def _savings_pass_by_pass(coefficients, levels):
-    """:func:`reduction_savings` as first written (until 0.x: the contexts of ``._stream`` pass by pass, every
+    """:func:`reduction_savings` as it was before (c819464: the contexts of ``._stream`` pass by pass, every
     coefficient tokenized): the reference the faster formulation must match bit for bit."""
     mags = [np.abs(c) for c in coefficients]
     mags[0] = _approx_steps(coefficients[0])
