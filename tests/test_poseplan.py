@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import hashlib
 
 import numpy as np
@@ -231,3 +232,39 @@ def _digest(seed, trials):
 
 def test_random_plans_decode_to_the_numba_kernels_bits():
     assert _digest(7, 400) == NUMBA_DIGEST
+
+
+def test_the_entries_are_checked_at_once_as_one_by_one():
+    """The all-at-once check of the entries (``_entries_fit``) passes exactly the plans the entry-by-entry loop
+    (``_check_entries``, which names the first entry that does not fit) lets through: random entries of every
+    kind, columns and axes in and just out of range, Euler entries of one to three axes, -1 padding broken."""
+    rng = np.random.default_rng(11)
+    plan = _plan([QUAT], [(0, 1, 2, 3)], width=4)
+    seen = {True: 0, False: 0}
+    for _ in range(3000):
+        R, width = int(rng.integers(1, 5)), int(rng.integers(1, 9))
+        kinds = rng.integers(-1 if rng.random() < 0.05 else 0, 8 if rng.random() < 0.05 else 7, size=R)
+        cols = np.full((R, 6), -1, np.int64)
+        axes = np.full((R, 3), -1, np.int64)
+        for r, kind in enumerate(kinds.tolist()):
+            euler = kind in (EULER, EULER_DEGREES)
+            n = int(rng.integers(1, 4)) if euler else {QUAT: 4, AXIS_ANGLE: 3, ORTHO6D: 6, WORLD_QUAT: 4}.get(kind, 0)
+            cols[r, :n] = rng.integers(0, width, size=n)
+            if euler:
+                axes[r, :n] = rng.integers(0, 3, size=n)
+        if rng.random() < 0.7:  # break one thing (or, now and then, nothing)
+            a = cols if rng.random() < 0.6 else axes
+            a[rng.integers(R), rng.integers(a.shape[1])] = rng.choice([-2, -1, 0, 2, 3, width - 1, width])
+        if rng.random() < 0.1:  # an entry that reads nothing (only the identity kind may)
+            cols[rng.integers(R)] = -1
+        bad = copy.copy(plan)
+        for name, value in (("width", width), ("kinds", kinds.astype(np.int64)), ("columns", cols), ("axes", axes)):
+            object.__setattr__(bad, name, value)
+        try:
+            bad._check_entries()
+            fits = True
+        except ValidationError:
+            fits = False
+        assert bad._entries_fit() == fits, (kinds, cols, axes, width)
+        seen[fits] += 1
+    assert min(seen.values()) > 300, seen

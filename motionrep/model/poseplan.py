@@ -50,6 +50,7 @@ __all__ = ["PosePlan", "decode_planned", "QUAT", "AXIS_ANGLE", "EULER", "EULER_D
 QUAT, AXIS_ANGLE, EULER, EULER_DEGREES, ORTHO6D, WORLD_QUAT, WORLD_IDENTITY = range(7)
 #: Number of columns each kind reads (Euler: up to three, ``-1`` pads).
 _WIDTH = {QUAT: 4, AXIS_ANGLE: 3, EULER: 3, EULER_DEGREES: 3, ORTHO6D: 6, WORLD_QUAT: 4, WORLD_IDENTITY: 0}
+_WIDTH_OF = np.array([_WIDTH[kind] for kind in range(len(_WIDTH))], np.int64)
 #: Poses converted together inside the kernel: each joint's inputs and results for them stay in the L1 cache.
 SUB_BLOCK = 64
 # the header of the packed plan (int64): counts, then offsets of the parts
@@ -104,7 +105,28 @@ class PosePlan:
             raise ValidationError("pose plan: parents must come before their children, the root first")
         if len(set(self.joints.tolist())) != R or np.any(self.joints < 0) or np.any(self.joints >= J):
             raise ValidationError("pose plan: each entry must write a different joint")
-        for r in range(R):
+        if not self._entries_fit():
+            self._check_entries()
+        world = (self.kinds == WORLD_QUAT) | (self.kinds == WORLD_IDENTITY)
+        if world.any() and (not world.all() or not np.array_equal(self.joints, np.arange(J))):
+            raise ValidationError("pose plan: world rotations need one entry per joint, in joint order")
+        object.__setattr__(self, "_packed", self._pack())
+
+    def _entries_fit(self) -> bool:
+        """Whether every entry passes :meth:`_check_entries`, all entries at once (a plan is built for every
+        decoder and codec call; the loop then only runs to name the first entry that does not fit)."""
+        k, cols, axes = self.kinds, self.columns, self.axes
+        if k.ndim != 1 or k.dtype.kind not in "iu" or not np.all((k >= 0) & (k < _WIDTH_OF.size)):
+            return False
+        euler = (k == EULER) | (k == EULER_DEGREES)
+        count = np.where(euler, np.maximum(1, np.sum(cols >= 0, axis=1)), _WIDTH_OF[k])[:, None]
+        fits = np.where(np.arange(cols.shape[1]) < count, (cols >= 0) & (cols < self.width), cols == -1)
+        named = np.where(np.arange(axes.shape[1]) < count, (axes >= 0) & (axes <= 2), axes == -1)
+        return bool(np.all(fits) and np.all(named | ~euler[:, None]))
+
+    def _check_entries(self) -> None:
+        """Each entry's kind, the columns it reads (within the width, ``-1`` after) and an Euler entry's axes."""
+        for r in range(self.kinds.shape[0]):
             kind = int(self.kinds[r])
             if kind not in _WIDTH:
                 raise ValidationError(f"pose plan: unknown conversion kind {kind}")
@@ -116,10 +138,6 @@ class PosePlan:
             if kind in (EULER, EULER_DEGREES) and (np.any(axes[:used.size] < 0) or np.any(axes[:used.size] > 2)
                                                    or np.any(axes[used.size:] != -1)):
                 raise ValidationError(f"pose plan: Euler entry {r} needs an axis 0-2 per angle")
-        world = (self.kinds == WORLD_QUAT) | (self.kinds == WORLD_IDENTITY)
-        if world.any() and (not world.all() or not np.array_equal(self.joints, np.arange(J))):
-            raise ValidationError("pose plan: world rotations need one entry per joint, in joint order")
-        object.__setattr__(self, "_packed", self._pack())
 
     @property
     def num_translated(self) -> int:

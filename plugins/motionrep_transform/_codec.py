@@ -137,16 +137,19 @@ class _Plan:
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
         """``sign(c) floor(|c| / step + rounding)`` of every coefficient, its step ``2 ** ((b_c + k) / 8)``
-        (:meth:`exponents`) taken from a table of the rows' few distinct ``k`` (rows of one ``k`` share their
-        steps; the same numbers as :func:`steps_of`)."""
+        (:meth:`exponents`) taken from a table of the few distinct ``k`` (rows of one ``k`` share their steps;
+        the same numbers as :func:`steps_of`)."""
         out = []
+        # the windows' minima as indices into the sorted distinct k (order-preserving, so the minimum of the
+        # indices is the index of the minimum): one table of steps for every array, its rows those k's
+        distinct, index = np.unique(np.asarray(region_exp, np.int64).reshape(-1), return_inverse=True)
+        table = step_scale(distinct[:, None] + self.feature_exp[None, :])
         minima: dict[int, NDArray[np.int64]] = {}  # arrays of one reach share their windows' minima
         for mag, sign, rows, span in zip(self._magnitudes, self._signs, self.region_of, self.reach):
             if span not in minima:
-                minima[span] = window_minimum(region_exp, span)
-            distinct, row = np.unique(minima[span][rows], return_inverse=True)
-            table = step_scale(distinct[:, None] + self.feature_exp[None, :])
-            a = np.divide(mag, table[row.reshape(-1)])
+                minima[span] = window_minimum(index.reshape(-1), span)
+            a = table[minima[span][rows]]  # a fresh array: divided in place
+            np.divide(mag, a, out=a)
             a += rounding
             np.floor(a, out=a)
             if a.size and not float(a.max()) <= MAX_MAGNITUDE:

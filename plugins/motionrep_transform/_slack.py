@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from motionrep.plugin.coding import NUM_TOKENS, Model, _fit_tables, _probabilities, _tokenize
 
-from ._stream import MAX_ZERO, _approx_steps, _contexts, _parents, _passes
+from ._stream import _SIZES, MAX_ZERO, _approx_steps, _parents, _passes
 
 __all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
@@ -71,6 +71,13 @@ def _fit_each(ctx: NDArray[np.int64], values: NDArray[np.int64], wanted: NDArray
     n = int(ctx.max()) + 1
     tokens, _, _ = _tokenize(values)
     counts = np.bincount(ctx * NUM_TOKENS + tokens, minlength=n * NUM_TOKENS).reshape(n, NUM_TOKENS)
+    return _fit_counts(counts, wanted)
+
+
+def _fit_counts(counts: NDArray[np.int64], wanted: NDArray[np.int64] | None = None
+                ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`_fit_each` from the ``(n, NUM_TOKENS)`` token counts of each context."""
+    n = counts.shape[0]
     rows = np.arange(n) if wanted is None else np.asarray(wanted, np.int64)
     counts = counts[rows].astype(np.float64)
     nonzero = counts.sum(axis=1) - counts[:, 0]  # token 0 is the value 0 (whole numbers: exact)
@@ -104,37 +111,86 @@ def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitu
     return np.where(a > 0, nonzero, -np.log2(z))
 
 
+def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int64]) -> None:
+    """The context of every detail coefficient, written into ``out`` (the detail arrays' elements in storage
+    order, one after the other): the numbers :func:`._stream._contexts` gives each pass, for both passes of a
+    level at once (integers: the same numbers, fewer temporaries). ``mags``: the magnitudes, ``mags[0]`` the
+    approximation's steps (:func:`._stream._approx_steps`)."""
+    start = 0
+    for index, odd, group in _passes(levels):
+        if odd:  # both passes of the level are done with its even one
+            continue
+        level = mags[index]
+        n = level.shape[0]
+        if index == 1:
+            s = _parents(mags, index)
+        else:  # 2 p + p_left + p_right of each row of the coarser level, each row taken for two (rows past
+            a = mags[index - 1]  # twice its length: its last)
+            p = 2 * a
+            p[1:] += a[:-1]
+            p[:-1] += a[1:]
+            m = 2 * a.shape[0]
+            if n <= m:
+                s = np.repeat(p, 2, axis=0)[:n]
+            else:
+                s = np.empty(level.shape, np.int64)
+                s[:m] = np.repeat(p, 2, axis=0)
+                s[m:] = p[-1]
+        k = n // 2  # odd rows: their even neighbours at this level (the last one's right: 0 past the end)
+        t = level[0:2 * k:2].copy()
+        right = level[2::2]
+        t[:right.shape[0]] += right
+        t *= 2
+        s[1::2] += t
+        # the bit length of the sum, capped at _SIZES - 1 (reached at 64), of the pass's model group: a table
+        np.minimum(s, _CAP, out=s)
+        s[1::2] += _CAP + 1
+        np.take(_SIZE_TABLES[group], s, out=out[start:start + level.size].reshape(level.shape), mode="clip")
+        start += level.size
+
+
 def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> list[NDArray[np.float64]]:
     """Per coefficient array ``(n, D)``: the bits saved by moving each non-zero detail coefficient one step
     towards zero, under the context models the stream would fit to ``coefficients`` (0 for zeros and for the
     approximation, which is not moved). The contexts of the neighbours are taken as they are (a zero more
     usually makes them cheaper too, so the real saving is somewhat larger). Every context's model is fitted at
-    once (:func:`_fit_each`)."""
-    mags = [np.abs(c) for c in coefficients]
-    mags[0] = _approx_steps(coefficients[0])
-    out = [np.zeros(c.shape) for c in coefficients]
-    parents = {index: _parents(mags, index) for index in range(1, levels + 1)}  # the same for both passes
-    passes = [(index, odd, _contexts(parents[index], mags[index], odd, group))
-              for index, odd, group in _passes(levels)]
-    if not passes:
+    once (:func:`_fit_each`); the token counts of the zeros (most coefficients) are counted without their
+    tokens (the same counts)."""
+    details = coefficients[1:levels + 1] if levels else []
+    sizes = [c.size for c in details]
+    total = sum(sizes)
+    flat = np.zeros(total)
+    out = [np.zeros(coefficients[0].shape)] + [part.reshape(c.shape)
+                                                for part, c in zip(np.split(flat, np.cumsum(sizes)[:-1]), details)]
+    out += [np.zeros(c.shape) for c in coefficients[levels + 1:]]
+    if not total:
         return out
-    ctx = np.concatenate([c.reshape(-1) for _, _, c in passes])
-    val = np.concatenate([coefficients[i][int(odd)::2].reshape(-1) for i, odd, _ in passes])
-    mag = np.abs(val)
-    saved = np.zeros(ctx.size)
-    moved = np.flatnonzero(mag > 0)
-    if moved.size:
-        used = np.unique(ctx[moved])
-        zero, decay = _fit_each(ctx, val, used)  # only the contexts of coefficients that may move
-        table = np.zeros((zero.size, NUM_TOKENS))
-        table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
-        rows = ctx[moved]
-        saved[moved] = _code_length_of(table, rows, mag[moved]) - _code_length_of(table, rows, mag[moved] - 1)
-    start = 0
-    for index, odd, c in passes:
-        out[index][int(odd)::2] = saved[start:start + c.size].reshape(c.shape)
-        start += c.size
+    val = np.concatenate([c.reshape(-1) for c in details])
+    moved = np.flatnonzero(val)
+    if not moved.size:
+        return out
+    mags = [_approx_steps(coefficients[0])] + [np.abs(c) for c in details]
+    ctx = np.empty(total, np.int64)
+    _context_ids(mags, levels, ctx)
+    n = int(ctx.max()) + 1
+    rows = ctx[moved]
+    v = val[moved]
+    tokens, _, _ = _tokenize(v)
+    counts = np.bincount(rows * NUM_TOKENS + tokens, minlength=n * NUM_TOKENS).reshape(n, NUM_TOKENS)
+    counts[:, 0] = np.bincount(ctx, minlength=n) - counts.sum(axis=1)  # token 0: the zeros, and only they
+    used = np.unique(rows)
+    zero, decay = _fit_counts(counts, used)  # only the contexts of coefficients that may move
+    table = np.zeros((zero.size, NUM_TOKENS))
+    table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
+    mag = np.abs(v)
+    flat[moved] = _code_length_of(table, rows, mag) - _code_length_of(table, rows, mag - 1)
     return out
+
+
+#: the context size of a capped parent sum (even pass: 0 .. _CAP, odd pass: _CAP + 1 .. 2 _CAP + 1) per group
+_CAP = 1 << (_SIZES - 2)
+_SIZE_TABLES = [np.array([(group * 2 + odd) * _SIZES + min(s.bit_length(), _SIZES - 1)
+                          for odd in (0, 1) for s in range(_CAP + 1)], np.int64) for group in (0, 1)]
 
 
 def frame_sensitivity(samples: NDArray[np.float64], num_frames: int) -> NDArray[np.float64]:

@@ -164,3 +164,24 @@ def test_window_minimum_is_scipys_minimum_filter_with_nearest_ends():
             got = window_minimum(v, span)
             assert got.dtype == v.dtype and np.array_equal(got, minimum_filter1d(v, 2 * span + 1, mode="nearest"))
         assert window_minimum(v, 0) is v
+
+
+@pytest.mark.parametrize("frames, region", [(4, 16), (37, 4), (300, 16), (1001, 16), (1250, 8)])
+def test_quantise_is_every_coefficient_over_its_own_step(frames, region):
+    """``_Plan.quantise`` (one table of steps per distinct region exponent, rows picked through the windows'
+    minima) gives ``sign(c) floor(|c| / step + rounding)`` with each coefficient's own step
+    (:func:`steps_of` of :meth:`_Plan.exponents`), bit for bit: exact steps (``step_scale``) and one division
+    of the same numbers, on any machine; for region exponents of a narrow and a wide range, repeated ones and
+    one region."""
+    from motionrep_transform._codec import _Plan, steps_of
+
+    rng = np.random.default_rng(frames)
+    features = np.cumsum(rng.normal(size=(frames, 6)), axis=0) * rng.uniform(0.01, 100, size=6)
+    plan = _Plan(features, rng.integers(-20, 20, size=6), region)
+    for low, high in ((-3, -1), (-40, 40), (-300, 200), (5, 6)):
+        k = rng.integers(low, high, size=plan.regions)
+        for rounding in (0.5, 0.3):
+            got = plan.quantise(k, rounding)
+            for q, c, step in zip(got, plan.coefficients, steps_of(plan.exponents(k))):
+                want = (np.sign(c) * np.floor(np.abs(c) / step + rounding)).astype(np.int64)
+                assert q.dtype == np.int64 and np.array_equal(q, want), (low, high, rounding)
