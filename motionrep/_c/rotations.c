@@ -59,12 +59,13 @@ void mr_axis_angle_continuous(const double *theta, const double *axis, double *o
     }
 }
 
-/* out[r] = the rotation vector of quat[r] (xyzw), the values scipy's Rotation.from_quat(q).as_rotvec() gives, operation
- * for operation (the quaternion normalised by its length, made canonical (w > 0, or w = 0
- * and the first non-zero of x, y, z positive), angle 2 atan2(|v|, w), v scaled by
- * angle / sin(angle / 2), or by its series 2 + a^2 / 12 + 7 a^4 / 2880 at angles <= 1e-3) with the same libm
- * atan2 and sin: the same bits, without scipy's per-call overhead (a fifth of a millisecond per thousand).  Returns
- * -1, or the index of the first quaternion of zero or NaN length (scipy's error; out is then incomplete). */
+/* out[r] = the rotation vector of quat[r] (xyzw): the values scipy's Rotation.from_quat(q).as_rotvec() gives,
+ * operation for operation (the quaternion normalised by its length, made canonical (w > 0, or w = 0 and the first
+ * non-zero of x, y, z positive), angle 2 atan2(|v|, w), v scaled by angle / sin(angle / 2), or by its series
+ * 2 + a^2 / 12 + 7 a^4 / 2880 at angles <= 1e-3) with the same libm atan2 and sin: the same bits, without importing
+ * scipy.spatial (about 0.15 s of a process) or scipy's per-call overhead (about a quarter of a millisecond per
+ * thousand quaternions).  Returns -1, or the index of the first quaternion of zero or NaN length (scipy's error;
+ * out is then incomplete). */
 int64_t mr_quat_to_axis_angle(const double *quat, int64_t n, double *out)
 {
     for (int64_t r = 0; r < n; r++) {
