@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from motionrep.plugin.coding import NUM_TOKENS, Model, _fit_tables, _probabilities, _tokenize
 
-from ._stream import _SIZES, MAX_ZERO, _approx_steps, _parents, _passes
+from ._stream import MAX_ZERO, _approx_steps, _context_ids, _passes
 
 __all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
@@ -111,44 +111,6 @@ def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitu
     return np.where(a > 0, nonzero, -np.log2(z))
 
 
-def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int64]) -> None:
-    """The context of every detail coefficient, written into ``out`` (the detail arrays' elements in storage
-    order, one after the other): the numbers :func:`._stream._contexts` gives each pass, for both passes of a
-    level at once (integers: the same numbers, fewer temporaries). ``mags``: the magnitudes, ``mags[0]`` the
-    approximation's steps (:func:`._stream._approx_steps`)."""
-    start = 0
-    for index, odd, group in _passes(levels):
-        if odd:  # both passes of the level are done with its even one
-            continue
-        level = mags[index]
-        n = level.shape[0]
-        if index == 1:
-            s = _parents(mags, index)
-        else:  # 2 p + p_left + p_right of each row of the coarser level, each row taken for two (rows past
-            a = mags[index - 1]  # twice its length: its last)
-            p = 2 * a
-            p[1:] += a[:-1]
-            p[:-1] += a[1:]
-            m = 2 * a.shape[0]
-            if n <= m:
-                s = np.repeat(p, 2, axis=0)[:n]
-            else:
-                s = np.empty(level.shape, np.int64)
-                s[:m] = np.repeat(p, 2, axis=0)
-                s[m:] = p[-1]
-        k = n // 2  # odd rows: their even neighbours at this level (the last one's right: 0 past the end)
-        t = level[0:2 * k:2].copy()
-        right = level[2::2]
-        t[:right.shape[0]] += right
-        t *= 2
-        s[1::2] += t
-        # the bit length of the sum, capped at _SIZES - 1 (reached at 64), of the pass's model group: a table
-        np.minimum(s, _CAP, out=s)
-        s[1::2] += _CAP + 1
-        np.take(_SIZE_TABLES[group], s, out=out[start:start + level.size].reshape(level.shape), mode="clip")
-        start += level.size
-
-
 def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> list[NDArray[np.float64]]:
     """Per coefficient array ``(n, D)``: the bits saved by moving each non-zero detail coefficient one step
     towards zero, under the context models the stream would fit to ``coefficients`` (0 for zeros and for the
@@ -185,12 +147,6 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     mag = np.abs(v)
     flat[moved] = _code_length_of(table, rows, mag) - _code_length_of(table, rows, mag - 1)
     return out
-
-
-#: the context size of a capped parent sum (even pass: 0 .. _CAP, odd pass: _CAP + 1 .. 2 _CAP + 1) per group
-_CAP = 1 << (_SIZES - 2)
-_SIZE_TABLES = [np.array([(group * 2 + odd) * _SIZES + min(s.bit_length(), _SIZES - 1)
-                          for odd in (0, 1) for s in range(_CAP + 1)], np.int64) for group in (0, 1)]
 
 
 def frame_sensitivity(samples: NDArray[np.float64], num_frames: int) -> NDArray[np.float64]:

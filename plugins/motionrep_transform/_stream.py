@@ -58,12 +58,6 @@ class Quantised:
     coefficients: list[NDArray[np.int64]]
 
 
-def _bit_length(s: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Bits of each non-negative integer (0 for 0), capped at 41."""
-    s = np.minimum(s, np.int64(1) << 40)
-    return np.where(s > 0, np.frexp(s.astype(np.float64))[1], 0).astype(np.int64)
-
-
 def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int64]:
     """``2 p + p_left + p_right`` for each coefficient of array ``index`` (1..L) from the coarser level: for the
     coarsest detail level, the approximation's differences at the same position; otherwise the detail level
@@ -81,19 +75,36 @@ def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int6
     return 2 * pad[at + 1] + pad[at] + pad[at + 2]
 
 
-def _contexts(parents: NDArray[np.int64], level: NDArray[np.int64], odd: bool, group: int) -> NDArray[np.int64]:
-    """Context ids of one pass over the rows ``i`` of a level with ``i % 2 == odd``: the bit length (capped) of
-    the parents' sum, plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from ``level`` (the level's
-    magnitudes; only its even rows, already known to the decoder, are read)."""
-    s = parents[int(odd)::2]
-    if odd:
+def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int64]) -> None:
+    """The context of every detail coefficient, written into ``out`` (the detail arrays' elements in storage
+    order, one after the other): for each pass, the bit length (capped) of the parents' sum
+    (:func:`_parents`), plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from the level's even rows (already
+    known to the decoder); both passes of a level at once. ``mags``: the magnitudes, ``mags[0]`` the
+    approximation's steps (:func:`_approx_steps`)."""
+    start = 0
+    for index, odd, group in _passes(levels):
+        if odd:  # both passes of the level are done with its even one
+            continue
+        level = mags[index]
         n = level.shape[0]
-        pad = np.zeros((n + 1,) + level.shape[1:], np.int64)
-        pad[:n] = level
-        rows = np.arange(1, n, 2)
-        s = s + 2 * (pad[rows - 1] + pad[rows + 1])
-    size = np.minimum(_bit_length(s), _SIZES - 1)
-    return (group * 2 + int(odd)) * _SIZES + size
+        s = _parents(mags, index)
+        k = n // 2  # odd rows: their even neighbours at this level (the last one's right: 0 past the end)
+        t = level[0:2 * k:2].copy()
+        right = level[2::2]
+        t[:right.shape[0]] += right
+        t *= 2
+        s[1::2] += t
+        # the bit length of the sum, capped at _SIZES - 1 (reached at 64), of the pass's model group: a table
+        np.minimum(s, _CAP, out=s)
+        s[1::2] += _CAP + 1
+        np.take(_SIZE_TABLES[group], s, out=out[start:start + level.size].reshape(level.shape), mode="clip")
+        start += level.size
+
+
+#: the context size of a capped parent sum (even pass: 0 .. _CAP, odd pass: _CAP + 1 .. 2 _CAP + 1) per group
+_CAP = 1 << (_SIZES - 2)
+_SIZE_TABLES = [np.array([(group * 2 + odd) * _SIZES + min(s.bit_length(), _SIZES - 1)
+                          for odd in (0, 1) for s in range(_CAP + 1)], np.int64) for group in (0, 1)]
 
 
 def _grouped(ctx: NDArray[np.int64]) -> tuple[NDArray[np.int64], list[tuple[int, int, int]]]:
@@ -144,10 +155,14 @@ def pack(q: Quantised) -> bytes:
     # contexts of every detail coefficient, from the magnitudes (the decoder rebuilds them as it goes)
     mags = [np.abs(c) for c in coeffs]
     mags[0] = _approx_steps(coeffs[0])
+    ids = np.empty(sum(coeffs[index].size for index in range(1, levels + 1)), np.int64)
+    _context_ids(mags, levels, ids)
     segments = []  # (context ids, values) per pass, in coding order
-    for index, odd, group in _passes(levels):
-        ctx = _contexts(_parents(mags, index), mags[index], odd, group)
-        segments.append((ctx.reshape(-1), coeffs[index][int(odd)::2].reshape(-1)))
+    start = 0
+    for index, odd, _ in _passes(levels):
+        level = ids[start:start + coeffs[index].size].reshape(coeffs[index].shape)
+        segments.append((level[int(odd)::2].reshape(-1), coeffs[index][int(odd)::2].reshape(-1)))
+        start += coeffs[index].size if odd else 0
     all_ctx = np.concatenate([c for c, _ in segments]) if segments else np.zeros(0, np.int64)
     all_val = np.concatenate([v for _, v in segments]) if segments else np.zeros(0, np.int64)
     used = np.unique(all_ctx)

@@ -15,7 +15,8 @@ from motionrep.plugin.coding import NUM_TOKENS, Model, _probabilities
 from motionrep_transform._codec import window_minimum
 from motionrep_transform._slack import (_bisect_each, _code_length_of, _code_lengths, _fit_each, frame_sensitivity,
                                        reduction_savings)
-from motionrep_transform._stream import MAX_ZERO, _approx_steps, _contexts, _fit, _parents, _passes
+from motionrep_transform._stream import MAX_ZERO, _approx_steps, _fit, _parents, _passes
+from transform_reference_v1 import _contexts
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, level_sizes, num_levels
 

@@ -12,12 +12,35 @@ from numpy.typing import NDArray
 from motionrep.errors import PayloadError
 from motionrep.plugin.coding import IntegerDecoder, Model, max_values, step_scale
 from motionrep_transform._codec import coefficient_exponents
-from motionrep_transform._stream import (_CONTEXTS, MAX_EXPONENT, MAX_ZERO, Quantised, _approx_steps, _contexts,
+from motionrep_transform._stream import (_CONTEXTS, _SIZES, MAX_EXPONENT, MAX_ZERO, Quantised, _approx_steps,
                                          _grouped, _parents, _passes)
 from motionrep_transform._wavelet import _STEPS, _HIGH, _LOW, _here, _left, _right, coefficient_frames, level_sizes, \
     num_levels
 
 _REACH = 3
+
+
+# the v1 format's contexts pass by pass, as its decoder meets them (the library computes them for both passes of a
+# level at once, motionrep_transform._stream._context_ids; test_slack checks the two agree)
+def _bit_length(s: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Bits of each non-negative integer (0 for 0), capped at 41."""
+    s = np.minimum(s, np.int64(1) << 40)
+    return np.where(s > 0, np.frexp(s.astype(np.float64))[1], 0).astype(np.int64)
+
+
+def _contexts(parents: NDArray[np.int64], level: NDArray[np.int64], odd: bool, group: int) -> NDArray[np.int64]:
+    """Context ids of one pass over the rows ``i`` of a level with ``i % 2 == odd``: the bit length (capped) of
+    the parents' sum, plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from ``level`` (the level's
+    magnitudes; only its even rows, already known to the decoder, are read)."""
+    s = parents[int(odd)::2]
+    if odd:
+        n = level.shape[0]
+        pad = np.zeros((n + 1,) + level.shape[1:], np.int64)
+        pad[:n] = level
+        rows = np.arange(1, n, 2)
+        s = s + 2 * (pad[rows - 1] + pad[rows + 1])
+    size = np.minimum(_bit_length(s), _SIZES - 1)
+    return (group * 2 + int(odd)) * _SIZES + size
 
 
 def _models(dec: IntegerDecoder, count: int) -> list[Model]:
