@@ -214,10 +214,7 @@ def _euler_candidates(q: NDArray, order: str, degrees: bool) -> tuple[NDArray, N
     (always true for three-axis orders).
     """
     full = _complete_order(order)
-    flat = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
-    e1 = np.empty((flat.shape[0], 3))
-    if _quat_to_euler(flat, full, degrees, e1) >= 0:  # scipy's own words for it
-        raise ValueError("Found zero norm quaternions in `quat`.")
+    e1 = _converted_from_quat(q, _quat_to_euler, full, degrees)
     half = 180.0 if degrees else np.pi
     # The other solution of the same rotation: (a + pi, pi - b, c + pi) for Tait-Bryan orders (three different
     # axes), (a + pi, -b, c + pi) for proper Euler orders (first axis repeated last).
@@ -227,12 +224,23 @@ def _euler_candidates(q: NDArray, order: str, degrees: bool) -> tuple[NDArray, N
     e2 = _wrap(e2, half)
     n = len(order)
     if n == 3:
-        valid = np.ones((flat.shape[0], 2), bool)
+        valid = np.ones((e1.shape[0], 2), bool)
     else:
         tol = 1e-7 * half
         valid = np.stack([np.all(np.abs(_wrap(e[:, n:], half)) < tol, axis=-1) for e in (e1, e2)], axis=-1)
     shape = q.shape[:-1]
     return (e1[:, :n].reshape(shape + (n,)), e2[:, :n].reshape(shape + (n,)), valid.reshape(shape + (2,)))
+
+
+def _converted_from_quat(q: NDArray, convert, *args) -> NDArray[np.float64]:
+    """``(N, 3)``: the compiled conversion ``convert(flat, *args, out)`` (``motionrep._ccore``: scipy's operations,
+    the same bits) of the ``(..., 4)`` quaternions ``q`` flattened to ``(N, 4)``; a zero or NaN quaternion raises
+    scipy's own error."""
+    flat = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
+    out = np.empty((flat.shape[0], 3))
+    if convert(flat, *args, out) >= 0:
+        raise ValueError("Found zero norm quaternions in `quat`.")
+    return out
 
 
 def _wrap(a: NDArray, half: float) -> NDArray:
@@ -385,11 +393,8 @@ def quat_to_axis_angle(q: ArrayLike) -> NDArray[np.float64]:
     q = _last_dim(q, 4, "q")
     if q.size == 0:
         return np.zeros(q.shape[:-1] + (3,))
-    flat = np.ascontiguousarray(q.reshape(-1, 4), dtype=np.float64)
-    out = np.empty((flat.shape[0], 3))
-    if _quat_to_axis_angle(flat, out) >= 0:  # compiled: scipy's as_rotvec operation for operation (rotations.c)
-        raise ValueError("Found zero norm quaternions in `quat`.")  # scipy's own words for it
-    return out.reshape(q.shape[:-1] + (3,))
+    # compiled: scipy's as_rotvec operation for operation (rotations.c)
+    return _converted_from_quat(q, _quat_to_axis_angle).reshape(q.shape[:-1] + (3,))
 
 
 def axis_angle_make_continuous(v: ArrayLike) -> NDArray[np.float64]:
