@@ -184,17 +184,19 @@ static PyObject *Plan_run(PlanObject *self, PyObject *args)
         return NULL;
     }
     int status;
-    double *stage = NULL;
-    if (count >= MR_PLAN_STREAM && !o.f32 && !(stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)p->J))) {
+    mr_stream sm = {0};
+    if (count >= MR_PLAN_STREAM && !o.f32 && !(sm.stage = malloc(sizeof(double) * 2 * MR_PLAN_SUB * 4 * (size_t)p->J))) {
         release_outputs(&o);
         PyBuffer_Release(&bx);
         return PyErr_NoMemory();
     }
     Py_BEGIN_ALLOW_THREADS
     status = mr_plan_run(p, bx.buf, bx.shape[1], count, check_finite, o.rot.buf, o.f32, o.root.buf, o.moved.buf,
-                         self->scratch, stage);
+                         self->scratch, sm.stage ? &sm : NULL);
+    if (sm.stage)
+        mr_plan_flush(&sm);
     Py_END_ALLOW_THREADS
-    free(stage);
+    free(sm.stage);
     release_outputs(&o);
     PyBuffer_Release(&bx);
     return PyLong_FromLong(status);
@@ -231,7 +233,7 @@ typedef struct {
     Py_ssize_t width, block;
     double *X;              /* one block's features, feature-major (width, block) */
     double *U;              /* one block's normalised times (Runtime.poses with per_second) */
-    double *stage;          /* one sub-block's rotations, streamed out for large batches (mr_plan_run) */
+    double *stage;          /* two sub-blocks' rotations, streamed out for large batches (mr_stream) */
     PyTypeObject *pose;     /* or NULL: the class pose_new makes (its three fields set as object.__setattr__ does) */
 } RuntimeObject;
 
@@ -373,7 +375,7 @@ static int Runtime_init(RuntimeObject *self, PyObject *args, PyObject *kw)
             if (e < 0)
                 return -1;
         }
-        if (!(self->stage = malloc(sizeof(double) * MR_PLAN_SUB * 4 * (size_t)(self->plan->plan.J ? self->plan->plan.J : 1)))) {
+        if (!(self->stage = malloc(sizeof(double) * 2 * MR_PLAN_SUB * 4 * (size_t)(self->plan->plan.J ? self->plan->plan.J : 1)))) {
             PyErr_NoMemory();
             return -1;
         }
@@ -390,8 +392,9 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, vo
     const mr_plan *p = &self->run;
     const mr_sampler *s = self->sampler;
     size_t rstride = (size_t)p->J * 4 * (f32 ? sizeof(float) : sizeof(double));
-    double *stage = count >= MR_PLAN_STREAM ? self->stage : NULL;
-    for (Py_ssize_t a = 0; a < count; a += self->block) {
+    mr_stream sm = {self->stage, 0, NULL, NULL, 0, 0}, *stream = count >= MR_PLAN_STREAM ? &sm : NULL;
+    int status = 0;
+    for (Py_ssize_t a = 0; a < count && !status; a += self->block) {
         Py_ssize_t m = count - a < self->block ? count - a : self->block;
         const double *times = u + a;
         if (per_second >= 0.0) {
@@ -403,15 +406,14 @@ static int run_blocks(RuntimeObject *self, const double *u, Py_ssize_t count, vo
             times = self->U;
         }
         int e = s->sample(s->state, times, (size_t)m, self->X, (size_t)self->block);
-        if (e)
-            return 100 + e;
-        int status = mr_plan_run(p, self->X, self->block, m, 1, (char *)rot + a * rstride, f32,
+        status = e ? 100 + e
+                   : mr_plan_run(p, self->X, self->block, m, 1, (char *)rot + a * rstride, f32,
                                  p->N > 0 ? root + 3 * a : NULL, p->N > 1 ? moved + 3 * (p->N - 1) * a : NULL,
-                                 self->plan->scratch, stage);
-        if (status)
-            return status;
+                                 self->plan->scratch, stream);
     }
-    return 0;
+    if (stream)  /* the last rows waiting (an error: written all the same, as every status writes everything) */
+        mr_plan_flush(stream);
+    return status;
 }
 
 static PyObject *Runtime_poses(RuntimeObject *self, PyObject *args)

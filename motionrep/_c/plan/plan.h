@@ -39,14 +39,30 @@ int mr_plan_parse(const int64_t *plan_i, size_t n_i, const double *plan_f, size_
 /* Doubles of scratch mr_plan_run needs (world plans: the world rotations of a sub-block). */
 size_t mr_plan_scratch(const mr_plan *plan);
 
+/* A batch's float64 rotations streamed to memory past the cache (a batch larger than the cache: no cache line of it
+ * is read before it is written).  Each sub-block's rotations are gathered in one half of `stage` (2 x MR_PLAN_SUB x
+ * J x 4 doubles, 16-byte aligned), then written out with non-temporal stores a piece after each entry of the next
+ * sub-block's conversion, in this call or the next, so that the memory writes overlap the arithmetic instead of
+ * stalling it.  Set `stage` (and zero the rest) before the first call; mr_plan_flush writes what is left. */
+typedef struct {
+    double *stage;
+    int half;            /* the half the next sub-block is gathered in */
+    const double *src;   /* the rows waiting: src[done, len) go to dst[done, len) */
+    double *dst;
+    size_t len, done;
+} mr_stream;
+
+/* Writes the rows mr_plan_run left waiting in `s` (if any) and orders the non-temporal stores before what follows. */
+void mr_plan_flush(mr_stream *s);
+
 /* Decode `count` poses from feature-major X (feature d of pose i at X[d * ldx + i], p->rows rows) into rot
  * (count, J, 4) float64 (or float32 when rot_f32), root (count, 3) and moved (count, N - 1, 3) (unused when N is 0).
  * `scratch` holds mr_plan_scratch(plan) doubles (NULL when that is 0).  check_finite: refuse features the plan
- * reads that are NaN or infinite.  `stage` (MR_PLAN_SUB x J x 4 doubles, or NULL): float64 rotations are gathered
- * there and streamed to memory with non-temporal stores, for batches larger than the cache (the same values).
+ * reads that are NaN or infinite.  `stream` (or NULL): float64 rotations go through it (see mr_stream; the same
+ * values; rows of this call may still be waiting in it when the call returns: mr_plan_flush after the last call).
  * Returns an MR_PLAN_* status (everything is written whatever it is). */
 int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count, int check_finite, void *rot,
-                int rot_f32, double *root, double *moved, double *scratch, double *stage);
+                int rot_f32, double *root, double *moved, double *scratch, mr_stream *stream);
 
 /* poses from which a batch's float64 rotations are streamed past the cache */
 #define MR_PLAN_STREAM 8192
