@@ -34,8 +34,68 @@ typedef struct {
     const ptrdiff_t *rows, *consts;
 } svd_arrays;
 
+/* C[k * ROWS + i] = R0[i][k] RE[i] + R1[i][k] FR[i] for i < m, k < r: a block's interpolated coefficients (each
+ * value the one product-and-sum of the kernel's one-time path, so the same bits), made eight times by eight
+ * coefficients at a time: the rows read along k, then turned with shuffles (which move values, exactly) so that
+ * the stores go along the times (a store per value otherwise, each to another cache line). */
+#if defined(__GNUC__)
+#define INTERPOLATE(NAME, T, IT)                                                                                   \
+    MR_CLONES __attribute__((noinline)) static void NAME(const T *const *R0, const T *const *R1, const T *RE,     \
+                                                         const T *FR, size_t m, size_t r, T *C)                    \
+    {                                                                                                              \
+        typedef T vec __attribute__((vector_size(8 * sizeof(T))));                                                 \
+        typedef IT ivec __attribute__((vector_size(8 * sizeof(T))));                                               \
+        size_t i = 0;                                                                                              \
+        for (; i + 8 <= m; i += 8) {                                                                               \
+            size_t k = 0;                                                                                          \
+            for (; k + 8 <= r; k += 8) {                                                                           \
+                vec v[8], t[8], u[8];                                                                              \
+                for (int q = 0; q < 8; q++) { /* time i + q, coefficients k .. k + 7 */                           \
+                    vec x0, x1;                                                                                    \
+                    memcpy(&x0, R0[i + q] + k, sizeof x0);                                                         \
+                    memcpy(&x1, R1[i + q] + k, sizeof x1);                                                         \
+                    v[q] = x0 * RE[i + q] + x1 * FR[i + q];                                                        \
+                }                                                                                                  \
+                for (int q = 0; q < 8; q += 2) { /* pairs of times interleaved, in halves */                      \
+                    t[q] = __builtin_shuffle(v[q], v[q + 1], (ivec){0, 8, 1, 9, 4, 12, 5, 13});                    \
+                    t[q + 1] = __builtin_shuffle(v[q], v[q + 1], (ivec){2, 10, 3, 11, 6, 14, 7, 15});              \
+                }                                                                                                  \
+                for (int q = 0; q < 8; q += 4) { /* fours of times: u[q + c] holds coefficients c and c + 4 */    \
+                    u[q] = __builtin_shuffle(t[q], t[q + 2], (ivec){0, 1, 8, 9, 4, 5, 12, 13});                    \
+                    u[q + 1] = __builtin_shuffle(t[q], t[q + 2], (ivec){2, 3, 10, 11, 6, 7, 14, 15});              \
+                    u[q + 2] = __builtin_shuffle(t[q + 1], t[q + 3], (ivec){0, 1, 8, 9, 4, 5, 12, 13});            \
+                    u[q + 3] = __builtin_shuffle(t[q + 1], t[q + 3], (ivec){2, 3, 10, 11, 6, 7, 14, 15});          \
+                }                                                                                                  \
+                for (int c = 0; c < 4; c++) { /* coefficient k + c, then k + c + 4, of the eight times */         \
+                    vec lo = __builtin_shuffle(u[c], u[c + 4], (ivec){0, 1, 2, 3, 8, 9, 10, 11});                  \
+                    vec hi = __builtin_shuffle(u[c], u[c + 4], (ivec){4, 5, 6, 7, 12, 13, 14, 15});                \
+                    memcpy(C + (k + c) * ROWS + i, &lo, sizeof lo);                                                \
+                    memcpy(C + (k + c + 4) * ROWS + i, &hi, sizeof hi);                                            \
+                }                                                                                                  \
+            }                                                                                                      \
+            for (; k < r; k++)                                                                                     \
+                for (size_t q = i; q < i + 8; q++)                                                                 \
+                    C[k * ROWS + q] = R0[q][k] * RE[q] + R1[q][k] * FR[q];                                         \
+        }                                                                                                          \
+        for (; i < m; i++)                                                                                         \
+            for (size_t k = 0; k < r; k++)                                                                         \
+                C[k * ROWS + i] = R0[i][k] * RE[i] + R1[i][k] * FR[i];                                             \
+    }
+#else
+#define INTERPOLATE(NAME, T, IT)                                                                                   \
+    MR_INLINE void NAME(const T *const *R0, const T *const *R1, const T *RE, const T *FR, size_t m, size_t r, T *C)  \
+    {                                                                                                              \
+        for (size_t i = 0; i < m; i++)                                                                             \
+            for (size_t k = 0; k < r; k++)                                                                         \
+                C[k * ROWS + i] = R0[i][k] * RE[i] + R1[i][k] * FR[i];                                             \
+    }
+#endif
+
+INTERPOLATE(interpolate_f32, float, int32_t)
+INTERPOLATE(interpolate_f64, double, int64_t)
+
 /* one kernel per dtype: T the arithmetic's type */
-#define SVD_KERNEL(NAME, T, AFFINE_BLOCK, AFFINE_ONE)                                                              \
+#define SVD_KERNEL(NAME, T, AFFINE_BLOCK, AFFINE_ONE, INTERPOLATE)                                                              \
     MR_CLONES static int NAME(const void *state, const double *times, size_t count, double *out, size_t ldo)       \
     {                                                                                                              \
         const svd_arrays *s = state;                                                                               \
@@ -50,6 +110,8 @@ typedef struct {
             return 1;                                                                                              \
         T *c1 = count == 1 ? C : C + (r ? r : 1) * ROWS, *y1 = c1 + r;                                             \
         const size_t stride = count == 1 ? 1 : ROWS; /* of C's rows: one time writes c1 straight away */           \
+        const T *R0[ROWS], *R1[ROWS]; /* each time's two coefficient rows and their weights */                     \
+        T RE[ROWS], FR[ROWS];                                                                                      \
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
             for (size_t i = 0; i < m; i++) {                                                                       \
@@ -62,9 +124,12 @@ typedef struct {
                 T rest = (T)1.0 - frac;                                                                            \
                 size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
                 const T *r0 = coeff + (size_t)j * r, *r1 = coeff + k1 * r;                                         \
-                for (size_t k = 0; k < r; k++)                                                                     \
-                    C[k * stride + i] = r0[k] * rest + r1[k] * frac;                                               \
+                R0[i] = r0; R1[i] = r1; RE[i] = rest; FR[i] = frac;                                                \
+                for (size_t k = 0; stride == 1 && k < r; k++) /* one time: c1 */                                   \
+                    C[k] = r0[k] * rest + r1[k] * frac;                                                            \
             }                                                                                                      \
+            if (stride != 1)                                                                                       \
+                INTERPOLATE(R0, R1, RE, FR, m, r, C);                                                              \
             if (m == 1) { /* one time: the same sums, vectorised over the features */                              \
                 if (count > 1)                                                                                     \
                     for (size_t k = 0; k < r; k++)                                                                 \
@@ -92,8 +157,8 @@ typedef struct {
         return 0;                                                                                                  \
     }
 
-SVD_KERNEL(sample_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32)
-SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64)
+SVD_KERNEL(sample_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32, interpolate_f32)
+SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64, interpolate_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 
