@@ -47,8 +47,9 @@ typedef struct {
         typedef IT ivec __attribute__((vector_size(8 * sizeof(T))));                                               \
         size_t i = 0;                                                                                              \
         for (; i + 8 <= m; i += 8) {                                                                               \
-            size_t k = 0;                                                                                          \
-            for (; k + 8 <= r; k += 8) {                                                                           \
+            for (size_t k0 = 0; k0 < r && r >= 8; k0 += 8) {                                                       \
+                /* the last eight coefficients for the last tile (some of them made twice: the same values) */    \
+                size_t k = k0 + 8 <= r ? k0 : r - 8;                                                               \
                 vec v[8], t[8], u[8];                                                                              \
                 for (int q = 0; q < 8; q++) { /* time i + q, coefficients k .. k + 7 */                           \
                     vec x0, x1;                                                                                    \
@@ -73,7 +74,7 @@ typedef struct {
                     memcpy(C + (k + c + 4) * ROWS + i, &hi, sizeof hi);                                            \
                 }                                                                                                  \
             }                                                                                                      \
-            for (; k < r; k++)                                                                                     \
+            for (size_t k = 0; r < 8 && k < r; k++)                                                                \
                 for (size_t q = i; q < i + 8; q++)                                                                 \
                     C[k * ROWS + q] = R0[q][k] * RE[q] + R1[q][k] * FR[q];                                         \
         }                                                                                                          \
