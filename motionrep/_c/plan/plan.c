@@ -449,6 +449,25 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
             } else {
                 double *o = out64 + ((size_t)a * J + j) * 4;
                 ptrdiff_t i = 0;
+#if defined(__GNUC__)
+                typedef double v4d __attribute__((vector_size(32)));
+                typedef int64_t v4i __attribute__((vector_size(32)));
+                for (; i + 4 <= n; i += 4, o += 16 * J) {  /* four poses: their x y z w from the four arrays */
+                    v4d x, y, z, w;
+                    memcpy(&x, QX + i, sizeof x);
+                    memcpy(&y, QY + i, sizeof y);
+                    memcpy(&z, QZ + i, sizeof z);
+                    memcpy(&w, QW + i, sizeof w);
+                    v4d xy02 = __builtin_shuffle(x, y, (v4i){0, 4, 2, 6}), xy13 = __builtin_shuffle(x, y, (v4i){1, 5, 3, 7});
+                    v4d zw02 = __builtin_shuffle(z, w, (v4i){0, 4, 2, 6}), zw13 = __builtin_shuffle(z, w, (v4i){1, 5, 3, 7});
+                    v4d p0 = __builtin_shuffle(xy02, zw02, (v4i){0, 1, 4, 5}), p2 = __builtin_shuffle(xy02, zw02, (v4i){2, 3, 6, 7});
+                    v4d p1 = __builtin_shuffle(xy13, zw13, (v4i){0, 1, 4, 5}), p3 = __builtin_shuffle(xy13, zw13, (v4i){2, 3, 6, 7});
+                    memcpy(o, &p0, sizeof p0);
+                    memcpy(o + 4 * J, &p1, sizeof p1);
+                    memcpy(o + 8 * J, &p2, sizeof p2);
+                    memcpy(o + 12 * J, &p3, sizeof p3);
+                }
+#endif
 #if defined(__SSE2__)
                 for (; i + 2 <= n; i += 2, o += 8 * J) {  /* two poses: x y, z w of each from the four arrays */
                     __m128d x = _mm_loadu_pd(QX + i), y = _mm_loadu_pd(QY + i);
