@@ -107,15 +107,29 @@ static inline void MR_RC(mr_euler_factor)(double *q, double angle, int axis, int
     MR_RC(mr_product)(q[0], q[1], q[2], q[3], s * ex, s * ey, s * ez, cs, q);
 }
 
+/* theta2 = |(x, y, z)|^2 of a rotation vector, in mr_axis_angle's order */
+static inline double MR_RC(mr_axis_angle_theta2)(double x, double y, double z)
+{
+    return (x * x + y * y) + z * z;
+}
+
+/* sin(theta / 2) / theta from s = sin(theta / 2), theta and theta2 = theta^2: s / theta, or below 1e-3 its series
+ * (no 0 / 0).  Where theta > 1e-3 is known (say theta2 > 2e-6: sqrt is correctly rounded and monotonic), it is
+ * s / theta, and a loop may compute that alone (the series' two divisions are then never needed). */
+static inline double MR_RC(mr_axis_angle_scale)(double s, double theta, double theta2)
+{
+    return theta > 1e-3 ? s / theta : 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
+}
+
 /* q = the quaternion of rotation vector (x, y, z): [sin(theta / 2) v / theta, cos(theta / 2)], theta = |v|, with
  * sin(theta / 2) / theta by its series below 1e-3 (no 0 / 0), as scipy's Rotation.from_rotvec. */
 static inline void MR_RC(mr_axis_angle)(double x, double y, double z, double *q)
 {
-    double theta2 = (x * x + y * y) + z * z;
+    double theta2 = MR_RC(mr_axis_angle_theta2)(x, y, z);
     double theta = sqrt(theta2);
     double s, c;
     MR_RC(mr_sincos)(0.5 * theta, &s, &c);
-    double k = theta > 1e-3 ? s / theta : 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
+    double k = MR_RC(mr_axis_angle_scale)(s, theta, theta2);
     q[0] = k * x;
     q[1] = k * y;
     q[2] = k * z;

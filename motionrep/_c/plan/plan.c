@@ -99,10 +99,10 @@ size_t mr_plan_scratch(const mr_plan *p)
 /* Each is a loop over poses of the compiled core's conversion of one value (motionrep/_c/mr_rotconv.h, through
  * mrkernels.h): one implementation of every conversion, inlined here and vectorised over the poses. */
 
-/* mr_axis_angle's arithmetic in three loops over the n values, so that the CPU has many of them in flight at once
- * (the sum of squares and sqrt; the sine and cosine; the quotient and the products: each a short chain, where the
- * whole conversion is one long chain of dependent operations); and where every angle of a run is well above 1e-3,
- * without the series for small angles, whose two divisions the selects would compute and drop: the same values */
+/* mr_axis_angle's arithmetic (its parts, in its order) in three loops over the n values, so that the CPU has many
+ * of them in flight at once (the sum of squares and sqrt; the sine and cosine; the quotient and the products: each
+ * a short chain, where the whole conversion is one long chain of dependent operations); and where every angle of
+ * a run is well above 1e-3, the quotient alone (mr_axis_angle_scale: the series' two divisions never needed) */
 MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1, const double *MR_RESTRICT x2,
                           double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
                           double *MR_RESTRICT QW, ptrdiff_t n)
@@ -111,28 +111,22 @@ MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRIC
     for (ptrdiff_t a = 0; a < n; a += MR_PLAN_SUB) {
         ptrdiff_t m = n - a < MR_PLAN_SUB ? n - a : MR_PLAN_SUB;
         const double *MR_RESTRICT y0 = x0 + a, *MR_RESTRICT y1 = x1 + a, *MR_RESTRICT y2 = x2 + a;
-        /* theta2 > 2e-6 makes theta = sqrt(theta2) > 1e-3 (sqrt is correctly rounded and monotonic, and sqrt(2e-6)
-         * is 1.41e-3); where some theta2 is not (or is NaN), the select between the quotient and the series */
-        ptrdiff_t near = 0;
+        ptrdiff_t near = 0;  /* theta2 not above 2e-6 (or NaN): theta may be 1e-3 or less */
         for (ptrdiff_t i = 0; i < m; i++) {
-            double t2 = (y0[i] * y0[i] + y1[i] * y1[i]) + y2[i] * y2[i];
+            double t2 = mr_axis_angle_theta2(y0[i], y1[i], y2[i]);
             T2[i] = t2;
             T[i] = sqrt(t2);
             near += t2 > 2e-6 ? 0 : 1;
         }
         for (ptrdiff_t i = 0; i < m; i++)
             mr_sincos(0.5 * T[i], &S[i], &C[i]);
-        if (near) {
-            for (ptrdiff_t i = 0; i < m; i++) {
-                double theta = T[i], theta2 = T2[i];
-                double k = theta > 1e-3 ? S[i] / theta : 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0;
-                QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
-            }
-        } else {
-            for (ptrdiff_t i = 0; i < m; i++) {
-                double k = S[i] / T[i];
-                QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
-            }
+        for (ptrdiff_t i = 0; near && i < m; i++) {
+            double k = mr_axis_angle_scale(S[i], T[i], T2[i]);
+            QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
+        }
+        for (ptrdiff_t i = 0; !near && i < m; i++) {
+            double k = S[i] / T[i];
+            QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
         }
     }
 }
