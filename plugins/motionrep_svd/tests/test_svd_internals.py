@@ -77,3 +77,25 @@ def test_features_constant_over_the_clip_are_found_exactly_and_written_as_their_
     huge[0, 0] = np.finfo(dtype).max  # finite, but its interpolation could overflow: not reported constant
     assert not np.isfinite(SVDDecoder({"coefficients": huge, "mean": mean, "basis": basis}, dtype)
                            .constant_features).any()
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("r", [1, 7, 8, 13, 39])
+def test_the_block_path_interpolates_to_the_arithmetic_written_out(dtype, r):
+    """Blocks of times interpolate their coefficients eight times by eight coefficients at a time, turned with
+    shuffles (the last tile of a row overlapping the one before it when r is no multiple of eight, fewer than
+    eight times or coefficients one at a time): every value is still the one product-and-sum of the arithmetic
+    written out in numpy, bit for bit (scalar IEEE operations, no FMA contraction, no fast-math: the same bits in
+    any vector lane, on any CPU), for blocks of every length."""
+    from motionrep_svd._codec import SVDDecoder
+
+    rng = np.random.default_rng(r)
+    F, D = 50, 21
+    coeff = (rng.normal(size=(F, r)) * 10.0 ** rng.integers(-3, 4, (F, r))).astype(dtype)
+    basis = rng.normal(size=(r, D)).astype(dtype)
+    mean = rng.normal(size=D).astype(dtype)
+    decoder = SVDDecoder({"coefficients": coeff, "mean": mean, "basis": basis}, dtype)
+    times = np.concatenate([[0.0, 1.0, 0.5, -1.0, 2.0, 1.0 - 1e-17, 49.5 / 49], rng.random(1000)])
+    for n in (times.size, 64, 63, 9, 8, 7, 2):
+        got = np.asarray(decoder(times[:n]), dtype=np.float64)
+        assert got.tobytes() == _reference(coeff, mean, basis, times[:n]).tobytes(), n
