@@ -500,8 +500,9 @@ def main(argv: list[str] | None = None) -> None:
     doc["machine"] = machine()
     if "decode" not in args.skip:
         print(f"decode {args.decode_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
-        doc["decode"] = decode_speed(args.decode_clip, args.decode_poses, args.against, args.decode_codecs,
-                                     args.decode_representations)
+        measured = decode_speed(args.decode_clip, args.decode_poses, args.against, args.decode_codecs,
+                                args.decode_representations)
+        doc["decode"] = _merged_decode(doc.get("decode"), measured, args.decode_codecs, args.decode_clip)
         _save(args.out, doc)
     if "profile" not in args.skip:
         print(f"profile {args.profile_clip} ({time.strftime('%H:%M:%S')}, load {_load()})", flush=True)
@@ -518,6 +519,27 @@ def main(argv: list[str] | None = None) -> None:
             _save(args.out, doc)
     (args.out.with_suffix(".md")).write_text(report(doc))
     print(f"wrote {args.out} and {args.out.with_suffix('.md')}")
+
+
+def _merged_decode(old: dict | None, new: dict, codecs: list[str], clip: str) -> dict:
+    """The decode section of a run of some codecs (``--decode-codecs``) with the other codecs' rows of the earlier
+    run on the same clip kept (and said to be kept, with that run's load and code), so that measuring one codec
+    again does not drop the others from the report."""
+    if not old or old.get("clip") != clip:
+        return new
+    base = lambda e: e["codec"].split(" (")[0]  # noqa: E731 ("transform (payload v1)" is transform's)
+    kept = [e for e in old.get("codecs", []) if base(e) not in codecs]
+    if not kept:
+        return new
+    order = [c for c, _ in DECODE_CODECS]
+    out = dict(new)
+    out["codecs"] = sorted(kept + new["codecs"], key=lambda e: order.index(base(e)) if base(e) in order else 99)
+    out["whole_process"] = {**{k: v for k, v in old.get("whole_process", {}).items() if k not in codecs},
+                            **new.get("whole_process", {})}
+    earlier = old.get("kept_from_earlier", {"load_start": old["load_start"], "load_end": old["load_end"],
+                                           "code": old["code"]})
+    out["kept_from_earlier"] = dict(earlier, codecs=sorted({base(e) for e in kept}))
+    return out
 
 
 def _save(path: Path, doc: dict) -> None:
@@ -608,6 +630,11 @@ def _decode_report(dec: dict) -> list[str]:
           "the inverse wavelet for transform), best of 20; codec only: the prepared decoder in blocks of 512.", "",
           "| codec | representation | poses/s float64 (CPU) | poses/s float32 | one pose: loop (median one by one) "
           "| prepare | features/s codec only | numba imported |", "|---|---|---:|---:|---:|---:|---:|---|"]
+    if dec.get("kept_from_earlier"):
+        k = dec["kept_from_earlier"]
+        md[-2:-2] = [f"The rows of {', '.join(k['codecs'])} (and their whole-process times) are an earlier run's (load "
+                     f"{k['load_start']}-{k['load_end']}, code {k['code']}), kept when only the other codecs were "
+                     "measured again; the load above is this run's.", ""]
 
     def row(c: dict, side: str) -> str:
         r = c[side]
