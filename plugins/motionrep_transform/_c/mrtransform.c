@@ -845,6 +845,104 @@ static inline __attribute__((always_inline)) void synthesise_column(double *x, c
     }
 }
 
+#if defined(__GNUC__)
+#define MRT_BLOCK 8
+typedef double mrt_v8 __attribute__((vector_size(64)));
+
+/* lift's steps on eight features at once (s and d: one vector of the eight features per sample): each lane gets
+ * the operations lift gives its feature, in the same order */
+static inline __attribute__((always_inline)) void lift8(mrt_v8 *MRT_RESTRICT s, mrt_v8 *MRT_RESTRICT d, uint64_t ns,
+                                                        uint64_t nd)
+{
+    for (int k = 3; k >= 0; k--) {
+        mrt_v8 a = {STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k]};
+        if (k % 2 == 0) {
+            uint64_t inner = ns > nd ? nd : nd - 1;
+            for (uint64_t i = 0; i < inner; i++)
+                d[i] = d[i] - a * (s[i] + s[i + 1]);
+            if (inner < nd)
+                d[nd - 1] = d[nd - 1] - a * (s[nd - 1] + s[ns - 1]);
+        } else {
+            s[0] = s[0] - a * (d[0] + d[0]);
+            for (uint64_t i = 1; i < nd; i++)
+                s[i] = s[i] - a * (d[i - 1] + d[i]);
+            if (ns > nd)
+                s[nd] = s[nd] - a * (d[nd - 1] + d[nd - 1]);
+        }
+    }
+}
+
+/* dequantised's values of rows first..first + n of eight columns x[0..7] (each with its steps), one vector a row */
+static inline __attribute__((always_inline)) void dequantised8(double *const *x, uint64_t first, uint64_t n,
+                                                               const double *const *steps, const int64_t *krow,
+                                                               double scale, int skip, mrt_v8 *MRT_RESTRICT o)
+{
+    for (uint64_t i = 0; i < n; i++) {
+        int64_t c[8], any = 0;
+        for (int k = 0; k < 8; k++) {
+            c[k] = int_at(x[k], first + i);
+            any |= c[k];
+        }
+        if (skip && !any) {
+            o[i] = (mrt_v8){0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+            continue;
+        }
+        mrt_v8 v;
+        for (int k = 0; k < 8; k++)
+            v[k] = skip && !c[k] ? 0.0 : (double)c[k] * steps[k][krow[first + i]] / scale;
+        o[i] = v;
+    }
+}
+
+/* synthesise_column for eight columns x[0..7] at once (every lane the operations of its column, so the same bits);
+ * tmp holds 2 F vectors */
+static inline __attribute__((always_inline)) void synthesise_block(double *const *x, const uint64_t *sizes,
+                                                                   int levels, const double *const *steps,
+                                                                   const int64_t *krow, int skip, mrt_v8 *tmp)
+{
+    uint64_t ns = sizes[0], F = ns;
+    for (int l = 1; l <= levels; l++)
+        F += sizes[l];
+    mrt_v8 *cur = tmp, *next = tmp + F;
+    if (!levels) {
+        dequantised8(x, 0, ns, steps, krow, 1.0, 0, cur);
+        for (uint64_t i = 0; i < ns; i++)
+            for (int k = 0; k < 8; k++)
+                x[k][i] = cur[i][k];
+        return;
+    }
+    dequantised8(x, 0, ns, steps, krow, LOW, 0, cur);
+    for (int l = 1; l <= levels; l++) {
+        uint64_t nd = sizes[l];
+        mrt_v8 *MRT_RESTRICT s = cur, *MRT_RESTRICT d = cur + ns;
+        dequantised8(x, ns, nd, steps, krow, HIGH, skip, d);
+        lift8(s, d, ns, nd);
+        if (l == levels) {
+            for (uint64_t i = 0; i < nd; i++)
+                for (int k = 0; k < 8; k++) {
+                    x[k][2 * i] = s[i][k];
+                    x[k][2 * i + 1] = d[i][k];
+                }
+            if (ns > nd)
+                for (int k = 0; k < 8; k++)
+                    x[k][2 * nd] = s[nd][k];
+        } else {
+            mrt_v8 *MRT_RESTRICT o = next;
+            mrt_v8 low = {LOW, LOW, LOW, LOW, LOW, LOW, LOW, LOW};
+            for (uint64_t i = 0; i < nd; i++) {
+                o[2 * i] = s[i] / low;
+                o[2 * i + 1] = d[i] / low;
+            }
+            if (ns > nd)
+                o[2 * nd] = s[nd] / low;
+            next = cur;
+            cur = o;
+        }
+        ns += nd;
+    }
+}
+#endif
+
 /* The steps of a quantised payload: `table` (2 ** (e / 8) for e = lo..hi, as motionrep.plugin.coding.step_scale)
  * and each coefficient row's region part of its exponent as an index into it (krow, F entries), the exponents
  * checked to be in range. */
@@ -925,6 +1023,9 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
     int64_t *krow = malloc(F * sizeof(int64_t));
     double *table = NULL, *tmp = malloc(2 * F * sizeof(double));
     int finite_steps = 0;
+#ifdef MRT_BLOCK
+    mrt_v8 *tmp8 = D >= MRT_BLOCK ? aligned_alloc(sizeof(mrt_v8), 2 * F * sizeof(mrt_v8)) : NULL;
+#endif
     int code = !krow || !tmp ? fail(st, MRT_NO_MEMORY, "out of memory")
                              : step_tables(q, &table, krow, &finite_steps, st);
     if (code)
@@ -941,6 +1042,11 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
         }
     }
     int finite = 1;
+#ifdef MRT_BLOCK
+    double *block[MRT_BLOCK];  /* the columns that wait to be synthesised together, and their steps */
+    const double *steps[MRT_BLOCK];
+    int waiting = 0;
+#endif
     for (uint64_t c = 0; c < D; c++) {
         double *x = values + c * F;
         /* all zero (from mrt_decode, or with finite steps): dequantised and transformed back, every value is +0.0,
@@ -952,16 +1058,40 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
             if (!any)
                 continue;
         }
+#ifdef MRT_BLOCK
+        if (tmp8) {  /* eight columns at a time */
+            block[waiting] = x;
+            steps[waiting++] = table + q->feature_exponents[c];
+            if (waiting < MRT_BLOCK)
+                continue;
+            synthesise_block(block, q->sizes, q->levels, steps, krow, finite_steps, tmp8);
+            waiting = 0;
+            for (int k = 0; k < MRT_BLOCK; k++)
+                for (uint64_t i = 0; i < F; i++)
+                    finite &= fabs(block[k][i]) < INFINITY;
+            continue;
+        }
+#endif
         synthesise_column(x, q->sizes, q->levels, table + q->feature_exponents[c], krow, finite_steps, tmp);
         for (uint64_t i = 0; i < F; i++)
             finite &= fabs(x[i]) < INFINITY;
     }
+#ifdef MRT_BLOCK
+    for (int k = 0; k < waiting; k++) {  /* the last few one by one */
+        synthesise_column(block[k], q->sizes, q->levels, steps[k], krow, finite_steps, tmp);
+        for (uint64_t i = 0; i < F; i++)
+            finite &= fabs(block[k][i]) < INFINITY;
+    }
+#endif
     if (!finite)
         code = fail(st, MRT_DAMAGED, "transform payload: the coefficients decode to values that are not finite");
 done:
     free(krow);
     free(tmp);
     free(table);
+#ifdef MRT_BLOCK
+    free(tmp8);
+#endif
     return code;
 }
 
