@@ -1024,7 +1024,10 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
     double *table = NULL, *tmp = malloc(2 * F * sizeof(double));
     int finite_steps = 0;
 #ifdef MRT_BLOCK
-    mrt_v8 *tmp8 = D >= MRT_BLOCK ? aligned_alloc(sizeof(mrt_v8), 2 * F * sizeof(mrt_v8)) : NULL;
+    /* (vectors aligned to their size: malloc's 16 bytes rounded up by hand, aligned_alloc being C11) */
+    char *raw8 = D >= MRT_BLOCK ? malloc((2 * F + 1) * sizeof(mrt_v8)) : NULL;
+    mrt_v8 *tmp8 = raw8 ? (mrt_v8 *)(void *)(raw8 + (sizeof(mrt_v8) - (uintptr_t)raw8 % sizeof(mrt_v8))
+                                             % sizeof(mrt_v8)) : NULL;
 #endif
     int code = !krow || !tmp ? fail(st, MRT_NO_MEMORY, "out of memory")
                              : step_tables(q, &table, krow, &finite_steps, st);
@@ -1090,7 +1093,7 @@ done:
     free(tmp);
     free(table);
 #ifdef MRT_BLOCK
-    free(tmp8);
+    free(raw8);
 #endif
     return code;
 }
