@@ -773,25 +773,6 @@ static MRC_NOINLINE void decode_nonzero(Coder *c, Models *m, const Rows *rw, Col
     if (next) x[1].k0 = &m->z0[bc * N0 + cls0(c->t, x[1].nb + cap(v))];
 }
 
-/* A zero flag's decision from the stretches s0..s2 of its counters under the weights w (decode_details' loops): 0
- * when it is zero, the range decoder and the weights advanced (the counters are the caller's to update); 1 when it
- * is not, nothing changed but *p and *bound, with which decode_nonzero finishes the decision. */
-MRC_INLINE int zero_flag(const Tables *t, int s0, int s1, int s2, int32_t *w, uint32_t *range, uint32_t *code, int *p,
-                         uint32_t *bound) {
-    int64_t e = asr((int64_t)w[0] * s0 + (int64_t)w[1] * s1 + (int64_t)w[2] * s2, 16);
-    if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
-    *p = t->squash[e + 2047]; /* 1..4095 */
-    *bound = (*range >> 12) * (uint32_t)*p;
-    if (MRC_UNLIKELY(*code < *bound)) return 1;
-    *code -= *bound;
-    *range -= *bound;
-    int32_t f = t->fall[e + 2047]; /* -p MIX_RATE */
-    w[0] = mix_step(w[0], s0, f);
-    w[1] = mix_step(w[1], s1, f);
-    w[2] = mix_step(w[2], s2, f);
-    return 0;
-}
-
 /* The state quiet_run reads and leaves: the range decoder's, the zero flags' weights, and where it stopped. */
 typedef struct {
     uint32_t range, code;
@@ -800,23 +781,65 @@ typedef struct {
     uint32_t bound;  /* and its bound (the decision itself is left to the caller) */
 } Run;
 
-/* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep) */
-MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
-                              const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
-    const int16_t *ST = c->t->stretch;
-    int32_t w[3] = {run->w[0], run->w[1], run->w[2]};
+/* the largest step of a zero flag's weight, |asr(st fall[e], 16)| <= floor(2047 x 82 x 4095 / 65536) + 1 */
+#define ZERO_STEP_MAX 10489
+
+/* A zero flag's decision from the stretches s0..s2 of its counters under the weights *w0..*w2 (quiet_loop's and
+ * busy_loop's): 0 when it is zero, the range decoder and the weights advanced (the counters are the caller's to
+ * update; `free`: no clamp, see quiet_loop); 1 when it is not, nothing changed but run's s, p and bound, with which
+ * decode_nonzero finishes the decision. */
+MRC_INLINE int zero_flag(const int free, const Tables *t, int64_t s0, int64_t s1, int64_t s2, int64_t *w0,
+                         int64_t *w1, int64_t *w2, uint32_t *range, uint32_t *code, Run *run) {
+    int64_t e = asr(*w0 * s0 + *w1 * s1 + *w2 * s2, 16);
+    if (MRC_UNLIKELY((uint64_t)(e + 2047) > 4094)) e = e > 0 ? 2047 : -2047;
+    int p = t->squash[e + 2047]; /* 1..4095 */
+    uint32_t bound = (*range >> 12) * (uint32_t)p;
+    if (MRC_UNLIKELY(*code < bound)) {
+        run->s[0] = (int)s0;
+        run->s[1] = (int)s1;
+        run->s[2] = (int)s2;
+        run->p = p;
+        run->bound = bound;
+        return 1;
+    }
+    *code -= bound;
+    *range -= bound;
+    int64_t f = t->fall[e + 2047]; /* -p MIX_RATE */
+    if (free) { /* mix_step without its clamp (|w| stays below MIX_LIMIT) */
+        *w0 += asr(s0 * f, 16);
+        *w1 += asr(s1 * f, 16);
+        *w2 += asr(s2 * f, 16);
+    } else {
+        *w0 = mix_step((int32_t)*w0, (int)s0, (int32_t)f);
+        *w1 = mix_step((int32_t)*w1, (int)s1, (int32_t)f);
+        *w2 = mix_step((int32_t)*w2, (int)s2, (int32_t)f);
+    }
+    return 0;
+}
+
+/* whether no zero flag's weight of `run` can reach MIX_LIMIT within n decisions */
+static int run_free(const Run *run, int64_t n) {
+    int64_t room = MIX_LIMIT - ZERO_STEP_MAX * n; /* what a weight may be and not reach the clamp */
+    int free = 1;
+    for (int i = 0; i < 3; i++) free &= -room <= run->w[i] && run->w[i] <= room;
+    return free;
+}
+
+/* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep); `free`:
+ * no weight can reach MIX_LIMIT within the run (then mix_step's clamp is left out).  The loop is bound by the
+ * number of its operations as much as by the chain from one decision to the next, so it has as few as the
+ * decisions allow: 64-bit weights and stretches (no widening), no clamp where none can happen. */
+MRC_INLINE int64_t quiet_loop(const int sat, const int free, Coder *c, Counter *K0, Counter *K1, Counter *z2,
+                              int64_t *row, const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
+    const Tables *t = c->t;
+    int64_t w0 = run->w[0], w1 = run->w[1], w2 = run->w[2];
     uint32_t range = run->range, code = run->code;
     Counter q0 = *K0, q1 = *K1;
-    int s0 = ST[counter_p12(&q0)], s1 = ST[counter_p12(&q1)];
+    int64_t s0 = t->stretch[(uint32_t)q0.p >> 4], s1 = t->stretch[(uint32_t)q1.p >> 4];
     for (; k < na; k++) {
         Counter *k2 = &z2[(uint64_t)act[k] % FEAT];
-        int s2 = ST[counter_p12(k2)];
-        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, w, &range, &code, &run->p, &run->bound))) {
-            run->s[0] = s0;
-            run->s[1] = s1;
-            run->s[2] = s2;
-            break;
-        }
+        int64_t s2 = t->stretch[(uint32_t)k2->p >> 4];
+        if (MRC_UNLIKELY(zero_flag(free, t, s0, s1, s2, &w0, &w1, &w2, &range, &code, run))) break;
         if (sat) { /* counter_update0 of a counter at 63 */
             q0.p = (uint16_t)(q0.p - (q0.p >> 6));
             q1.p = (uint16_t)(q1.p - (q1.p >> 6));
@@ -825,14 +848,16 @@ MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1,
             counter_update0(&q1);
         }
         counter_update0(k2);
-        s0 = ST[counter_p12(&q0)];
-        s1 = ST[counter_p12(&q1)];
+        s0 = t->stretch[(uint32_t)q0.p >> 4];
+        s1 = t->stretch[(uint32_t)q1.p >> 4];
         if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
         row[act[k] * cs] = 0;
     }
     *K0 = q0;
     *K1 = q1;
-    memcpy(run->w, w, sizeof w);
+    run->w[0] = (int32_t)w0;
+    run->w[1] = (int32_t)w1;
+    run->w[2] = (int32_t)w2;
     run->range = range;
     run->code = code;
     return k;
@@ -845,8 +870,41 @@ MRC_INLINE int64_t quiet_loop(const int sat, Coder *c, Counter *K0, Counter *K1,
  * values live, all in registers. */
 static MRC_NOINLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counter *z2, int64_t *row,
                                       const int32_t *act, int64_t k, int64_t na, int64_t cs, Run *run) {
-    if (K0->n == 63 && K1->n == 63) return quiet_loop(1, c, K0, K1, z2, row, act, k, na, cs, run);
-    return quiet_loop(0, c, K0, K1, z2, row, act, k, na, cs, run);
+    int free = run_free(run, na - k);
+    int sat = K0->n == 63 && K1->n == 63;
+    if (sat && free) return quiet_loop(1, 1, c, K0, K1, z2, row, act, k, na, cs, run);
+    if (sat) return quiet_loop(1, 0, c, K0, K1, z2, row, act, k, na, cs, run);
+    if (free) return quiet_loop(0, 1, c, K0, K1, z2, row, act, k, na, cs, run);
+    return quiet_loop(0, 0, c, K0, K1, z2, row, act, k, na, cs, run);
+}
+
+/* busy_run's loop (`free` as quiet_loop's) */
+MRC_INLINE int64_t busy_loop(const int free, Coder *c, const ColCtx *cc, int64_t k, int64_t na, Run *run) {
+    const Tables *t = c->t;
+    int64_t w0 = run->w[0], w1 = run->w[1], w2 = run->w[2];
+    uint32_t range = run->range, code = run->code;
+    for (; k < na; k++) {
+        Counter *k0 = cc[k].k0, *k1 = cc[k].k1, *k2 = cc[k].k2;
+        int64_t s0 = t->stretch[(uint32_t)k0->p >> 4], s1 = t->stretch[(uint32_t)k1->p >> 4];
+        int64_t s2 = t->stretch[(uint32_t)k2->p >> 4];
+        if (MRC_UNLIKELY(zero_flag(free, t, s0, s1, s2, &w0, &w1, &w2, &range, &code, run))) break;
+        counter_update0(k0);
+        counter_update0(k1);
+        counter_update0(k2);
+        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
+    }
+    run->w[0] = (int32_t)w0;
+    run->w[1] = (int32_t)w1;
+    run->w[2] = (int32_t)w2;
+    run->range = range;
+    run->code = code;
+    return k;
+}
+
+/* The zero flags of a row from column k on under the contexts cc (row_contexts'), up to the first non-zero flag:
+ * returns its column (the flag's decision left to the caller, as quiet_run), or na when they are all zero. */
+static MRC_NOINLINE int64_t busy_run(Coder *c, const ColCtx *cc, int64_t k, int64_t na, Run *run) {
+    return run_free(run, na - k) ? busy_loop(1, c, cc, k, na, run) : busy_loop(0, c, cc, k, na, run);
 }
 
 /* The details of the active features act[0..na-1] (the others, idle[0..ni-1], are written 0), level L to 1, row
@@ -855,7 +913,6 @@ static MRC_NOINLINE int64_t quiet_run(Coder *c, Counter *K0, Counter *K1, Counte
 static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *act, int64_t na,
                            const int32_t *idle, int64_t ni, const int64_t *sizes, int levels, int64_t rs,
                            int64_t cs, int32_t *wzero, ColCtx *cc, uint8_t *nz) {
-    const int16_t *ST = c->t->stretch;
     int32_t wl[3] = {wzero[0], wzero[1], wzero[2]}, w[3]; /* wl: in registers (its address does not escape) */
     for (int64_t i = 0; i < sizes[0]; i++) { /* the approximation's differences: rows_of's pk2 - pk */
         int64_t i2 = i + 1 < sizes[0] - 1 ? i + 1 : sizes[0] - 1;
@@ -898,21 +955,14 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
             }
             while (k < na) {
                 if (!quiet || any) { /* the general loop (a row with a non-zero somewhere around, or after one) */
-                    for (; k < na; k++) {
-                        ColCtx *x = &cc[k];
-                        Counter *k0 = x->k0, *k1 = x->k1, *k2 = x->k2;
-                        int s0 = ST[counter_p12(k0)], s1 = ST[counter_p12(k1)], s2 = ST[counter_p12(k2)];
-                        if (MRC_UNLIKELY(zero_flag(c->t, s0, s1, s2, wl, &range, &code, &p, &bound))) {
-                            s[0] = s0;
-                            s[1] = s1;
-                            s[2] = s2;
-                            break;
-                        }
-                        counter_update0(k0);
-                        counter_update0(k1);
-                        counter_update0(k2);
-                        if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
-                    }
+                    Run run = {range, code, {wl[0], wl[1], wl[2]}, {0, 0, 0}, 0, 0};
+                    k = busy_run(c, cc, k, na, &run);
+                    memcpy(wl, run.w, sizeof wl);
+                    range = run.range;
+                    code = run.code;
+                    memcpy(s, run.s, sizeof s);
+                    p = run.p;
+                    bound = run.bound;
                     if (k == na) break;
                 }
                 /* a non-zero at column k */

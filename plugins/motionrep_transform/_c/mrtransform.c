@@ -716,10 +716,33 @@ static inline int64_t floor_div8(int64_t i)
     return i >= 0 ? i / 8 : -((-i + 7) / 8);
 }
 
+/* One level of the inverse wavelet's lifting steps on s (ns) and d (nd), s and d already scaled: the operations of
+ * motionrep_transform's numpy inverse, in its order: d -= a (s + s_right) or s -= a (d_left + d_here), last step
+ * first. */
+static inline __attribute__((always_inline)) void lift(double *MRT_RESTRICT s, double *MRT_RESTRICT d, uint64_t ns,
+                                                       uint64_t nd)
+{
+    for (int k = 3; k >= 0; k--) {
+        double a = STEPS[k];
+        if (k % 2 == 0) {  /* d[i] -= a (s[i] + s[min(i + 1, ns - 1)]) */
+            uint64_t inner = ns > nd ? nd : nd - 1;
+            for (uint64_t i = 0; i < inner; i++)
+                d[i] = d[i] - a * (s[i] + s[i + 1]);
+            if (inner < nd)
+                d[nd - 1] = d[nd - 1] - a * (s[nd - 1] + s[ns - 1]);
+        } else {  /* s[i] -= a (d[max(i - 1, 0)] + d[min(i, nd - 1)]) */
+            s[0] = s[0] - a * (d[0] + d[0]);
+            for (uint64_t i = 1; i < nd; i++)
+                s[i] = s[i] - a * (d[i - 1] + d[i]);
+            if (ns > nd)
+                s[nd] = s[nd] - a * (d[nd - 1] + d[nd - 1]);
+        }
+    }
+}
+
 /* The inverse wavelet: the lifting steps of one feature's samples x (the storage order: approximation, detail L,
  * ..., detail 1) back to the signal, in place; tmp holds as many doubles as x.  The operations of
- * motionrep_transform's numpy inverse, in its order: s and d scaled, then d -= a (s + s_right) or s -= a (d_left +
- * d_here), last step first. */
+ * motionrep_transform's numpy inverse, in its order: s and d scaled, then lift's steps. */
 MRT_CLONES
 void mrt_inverse(double *x, const uint64_t *sizes, int levels, double *tmp)
 {
@@ -731,22 +754,7 @@ void mrt_inverse(double *x, const uint64_t *sizes, int levels, double *tmp)
             s[i] = x[i] / LOW;
         for (uint64_t i = 0; i < nd; i++)
             d[i] = x[ns + i] / HIGH;
-        for (int k = 3; k >= 0; k--) {
-            double a = STEPS[k];
-            if (k % 2 == 0) {  /* d[i] -= a (s[i] + s[min(i + 1, ns - 1)]) */
-                uint64_t inner = ns > nd ? nd : nd - 1;
-                for (uint64_t i = 0; i < inner; i++)
-                    d[i] = d[i] - a * (s[i] + s[i + 1]);
-                if (inner < nd)
-                    d[nd - 1] = d[nd - 1] - a * (s[nd - 1] + s[ns - 1]);
-            } else {  /* s[i] -= a (d[max(i - 1, 0)] + d[min(i, nd - 1)]) */
-                s[0] = s[0] - a * (d[0] + d[0]);
-                for (uint64_t i = 1; i < nd; i++)
-                    s[i] = s[i] - a * (d[i - 1] + d[i]);
-                if (ns > nd)
-                    s[nd] = s[nd] - a * (d[nd - 1] + d[nd - 1]);
-            }
-        }
+        lift(s, d, ns, nd);
         for (uint64_t i = 0; i < nd; i++) {
             x[2 * i] = s[i];
             x[2 * i + 1] = d[i];
@@ -757,10 +765,188 @@ void mrt_inverse(double *x, const uint64_t *sizes, int levels, double *tmp)
     }
 }
 
+/* the int64 at x[i] of a buffer that holds int64 and doubles (mrt_decode's, in place) */
+static inline int64_t int_at(const double *x, uint64_t i)
+{
+    int64_t v;
+    memcpy(&v, x + i, sizeof v);
+    return v;
+}
+
+/* o[i] = (coefficient v[i] x its step) / scale, the coefficients the int64 at v[0..n) (rows first..first + n of the
+ * column, their steps steps[krow[row]]); `skip`: the steps are finite, so that a zero coefficient gives +0.0 (0 x
+ * step / scale) without the operations, which are then done for the non-zero ones only */
+static inline __attribute__((always_inline)) void dequantised(const double *v, uint64_t n, const double *steps,
+                                                              const int64_t *krow, double scale, int skip,
+                                                              double *MRT_RESTRICT o)
+{
+    uint64_t i0 = 0;
+    for (; skip && i0 + 8 <= n; i0 += 8) {  /* eight at a time: most details are zero */
+        int64_t any = 0;
+        for (int k = 0; k < 8; k++)
+            any |= int_at(v, i0 + k);
+        if (!any) {
+            for (int k = 0; k < 8; k++)
+                o[i0 + k] = 0.0;
+            continue;
+        }
+        for (int k = 0; k < 8; k++) {
+            int64_t c = int_at(v, i0 + k);
+            o[i0 + k] = c ? (double)c * steps[krow[i0 + k]] / scale : 0.0;
+        }
+    }
+    for (; i0 < n; i0++)
+        o[i0] = (double)int_at(v, i0) * steps[krow[i0]] / scale;
+}
+
+/* One feature's column: the quantised coefficients x[0..F) (int64, storage order) dequantised (coefficient x step)
+ * and transformed back (mrt_inverse's operations) into the doubles x[0..F), in place.  Each value gets the
+ * operations it gets in the dequantisation then mrt_inverse (the same bits), fused: each level's samples are
+ * scaled for the next level as they are interleaved (s / LOW), and the details are dequantised and scaled in one
+ * (coefficient x step / HIGH); tmp holds 2 F doubles. */
+static inline __attribute__((always_inline)) void synthesise_column(double *x, const uint64_t *sizes, int levels,
+                                                                    const double *steps, const int64_t *krow,
+                                                                    int skip, double *tmp)
+{
+    uint64_t ns = sizes[0], F = ns;
+    for (int l = 1; l <= levels; l++)
+        F += sizes[l];
+    if (!levels) {
+        dequantised(x, ns, steps, krow, 1.0, 0, tmp);  /* x step / 1: x step exactly */
+        memcpy(x, tmp, ns * sizeof *x);
+        return;
+    }
+    double *cur = tmp, *next = tmp + F;
+    dequantised(x, ns, steps, krow, LOW, 0, cur);
+    for (int l = 1; l <= levels; l++) {
+        uint64_t nd = sizes[l];
+        double *MRT_RESTRICT s = cur, *MRT_RESTRICT d = cur + ns;
+        dequantised(x + ns, nd, steps, krow + ns, HIGH, skip, d);
+        lift(s, d, ns, nd);
+        if (l == levels) {
+            for (uint64_t i = 0; i < nd; i++) {
+                x[2 * i] = s[i];
+                x[2 * i + 1] = d[i];
+            }
+            if (ns > nd)
+                x[2 * nd] = s[nd];
+        } else {  /* the next level's s: these samples / LOW */
+            double *MRT_RESTRICT o = next;
+            for (uint64_t i = 0; i < nd; i++) {
+                o[2 * i] = s[i] / LOW;
+                o[2 * i + 1] = d[i] / LOW;
+            }
+            if (ns > nd)
+                o[2 * nd] = s[nd] / LOW;
+            next = cur;
+            cur = o;
+        }
+        ns += nd;
+    }
+}
+
+#if defined(__GNUC__)
+#define MRT_BLOCK 8
+typedef double mrt_v8 __attribute__((vector_size(64)));
+
+/* lift's steps on eight features at once (s and d: one vector of the eight features per sample): each lane gets
+ * the operations lift gives its feature, in the same order */
+static inline __attribute__((always_inline)) void lift8(mrt_v8 *MRT_RESTRICT s, mrt_v8 *MRT_RESTRICT d, uint64_t ns,
+                                                        uint64_t nd)
+{
+    for (int k = 3; k >= 0; k--) {
+        mrt_v8 a = {STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k], STEPS[k]};
+        if (k % 2 == 0) {
+            uint64_t inner = ns > nd ? nd : nd - 1;
+            for (uint64_t i = 0; i < inner; i++)
+                d[i] = d[i] - a * (s[i] + s[i + 1]);
+            if (inner < nd)
+                d[nd - 1] = d[nd - 1] - a * (s[nd - 1] + s[ns - 1]);
+        } else {
+            s[0] = s[0] - a * (d[0] + d[0]);
+            for (uint64_t i = 1; i < nd; i++)
+                s[i] = s[i] - a * (d[i - 1] + d[i]);
+            if (ns > nd)
+                s[nd] = s[nd] - a * (d[nd - 1] + d[nd - 1]);
+        }
+    }
+}
+
+/* dequantised's values of rows first..first + n of eight columns x[0..7] (each with its steps), one vector a row */
+static inline __attribute__((always_inline)) void dequantised8(double *const *x, uint64_t first, uint64_t n,
+                                                               const double *const *steps, const int64_t *krow,
+                                                               double scale, int skip, mrt_v8 *MRT_RESTRICT o)
+{
+    for (uint64_t i = 0; i < n; i++) {
+        int64_t c[8], any = 0;
+        for (int k = 0; k < 8; k++) {
+            c[k] = int_at(x[k], first + i);
+            any |= c[k];
+        }
+        if (skip && !any) {
+            o[i] = (mrt_v8){0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+            continue;
+        }
+        mrt_v8 v;
+        for (int k = 0; k < 8; k++)
+            v[k] = skip && !c[k] ? 0.0 : (double)c[k] * steps[k][krow[first + i]] / scale;
+        o[i] = v;
+    }
+}
+
+/* synthesise_column for eight columns x[0..7] at once (every lane the operations of its column, so the same bits);
+ * tmp holds 2 F vectors */
+static inline __attribute__((always_inline)) void synthesise_block(double *const *x, const uint64_t *sizes,
+                                                                   int levels, const double *const *steps,
+                                                                   const int64_t *krow, int skip, mrt_v8 *tmp)
+{
+    uint64_t ns = sizes[0], F = ns;
+    for (int l = 1; l <= levels; l++)
+        F += sizes[l];
+    mrt_v8 *cur = tmp, *next = tmp + F;
+    if (!levels) {
+        dequantised8(x, 0, ns, steps, krow, 1.0, 0, cur);
+        for (uint64_t i = 0; i < ns; i++)
+            for (int k = 0; k < 8; k++)
+                x[k][i] = cur[i][k];
+        return;
+    }
+    dequantised8(x, 0, ns, steps, krow, LOW, 0, cur);
+    for (int l = 1; l <= levels; l++) {
+        uint64_t nd = sizes[l];
+        mrt_v8 *MRT_RESTRICT s = cur, *MRT_RESTRICT d = cur + ns;
+        dequantised8(x, ns, nd, steps, krow, HIGH, skip, d);
+        lift8(s, d, ns, nd);
+        if (l == levels) {
+            for (uint64_t i = 0; i < nd; i++)
+                for (int k = 0; k < 8; k++) {
+                    x[k][2 * i] = s[i][k];
+                    x[k][2 * i + 1] = d[i][k];
+                }
+            if (ns > nd)
+                for (int k = 0; k < 8; k++)
+                    x[k][2 * nd] = s[nd][k];
+        } else {
+            mrt_v8 *MRT_RESTRICT o = next;
+            mrt_v8 low = {LOW, LOW, LOW, LOW, LOW, LOW, LOW, LOW};
+            for (uint64_t i = 0; i < nd; i++) {
+                o[2 * i] = s[i] / low;
+                o[2 * i + 1] = d[i] / low;
+            }
+            if (ns > nd)
+                o[2 * nd] = s[nd] / low;
+            next = cur;
+            cur = o;
+        }
+        ns += nd;
+    }
+}
+#endif
+
 /* The steps of a quantised payload: `table` (2 ** (e / 8) for e = lo..hi, as motionrep.plugin.coding.step_scale)
  * and each coefficient row's region part of its exponent as an index into it (krow, F entries), the exponents
  * checked to be in range. */
-static int step_tables(const mrt_quantised *q, double **table, int64_t *krow, mrt_status *st)
+static int step_tables(const mrt_quantised *q, double **table, int64_t *krow, int *finite, mrt_status *st)
 {
     uint64_t F = q->frames, D = q->features, R = q->regions, sizes[MRT_MAX_LEVELS + 1];
     *table = NULL;
@@ -814,8 +1000,11 @@ static int step_tables(const mrt_quantised *q, double **table, int64_t *krow, mr
         code = fail(st, MRT_NO_MEMORY, "out of memory");
         goto done;
     }
-    for (int64_t e = lo; e <= hi; e++)
+    *finite = 1;
+    for (int64_t e = lo; e <= hi; e++) {
         (*table)[e - lo] = ldexp(EIGHTH_ROOTS[e - 8 * floor_div8(e)], (int)floor_div8(e));
+        *finite &= (*table)[e - lo] < INFINITY;
+    }
     for (uint64_t r = 0; r < F; r++)
         krow[r] -= lo;
 done:
@@ -832,52 +1021,80 @@ static int synthesise(const mrt_quantised *q, const int64_t *coef, double *value
 {
     uint64_t F = q->frames, D = q->features;
     int64_t *krow = malloc(F * sizeof(int64_t));
-    double *table = NULL, *tmp = malloc(F * sizeof(double));
-    int code = !krow || !tmp ? fail(st, MRT_NO_MEMORY, "out of memory") : step_tables(q, &table, krow, st);
+    double *table = NULL, *tmp = malloc(2 * F * sizeof(double));
+    int finite_steps = 0;
+#ifdef MRT_BLOCK
+    /* (vectors aligned to their size: malloc's 16 bytes rounded up by hand, aligned_alloc being C11) */
+    char *raw8 = D >= MRT_BLOCK ? malloc((2 * F + 1) * sizeof(mrt_v8)) : NULL;
+    mrt_v8 *tmp8 = raw8 ? (mrt_v8 *)(void *)(raw8 + (sizeof(mrt_v8) - (uintptr_t)raw8 % sizeof(mrt_v8))
+                                             % sizeof(mrt_v8)) : NULL;
+#endif
+    int code = !krow || !tmp ? fail(st, MRT_NO_MEMORY, "out of memory")
+                             : step_tables(q, &table, krow, &finite_steps, st);
     if (code)
         goto done;
-    if (coef) {  /* from row-major: eight rows at a time, so that the stores are contiguous */
+    if (coef) {  /* from row-major into the columns of values, as int64: eight rows at a time (contiguous stores) */
         for (uint64_t r0 = 0; r0 < F; r0 += 8) {
             uint64_t nb = F - r0 < 8 ? F - r0 : 8;
             for (uint64_t c = 0; c < D; c++) {
                 const int64_t *from = coef + r0 * D + c;
-                const double *steps = table + q->feature_exponents[c];
                 double *v = values + c * F + r0;
                 for (uint64_t r = 0; r < nb; r++)
-                    v[r] = (double)from[r * D] * steps[krow[r0 + r]];
+                    memcpy(v + r, from + r * D, sizeof *v);
             }
         }
     }
     int finite = 1;
+#ifdef MRT_BLOCK
+    double *block[MRT_BLOCK];  /* the columns that wait to be synthesised together, and their steps */
+    const double *steps[MRT_BLOCK];
+    int waiting = 0;
+#endif
     for (uint64_t c = 0; c < D; c++) {
         double *x = values + c * F;
-        if (!coef) {  /* in place: each int64 becomes its double */
+        /* all zero (from mrt_decode, or with finite steps): dequantised and transformed back, every value is +0.0,
+         * the bytes it holds */
+        if (!coef || finite_steps) {
             int64_t any = 0;
-            for (uint64_t r = 0; r < F; r++) {
-                int64_t v;
-                memcpy(&v, x + r, sizeof v);
-                any |= v;
-            }
-            if (!any)  /* all zero: dequantised and transformed back, every value is +0.0, the bytes it holds */
+            for (uint64_t r = 0; r < F; r++)
+                any |= int_at(x, r);
+            if (!any)
                 continue;
-            const double *steps = table + q->feature_exponents[c];
-            for (uint64_t r = 0; r < F; r++) {
-                int64_t v;
-                memcpy(&v, x + r, sizeof v);
-                double d = (double)v * steps[krow[r]];
-                memcpy(x + r, &d, sizeof d);
-            }
         }
-        mrt_inverse(x, q->sizes, q->levels, tmp);
+#ifdef MRT_BLOCK
+        if (tmp8) {  /* eight columns at a time */
+            block[waiting] = x;
+            steps[waiting++] = table + q->feature_exponents[c];
+            if (waiting < MRT_BLOCK)
+                continue;
+            synthesise_block(block, q->sizes, q->levels, steps, krow, finite_steps, tmp8);
+            waiting = 0;
+            for (int k = 0; k < MRT_BLOCK; k++)
+                for (uint64_t i = 0; i < F; i++)
+                    finite &= fabs(block[k][i]) < INFINITY;
+            continue;
+        }
+#endif
+        synthesise_column(x, q->sizes, q->levels, table + q->feature_exponents[c], krow, finite_steps, tmp);
         for (uint64_t i = 0; i < F; i++)
             finite &= fabs(x[i]) < INFINITY;
     }
+#ifdef MRT_BLOCK
+    for (int k = 0; k < waiting; k++) {  /* the last few one by one */
+        synthesise_column(block[k], q->sizes, q->levels, steps[k], krow, finite_steps, tmp);
+        for (uint64_t i = 0; i < F; i++)
+            finite &= fabs(block[k][i]) < INFINITY;
+    }
+#endif
     if (!finite)
         code = fail(st, MRT_DAMAGED, "transform payload: the coefficients decode to values that are not finite");
 done:
     free(krow);
     free(tmp);
     free(table);
+#ifdef MRT_BLOCK
+    free(raw8);
+#endif
     return code;
 }
 
