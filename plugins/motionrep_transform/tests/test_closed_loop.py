@@ -1,0 +1,98 @@
+"""Closed-loop quantisation along the skeleton (``context.feature_chain``): the bound, the bytes, and the open-loop
+path that contexts without a chain keep. Determinism across processes and thread counts is tested on the whole
+codec (closed loop by default) in ``tests/test_transform.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.model._pose import Motion, Skeleton
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.compress import compress_motion, decompress
+from motionrep.pipeline.evaluate import MotionContext, max_joint_error
+from motionrep.plugin.registry import get_codec, get_representation
+from motionrep_transform._stream2 import unpack
+
+from helpers import without
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_motion(humanoid_skeleton(), frames=200, fps=60, seed=11)
+
+
+def _coincident_and_translated() -> Motion:
+    """A skeleton with a child at its parent (the pelvis at the root) and a joint with animated translation."""
+    rot = ("Zrotation", "Xrotation", "Yrotation")
+    pos = ("Xposition", "Yposition", "Zposition")
+    sk = Skeleton(names=("root", "pelvis", "spine", "head", "left", "lfoot", "right", "rfoot"),
+                  parents=np.array([-1, 0, 1, 2, 1, 4, 1, 6]),
+                  offsets=np.array([[0, 90, 0], [0, 0, 0], [0, 20, 0], [0, 30, 0], [10, -5, 0], [0, -40, 0],
+                                    [-10, -5, 0], [0, -40, 0]], float),
+                  channels=(pos + rot, rot, rot, pos + rot, rot, rot, rot, rot),
+                  end_site_parents=np.array([3, 5, 7]), end_site_offsets=np.array([[0, 10, 0], [0, -40, 0],
+                                                                                    [0, -40, 0]], float))
+    m = synthetic_motion(sk, frames=150, fps=60, seed=4)
+    t = np.zeros((m.num_frames, 1, 3))
+    t[:, 0] = [0.0, 30.0, 0.0]
+    t[:, 0, 0] += 2.0 * np.sin(np.linspace(0, 6, m.num_frames))
+    return Motion(sk, m.fps, m.root_translation, m.rotations, t)
+
+
+def _encode(motion, bound, chain: bool):
+    codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
+    ctx = MotionContext(motion, rep, codec, codec.parse_params({}), bound, 0, None)
+    payload = codec.encode(rep.to_features(motion), rep.weights(motion), ctx if chain else without(ctx, "feature_chain"))
+    reached = ctx.evaluate_payload(payload).max_error
+    return payload.arrays["data"].tobytes(), reached
+
+
+@pytest.mark.parametrize("max_error", ["0.05%", "0.5%", "2%", "8%"])
+def test_the_bound_holds_in_closed_loop_through_the_decoder(walk, max_error):
+    r = compress_motion(walk, "transform", max_error=max_error)
+    assert max_joint_error(walk, decompress(r.data)).max_error <= r.bound
+
+
+@pytest.mark.parametrize("percent", [0.05, 0.5, 3.0])
+def test_the_bound_holds_with_a_coincident_child_and_animated_translations(percent):
+    m = _coincident_and_translated()
+    bound = percent / 100 * 170.0
+    data, reached = _encode(m, bound, chain=True)
+    assert reached <= bound
+    r = compress_motion(m, "transform", max_error=f"{percent}%")
+    assert max_joint_error(m, decompress(r.data)).max_error <= r.bound
+
+
+def test_a_context_without_a_chain_quantises_open_loop(walk, monkeypatch):
+    """Without ``feature_chain`` (a third party's context) the codec is the open-loop one: the bytes of
+    ``_CLOSED_LOOP = False``, within the bound, and not those of the closed loop."""
+    import motionrep_transform._codec as codec_module
+
+    bound = 0.005 * 170.0
+    closed, reached_closed = _encode(walk, bound, chain=True)
+    open_loop, reached_open = _encode(walk, bound, chain=False)
+    monkeypatch.setattr(codec_module, "_CLOSED_LOOP", False)
+    switched_off, _ = _encode(walk, bound, chain=True)
+    assert open_loop == switched_off and open_loop != closed
+    assert reached_closed <= bound and reached_open <= bound
+    # the same payload layout either way: any decoder of version 3 reads both
+    a, b = unpack(closed), unpack(open_loop)
+    assert (a.num_frames, a.num_features) == (b.num_frames, b.num_features)
+
+
+def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
+    """The codec asks for every group's targets in order, each time with the earlier groups' decoded values."""
+    from motionrep.pipeline.chain import FeatureChain
+
+    calls = []
+    targets = FeatureChain.targets
+
+    def spy(self, group, decoded):
+        calls.append(group)
+        return targets(self, group, decoded)
+
+    monkeypatch.setattr(FeatureChain, "targets", spy)
+    compress_motion(walk, "transform", max_error="1%")
+    n = max(calls) + 1
+    assert n > 2 and len(calls) % n == 0 and calls == list(range(n)) * (len(calls) // n)
