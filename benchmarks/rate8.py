@@ -14,7 +14,7 @@ targets recomputed from what the decoder makes of the depths before it).
 ``table OUT.jsonl``
     sums per bound relative to the first row, and the median of the per-clip ratios.
 
-Modes: ``open`` (``_codec._CLOSED_LOOP = False``) and ``closed`` (the default). The prototype that decided this
+Modes: ``open`` (``closed_loop=false``) and ``closed`` (the default, ``closed_loop=true``). The prototype that decided this
 (commit 1d3dd0f of this file: orientation feedback, position feedback for every joint or only for joints with one
 point below them, open- or closed-loop sensitivities; patched over main f38dd8d's codec) wrote
 ``results/rate8_proto.jsonl``.
@@ -44,12 +44,10 @@ def _clips(which: str) -> list[Path]:
     return sorted((DATA / "other").rglob("*.bvh"))
 
 
-def _mode(mode: str) -> None:
-    from motionrep_transform import _codec
-
+def _params(mode: str) -> dict:
     if mode not in ("open", "closed"):
         raise SystemExit(f"unknown mode {mode!r}: open or closed")
-    _codec._CLOSED_LOOP = mode == "closed"
+    return {"closed_loop": mode == "closed"}
 
 
 def _bytes(r) -> int:
@@ -62,11 +60,12 @@ def tune(out: str, modes: list[str], which: str, bounds: list[float]) -> None:
 
     motions = [(str(p.relative_to(DATA)), read(p)) for p in _clips(which)]
     for mode in modes:
-        _mode(mode)
+        params = _params(mode)
         row = {"mode": mode, "clips": which, "bytes": {}, "sums": {}, "seconds": {}, "load": os.getloadavg()[0]}
         for bound in bounds:
             t0 = time.process_time()
-            per = {name: _bytes(compress_motion(m, "transform", max_error=f"{bound:g}%")) for name, m in motions}
+            per = {name: _bytes(compress_motion(m, "transform", max_error=f"{bound:g}%", params=params))
+                   for name, m in motions}
             row["bytes"][str(bound)] = per
             row["sums"][str(bound)] = sum(per.values())
             row["seconds"][str(bound)] = round(time.process_time() - t0, 2)
@@ -87,14 +86,12 @@ def cpu(out: str, which: str, rounds: int, bounds: list[float]) -> None:
         for name, m in motions:
             for bound in bounds:
                 for mode in ("open", "closed"):
-                    _mode(mode)
                     c0 = time.process_time()
-                    r = compress_motion(m, "transform", max_error=f"{bound:g}%")
+                    r = compress_motion(m, "transform", max_error=f"{bound:g}%", params=_params(mode))
                     key = f"{name}@{bound:g}"
                     t = time.process_time() - c0
                     best.setdefault(mode, {})[key] = min(t, best.get(mode, {}).get(key, float("inf")))
                     sizes.setdefault(mode, {})[key] = _bytes(r)
-    _mode("closed")
     rows = {"clips": which, "rounds": rounds, "load": os.getloadavg()[0], "cpu": best, "bytes": sizes}
     Path(out).write_text(json.dumps(rows, indent=1))
     for bound in bounds:

@@ -63,9 +63,6 @@ _EDIT_MARGIN = 1e-9
 #: The default ``slack``: passes of the move-by-move search, feature groups of the threshold search.
 _PASSES, _GROUPS = 5, 3
 _SETTLE_ROUNDS = 64  # most rounds of lowering regions over the bound before falling back to one exponent
-#: Quantise closed loop along the skeleton when the context offers a feature chain (False: open loop, as before;
-#: for measurements: ``benchmarks/rate8.py``).
-_CLOSED_LOOP = True
 #: A feature's sensitivity ``s_c`` (its step exponent ``b_c``) is this percentile over frames of the measured one
 #: (75 and 99 measured no better on the tuning clips: ``benchmarks/results/rate7.md``).
 _SENSITIVITY_PERCENTILE = 90
@@ -86,6 +83,11 @@ class TransformParams:
                 "many passes of one step each, every move measured (0..64, default 5; more passes, smaller files, "
                 "a longer encode; 0 keeps the rounded integers; a context without feature edits searches "
                 "thresholds in this many feature groups instead, default 3)"})
+    closed_loop: bool = field(default=True, metadata={
+        "help": "quantise closed loop along the skeleton when the representation offers it (root-quat-axis-angle): "
+                "depth by depth, each joint's values recomputed from what the decoder makes of its parents, so a "
+                "parent's error does not rotate its subtree (about 30 % fewer bytes, about 3x the encode time); "
+                "false: every feature on its own, as before"})
     rounding: float = field(default=0.45, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
                 "zone around 0, more zeros at a slightly smaller step (the slack search then widens it where "
@@ -100,6 +102,8 @@ class TransformParams:
         if self.slack is not None and (isinstance(self.slack, bool) or not isinstance(self.slack, int)
                                        or not 0 <= self.slack <= 64):
             raise ParameterError(f"transform: slack must be an integer in 0..64, got {self.slack!r}")
+        if not isinstance(self.closed_loop, bool):
+            raise ParameterError(f"transform: closed_loop must be true or false, got {self.closed_loop!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
 
@@ -138,7 +142,7 @@ def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights:
 def _chain(context: EncodeContext, features: NDArray[np.float64]):
     """The context's feature chain of ``features`` (:meth:`motionrep.pipeline.evaluate.MotionContext.feature_chain`)
     when it offers one and it has more than one group (else None: open loop)."""
-    make = getattr(context, "feature_chain", None) if _CLOSED_LOOP else None
+    make = getattr(context, "feature_chain", None)
     if make is None:
         return None
     try:
@@ -200,7 +204,7 @@ class TransformCodec(Codec):
                                         "(max_error=None)"), "max_error=None")
         Y = np.asarray(features, dtype=np.float64)
         F, D = Y.shape
-        chain = _chain(context, Y)
+        chain = _chain(context, Y) if params.closed_loop else None
         summary, sampled = _sensitivity(context, Y, weights, chain)
         feature_exp = feature_exponents(summary)
         plan = _Plan(Y, feature_exp, params.region, chain)

@@ -40,9 +40,9 @@ def _coincident_and_translated() -> Motion:
     return Motion(sk, m.fps, m.root_translation, m.rotations, t)
 
 
-def _encode(motion, bound, chain: bool):
+def _encode(motion, bound, chain: bool, **params):
     codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
-    ctx = MotionContext(motion, rep, codec, codec.parse_params({}), bound, 0, None)
+    ctx = MotionContext(motion, rep, codec, codec.parse_params(params), bound, 0, None)
     payload = codec.encode(rep.to_features(motion), rep.weights(motion), ctx if chain else without(ctx, "feature_chain"))
     reached = ctx.evaluate_payload(payload).max_error
     return payload.arrays["data"].tobytes(), reached
@@ -64,21 +64,29 @@ def test_the_bound_holds_with_a_coincident_child_and_animated_translations(perce
     assert max_joint_error(m, decompress(r.data)).max_error <= r.bound
 
 
-def test_a_context_without_a_chain_quantises_open_loop(walk, monkeypatch):
+def test_a_context_without_a_chain_quantises_open_loop(walk):
     """Without ``feature_chain`` (a third party's context) the codec is the open-loop one: the bytes of
-    ``_CLOSED_LOOP = False``, within the bound, and not those of the closed loop."""
-    import motionrep_transform._codec as codec_module
-
+    ``closed_loop=false``, within the bound, and not those of the closed loop."""
     bound = 0.005 * 170.0
     closed, reached_closed = _encode(walk, bound, chain=True)
     open_loop, reached_open = _encode(walk, bound, chain=False)
-    monkeypatch.setattr(codec_module, "_CLOSED_LOOP", False)
-    switched_off, _ = _encode(walk, bound, chain=True)
+    switched_off, _ = _encode(walk, bound, chain=True, closed_loop=False)
     assert open_loop == switched_off and open_loop != closed
     assert reached_closed <= bound and reached_open <= bound
     # the same payload layout either way: any decoder of version 3 reads both
     a, b = unpack(closed), unpack(open_loop)
     assert (a.num_frames, a.num_features) == (b.num_frames, b.num_features)
+
+
+def test_closed_loop_is_true_or_false():
+    from motionrep.errors import ParameterError
+
+    codec = get_codec("transform")
+    assert codec.parse_params({}).closed_loop is True
+    assert codec.parse_params({"closed_loop": "false"}).closed_loop is False
+    assert codec.parse_params({"closed_loop": "yes"}).closed_loop is True
+    with pytest.raises(ParameterError, match="closed_loop"):
+        codec.parse_params({"closed_loop": "sometimes"})
 
 
 def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):

@@ -96,7 +96,7 @@ def test_format_2_payloads_decode_and_code_the_same_integers_to_the_same_bytes()
     assert len(pack_stream(q)) > len(GOLDEN_2_HEX) // 2
 
 
-def test_format_3_is_written_and_codes_version_2s_integers_in_fewer_bytes(monkeypatch):
+def test_format_3_is_written_and_codes_version_2s_integers_in_fewer_bytes():
     assert _decoded_error_percent(GOLDEN_3_HEX, version=3) <= 2.0
     assert _decoded_error_percent(GOLDEN_3_HEX, version=None) <= 2.0  # a payload without a version is current
     q2 = _stream2.unpack(bytes.fromhex(GOLDEN_2_HEX), 2)
@@ -115,10 +115,8 @@ def test_format_3_is_written_and_codes_version_2s_integers_in_fewer_bytes(monkey
     # the open-loop search without spending the slack (slack=0) at the rounding of version 2's time (0.4) still
     # chooses these integers; by default it quantises closed loop and spends the room under the bound (and rounds
     # at 0.45), which changes the integers (fewer bytes), not the format
-    import motionrep_transform._codec as codec_module
-
-    monkeypatch.setattr(codec_module, "_CLOSED_LOOP", False)
-    kept = compress_motion(golden_motion(), "transform", max_error="2%", params={"slack": 0, "rounding": 0.4})
+    kept = compress_motion(golden_motion(), "transform", max_error="2%",
+                           params={"slack": 0, "rounding": 0.4, "closed_loop": False})
     assert kept.container.arrays["data"].tobytes().hex() == GOLDEN_3_HEX
     assert r.container.payload_bytes <= kept.container.payload_bytes
 
