@@ -137,3 +137,33 @@ def test_only_local_quaternions_and_rotation_vectors_have_a_chain(walk):
     """Other rotation blocks (Euler angles here) get None: the codec then quantises open loop."""
     ctx, rep = _context(walk, "euler")
     assert ctx.feature_chain(rep.to_features(walk)) is None
+
+
+def test_a_joint_with_many_children_stays_open_loop():
+    """A joint with more than ``MAX_CHILDREN`` child joints (a hand with five fingers) keeps its children's true
+    features as their targets (each would take a copy of its noise) and its open-loop lever (every point)."""
+    from motionrep.model._pose import Motion, Skeleton
+    from motionrep.pipeline.chain import MAX_CHILDREN
+
+    rot = ("Zrotation", "Xrotation", "Yrotation")
+    n = MAX_CHILDREN + 1
+    names = ("root", "hand") + tuple(f"finger{i}" for i in range(n))
+    offsets = np.array([[0.0, 90.0, 0.0], [0.0, 30.0, 0.0]] + [[2.0 * i - n, 8.0, 0.0] for i in range(n)])
+    sk = Skeleton(names=names, parents=np.array([-1, 0] + [1] * n), offsets=offsets,
+                  channels=(("Xposition", "Yposition", "Zposition") + rot,) + (rot,) * (n + 1),
+                  end_site_parents=np.arange(2, 2 + n), end_site_offsets=np.array([[0.0, 3.0, 0.0]] * n))
+    m = synthetic_motion(sk, frames=40, fps=30, seed=2)
+    m = Motion(sk, 30.0, m.root_translation, m.rotations)
+    ctx, rep = _context(m)
+    f = rep.to_features(m)
+    chain = ctx.feature_chain(f)
+    names_f = rep.layout(sk).names
+    hand = [c for c, name in enumerate(names_f) if name.startswith("hand/")]
+    assert chain.lever_points[hand].all()
+    decoded = f.copy()
+    decoded[:, hand] += 0.05
+    fingers = len(chain.groups) - 1
+    np.testing.assert_array_equal(chain.targets(0, decoded), f[:, chain.groups[0]])
+    for g in range(1, fingers + 1):
+        chain.targets(g, decoded)
+    np.testing.assert_array_equal(chain.targets(fingers, decoded), f[:, chain.groups[fingers]])

@@ -10,7 +10,11 @@ through :meth:`MotionContext.feature_chain <motionrep.pipeline.evaluate.MotionCo
   feedback*: its true global rotation turned by the smallest rotation that points it, from its decoded position,
   at the true position of that point (a closed form: the half-way quaternion of the two vectors);
 - any other joint gets *orientation feedback*: the local rotation that gives its true global rotation under its
-  decoded parent, ``inv(decoded parent global) * true global``.
+  decoded parent, ``inv(decoded parent global) * true global``;
+- but the children of a joint with more than :data:`MAX_CHILDREN` child joints (a hand with five fingers) keep
+  their true values, and that joint its open-loop sensitivity: each child would take a copy of its parent's
+  quantisation noise (measured on the tuning clips: 2-4 % fewer bytes at 2 % and 0.588 % on the seven of them with
+  such joints than closing them too, the same at 0.0588 %).
 
 A parent's error then no longer rotates the subtree, and a feature's sensitivity (:meth:`FeatureChain.sensitivity`)
 is about its joint's own bones: how far a unit change moves the points directly below it (a child at the joint
@@ -43,6 +47,9 @@ __all__ = ["FeatureChain", "sensitivity_samples", "SENSITIVITY_FRAMES", "SENSITI
 #: at least 8) for ``D`` features, since it decodes ``D`` copies of each.
 SENSITIVITY_FRAMES = 64
 SENSITIVITY_BUDGET = 4096
+#: A joint with more child joints than this stays open loop: its error is not taken out of its children (each child
+#: would take a copy of its quantisation noise), and its sensitivity is the open-loop one.
+MAX_CHILDREN = 3
 #: A bone (or lever) at most this fraction of the skeleton's longest local offset counts as zero length.
 _COINCIDENT = 1e-6
 
@@ -126,9 +133,13 @@ class FeatureChain:
                 out += below(k) if reach[k] <= tiny else [k]
             return out
 
+        opened = [len(kids[j]) > MAX_CHILDREN for j in range(J)]
         self.lever_points = np.zeros((D, J + E), bool)
         for j in range(J):
             rows = [c for c in plan.columns[entry_of[j]].tolist() if c >= 0] if j in entry_of else []
+            if opened[j]:
+                self.lever_points[rows] = True  # open loop: every point it moves
+                continue
             self.lever_points[np.array(rows, np.int64)[:, None], np.array(below(j), np.int64)[None, :]] = True
         for row, j in enumerate(translated):  # a translation moves its joint and everything below it
             for c in plan.translation_columns[row].tolist():
@@ -139,7 +150,7 @@ class FeatureChain:
         self._at: dict[int, tuple] = {}
         self._convert: dict[int, list] = {}
         for d in depths[1:]:
-            js = [j for j in range(J) if depth[j] == d and j in entry_of]
+            js = [j for j in range(J) if depth[j] == d and j in entry_of and not opened[sk.parents[j]]]
             if not js:
                 continue
             kinds = plan.kinds[[entry_of[j] for j in js]]
