@@ -164,7 +164,13 @@ class FeatureChain:
                     v = true_pos[:, pts[0]] - true_pos[:, j]
                     if F and float(np.sqrt(np.sum(v * v, axis=1)).min()) > tiny:
                         lever[:, i], pointed[i] = v, True
-            self._at[d] = (np.array(js, np.int64), sk.parents[js], lever, pointed)
+            js_a = np.array(js, np.int64)
+            i = np.flatnonzero(pointed)
+            a = np.ascontiguousarray(lever[:, i].transpose(1, 0, 2))
+            self._at[d] = (sk.parents[js_a], np.ascontiguousarray(true_rot[:, js_a].transpose(1, 0, 2)), i,
+                           sk.parents[js_a[i]], np.ascontiguousarray(local[:, js_a[i]].transpose(1, 0, 2)),
+                           np.ascontiguousarray(true_pos[:, js_a[i]].transpose(1, 0, 2)), a,
+                           np.sqrt(np.sum(a * a, axis=-1)))
             # the conversion of each kind: which of the depth's joints, where their columns sit among the group's,
             # and the true features (the branch or sign to stay near)
             where = {c: k for k, c in enumerate(self.groups[depths.index(d)].tolist())}
@@ -174,7 +180,7 @@ class FeatureChain:
                 if rows.size:
                     c = np.array([cols[r] for r in rows.tolist()], np.int64)  # (n, width)
                     at = np.array([[where[int(v)] for v in row] for row in c], np.int64)
-                    self._convert[d].append((kind, rows, at, self._true[:, c]))
+                    self._convert[d].append((kind, rows, at, np.ascontiguousarray(self._true[:, c].transpose(1, 0, 2))))
         # per depth, how the decoder poses its joints: quaternion and rotation-vector entries (columns, the joint's
         # place among the depth's joints), each joint's local translation (an OFFSET, or columns where the plan has
         # them: -1 for a fixed axis, whose value the plan holds)
@@ -195,8 +201,9 @@ class FeatureChain:
                     tcols[place[j]] = plan.translation_columns[row]
                     tvals[place[j]] = np.where(plan.translation_columns[row] >= 0, 0.0, plan.translation_values[row])
             self._levels.append((js, sk.parents[js], conv, tcols, tvals))
-        self._rot = np.zeros((F, J, 4))
-        self._pos = np.zeros((F, J, 3))
+        # the decoded state, joint-major ((J, F, 4), (J, F, 3)): a depth's parents are gathered as whole blocks
+        self._rot = np.zeros((J, F, 4))
+        self._pos = np.zeros((J, F, 3))
         self._posed = 0  # depths posed from the decoded features of the current run (targets' state)
         self._last = -1  # the last group targets() was called for
 
@@ -214,14 +221,15 @@ class FeatureChain:
         local[..., 3] = 1.0
         for kind, cols, place in conv:
             (quat_columns_normalized if kind == QUAT else axis_angle_columns_to_quat)(decoded, cols, place, local)
-        t = np.where(tcols >= 0, decoded[:, np.maximum(tcols, 0)], tvals)  # (F, n, 3)
+        local = local.transpose(1, 0, 2)  # (n, F, 4)
+        t = np.where(tcols >= 0, decoded[:, np.maximum(tcols, 0)], tvals).transpose(1, 0, 2)  # (n, F, 3)
         if d == 0:
-            self._rot[:, js] = local
-            self._pos[:, js] = t
+            self._rot[js] = local
+            self._pos[js] = t
         else:
-            g = self._rot[:, parents]
-            self._rot[:, js] = _qmul(g, local)
-            self._pos[:, js] = self._pos[:, parents] + _qapply(g, t)
+            g = self._rot[parents]
+            self._rot[js] = _qmul(g, local)
+            self._pos[js] = self._pos[parents] + _qapply(g, t)
 
     def _fk(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F, J + E, 3)`` positions and ``(F, J + E, 4)`` global rotations of ``features`` (the decoder's
@@ -271,29 +279,27 @@ class FeatureChain:
             return out
         if d not in self._at:
             return out
-        js, parents, lever, pointed = self._at[d]
-        pos = self._pos
-        g_parent = self._rot[:, parents]
-        want = self._true_rot[:, js].copy()
-        if pointed.any():
-            i = np.flatnonzero(pointed)
+        parents, true_rot, i, pointed_parents, local_offset, true_pos, a, na = self._at[d]  # joint-major
+        g_parent = self._rot[parents]  # (n, F, 4)
+        want = true_rot.copy()
+        if i.size:
             # the joint's decoded position: its parent's, plus its true local offset under the decoded parent
-            here = pos[:, parents[i]] + _qapply(g_parent[:, i], self._local[:, js[i]])
-            a = lever[:, i]
-            b = a + self._true_pos[:, js[i]] - here
-            na, nb = np.sqrt(np.sum(a * a, axis=-1)), np.sqrt(np.sum(b * b, axis=-1))
+            here = self._pos[pointed_parents] + _qapply(g_parent[i], local_offset)
+            b = a + true_pos - here
+            nb = np.sqrt(np.sum(b * b, axis=-1))
             turn = np.concatenate([_cross(a, b), (na * nb + np.sum(a * b, axis=-1))[..., None]], axis=-1)
             size = np.sqrt(np.sum(turn * turn, axis=-1))
             ok = size > 1e-12 * np.maximum(na * nb, 1e-300)
             turn = np.where(ok[..., None], turn / np.where(ok, size, 1.0)[..., None], np.array([0.0, 0.0, 0.0, 1.0]))
-            want[:, i] = _qmul(turn, want[:, i])
-        local = _qmul(quat_conjugate(g_parent), want)  # (F, n, 4)
+            want[i] = _qmul(turn, want[i])
+        local = _qmul(quat_conjugate(g_parent), want)  # (n, F, 4)
         for kind, rows, at, truth in self._convert[d]:
             if kind == QUAT:
-                q = local[:, rows]
-                out[:, at] = np.where(np.sum(q * truth, axis=2, keepdims=True) < 0, -q, q)
+                q = local[rows]
+                v = np.where(np.sum(q * truth, axis=2, keepdims=True) < 0, -q, q)
             else:
-                out[:, at] = _nearest_branch(quat_to_axis_angle(local[:, rows]), truth)
+                v = _nearest_branch(quat_to_axis_angle(local[rows]), truth)
+            out[:, at] = v.transpose(1, 0, 2)
         return out
 
 
