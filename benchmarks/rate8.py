@@ -14,9 +14,9 @@ targets recomputed from what the decoder makes of the depths before it).
 ``table OUT.jsonl``
     sums per bound relative to the first row, and the median of the per-clip ratios.
 
-Modes: ``open`` (``closed_loop=false``) and ``closed`` (the default, ``closed_loop=true``). The prototype that decided this
-(commit 1d3dd0f of this file: orientation feedback, position feedback for every joint or only for joints with one
-point below them, open- or closed-loop sensitivities; patched over main f38dd8d's codec) wrote
+Modes: ``open`` (``closed_loop=false``) and ``closed`` (the default, ``closed_loop=true``). The prototype that
+decided this (commit 1d3dd0f of this file: orientation feedback, position feedback for every joint or only for
+joints with one point below them, open- or closed-loop sensitivities; patched over main f38dd8d's codec) wrote
 ``results/rate8_proto.jsonl``.
 """
 
@@ -34,14 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from acl import DATA  # noqa: E402
-
-
-def _clips(which: str) -> list[Path]:
-    from motionrep.io import read
-
-    if which == "cmu31":
-        return [p for p in sorted((DATA / "cmu").rglob("*.bvh")) if read(p).num_joints == 31]
-    return sorted((DATA / "other").rglob("*.bvh"))
+from rate7 import _clips  # noqa: E402  (the tuning clips, or the eight CMU-31 ones)
 
 
 def _params(mode: str) -> dict:

@@ -99,11 +99,8 @@ class FeatureChain:
         sk, J, E = skeleton, skeleton.num_joints, skeleton.num_end_sites
         self._skeleton, self._plan, self._positions = sk, plan, positions
         depth = np.asarray(sk.depths, np.int64)
-        self._depth = depth
         self._poses = empty_poses(sk, F)
         true_pos, true_rot = self._fk(self._true)
-        self._true_rot = true_rot[:, :J]
-        self._true_pos = true_pos
         # the columns of each joint: its rotation entry's, then its translation's (the root's first)
         cols_of: dict[int, list[int]] = {j: [] for j in range(J)}
         entry_of: dict[int, int] = {}
@@ -122,7 +119,6 @@ class FeatureChain:
         local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
         if sk.translated_joints.size:
             local[:, sk.translated_joints] = self._poses.joint_translations
-        self._local = local
         reach = np.sqrt(np.sum(local ** 2, axis=2)).max(axis=0) if F else np.zeros(J)
         tiny = _COINCIDENT * (float(reach[1:].max()) if J > 1 else 1.0)
         kids = sk.children
@@ -180,7 +176,8 @@ class FeatureChain:
                 if rows.size:
                     c = np.array([cols[r] for r in rows.tolist()], np.int64)  # (n, width)
                     at = np.array([[where[int(v)] for v in row] for row in c], np.int64)
-                    self._convert[d].append((kind, rows, at, np.ascontiguousarray(self._true[:, c].transpose(1, 0, 2))))
+                    truth = np.ascontiguousarray(self._true[:, c].transpose(1, 0, 2))
+                    self._convert[d].append((kind, rows, at, truth))
         # per depth, how the decoder poses its joints: quaternion and rotation-vector entries (columns, the joint's
         # place among the depth's joints), each joint's local translation (an OFFSET, or columns where the plan has
         # them: -1 for a fixed axis, whose value the plan holds)

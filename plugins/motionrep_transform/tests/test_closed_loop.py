@@ -43,7 +43,8 @@ def _coincident_and_translated() -> Motion:
 def _encode(motion, bound, chain: bool, **params):
     codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
     ctx = MotionContext(motion, rep, codec, codec.parse_params(params), bound, 0, None)
-    payload = codec.encode(rep.to_features(motion), rep.weights(motion), ctx if chain else without(ctx, "feature_chain"))
+    context = ctx if chain else without(ctx, "feature_chain")
+    payload = codec.encode(rep.to_features(motion), rep.weights(motion), context)
     reached = ctx.evaluate_payload(payload).max_error
     return payload.arrays["data"].tobytes(), reached
 
