@@ -86,7 +86,7 @@ class TransformParams:
     closed_loop: bool = field(default=True, metadata={
         "help": "quantise closed loop along the skeleton when the representation offers it (root-quat-axis-angle): "
                 "depth by depth, each joint's values recomputed from what the decoder makes of its parents, so a "
-                "parent's error does not rotate its subtree (about 30 % fewer bytes, about 3x the encode time); "
+                "parent's error does not rotate its subtree (about 30 % fewer bytes, 2-3x the encode time); "
                 "false: every feature on its own, as before"})
     rounding: float = field(default=0.45, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
