@@ -34,11 +34,12 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._ccore import chain_pose, chain_targets
 from ..errors import ValidationError
 from ..model._pose import Skeleton
 from ..model.kinematics import fk_arrays
 from ..model.poseplan import AXIS_ANGLE, QUAT, PosePlan, decode_planned
-from ..model.rotations import axis_angle_columns_to_quat, quat_columns_normalized, quat_conjugate, quat_to_axis_angle
+from ..model.rotations import axis_angle_columns_to_quat, quat_columns_normalized
 from ..plugin.representation import empty_poses
 
 __all__ = ["FeatureChain", "sensitivity_samples", "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
@@ -144,7 +145,6 @@ class FeatureChain:
         # per depth: the joints with a rotation entry (retargeted), their entries' columns and parents, and which
         # of them get position feedback (exactly one point directly below, not at the joint itself)
         self._at: dict[int, tuple] = {}
-        self._convert: dict[int, list] = {}
         for d in depths[1:]:
             js = [j for j in range(J) if depth[j] == d and j in entry_of and not opened[sk.parents[j]]]
             if not js:
@@ -162,22 +162,21 @@ class FeatureChain:
                         lever[:, i], pointed[i] = v, True
             js_a = np.array(js, np.int64)
             i = np.flatnonzero(pointed)
+            lever_of = np.full(len(js), -1, np.int64)
+            lever_of[i] = np.arange(i.size)
             a = np.ascontiguousarray(lever[:, i].transpose(1, 0, 2))
-            self._at[d] = (sk.parents[js_a], np.ascontiguousarray(true_rot[:, js_a].transpose(1, 0, 2)), i,
-                           sk.parents[js_a[i]], np.ascontiguousarray(local[:, js_a[i]].transpose(1, 0, 2)),
-                           np.ascontiguousarray(true_pos[:, js_a[i]].transpose(1, 0, 2)), a,
-                           np.sqrt(np.sum(a * a, axis=-1)))
-            # the conversion of each kind: which of the depth's joints, where their columns sit among the group's,
-            # and the true features (the branch or sign to stay near)
+            # the conversion of each joint: its kind (0 quaternion, 1 rotation vector), where its columns sit among
+            # the group's (-1 pads a rotation vector's), and its true features (the branch or sign to stay near)
             where = {c: k for k, c in enumerate(self.groups[depths.index(d)].tolist())}
-            self._convert[d] = []
-            for kind in (QUAT, AXIS_ANGLE):
-                rows = np.flatnonzero(kinds == kind)
-                if rows.size:
-                    c = np.array([cols[r] for r in rows.tolist()], np.int64)  # (n, width)
-                    at = np.array([[where[int(v)] for v in row] for row in c], np.int64)
-                    truth = np.ascontiguousarray(self._true[:, c].transpose(1, 0, 2))
-                    self._convert[d].append((kind, rows, at, truth))
+            at = np.full((len(js), 4), -1, np.int64)
+            truth = np.zeros((len(js), F, 4))
+            for r, c in enumerate(cols):
+                at[r, :c.size] = [where[int(v)] for v in c.tolist()]
+                truth[r, :, :c.size] = self._true[:, c]
+            self._at[d] = (sk.parents[js_a], np.ascontiguousarray(true_rot[:, js_a].transpose(1, 0, 2)), lever_of,
+                           np.ascontiguousarray(local[:, js_a[i]].transpose(1, 0, 2)),
+                           np.ascontiguousarray(true_pos[:, js_a[i]].transpose(1, 0, 2)), a,
+                           np.sqrt(np.sum(a * a, axis=-1)), (kinds != QUAT).astype(np.int64), at, truth)
         # per depth, how the decoder poses its joints: quaternion and rotation-vector entries (columns, the joint's
         # place among the depth's joints), each joint's local translation (an OFFSET, or columns where the plan has
         # them: -1 for a fixed axis, whose value the plan holds)
@@ -197,7 +196,7 @@ class FeatureChain:
                 if j in place:
                     tcols[place[j]] = plan.translation_columns[row]
                     tvals[place[j]] = np.where(plan.translation_columns[row] >= 0, 0.0, plan.translation_values[row])
-            self._levels.append((js, sk.parents[js], conv, tcols, tvals))
+            self._levels.append((js, sk.parents[js] if d else np.full(js.size, -1, np.int64), conv, tcols, tvals))
         # the decoded state, joint-major ((J, F, 4), (J, F, 3)): a depth's parents are gathered as whole blocks
         self._rot = np.zeros((J, F, 4))
         self._pos = np.zeros((J, F, 3))
@@ -213,20 +212,13 @@ class FeatureChain:
         """Global rotations and positions of the joints of depth ``d`` from ``decoded`` (the decoder's conversions;
         their parents' already posed)."""
         js, parents, conv, tcols, tvals = self._levels[d]
+        decoded = np.ascontiguousarray(decoded, dtype=np.float64)
         F = decoded.shape[0]
         local = np.zeros((F, js.size, 4))
         local[..., 3] = 1.0
         for kind, cols, place in conv:
             (quat_columns_normalized if kind == QUAT else axis_angle_columns_to_quat)(decoded, cols, place, local)
-        local = local.transpose(1, 0, 2)  # (n, F, 4)
-        t = np.where(tcols >= 0, decoded[:, np.maximum(tcols, 0)], tvals).transpose(1, 0, 2)  # (n, F, 3)
-        if d == 0:
-            self._rot[js] = local
-            self._pos[js] = t
-        else:
-            g = self._rot[parents]
-            self._rot[js] = _qmul(g, local)
-            self._pos[js] = self._pos[parents] + _qapply(g, t)
+        chain_pose(decoded, local, js, parents, tcols, tvals, self._rot, self._pos)  # compiled: motionrep/_c/chain.c
 
     def _fk(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F, J + E, 3)`` positions and ``(F, J + E, 4)`` global rotations of ``features`` (the decoder's
@@ -276,64 +268,6 @@ class FeatureChain:
             return out
         if d not in self._at:
             return out
-        parents, true_rot, i, pointed_parents, local_offset, true_pos, a, na = self._at[d]  # joint-major
-        g_parent = self._rot[parents]  # (n, F, 4)
-        want = true_rot.copy()
-        if i.size:
-            # the joint's decoded position: its parent's, plus its true local offset under the decoded parent
-            here = self._pos[pointed_parents] + _qapply(g_parent[i], local_offset)
-            b = a + true_pos - here
-            nb = np.sqrt(np.sum(b * b, axis=-1))
-            turn = np.concatenate([_cross(a, b), (na * nb + np.sum(a * b, axis=-1))[..., None]], axis=-1)
-            size = np.sqrt(np.sum(turn * turn, axis=-1))
-            ok = size > 1e-12 * np.maximum(na * nb, 1e-300)
-            turn = np.where(ok[..., None], turn / np.where(ok, size, 1.0)[..., None], np.array([0.0, 0.0, 0.0, 1.0]))
-            want[i] = _qmul(turn, want[i])
-        local = _qmul(quat_conjugate(g_parent), want)  # (n, F, 4)
-        for kind, rows, at, truth in self._convert[d]:
-            if kind == QUAT:
-                q = local[rows]
-                v = np.where(np.sum(q * truth, axis=2, keepdims=True) < 0, -q, q)
-            else:
-                v = _nearest_branch(quat_to_axis_angle(local[rows]), truth)
-            out[:, at] = v.transpose(1, 0, 2)
+        if chain_targets(self._rot, self._pos, *self._at[d], out) >= 0:  # compiled: motionrep/_c/chain.c
+            raise ValidationError("cannot convert a quaternion of zero length to a rotation vector")
         return out
-
-
-def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(..., 3)`` cross products (numpy's ``cross`` without its axis handling)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
-
-
-def _qmul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Hamilton products ``a * b`` of ``(..., 4)`` xyzw quaternions (:func:`~motionrep.model.rotations.quat_multiply`
-    without its checks)."""
-    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = aw * bx + ax * bw + ay * bz - az * by
-    out[..., 1] = aw * by - ax * bz + ay * bw + az * bx
-    out[..., 2] = aw * bz + ax * by - ay * bx + az * bw
-    out[..., 3] = aw * bw - ax * bx - ay * by - az * bz
-    return out
-
-
-def _qapply(q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(..., 3)`` vectors rotated by unit quaternions (:func:`~motionrep.model.rotations.quat_apply`'s formula)."""
-    u, w = q[..., :3], q[..., 3:]
-    t = 2.0 * _cross(u, v)
-    return v + w * t + _cross(u, t)
-
-
-def _nearest_branch(v: NDArray[np.float64], near: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(..., 3)`` rotation vectors ``v`` (angle in [0, pi]) moved to the branch ``(theta + 2 pi k) n`` nearest
-    ``near`` (L2); a zero rotation stays zero."""
-    theta = np.sqrt(np.sum(v * v, axis=-1))
-    ok = theta > 1e-12
-    n = v / np.where(ok, theta, 1.0)[..., None]
-    k = np.rint((np.sum(n * near, axis=-1) - theta) / (2.0 * np.pi))
-    return np.where(ok[..., None], n * (theta + 2.0 * np.pi * k)[..., None], 0.0)
