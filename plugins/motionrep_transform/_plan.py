@@ -42,6 +42,9 @@ class _Plan:
         # what every quantisation of the bisection reads: |c| and sign(c) (as integers), computed once
         self._magnitudes = [np.abs(c) for c in self.coefficients]
         self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
+        # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
+        # measured, which the encoder then quantises again
+        self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
 
     def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
@@ -68,7 +71,16 @@ class _Plan:
 
         With a chain, group by group: the coefficients of a group are those of its targets given what the decoder
         makes of the integers of the groups before it (each group's columns synthesised alone: the inverse wavelet
-        runs column by column, so they have the decoder's values)."""
+        runs column by column, so they have the decoder's values).  The same exponents and rounding as the call
+        before: a copy of its result."""
+        key = np.asarray(region_exp, np.int64).tobytes()
+        if self._last is not None and self._last[0] == key and self._last[1] == rounding:
+            return [q.copy() for q in self._last[2]]
+        out = self._quantise(region_exp, rounding)
+        self._last = (key, rounding, [q.copy() for q in out])
+        return out
+
+    def _quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
         steps = self._steps(region_exp)
         if self.chain is None:
             return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
