@@ -57,6 +57,10 @@ __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate
 _PER_OCTAVE = 8
 #: The bisection of region exponents spans 2 ** -12 .. 2 ** 3 times the bound (in position units).
 _SEARCH_BELOW, _SEARCH_ABOVE = 12 * _PER_OCTAVE, 3 * _PER_OCTAVE
+#: In closed loop the bisection's window starts this far below the bound's exponent (one octave; the 24 CMU-31
+#: payloads of benchmarks/encode_speed.py end 0-7 below it): 2 whole-clip steps fewer than the full window; a region
+#: that fails even there is bisected again below it.
+_WARM_BELOW = _PER_OCTAVE
 #: Moves measured by feature edits keep every point this much (relative) within the bound: the edits hold the
 #: features as sums of changes, the payload decodes them by the inverse wavelet (the same values but for rounding).
 _EDIT_MARGIN = 1e-9
@@ -106,6 +110,13 @@ class TransformParams:
             raise ParameterError(f"transform: closed_loop must be true or false, got {self.closed_loop!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
+
+
+def _spread(values: NDArray[np.int64], where: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """``(where.size,)``: ``values`` at the entries of ``where`` (zero elsewhere)."""
+    out = np.zeros(where.size, np.int64)
+    out[where] = values
+    return out
 
 
 def _log_step(x: NDArray[np.float64] | float) -> NDArray[np.int64]:
@@ -244,8 +255,16 @@ class TransformCodec(Codec):
             return region_errors(k) <= bound
 
         k0 = int(_log_step(bound))
-        low = np.full(R, k0 - _SEARCH_BELOW, np.int64)
-        k = largest_passing_each(passes, low, np.full(R, k0 + _SEARCH_ABOVE, np.int64))
+        low, high = np.full(R, k0 - _SEARCH_BELOW, np.int64), np.full(R, k0 + _SEARCH_ABOVE, np.int64)
+        if plan.chain is None:
+            k = largest_passing_each(passes, low, high)
+        else:  # closed loop: a narrower window first, below it only for the regions that fail at its low end
+            start = np.full(R, k0 - _WARM_BELOW, np.int64)
+            k = largest_passing_each(passes, start, high)
+            below = k < start
+            if below.any():
+                k[below] = largest_passing_each(lambda v: passes(np.where(below, _spread(v, below), k))[below],
+                                                low[below], start[below] - 1)
         context.progress("bisect", regions=R, evaluations=errors.evaluations, diagnostic=True)
         k = self._settle(k, region_errors, bound, low[0] - 1)
         context.progress("settle", regions=R, evaluations=errors.evaluations,

@@ -105,3 +105,26 @@ def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
     compress_motion(walk, "transform", max_error="1%")
     n = max(calls) + 1
     assert n > 2 and len(calls) % n == 0 and calls == list(range(n)) * (len(calls) // n)
+
+
+def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkeypatch):
+    """The closed loop's bisection starts in a narrower window; a region that fails even at its low end is bisected
+    again below it (here every region: a window of the top two exponents only), and the payload meets the bound
+    at about the full window's bytes."""
+    import motionrep_transform._codec as codec_module
+
+    full = compress_motion(walk, "transform", max_error="2%")
+    windows = []
+
+    def recorded(passes, low, high):
+        windows.append((np.asarray(low).size, int(np.max(high))))
+        return largest(passes, low, high)
+
+    largest = codec_module.largest_passing_each
+    monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
+    monkeypatch.setattr(codec_module, "_WARM_BELOW", 1 - codec_module._SEARCH_ABOVE)
+    narrow = compress_motion(walk, "transform", max_error="2%")
+    assert len(windows) == 2 and windows[1][0] == windows[0][0] and windows[1][1] < windows[0][1] - 1
+    assert narrow.report.max_error_percent <= 2.0
+    assert max_joint_error(walk, decompress(narrow.data)).max_error_percent <= 2.0
+    assert abs(len(narrow.data) - len(full.data)) < 0.05 * len(full.data)
