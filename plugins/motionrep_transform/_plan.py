@@ -15,7 +15,7 @@ from motionrep.plugin.coding import MAX_MAGNITUDE, step_scale
 
 from ._decoder import reconstruct, synthesised
 from ._stream import Quantised
-from ._wavelet import coefficient_frames, forward, num_levels
+from ._wavelet import coefficient_frames, forward, forward_rows, num_levels
 
 __all__ = ["coefficient_exponents", "steps_of", "window_minimum"]
 
@@ -84,19 +84,18 @@ class _Plan:
         steps = self._steps(region_exp)
         if self.chain is None:
             return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
-        out = [np.zeros(a.shape, np.int64) for a in steps]
+        # the arrays of every level one after the other (storage order), so that a group is one block of columns
+        all_steps = np.concatenate(steps, axis=0)
+        out = np.zeros((self.num_frames, self.num_features), np.int64)
         decoded = np.zeros((self.num_frames, self.num_features))
         for g, cols in enumerate(self.chain.groups):
-            target = self.chain.targets(g, decoded)
-            coefficients = forward(target, self.levels) if self.levels else [target]
-            dequantised = []
-            for q_all, c, a in zip(out, coefficients, steps):
-                step = a[:, cols]
-                q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
-                q_all[:, cols] = q
-                dequantised.append(q * step)
-            decoded[:, cols] = synthesised(dequantised, self.levels) if self.levels else dequantised[0]
-        return out
+            c = forward_rows(self.chain.targets(g, decoded))
+            step = all_steps[:, cols]
+            q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+            out[:, cols] = q
+            dequantised = q * step
+            decoded[:, cols] = synthesised([dequantised], self.levels) if self.levels else dequantised
+        return np.split(out, np.cumsum([a.shape[0] for a in steps])[:-1], axis=0)
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
         """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["forward", "inverse", "num_levels", "level_sizes", "coefficient_frames"]
+__all__ = ["forward", "forward_rows", "inverse", "num_levels", "level_sizes", "coefficient_frames"]
 
 # lifting coefficients of CDF 9/7 (alpha, beta, gamma, delta), JPEG 2000 Part 1, Annex F
 _STEPS = (-1.586134342059924, -0.052980118572961, 0.882911075530934, 0.443506852043971)
@@ -59,19 +59,28 @@ def coefficient_frames(num_frames: int, levels: int) -> list[NDArray[np.int64]]:
     return out
 
 
-def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
-    """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`; ``levels``
-    must be :func:`num_levels` ``(n)``): the C analysis beside the decoder's inverse (``_c/mrtransform.c``,
-    ``mrt_forward``: JPEG 2000's lifting steps ``d += a (s + s_right)``, ``s += a (d_left + d)`` with the mirrored
-    ends, then the subbands scaled, one IEEE operation at a time in that order)."""
+def forward_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(n, D)``: the coefficients of ``(n, D)`` samples at :func:`num_levels` ``(n)`` levels, the arrays of
+    :func:`forward` one after the other (storage order), computed by the C analysis beside the decoder's inverse
+    (``_c/mrtransform.c``, ``mrt_forward``: JPEG 2000's lifting steps ``d += a (s + s_right)``, ``s += a (d_left +
+    d)`` with the mirrored ends, then the subbands scaled, one IEEE operation at a time in that order)."""
     from ._cdecode import forward as c_forward
 
     values = np.ascontiguousarray(x, dtype=np.float64)
-    if values.ndim != 2 or levels != num_levels(values.shape[0]):
-        raise ValueError(f"forward: (n, D) samples and levels = num_levels(n), got {values.shape} and {levels}")
+    if values.ndim != 2:
+        raise ValueError(f"forward: (n, D) samples, got shape {values.shape}")
     out = np.empty_like(values)
     c_forward(values, out)
-    return np.split(out, np.cumsum(level_sizes(values.shape[0], levels))[:-1], axis=0)
+    return out
+
+
+def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
+    """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`; ``levels``
+    must be :func:`num_levels` ``(n)``): :func:`forward_rows` split."""
+    rows = forward_rows(x)
+    if levels != num_levels(rows.shape[0]):
+        raise ValueError(f"forward: levels must be num_levels({rows.shape[0]}), got {levels}")
+    return np.split(rows, np.cumsum(level_sizes(rows.shape[0], levels))[:-1], axis=0)
 
 
 def inverse(coefficients: list[NDArray[np.float64]]) -> NDArray[np.float64]:
