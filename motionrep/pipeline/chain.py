@@ -22,9 +22,10 @@ itself passes on to its own children); translations move everything below them. 
 which values the codec quantises.
 
 Offered for pose plans whose rotation blocks are local quaternions or rotation vectors (``root-quat-axis-angle``,
-the default representation); any other plan gets None, and the codec quantises open loop. Numpy elementwise
-arithmetic and the compiled conversions of :mod:`motionrep.model.rotations` and FK only (no BLAS), so the targets are
-the same on every run and thread count.
+the default representation); any other plan gets None, and the codec quantises open loop. The targets of a depth
+are computed by the compiled core (``motionrep/_c/chain.c``: the depth posed, then its targets, frames x joints in
+one call), scalar IEEE arithmetic without FMA contraction in a fixed order, with the core's conversions and FK (no
+BLAS), so they are the same bits on every run, thread count and CPU.
 """
 
 from __future__ import annotations
