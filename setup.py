@@ -25,7 +25,7 @@ setup(ext_modules=[
     Extension("motionrep._ccore",
               sources=["motionrep/_c/module.c", "motionrep/_c/numbers.c", "motionrep/_c/shortest.c",
                        "motionrep/_c/fk.c", "motionrep/_c/rotations.c", "motionrep/_c/edits.c",
-                       "motionrep/_c/euler.c"],
+                       "motionrep/_c/euler.c", "motionrep/_c/chain.c"],
               depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
                        "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
               extra_compile_args=FLAGS),

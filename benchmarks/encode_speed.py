@@ -95,6 +95,8 @@ def profile(clip: str) -> None:
     parts = {"the codec's encode (all)": cum("_codec.py:encode"),
              "  shared evaluation: frame_errors (decode, FK, distances)": cum("evaluate.py:frame_errors"),
              "  shared evaluation: feature_sensitivity": cum("evaluate.py:feature_sensitivity"),
+             "  closed loop: the chain's targets (retargeting from the decoded parents)": cum("chain.py:targets"),
+             "  closed loop: the chain's sensitivity": cum("chain.py:sensitivity"),
              "  FK (compiled)": sum(v[2] for (f, _, fn), v in stats.items() if fn == "<built-in method motionrep._ccore.fk>"),
              "pipeline: decompress the stored payload twice (measure, determinism)": cum("decode.py:decompress"),
              "pipeline: to_features": cum("_rep.py:to_features")}

@@ -98,6 +98,31 @@ static inline void mr_rotate_add(const double *g, const double *base, double vx,
     out[2] = base[2] + vz + qw * tz + (qx * ty - qy * tx);
 }
 
+/* chain.c: closed-loop targets along the skeleton (motionrep/pipeline/chain.py), joint-major state rot (J, F, 4)
+ * and pos (J, F, 3).  mr_chain_pose: the n joints of one depth posed, joints[i] from its parent parents[i] (-1: the
+ * root depth) with the local rotation local (F, n, 4) and translation tcols[i] (3 columns of decoded (F, D), -1
+ * taking tvals[i]). */
+typedef struct {
+    int64_t F, D, n;
+    const double *decoded, *local, *tvals;
+    const int64_t *joints, *parents, *tcols;
+    double *rot, *pos;
+} mr_chain_pose_args;
+void mr_chain_pose(const mr_chain_pose_args *a);
+/* mr_chain_targets: for the n joints of one depth (parents[i]), the local rotation giving true_rot (n, F, 4) under
+ * the decoded parent, turned first (lever[i] = m >= 0: position feedback) to point from the joint's decoded
+ * position (the parent's plus local_offset (M, F, 3)) at true_pos + lever_vec ((M, F, 3), lever_len (M, F)); written
+ * into out (F, C) at columns at[i] (4, or 3 and -1), a quaternion (kind 0) of the sign nearest truth (n, F, 4), a
+ * rotation vector (kind 1) on the branch nearest truth's first 3.  Returns -1, or i F + f of a zero-length local
+ * rotation of a rotation vector (out then incomplete). */
+typedef struct {
+    int64_t F, n, C;
+    const double *rot, *pos, *true_rot, *local_offset, *true_pos, *lever_vec, *lever_len, *truth;
+    const int64_t *parents, *lever, *kind, *at;
+    double *out;
+} mr_chain_targets_args;
+int64_t mr_chain_targets(const mr_chain_targets_args *a);
+
 /* euler.c: (n, 4) xyzw quaternions to (n, 3) Euler angles for seq (three of "xyz", lower case extrinsic, upper
  * case intrinsic, no axis twice in a row), radians or degrees, as scipy's Rotation.from_quat(q).as_euler(seq,
  * degrees); returns -1, or the index of the first quaternion of zero or NaN length (out is then

@@ -34,6 +34,7 @@ from ..errors import ValidationError, naming
 from .._ccore import max_distances
 from ..model.kinematics import character_height, fk_arrays, global_positions, point_names
 from ..model.ops import fixed_axes, fixed_axes_restored
+from .chain import SENSITIVITY_BUDGET, SENSITIVITY_FRAMES, FeatureChain, sensitivity_samples  # noqa: F401 (public here too)
 from .edits import FeatureEdits
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
 
@@ -247,10 +248,6 @@ class Evaluator:
         return dist
 
 
-#: :meth:`MotionContext.feature_sensitivity` samples at most this many frames, and at most
-#: ``SENSITIVITY_BUDGET / D`` of them (but at least 8) for ``D`` features, since it decodes ``D`` copies of each.
-SENSITIVITY_FRAMES = 64
-SENSITIVITY_BUDGET = 4096
 
 #: ``progress(stage, fields)``: what :meth:`MotionContext.progress` calls.
 ProgressCallback = Callable[[str, Mapping[str, Any]], None]
@@ -322,6 +319,15 @@ class MotionContext:
         self.evaluations += 1
         return FeatureEdits(features, self.motion.skeleton, self._plan, self.evaluator.reference_positions)
 
+    def feature_chain(self, features: ArrayLike) -> FeatureChain | None:
+        """The clip's ``(F, D)`` features as a :class:`~motionrep.pipeline.chain.FeatureChain`: their columns in
+        groups by skeleton depth, and the targets of each group from what the decoder makes of the groups before it
+        (closed-loop quantisation), with sensitivities in closed loop.  None for a representation without a pose
+        plan or with rotation blocks other than local quaternions and rotation vectors."""
+        if not FeatureChain.supports(self._plan):
+            return None
+        return FeatureChain(features, self.motion.skeleton, self._plan, self._positions)
+
     def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
         """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:
         :data:`SENSITIVITY_BUDGET`), how far a unit change of each feature moves the farthest joint or end site,
@@ -331,15 +337,8 @@ class MotionContext:
         frames); the step of feature ``c`` is ``1e-6 (1 + max |feature c|)``. A feature that moves nothing (a
         fixed axis, a joint without descendants) gets 0.
         """
-        x_all = np.asarray(features, dtype=np.float64)
-        F, D = x_all.shape
-        count = min(F, SENSITIVITY_FRAMES, max(8, SENSITIVITY_BUDGET // max(D, 1)))
-        rows = np.unique(np.linspace(0, F - 1, count).round().astype(np.int64))
-        x = x_all[rows]
-        n = x.shape[0]
-        h = 1e-6 * (1.0 + np.abs(x).max(axis=0))
-        moved = np.repeat(x[None], D, axis=0)  # (D, n, D): copy c has feature c moved by h_c
-        moved[np.arange(D), :, np.arange(D)] += h[:, None]
+        x, moved, h = sensitivity_samples(features)
+        D, n = moved.shape[:2]
         base = self._positions(x)
         pos = self._positions(moved.reshape(D * n, D))
         shift = Evaluator._max_distances(pos, base).reshape(D, n)

@@ -9,15 +9,19 @@ Encoding (``specs/codecs.md`` has the full description):
 3. the clip is cut into regions of ``region`` frames; region ``r`` has its own exponent ``k_r``, and a
    coefficient's step is ``2 ** ((b_c + k) / 8)``, with ``k`` the smallest ``k_r`` over the regions its
    synthesis function reaches, so that each region's error depends mostly on its own exponent;
-4. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
+4. with a feature chain (``context.feature_chain``, :mod:`motionrep.pipeline.chain`; :mod:`._plan`) the features are
+   quantised closed loop along the skeleton: depth group by group, each group's targets recomputed from what the
+   decoder makes of the groups before it, so that a parent's error does not rotate its subtree, and the
+   sensitivities of step 1 are the chain's (about each joint's own bones: larger steps near the root);
+5. the ``k_r`` are bisected in lockstep, every region to the largest step that keeps its frames within the
    bound (one shared evaluation of the whole clip per step of the bisection), then settled (regions that a
    neighbour's change pushed over the bound are lowered until all pass);
-5. the room the frames still have under the bound is spent: non-zero detail coefficients move one step towards
+6. the room the frames still have under the bound is spent: non-zero detail coefficients move one step towards
    zero where that saves bits and every point stays within the bound, move by move, each measured exactly
    through the context's feature edits (:mod:`._greedy`; by thresholds over whole-clip measurements,
    :mod:`._slack`, for a context without them); the same steps, so any decoder of the payload's version reads
    the result;
-6. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
+7. the quantised coefficients are coded by an adaptive binary arithmetic coder with context mixing, in C
    (:mod:`._stream2`, payload version 3: version 2's coder with trained start states; version 2 and version 1,
    static models and a range coder, :mod:`._stream`, are still read).
 
@@ -36,24 +40,27 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from motionrep.plugin.codec import Codec, EncodeContext, Payload, check_decode_work, check_frames
-from motionrep.plugin.coding import MAX_MAGNITUDE, largest_passing_each, step_scale
+from motionrep.plugin.coding import largest_passing_each, step_scale
 from motionrep.errors import BoundNotMetError, MotionrepError, ParameterError, PayloadError, naming
 
 from . import _stream2
 from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
 from ._greedy import MIN_SAVING, spend_slack_exact
+from ._plan import _Plan, coefficient_exponents, steps_of, window_minimum  # noqa: F401 (tests import them here)
 from ._slack import frame_sensitivity, reduction_savings, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
-from ._wavelet import coefficient_frames, forward, num_levels
+from ._wavelet import coefficient_frames
 
 __all__ = ["TransformCodec", "TransformParams", "TransformDecoder", "interpolate_rows", "reconstruct", "unpack"]
 
 #: Step exponents are in eighths of an octave: step = 2 ** (exponent / 8).
 _PER_OCTAVE = 8
-#: A coefficient of detail level j reaches about 3 * 2 ** j frames on each side of its centre.
-_REACH = 3
 #: The bisection of region exponents spans 2 ** -12 .. 2 ** 3 times the bound (in position units).
 _SEARCH_BELOW, _SEARCH_ABOVE = 12 * _PER_OCTAVE, 3 * _PER_OCTAVE
+#: In closed loop the bisection's window starts this far below the bound's exponent (one octave; the 24 CMU-31
+#: payloads of benchmarks/encode_speed.py end 0-7 below it): 2 whole-clip steps fewer than the full window; a region
+#: that fails even there is bisected again below it.
+_WARM_BELOW = _PER_OCTAVE
 #: Moves measured by feature edits keep every point this much (relative) within the bound: the edits hold the
 #: features as sums of changes, the payload decodes them by the inverse wavelet (the same values but for rounding).
 _EDIT_MARGIN = 1e-9
@@ -80,6 +87,11 @@ class TransformParams:
                 "many passes of one step each, every move measured (0..64, default 5; more passes, smaller files, "
                 "a longer encode; 0 keeps the rounded integers; a context without feature edits searches "
                 "thresholds in this many feature groups instead, default 3)"})
+    closed_loop: bool = field(default=True, metadata={
+        "help": "quantise closed loop along the skeleton when the representation offers it (root-quat-axis-angle): "
+                "depth by depth, each joint's values recomputed from what the decoder makes of its parents, so a "
+                "parent's error does not rotate its subtree (about 30 % fewer bytes, 2-3x the encode time); "
+                "false: every feature on its own, as before"})
     rounding: float = field(default=0.45, metadata={
         "help": "quantiser rounding offset in [0.05, 0.5]: 0.5 rounds to nearest; smaller values widen the dead "
                 "zone around 0, more zeros at a slightly smaller step (the slack search then widens it where "
@@ -94,8 +106,17 @@ class TransformParams:
         if self.slack is not None and (isinstance(self.slack, bool) or not isinstance(self.slack, int)
                                        or not 0 <= self.slack <= 64):
             raise ParameterError(f"transform: slack must be an integer in 0..64, got {self.slack!r}")
+        if not isinstance(self.closed_loop, bool):
+            raise ParameterError(f"transform: closed_loop must be true or false, got {self.closed_loop!r}")
         if not (isinstance(self.rounding, (int, float)) and 0.05 <= self.rounding <= 0.5):
             raise ParameterError(f"transform: rounding must be in [0.05, 0.5], got {self.rounding!r}")
+
+
+def _spread(values: NDArray[np.int64], where: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """``(where.size,)``: ``values`` at the entries of ``where`` (zero elsewhere)."""
+    out = np.zeros(where.size, np.int64)
+    out[where] = values
+    return out
 
 
 def _log_step(x: NDArray[np.float64] | float) -> NDArray[np.int64]:
@@ -113,110 +134,13 @@ def feature_exponents(sensitivity: NDArray[np.float64]) -> NDArray[np.int64]:
     return np.clip(_log_step(1.0 / s), -MAX_EXPONENT // 2, MAX_EXPONENT // 2)
 
 
-class _Plan:
-    """The quantisation of one clip: its wavelet coefficients and which regions each coefficient reaches."""
-
-    def __init__(self, features: NDArray[np.float64], feature_exp: NDArray[np.int64], region: int):
-        self.num_frames, self.num_features = features.shape
-        self.region = region
-        self.regions = -(-self.num_frames // region)
-        self.levels = num_levels(self.num_frames)
-        self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
-        self.feature_exp = feature_exp
-        frames = coefficient_frames(self.num_frames, self.levels)
-        spans = [self.levels] + list(range(self.levels, 0, -1))
-        self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
-        self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
-        # what every quantisation of the bisection reads: |c| and sign(c) (as integers), computed once
-        self._magnitudes = [np.abs(c) for c in self.coefficients]
-        self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
-
-    def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
-        """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
-        return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
-
-    def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
-        """``sign(c) floor(|c| / step + rounding)`` of every coefficient, its step ``2 ** ((b_c + k) / 8)``
-        (:meth:`exponents`) taken from a table of the few distinct ``k`` (rows of one ``k`` share their steps;
-        the same numbers as :func:`steps_of`)."""
-        out = []
-        # the windows' minima as indices into the sorted distinct k (order-preserving, so the minimum of the
-        # indices is the index of the minimum): one table of steps for every array, its rows those k's
-        distinct, index = np.unique(np.asarray(region_exp, np.int64).reshape(-1), return_inverse=True)
-        table = step_scale(distinct[:, None] + self.feature_exp[None, :])
-        minima: dict[int, NDArray[np.int64]] = {}  # arrays of one reach share their windows' minima
-        for mag, sign, rows, span in zip(self._magnitudes, self._signs, self.region_of, self.reach):
-            if span not in minima:
-                minima[span] = window_minimum(index.reshape(-1), span)
-            a = table[minima[span][rows]]  # a fresh array: divided in place
-            np.divide(mag, a, out=a)
-            a += rounding
-            np.floor(a, out=a)
-            if a.size and not float(a.max()) <= MAX_MAGNITUDE:
-                raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
-                                              "max_error", None, None), "max_error")
-            q = a.astype(np.int64)
-            q *= sign
-            out.append(q)
-        return out
-
-    def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
-        """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
-        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
-        return reconstruct(self.quantised(region_exp, rounding))
-
-    def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
-        return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
-                         np.asarray(region_exp, np.int64), self.quantise(region_exp, rounding))
-
-
-def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
-    """``2 ** (e / 8)`` of every exponent array (through a table of the distinct values: the same bits as
-    :func:`motionrep.plugin.coding.step_scale`, faster)."""
-    low = min(int(e.min()) for e in exponents if e.size)
-    high = max(int(e.max()) for e in exponents if e.size)
-    table = step_scale(np.arange(low, high + 1))
-    return [np.asarray(table)[e - low] for e in exponents]
-
-
-def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray[np.int64]], reach: list[int],
-                          feature_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
-    """Per coefficient array, ``(n, D)`` exponents ``b_c + min(k_r over the regions within reach)``."""
-    out = []
-    for rows, span in zip(region_of, reach):
-        k = window_minimum(region_exp, span)
-        out.append(k[rows][:, None] + feature_exp[None, :])
-    return out
-
-
-def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
-    """``(n, ...)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` along the first axis (the ends
-    extended by their nearest value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ...
-    values by doubling, then each window as two overlapping power-of-two windows (scipy's
-    ``minimum_filter1d(values, 2 span + 1, mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up
-    for every process that opens a transform clip; a sliding window view would take O(n span) time, and the
-    coarse levels' spans of a long clip reach thousands of regions)."""
-    v = np.asarray(values)
-    n = v.shape[0]
-    if span <= 0 or n == 0:
-        return v
-    if span >= n - 1:  # every window holds every value
-        return np.broadcast_to(v.min(axis=0), v.shape).copy()
-    width = 2 * span + 1
-    m = np.concatenate([np.repeat(v[:1], span, axis=0), v, np.repeat(v[-1:], span, axis=0)])
-    p = 1
-    while 2 * p <= width:  # m[i] = min of the p values from i on
-        m = np.minimum(m[:-p], m[p:])
-        p *= 2
-    return np.minimum(m[:n], m[width - p:width - p + n])
-
-
-def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64]
+def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights: NDArray[np.float64], chain=None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(D,)`` position units per feature unit: the 90th percentile over frames of the context's measured
-    sensitivity when it offers one, else the weights ``w`` (Tojo et al. eq. 3); and ``(m, D)``, the measured
-    sensitivity of ``m`` frames spread evenly over the clip (the weights, ``m = 1``, without a measure)."""
-    measure = getattr(context, "feature_sensitivity", None)
+    sensitivity when it offers one (the chain's, in closed loop, with a chain), else the weights ``w`` (Tojo et al.
+    eq. 3); and ``(m, D)``, the measured sensitivity of ``m`` frames spread evenly over the clip (the weights,
+    ``m = 1``, without a measure)."""
+    measure = getattr(context, "feature_sensitivity", None) if chain is None else chain.sensitivity
     if measure is not None:
         per_frame = np.asarray(measure(features), dtype=np.float64)
         if per_frame.ndim == 2 and per_frame.shape[1] == features.shape[1] and per_frame.shape[0] >= 1 \
@@ -224,6 +148,19 @@ def _sensitivity(context: EncodeContext, features: NDArray[np.float64], weights:
             return np.percentile(per_frame, _SENSITIVITY_PERCENTILE, axis=0), per_frame
     w = np.asarray(weights, dtype=np.float64)
     return w, w[None, :]
+
+
+def _chain(context: EncodeContext, features: NDArray[np.float64]):
+    """The context's feature chain of ``features`` (:meth:`motionrep.pipeline.evaluate.MotionContext.feature_chain`)
+    when it offers one and it has more than one group (else None: open loop)."""
+    make = getattr(context, "feature_chain", None)
+    if make is None:
+        return None
+    try:
+        chain = make(features)
+    except MotionrepError:  # features that do not decode
+        return None
+    return chain if chain is not None and len(chain.groups) > 1 else None
 
 
 class _RegionErrors:
@@ -278,9 +215,10 @@ class TransformCodec(Codec):
                                         "(max_error=None)"), "max_error=None")
         Y = np.asarray(features, dtype=np.float64)
         F, D = Y.shape
-        summary, sampled = _sensitivity(context, Y, weights)
+        chain = _chain(context, Y) if params.closed_loop else None
+        summary, sampled = _sensitivity(context, Y, weights, chain)
         feature_exp = feature_exponents(summary)
-        plan = _Plan(Y, feature_exp, params.region)
+        plan = _Plan(Y, feature_exp, params.region, chain)
         if params.step is not None:
             k = np.full(plan.regions, int(_log_step(params.step)), np.int64)
         else:
@@ -317,8 +255,16 @@ class TransformCodec(Codec):
             return region_errors(k) <= bound
 
         k0 = int(_log_step(bound))
-        low = np.full(R, k0 - _SEARCH_BELOW, np.int64)
-        k = largest_passing_each(passes, low, np.full(R, k0 + _SEARCH_ABOVE, np.int64))
+        low, high = np.full(R, k0 - _SEARCH_BELOW, np.int64), np.full(R, k0 + _SEARCH_ABOVE, np.int64)
+        if plan.chain is None:
+            k = largest_passing_each(passes, low, high)
+        else:  # closed loop: a narrower window first, below it only for the regions that fail at its low end
+            start = np.full(R, k0 - _WARM_BELOW, np.int64)
+            k = largest_passing_each(passes, start, high)
+            below = k < start
+            if below.any():
+                k[below] = largest_passing_each(lambda v: passes(np.where(below, _spread(v, below), k))[below],
+                                                low[below], start[below] - 1)
         context.progress("bisect", regions=R, evaluations=errors.evaluations, diagnostic=True)
         k = self._settle(k, region_errors, bound, low[0] - 1)
         context.progress("settle", regions=R, evaluations=errors.evaluations,

@@ -8,7 +8,7 @@ PyWavelets has the same filters but only with extension modes that either add co
 (``symmetric``: more bits on short clips) or make the clip periodic (``periodization``: a jump from the last
 frame to the first, more bits on long clips); this critically sampled symmetric form has neither cost. Arrays
 are ``(frames, features)``; additions and multiplications in a fixed order (the same result on every run): the
-forward transform (encoding) in numpy, the inverse in C (``_c/mrtransform.c``, the decoder's own).
+forward transform (encoding) and the inverse (the decoder's own) in C (``_c/mrtransform.c``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["forward", "inverse", "num_levels", "level_sizes", "coefficient_frames"]
+__all__ = ["forward", "forward_rows", "inverse", "num_levels", "level_sizes", "coefficient_frames"]
 
 # lifting coefficients of CDF 9/7 (alpha, beta, gamma, delta), JPEG 2000 Part 1, Annex F
 _STEPS = (-1.586134342059924, -0.052980118572961, 0.882911075530934, 0.443506852043971)
@@ -59,48 +59,28 @@ def coefficient_frames(num_frames: int, levels: int) -> list[NDArray[np.int64]]:
     return out
 
 
-def _right(s: NDArray, count: int) -> NDArray:
-    """``s[i + 1]`` for ``i < count``; past the end, ``s[-1]`` (the mirror image: for an even-length signal the
-    last odd sample's right neighbour ``x[n]`` is ``x[n - 2]``)."""
-    if s.shape[0] > count:
-        return s[1:count + 1]
-    return np.concatenate([s[1:], s[-1:]], axis=0)
+def forward_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(n, D)``: the coefficients of ``(n, D)`` samples at :func:`num_levels` ``(n)`` levels, the arrays of
+    :func:`forward` one after the other (storage order), computed by the C analysis beside the decoder's inverse
+    (``_c/mrtransform.c``, ``mrt_forward``: JPEG 2000's lifting steps ``d += a (s + s_right)``, ``s += a (d_left +
+    d)`` with the mirrored ends, then the subbands scaled, one IEEE operation at a time in that order)."""
+    from ._cdecode import forward as c_forward
 
-
-def _left(d: NDArray, count: int) -> NDArray:
-    """``d[i - 1]`` for ``i < count``, with ``d[-1] = d[0]`` (mirror at the start)."""
-    return np.concatenate([d[:1], d[:count - 1]], axis=0)
-
-
-def _here(d: NDArray, count: int) -> NDArray:
-    """``d[i]`` for ``i < count``, with ``d[len] = d[len - 1]`` (mirror at the end of an odd-length signal)."""
-    if d.shape[0] >= count:
-        return d[:count]
-    return np.concatenate([d, d[-1:]], axis=0)
-
-
-def _split(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    s, d = x[0::2].copy(), x[1::2].copy()
-    ns, nd = s.shape[0], d.shape[0]
-    for k, a in enumerate(_STEPS):
-        if k % 2 == 0:
-            d += a * (s[:nd] + _right(s, nd))
-        else:
-            s += a * (_left(d, ns) + _here(d, ns))
-    s *= _LOW
-    d *= _HIGH
-    return s, d
+    values = np.ascontiguousarray(x, dtype=np.float64)
+    if values.ndim != 2:
+        raise ValueError(f"forward: (n, D) samples, got shape {values.shape}")
+    out = np.empty_like(values)
+    c_forward(values, out)
+    return out
 
 
 def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
-    """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`)."""
-    out = []
-    s = np.asarray(x, dtype=np.float64)
-    for _ in range(levels):
-        s, d = _split(s)
-        out.append(d)
-    out.append(s)
-    return out[::-1]
+    """``[approximation, detail L, ..., detail 1]`` of ``(n, D)`` samples (sizes :func:`level_sizes`; ``levels``
+    must be :func:`num_levels` ``(n)``): :func:`forward_rows` split."""
+    rows = forward_rows(x)
+    if levels != num_levels(rows.shape[0]):
+        raise ValueError(f"forward: levels must be num_levels({rows.shape[0]}), got {levels}")
+    return np.split(rows, np.cumsum(level_sizes(rows.shape[0], levels))[:-1], axis=0)
 
 
 def inverse(coefficients: list[NDArray[np.float64]]) -> NDArray[np.float64]:

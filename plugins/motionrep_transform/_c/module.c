@@ -5,6 +5,8 @@
  *   reconstruct(F, D, region_frames, feature_exponents, region_exponents, coefficients) -> Frames
  *   decode(data, version) -> Frames
  *   inverse(values, out)         the inverse wavelet of (F, D) float64 coefficients (storage order) into out (F, D)
+ *   forward(values, out)         the forward wavelet of (F, D) float64 samples into out (F, D), storage order (the
+ *                                encoder's analysis)
  *   sample(times, out, frames)   the features at times into a feature-major out (D, >= T): a decoder's kernel
  *   integers(data, segments) -> (values, exhausted)   the integer coding alone (tests: against constriction)
  *
@@ -288,9 +290,9 @@ static PyObject *py_reconstruct(PyObject *mod, PyObject *args)
     return frames_new(&f);
 }
 
-static PyObject *py_inverse(PyObject *mod, PyObject *args)
+/* (F, D) values into out (F, D), column by column through one of mrtransform's wavelet transforms */
+static PyObject *by_columns(PyObject *args, void (*transform)(double *, const uint64_t *, int, double *))
 {
-    (void)mod;
     PyObject *ov, *oo;
     if (!PyArg_ParseTuple(args, "OO", &ov, &oo))
         return NULL;
@@ -316,7 +318,7 @@ static PyObject *py_inverse(PyObject *mod, PyObject *args)
     for (uint64_t d = 0; d < D; d++) {
         for (uint64_t i = 0; i < F; i++)
             x[i] = v[i * D + d];
-        mrt_inverse(x, sizes, levels, x + F);
+        transform(x, sizes, levels, x + F);
         for (uint64_t i = 0; i < F; i++)
             o[i * D + d] = x[i];
     }
@@ -324,6 +326,18 @@ static PyObject *py_inverse(PyObject *mod, PyObject *args)
     PyBuffer_Release(&bv);
     PyBuffer_Release(&bo);
     Py_RETURN_NONE;
+}
+
+static PyObject *py_inverse(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    return by_columns(args, mrt_inverse);
+}
+
+static PyObject *py_forward(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    return by_columns(args, mrt_forward);
 }
 
 static PyObject *py_sample(PyObject *mod, PyObject *args)
@@ -430,6 +444,9 @@ static PyMethodDef functions[] = {
     {"reconstruct", py_reconstruct, METH_VARARGS,
      "reconstruct(F, D, region, feature_exponents, region_exponents, coefficients) -> Frames"},
     {"inverse", py_inverse, METH_VARARGS, "inverse(values, out): the inverse wavelet of (F, D) coefficients"},
+    {"forward", py_forward, METH_VARARGS,
+     "forward(values, out): the forward wavelet of (F, D) samples, the coefficients in inverse's layout (the "
+     "encoder's)"},
     {"sample", py_sample, METH_VARARGS, "sample(times, out, frames): the features at times, feature-major"},
     {"integers", py_integers, METH_VARARGS, "integers(data, segments) -> (int64 bytes, maybe_exhausted)"},
     {NULL, NULL, 0, NULL}};

@@ -943,6 +943,42 @@ static inline __attribute__((always_inline)) void synthesise_block(double *const
 }
 #endif
 
+/* The forward transform of one signal x (in place: [approximation, detail L, ..., detail 1], as mrt_inverse reads
+ * them; tmp holds sizes' total): the encoder's analysis, not used by decoding.  The lifting steps of
+ * _wavelet.forward, operation for operation (d[i] + a (s[i] + s[min(i + 1, ns - 1)]), s[i] + a (d[max(i - 1, 0)] +
+ * d[min(i, nd - 1)]), then the subbands scaled): the numpy forward's bits. */
+void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
+{
+    uint64_t n = 0;
+    for (int l = 0; l <= levels; l++)
+        n += sizes[l];
+    for (int l = levels; l >= 1; l--) {
+        uint64_t nd = sizes[l], ns = n - nd;
+        double *MRT_RESTRICT s = tmp, *MRT_RESTRICT d = tmp + ns;
+        for (uint64_t i = 0; i < nd; i++) {
+            s[i] = x[2 * i];
+            d[i] = x[2 * i + 1];
+        }
+        if (ns > nd)
+            s[nd] = x[2 * nd];
+        for (int k = 0; k < 4; k++) {
+            double a = STEPS[k];
+            if (k % 2 == 0) {
+                for (uint64_t i = 0; i < nd; i++)
+                    d[i] = d[i] + a * (s[i] + s[i + 1 < ns ? i + 1 : ns - 1]);
+            } else {
+                for (uint64_t i = 0; i < ns; i++)
+                    s[i] = s[i] + a * (d[i ? i - 1 : 0] + d[i < nd ? i : nd - 1]);
+            }
+        }
+        for (uint64_t i = 0; i < ns; i++)
+            x[i] = s[i] * LOW;
+        for (uint64_t i = 0; i < nd; i++)
+            x[ns + i] = d[i] * HIGH;
+        n = ns;
+    }
+}
+
 /* The steps of a quantised payload: `table` (2 ** (e / 8) for e = lo..hi, as motionrep.plugin.coding.step_scale)
  * and each coefficient row's region part of its exponent as an index into it (krow, F entries), the exponents
  * checked to be in range. */

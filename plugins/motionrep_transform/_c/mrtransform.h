@@ -100,6 +100,8 @@ int mrt_frames_rows(mrt_frames *f);
 /* The inverse CDF 9/7 wavelet of one feature: x holds its coefficients in storage order (approximation, detail L,
  * ..., detail 1; row counts `sizes`, as mrt_levels gives them), replaced by the samples; tmp holds as many doubles. */
 void mrt_inverse(double *x, const uint64_t *sizes, int levels, double *tmp);
+/* The forward transform of x (in place, into mrt_inverse's layout; tmp holds sizes' total): the encoder's. */
+void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp);
 
 /* The number of wavelet levels of F frames and the row counts of the coefficient arrays (sizes[0..levels]). */
 int mrt_levels(uint64_t frames, uint64_t *sizes);

@@ -1,6 +1,7 @@
 """The decoder of ``transform`` payloads (format 1) as motionrep shipped it in Python and numpy until the C decoder
 (``_c/mrtransform.c``) replaced it: kept here, unchanged, as the oracle the C decoder is tested against (the same
-values and the same error messages on valid and on damaged payloads).  Not used by the plugin."""
+values and the same error messages on valid and on damaged payloads), and the numpy forward wavelet the C one
+is tested against.  Not used by the plugin."""
 
 from __future__ import annotations
 
@@ -14,10 +15,48 @@ from motionrep.plugin.coding import IntegerDecoder, Model, max_values, step_scal
 from motionrep_transform._codec import coefficient_exponents
 from motionrep_transform._stream import (_CONTEXTS, _SIZES, MAX_EXPONENT, MAX_ZERO, Quantised, _approx_steps,
                                          _grouped, _parents, _passes)
-from motionrep_transform._wavelet import _STEPS, _HIGH, _LOW, _here, _left, _right, coefficient_frames, level_sizes, \
-    num_levels
+from motionrep_transform._wavelet import _STEPS, _HIGH, _LOW, coefficient_frames, level_sizes, num_levels
 
 _REACH = 3
+
+
+# the wavelet's mirrored neighbours, as the plugin's numpy code had them
+def _right(s: NDArray, count: int) -> NDArray:
+    """``s[i + 1]`` for ``i < count``; past the end, ``s[-1]`` (the mirror image: for an even-length signal the
+    last odd sample's right neighbour ``x[n]`` is ``x[n - 2]``)."""
+    if s.shape[0] > count:
+        return s[1:count + 1]
+    return np.concatenate([s[1:], s[-1:]], axis=0)
+
+
+def _left(d: NDArray, count: int) -> NDArray:
+    """``d[i - 1]`` for ``i < count``, with ``d[-1] = d[0]`` (mirror at the start)."""
+    return np.concatenate([d[:1], d[:count - 1]], axis=0)
+
+
+def _here(d: NDArray, count: int) -> NDArray:
+    """``d[i]`` for ``i < count``, with ``d[len] = d[len - 1]`` (mirror at the end of an odd-length signal)."""
+    if d.shape[0] >= count:
+        return d[:count]
+    return np.concatenate([d, d[-1:]], axis=0)
+
+
+def forward(x: NDArray[np.float64], levels: int) -> list[NDArray[np.float64]]:
+    """The numpy forward wavelet the plugin shipped until the C one (``mrt_forward``) replaced it (the oracle)."""
+    out, s = [], np.asarray(x, dtype=np.float64)
+    for _ in range(levels):
+        s, d = s[0::2].copy(), s[1::2].copy()
+        ns, nd = s.shape[0], d.shape[0]
+        for k, a in enumerate(_STEPS):
+            if k % 2 == 0:
+                d += a * (s[:nd] + _right(s, nd))
+            else:
+                s += a * (_left(d, ns) + _here(d, ns))
+        s *= _LOW
+        d *= _HIGH
+        out.append(d)
+    out.append(s)
+    return out[::-1]
 
 
 # the v1 format's contexts pass by pass, as its decoder meets them (the library computes them for both passes of a

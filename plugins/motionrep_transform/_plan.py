@@ -1,0 +1,163 @@
+"""The quantisation of one clip for the ``transform`` codec (:mod:`._codec`): its wavelet coefficients, the step of
+every coefficient from the feature and region exponents, and the integers, open loop or closed loop along the
+skeleton (a context's feature chain, :mod:`motionrep.pipeline.chain`: group by group, each group's targets from
+what the decoder makes of the groups before it)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from motionrep.errors import BoundNotMetError, naming
+from motionrep.plugin.coding import MAX_MAGNITUDE, step_scale
+
+from ._decoder import reconstruct, synthesised
+from ._stream import Quantised
+from ._wavelet import coefficient_frames, forward, forward_rows, num_levels
+
+__all__ = ["coefficient_exponents", "steps_of", "window_minimum"]
+
+#: A coefficient of detail level j reaches about 3 * 2 ** j frames on each side of its centre.
+_REACH = 3
+
+
+class _Plan:
+    """The quantisation of one clip: its wavelet coefficients and which regions each coefficient reaches; with a
+    feature chain (``context.feature_chain``), quantised closed loop, group by group (:meth:`quantise`)."""
+
+    def __init__(self, features: NDArray[np.float64], feature_exp: NDArray[np.int64], region: int, chain=None):
+        self.num_frames, self.num_features = features.shape
+        self.region = region
+        self.regions = -(-self.num_frames // region)
+        self.levels = num_levels(self.num_frames)
+        self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
+        self.feature_exp = feature_exp
+        self.chain = chain
+        frames = coefficient_frames(self.num_frames, self.levels)
+        spans = [self.levels] + list(range(self.levels, 0, -1))
+        self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
+        self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
+        # what every quantisation of the bisection reads: |c| and sign(c) (as integers), computed once
+        self._magnitudes = [np.abs(c) for c in self.coefficients]
+        self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
+        # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
+        # measured, which the encoder then quantises again
+        self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
+
+    def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+        """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
+        return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
+
+    def _steps(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.float64]]:
+        """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
+        the few distinct ``k`` (rows of one ``k`` share their steps; the same numbers as :func:`steps_of`), each a
+        fresh array."""
+        # the windows' minima as indices into the sorted distinct k (order-preserving, so the minimum of the
+        # indices is the index of the minimum): one table of steps for every array, its rows those k's
+        distinct, index = np.unique(np.asarray(region_exp, np.int64).reshape(-1), return_inverse=True)
+        table = step_scale(distinct[:, None] + self.feature_exp[None, :])
+        minima: dict[int, NDArray[np.int64]] = {}  # arrays of one reach share their windows' minima
+        out = []
+        for rows, span in zip(self.region_of, self.reach):
+            if span not in minima:
+                minima[span] = window_minimum(index.reshape(-1), span)
+            out.append(table[minima[span][rows]])
+        return out
+
+    def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+        """``sign(c) floor(|c| / step + rounding)`` of every coefficient (steps: :meth:`_steps`).
+
+        With a chain, group by group: the coefficients of a group are those of its targets given what the decoder
+        makes of the integers of the groups before it (each group's columns synthesised alone: the inverse wavelet
+        runs column by column, so they have the decoder's values).  The same exponents and rounding as the call
+        before: a copy of its result."""
+        key = np.asarray(region_exp, np.int64).tobytes()
+        if self._last is not None and self._last[0] == key and self._last[1] == rounding:
+            return [q.copy() for q in self._last[2]]
+        out = self._quantise(region_exp, rounding)
+        self._last = (key, rounding, [q.copy() for q in out])
+        return out
+
+    def _quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+        steps = self._steps(region_exp)
+        if self.chain is None:
+            return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
+        # the arrays of every level one after the other (storage order), so that a group is one block of columns
+        all_steps = np.concatenate(steps, axis=0)
+        out = np.zeros((self.num_frames, self.num_features), np.int64)
+        decoded = np.zeros((self.num_frames, self.num_features))
+        for g, cols in enumerate(self.chain.groups):
+            c = forward_rows(self.chain.targets(g, decoded))
+            step = all_steps[:, cols]
+            q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+            out[:, cols] = q
+            dequantised = q * step
+            decoded[:, cols] = synthesised([dequantised], self.levels) if self.levels else dequantised
+        return np.split(out, np.cumsum([a.shape[0] for a in steps])[:-1], axis=0)
+
+    def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
+        """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
+        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
+        return reconstruct(self.quantised(region_exp, rounding))
+
+    def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
+        return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
+                         np.asarray(region_exp, np.int64), self.quantise(region_exp, rounding))
+
+
+def _rounded(magnitude: NDArray[np.float64], step: NDArray[np.float64], sign: NDArray[np.int64],
+             rounding: float) -> NDArray[np.int64]:
+    """``sign floor(magnitude / step + rounding)`` (``step`` is overwritten)."""
+    a = step
+    np.divide(magnitude, a, out=a)
+    a += rounding
+    np.floor(a, out=a)
+    if a.size and not float(a.max()) <= MAX_MAGNITUDE:
+        raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
+                                      "max_error", None, None), "max_error")
+    q = a.astype(np.int64)
+    q *= sign
+    return q
+
+
+def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:
+    """``2 ** (e / 8)`` of every exponent array (through a table of the distinct values: the same bits as
+    :func:`motionrep.plugin.coding.step_scale`, faster)."""
+    low = min(int(e.min()) for e in exponents if e.size)
+    high = max(int(e.max()) for e in exponents if e.size)
+    table = step_scale(np.arange(low, high + 1))
+    return [np.asarray(table)[e - low] for e in exponents]
+
+
+def coefficient_exponents(region_exp: NDArray[np.int64], region_of: list[NDArray[np.int64]], reach: list[int],
+                          feature_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+    """Per coefficient array, ``(n, D)`` exponents ``b_c + min(k_r over the regions within reach)``."""
+    out = []
+    for rows, span in zip(region_of, reach):
+        k = window_minimum(region_exp, span)
+        out.append(k[rows][:, None] + feature_exp[None, :])
+    return out
+
+
+def window_minimum(values: NDArray[np.int64], span: int) -> NDArray[np.int64]:
+    """``(n, ...)``: ``out[i] = min(values[max(0, i - span) : i + span + 1])`` along the first axis (the ends
+    extended by their nearest value), in O(n log span) time and O(n) memory: minima over windows of 1, 2, 4, ...
+    values by doubling, then each window as two overlapping power-of-two windows (scipy's
+    ``minimum_filter1d(values, 2 span + 1, mode="nearest")`` without importing scipy.ndimage, 1.5 s of start-up
+    for every process that opens a transform clip; a sliding window view would take O(n span) time, and the
+    coarse levels' spans of a long clip reach thousands of regions)."""
+    v = np.asarray(values)
+    n = v.shape[0]
+    if span <= 0 or n == 0:
+        return v
+    if span >= n - 1:  # every window holds every value
+        return np.broadcast_to(v.min(axis=0), v.shape).copy()
+    width = 2 * span + 1
+    m = np.concatenate([np.repeat(v[:1], span, axis=0), v, np.repeat(v[-1:], span, axis=0)])
+    p = 1
+    while 2 * p <= width:  # m[i] = min of the p values from i on
+        m = np.minimum(m[:-p], m[p:])
+        p *= 2
+    return np.minimum(m[:n], m[width - p:width - p + n])

@@ -1,0 +1,130 @@
+"""Closed-loop quantisation along the skeleton (``context.feature_chain``): the bound, the bytes, and the open-loop
+path that contexts without a chain keep. Determinism across processes and thread counts is tested on the whole
+codec (closed loop by default) in ``tests/test_transform.py``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.model._pose import Motion, Skeleton
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.compress import compress_motion, decompress
+from motionrep.pipeline.evaluate import MotionContext, max_joint_error
+from motionrep.plugin.registry import get_codec, get_representation
+from motionrep_transform._stream2 import unpack
+
+from helpers import without
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_motion(humanoid_skeleton(), frames=200, fps=60, seed=11)
+
+
+def _coincident_and_translated() -> Motion:
+    """A skeleton with a child at its parent (the pelvis at the root) and a joint with animated translation."""
+    rot = ("Zrotation", "Xrotation", "Yrotation")
+    pos = ("Xposition", "Yposition", "Zposition")
+    sk = Skeleton(names=("root", "pelvis", "spine", "head", "left", "lfoot", "right", "rfoot"),
+                  parents=np.array([-1, 0, 1, 2, 1, 4, 1, 6]),
+                  offsets=np.array([[0, 90, 0], [0, 0, 0], [0, 20, 0], [0, 30, 0], [10, -5, 0], [0, -40, 0],
+                                    [-10, -5, 0], [0, -40, 0]], float),
+                  channels=(pos + rot, rot, rot, pos + rot, rot, rot, rot, rot),
+                  end_site_parents=np.array([3, 5, 7]), end_site_offsets=np.array([[0, 10, 0], [0, -40, 0],
+                                                                                    [0, -40, 0]], float))
+    m = synthetic_motion(sk, frames=150, fps=60, seed=4)
+    t = np.zeros((m.num_frames, 1, 3))
+    t[:, 0] = [0.0, 30.0, 0.0]
+    t[:, 0, 0] += 2.0 * np.sin(np.linspace(0, 6, m.num_frames))
+    return Motion(sk, m.fps, m.root_translation, m.rotations, t)
+
+
+def _encode(motion, bound, chain: bool, **params):
+    codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
+    ctx = MotionContext(motion, rep, codec, codec.parse_params(params), bound, 0, None)
+    context = ctx if chain else without(ctx, "feature_chain")
+    payload = codec.encode(rep.to_features(motion), rep.weights(motion), context)
+    reached = ctx.evaluate_payload(payload).max_error
+    return payload.arrays["data"].tobytes(), reached
+
+
+@pytest.mark.parametrize("max_error", ["0.05%", "0.5%", "2%", "8%"])
+def test_the_bound_holds_in_closed_loop_through_the_decoder(walk, max_error):
+    r = compress_motion(walk, "transform", max_error=max_error)
+    assert max_joint_error(walk, decompress(r.data)).max_error <= r.bound
+
+
+@pytest.mark.parametrize("percent", [0.05, 0.5, 3.0])
+def test_the_bound_holds_with_a_coincident_child_and_animated_translations(percent):
+    m = _coincident_and_translated()
+    bound = percent / 100 * 170.0
+    data, reached = _encode(m, bound, chain=True)
+    assert reached <= bound
+    r = compress_motion(m, "transform", max_error=f"{percent}%")
+    assert max_joint_error(m, decompress(r.data)).max_error <= r.bound
+
+
+def test_a_context_without_a_chain_quantises_open_loop(walk):
+    """Without ``feature_chain`` (a third party's context) the codec is the open-loop one: the bytes of
+    ``closed_loop=false``, within the bound, and not those of the closed loop."""
+    bound = 0.005 * 170.0
+    closed, reached_closed = _encode(walk, bound, chain=True)
+    open_loop, reached_open = _encode(walk, bound, chain=False)
+    switched_off, _ = _encode(walk, bound, chain=True, closed_loop=False)
+    assert open_loop == switched_off and open_loop != closed
+    assert reached_closed <= bound and reached_open <= bound
+    # the same payload layout either way: any decoder of version 3 reads both
+    a, b = unpack(closed), unpack(open_loop)
+    assert (a.num_frames, a.num_features) == (b.num_frames, b.num_features)
+
+
+def test_closed_loop_is_true_or_false():
+    from motionrep.errors import ParameterError
+
+    codec = get_codec("transform")
+    assert codec.parse_params({}).closed_loop is True
+    assert codec.parse_params({"closed_loop": "false"}).closed_loop is False
+    assert codec.parse_params({"closed_loop": "yes"}).closed_loop is True
+    with pytest.raises(ParameterError, match="closed_loop"):
+        codec.parse_params({"closed_loop": "sometimes"})
+
+
+def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
+    """The codec asks for every group's targets in order, each time with the earlier groups' decoded values."""
+    from motionrep.pipeline.chain import FeatureChain
+
+    calls = []
+    targets = FeatureChain.targets
+
+    def spy(self, group, decoded):
+        calls.append(group)
+        return targets(self, group, decoded)
+
+    monkeypatch.setattr(FeatureChain, "targets", spy)
+    compress_motion(walk, "transform", max_error="1%")
+    n = max(calls) + 1
+    assert n > 2 and len(calls) % n == 0 and calls == list(range(n)) * (len(calls) // n)
+
+
+def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkeypatch):
+    """The closed loop's bisection starts in a narrower window; a region that fails even at its low end is bisected
+    again below it (here every region: a window of the top two exponents only), and the payload meets the bound
+    at about the full window's bytes."""
+    import motionrep_transform._codec as codec_module
+
+    full = compress_motion(walk, "transform", max_error="2%")
+    windows = []
+
+    def recorded(passes, low, high):
+        windows.append((np.asarray(low).size, int(np.max(high))))
+        return largest(passes, low, high)
+
+    largest = codec_module.largest_passing_each
+    monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
+    monkeypatch.setattr(codec_module, "_WARM_BELOW", 1 - codec_module._SEARCH_ABOVE)
+    narrow = compress_motion(walk, "transform", max_error="2%")
+    assert len(windows) == 2 and windows[1][0] == windows[0][0] and windows[1][1] < windows[0][1] - 1
+    assert narrow.report.max_error_percent <= 2.0
+    assert max_joint_error(walk, decompress(narrow.data)).max_error_percent <= 2.0
+    assert abs(len(narrow.data) - len(full.data)) < 0.05 * len(full.data)

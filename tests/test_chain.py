@@ -1,0 +1,169 @@
+"""Feature chains (``motionrep.pipeline.chain``): depth groups, closed-loop targets and sensitivities."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionrep.model.kinematics import forward_kinematics
+from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
+from motionrep.pipeline.evaluate import MotionContext
+from motionrep.plugin.registry import get_codec, get_representation
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_motion(humanoid_skeleton(), frames=90, fps=60, seed=3)
+
+
+def _context(motion, representation="root-quat-axis-angle"):
+    rep = get_representation(representation)
+    codec = get_codec("transform")
+    return MotionContext(motion, rep, codec, codec.parse_params({}), 1.0, 0, None), rep
+
+
+def _fk(motion, rep, features):
+    return forward_kinematics(rep.from_features(features, motion.skeleton, motion.fps))
+
+
+def test_groups_hold_every_column_once_by_depth(walk):
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    cols = np.concatenate(chain.groups)
+    assert sorted(cols.tolist()) == list(range(f.shape[1]))
+    names = rep.layout(walk.skeleton).names
+    depth = walk.skeleton.depths
+    index = {n: j for j, n in enumerate(walk.skeleton.names)}
+    seen = [sorted({int(depth[index[names[c].split("/")[0]]]) for c in g}) for g in chain.groups]
+    assert all(len(s) == 1 for s in seen) and [s[0] for s in seen] == sorted(s[0] for s in seen)
+    assert set(chain.groups[0].tolist()) >= {0, 1, 2}  # the root's translation first
+
+
+def test_targets_of_exact_parents_are_the_features(walk):
+    """With every earlier group decoded exactly, each group's targets are its own features (to rounding)."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    for g, cols in enumerate(chain.groups):
+        np.testing.assert_allclose(chain.targets(g, f), f[:, cols], atol=1e-9)
+
+
+def test_targets_read_only_the_earlier_groups_and_close_the_loop(walk):
+    """Whatever the features held before (every rotation off by about 3 degrees), each group decoded as its
+    targets puts every point where it belongs and every joint with several points below it (orientation
+    feedback) at its true global rotation: the targets read only the groups before their own."""
+    ctx, rep = _context(walk)
+    sk = walk.skeleton
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    decoded = f.copy()
+    rng = np.random.default_rng(0)
+    decoded[:, 3:] += rng.normal(0.0, 0.05, decoded[:, 3:].shape)  # every rotation off by about 3 degrees
+    out = decoded.copy()
+    for g, cols in enumerate(chain.groups):
+        out[:, cols] = chain.targets(g, out)  # each group decoded as its targets (no quantisation error)
+    true = forward_kinematics(walk)
+    got = _fk(walk, rep, out)
+    J = sk.num_joints
+    several = [j for j in range(1, J) if len(sk.children[j]) > 1]
+    single = [j for j in range(1, J) if len(sk.children[j]) == 1 and not np.any(sk.end_site_parents == j)]
+    assert several and single
+    # the joints that keep their true global rotation are exactly those with several points below them
+    for j in several:
+        dot = np.abs(np.sum(got.rotations[:, j] * true.rotations[:, j], axis=-1))
+        np.testing.assert_allclose(dot, 1.0, atol=1e-9)
+    # with every group its targets, every point lands where it should (the loop closes exactly)
+    np.testing.assert_allclose(got.positions, true.positions, atol=1e-7)
+
+
+def test_an_open_loop_error_moves_what_the_closed_loop_keeps(walk):
+    """The same parent error, children left as they were (open loop), moves the hands; the loop puts them back."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    decoded = f.copy()
+    decoded[:, chain.groups[1]] += 0.02
+    open_loop = _fk(walk, rep, decoded).positions
+    closed = decoded.copy()
+    for g in range(2, len(chain.groups)):
+        closed[:, chain.groups[g]] = chain.targets(g, closed)
+    closed_pos = _fk(walk, rep, closed).positions
+    true = forward_kinematics(walk).positions
+    far = np.sqrt(np.sum((open_loop - true) ** 2, axis=-1)).max()
+    near = np.sqrt(np.sum((closed_pos - true) ** 2, axis=-1)).max()
+    assert near < 0.5 * far
+
+
+def test_sensitivities_count_the_points_directly_below(walk):
+    """Closed loop, a rotation's sensitivity is about its own bones: never above the open-loop one, and well below
+    it for the spine, whose open-loop lever reaches the hands."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    closed = chain.sensitivity(f)
+    opened = ctx.feature_sensitivity(f)
+    assert closed.shape == opened.shape
+    assert np.all(closed <= opened * (1 + 1e-6) + 1e-9)
+    names = rep.layout(walk.skeleton).names
+    root_quat = [c for c, n in enumerate(names) if n.startswith(walk.skeleton.names[0] + "/q")]
+    assert np.percentile(closed[:, root_quat], 90) < 0.5 * np.percentile(opened[:, root_quat], 90)
+    np.testing.assert_allclose(closed[:, :3], opened[:, :3])  # the root's translation moves everything
+
+
+def test_a_child_at_its_parent_passes_the_lever_on():
+    """A joint whose only child sits at the joint itself gets the lever of that child's children (else its steps
+    would be unbounded: a root whose only child is at the root)."""
+    from motionrep.model._pose import Motion, Skeleton
+
+    sk = Skeleton(names=("root", "pelvis", "left", "right"), parents=np.array([-1, 0, 1, 1]),
+                  offsets=np.array([[0.0, 90.0, 0.0], [0.0, 0.0, 0.0], [10.0, -40.0, 0.0], [-10.0, -40.0, 0.0]]),
+                  channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"),
+                            ("Zrotation", "Xrotation", "Yrotation"), ("Zrotation", "Xrotation", "Yrotation"),
+                            ("Zrotation", "Xrotation", "Yrotation")),
+                  end_site_parents=np.array([2, 3]), end_site_offsets=np.array([[0.0, -40.0, 0.0]] * 2))
+    m = synthetic_motion(sk, frames=30, fps=30, seed=1)
+    m = Motion(sk, 30.0, m.root_translation, m.rotations)
+    ctx, rep = _context(m)
+    chain = ctx.feature_chain(rep.to_features(m))
+    names = rep.layout(sk).names
+    root_q = names.index("root/qx")
+    J = sk.num_joints
+    assert chain.lever_points[root_q, :J].tolist() == [False, False, True, True]
+    assert chain.sensitivity(rep.to_features(m))[:, root_q].max() > 1.0
+
+
+def test_only_local_quaternions_and_rotation_vectors_have_a_chain(walk):
+    """Other rotation blocks (Euler angles here) get None: the codec then quantises open loop."""
+    ctx, rep = _context(walk, "euler")
+    assert ctx.feature_chain(rep.to_features(walk)) is None
+
+
+def test_a_joint_with_many_children_stays_open_loop():
+    """A joint with more than ``MAX_CHILDREN`` child joints (a hand with five fingers) keeps its children's true
+    features as their targets (each would take a copy of its noise) and its open-loop lever (every point)."""
+    from motionrep.model._pose import Motion, Skeleton
+    from motionrep.pipeline.chain import MAX_CHILDREN
+
+    rot = ("Zrotation", "Xrotation", "Yrotation")
+    n = MAX_CHILDREN + 1
+    names = ("root", "hand") + tuple(f"finger{i}" for i in range(n))
+    offsets = np.array([[0.0, 90.0, 0.0], [0.0, 30.0, 0.0]] + [[2.0 * i - n, 8.0, 0.0] for i in range(n)])
+    sk = Skeleton(names=names, parents=np.array([-1, 0] + [1] * n), offsets=offsets,
+                  channels=(("Xposition", "Yposition", "Zposition") + rot,) + (rot,) * (n + 1),
+                  end_site_parents=np.arange(2, 2 + n), end_site_offsets=np.array([[0.0, 3.0, 0.0]] * n))
+    m = synthetic_motion(sk, frames=40, fps=30, seed=2)
+    m = Motion(sk, 30.0, m.root_translation, m.rotations)
+    ctx, rep = _context(m)
+    f = rep.to_features(m)
+    chain = ctx.feature_chain(f)
+    names_f = rep.layout(sk).names
+    hand = [c for c, name in enumerate(names_f) if name.startswith("hand/")]
+    assert chain.lever_points[hand].all()
+    decoded = f.copy()
+    decoded[:, hand] += 0.05
+    fingers = len(chain.groups) - 1
+    np.testing.assert_array_equal(chain.targets(0, decoded), f[:, chain.groups[0]])
+    for g in range(1, fingers + 1):
+        chain.targets(g, decoded)
+    np.testing.assert_array_equal(chain.targets(fingers, decoded), f[:, chain.groups[fingers]])
