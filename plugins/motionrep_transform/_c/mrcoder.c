@@ -825,6 +825,15 @@ static int run_free(const Run *run, int64_t n) {
     return free;
 }
 
+/* a run's mixing weights and coder state back into run, where the loops kept them in registers */
+MRC_INLINE void run_store(Run *run, int64_t w0, int64_t w1, int64_t w2, uint32_t range, uint32_t code) {
+    run->w[0] = (int32_t)w0;
+    run->w[1] = (int32_t)w1;
+    run->w[2] = (int32_t)w2;
+    run->range = range;
+    run->code = code;
+}
+
 /* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep); `free`:
  * no weight can reach MIX_LIMIT within the run (then mix_step's clamp is left out).  The loop is bound by the
  * number of its operations as much as by the chain from one decision to the next, so it has as few as the
@@ -855,11 +864,7 @@ MRC_INLINE int64_t quiet_loop(const int sat, const int free, Coder *c, Counter *
     }
     *K0 = q0;
     *K1 = q1;
-    run->w[0] = (int32_t)w0;
-    run->w[1] = (int32_t)w1;
-    run->w[2] = (int32_t)w2;
-    run->range = range;
-    run->code = code;
+    run_store(run, w0, w1, w2, range, code);
     return k;
 }
 
@@ -893,11 +898,7 @@ MRC_INLINE int64_t busy_loop(const int free, Coder *c, const ColCtx *cc, int64_t
         counter_update0(k2);
         if (MRC_UNLIKELY(range < (1u << 24))) code = dec_refill(&c->d, &range, code);
     }
-    run->w[0] = (int32_t)w0;
-    run->w[1] = (int32_t)w1;
-    run->w[2] = (int32_t)w2;
-    run->range = range;
-    run->code = code;
+    run_store(run, w0, w1, w2, range, code);
     return k;
 }
 
