@@ -834,6 +834,18 @@ MRC_INLINE void run_store(Run *run, int64_t w0, int64_t w1, int64_t w2, uint32_t
     run->code = code;
 }
 
+/* what a run ended with back into the caller's state: the mixing weights, the coder's range and code, and the
+ * pending flag's stretches, probability and bound */
+MRC_INLINE void run_load(const Run *run, int32_t *w, uint32_t *range, uint32_t *code, int *s, int *p,
+                         uint32_t *bound) {
+    memcpy(w, run->w, sizeof run->w);
+    *range = run->range;
+    *code = run->code;
+    memcpy(s, run->s, sizeof run->s);
+    *p = run->p;
+    *bound = run->bound;
+}
+
 /* quiet_run's loop; `sat`: both shared counters past 62 updates (then they stay there: no count to keep); `free`:
  * no weight can reach MIX_LIMIT within the run (then mix_step's clamp is left out).  The loop is bound by the
  * number of its operations as much as by the chain from one decision to the next, so it has as few as the
@@ -944,12 +956,7 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
             if (quiet) {
                 Run run = {range, code, {wl[0], wl[1], wl[2]}, {0, 0, 0}, 0, 0};
                 k = quiet_run(c, &m->z0[bc * N0], &m->z1[bc * N1 * N1], z2, row, act, 0, na, cs, &run);
-                memcpy(wl, run.w, sizeof wl);
-                range = run.range;
-                code = run.code;
-                memcpy(s, run.s, sizeof s);
-                p = run.p;
-                bound = run.bound;
+                run_load(&run, wl, &range, &code, s, &p, &bound);
                 if (k < na) row_contexts(c->t, m, &rw, row, act + k, na - k, bc, z2, cc + k);
             } else {
                 row_contexts(c->t, m, &rw, row, act, na, bc, z2, cc);
@@ -958,12 +965,7 @@ static void decode_details(Coder *c, Models *m, int64_t *coef, const int32_t *ac
                 if (!quiet || any) { /* the general loop (a row with a non-zero somewhere around, or after one) */
                     Run run = {range, code, {wl[0], wl[1], wl[2]}, {0, 0, 0}, 0, 0};
                     k = busy_run(c, cc, k, na, &run);
-                    memcpy(wl, run.w, sizeof wl);
-                    range = run.range;
-                    code = run.code;
-                    memcpy(s, run.s, sizeof s);
-                    p = run.p;
-                    bound = run.bound;
+                    run_load(&run, wl, &range, &code, s, &p, &bound);
                     if (k == na) break;
                 }
                 /* a non-zero at column k */
