@@ -7,14 +7,12 @@
 #include <math.h>
 
 #include "ccore.h"
+#include "mr_rotconv.h"
 
+/* o = a b: the core's Hamilton product (mr_rotconv.h's mr_product, numpy's quat_multiply's order) */
 static inline void qmul(const double *a, const double *b, double *o)
 {
-    double ax = a[0], ay = a[1], az = a[2], aw = a[3], bx = b[0], by = b[1], bz = b[2], bw = b[3];
-    o[0] = aw * bx + ax * bw + ay * bz - az * by;
-    o[1] = aw * by - ax * bz + ay * bw + az * bx;
-    o[2] = aw * bz + ax * by - ay * bx + az * bw;
-    o[3] = aw * bw - ax * bx - ay * by - az * bz;
+    mr_product(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], o);
 }
 
 static inline void cross(const double *a, const double *b, double *o)
