@@ -32,16 +32,21 @@ class _Plan:
         self.region = region
         self.regions = -(-self.num_frames // region)
         self.levels = num_levels(self.num_frames)
-        self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
         self.feature_exp = feature_exp
         self.chain = chain
         frames = coefficient_frames(self.num_frames, self.levels)
         spans = [self.levels] + list(range(self.levels, 0, -1))
         self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
         self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
-        # what every quantisation of the bisection reads: |c| and sign(c) (as integers), computed once
-        self._magnitudes = [np.abs(c) for c in self.coefficients]
-        self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
+        # open loop: the coefficients of the features, and what every quantisation of the bisection reads, |c| and
+        # sign(c) (as integers), computed once (in closed loop each quantisation transforms its groups' targets)
+        self.coefficients: list[NDArray[np.float64]] = []
+        self._magnitudes: list[NDArray[np.float64]] = []
+        self._signs: list[NDArray[np.int64]] = []
+        if chain is None:
+            self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
+            self._magnitudes = [np.abs(c) for c in self.coefficients]
+            self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
         # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
         # measured, which the encoder then quantises again
         self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
