@@ -14,7 +14,12 @@ through :meth:`MotionContext.feature_chain <motionrep.pipeline.evaluate.MotionCo
 - but the children of a joint with more than :data:`MAX_CHILDREN` child joints (a hand with five fingers) keep
   their true values, and that joint its open-loop sensitivity: each child would take a copy of its parent's
   quantisation noise (measured on the tuning clips: 2-4 % fewer bytes at 2 % and 0.588 % on the seven of them with
-  such joints than closing them too, the same at 0.0588 %).
+  such joints than closing them too, the same at 0.0588 %);
+- and a joint whose rotation never moves (a collar, a buttock, an eye of a rig that records them as still) keeps
+  its true values when its parent's lever reaching through it gets no longer (:data:`STILL_LEVER`): closed, it would
+  take a copy of its decoded parent's noise, a feature that cost nothing made noisy; held, its parent's error moves
+  the points below it too, which is free when none of them is farther from the parent than the parent's own points
+  (:attr:`FeatureChain.held`; measured in ``benchmarks/results/stillrule.md``).
 
 A parent's error then no longer rotates the subtree, and a feature's sensitivity (:meth:`FeatureChain.sensitivity`)
 is about its joint's own bones: how far a unit change moves the points directly below it (a child at the joint
@@ -52,6 +57,11 @@ SENSITIVITY_BUDGET = 4096
 #: A joint with more child joints than this stays open loop: its error is not taken out of its children (each child
 #: would take a copy of its quantisation noise), and its sensitivity is the open-loop one.
 MAX_CHILDREN = 3
+#: A joint whose rotation never moves keeps its true values when that makes its parent's lever (the farthest point
+#: its error moves) at most this many times longer.
+STILL_LEVER = 1.0
+#: A rotation whose features (radians, quaternion components) vary by at most this over the clip never moves.
+_STILL = 1e-9
 #: A bone (or lever) at most this fraction of the skeleton's longest local offset counts as zero length.
 _COINCIDENT = 1e-6
 
@@ -93,6 +103,7 @@ class FeatureChain:
             (rotation blocks and local translations; the root's translation in the first group).
         lever_points: ``(D, J + E)`` bool, the points a change of each feature moves once the loop restores what
             is below them.
+        held: ``(J,)`` bool, the joints whose rotation never moves that keep their true values (module docstring).
     """
 
     def __init__(self, features: ArrayLike, skeleton: Skeleton, plan: PosePlan, positions: Positions):
@@ -124,14 +135,37 @@ class FeatureChain:
         reach = np.sqrt(np.sum(local ** 2, axis=2)).max(axis=0) if F else np.zeros(J)
         tiny = _COINCIDENT * (float(reach[1:].max()) if J > 1 else 1.0)
         kids = sk.children
+        opened = [len(kids[j]) > MAX_CHILDREN for j in range(J)]
+        held = np.zeros(J, bool)  # still joints that keep their true values (their parent's lever passes through)
 
         def below(j: int) -> list[int]:
             out = [J + e for e in np.flatnonzero(sk.end_site_parents == j).tolist()]
             for k in kids[j]:
-                out += below(k) if reach[k] <= tiny else [k]
+                out += below(k) if reach[k] <= tiny else [k] + below(k) if held[k] else [k]
             return out
 
-        opened = [len(kids[j]) > MAX_CHILDREN for j in range(J)]
+        def lever(j: int) -> float:
+            pts = below(j)
+            if not pts or not F:
+                return 0.0
+            v = true_pos[:, pts] - true_pos[:, j:j + 1]
+            return float(np.sqrt(np.sum(v * v, axis=2)).max())
+
+        # a joint whose rotation never moves would take a copy of its decoded parent's noise in closed loop: it keeps
+        # its true values when its parent's lever reaching through it (to the points below it) gets no longer, so
+        # that the parent's steps stay as they were; deepest first, so a held joint's own held children count
+        for j in sorted(range(1, J), key=lambda j: (-int(depth[j]), j)):
+            if j not in entry_of or opened[sk.parents[j]] or not F:
+                continue
+            rows = [c for c in plan.columns[entry_of[j]].tolist() if c >= 0]
+            x = self._true[:, rows]
+            if float(np.ptp(x, axis=0).max()) > _STILL:  # its rotation moves
+                continue
+            p = int(sk.parents[j])
+            before = lever(p)
+            held[j] = True
+            held[j] = lever(p) <= STILL_LEVER * before
+        self.held = held
         self.lever_points = np.zeros((D, J + E), bool)
         for j in range(J):
             rows = [c for c in plan.columns[entry_of[j]].tolist() if c >= 0] if j in entry_of else []
@@ -147,7 +181,8 @@ class FeatureChain:
         # of them get position feedback (exactly one point directly below, not at the joint itself)
         self._at: dict[int, tuple] = {}
         for d in depths[1:]:
-            js = [j for j in range(J) if depth[j] == d and j in entry_of and not opened[sk.parents[j]]]
+            js = [j for j in range(J) if depth[j] == d and j in entry_of and not opened[sk.parents[j]]
+                  and not held[j]]
             if not js:
                 continue
             kinds = plan.kinds[[entry_of[j] for j in js]]
