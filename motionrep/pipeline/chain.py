@@ -138,18 +138,24 @@ class FeatureChain:
         opened = [len(kids[j]) > MAX_CHILDREN for j in range(J)]
         held = np.zeros(J, bool)  # still joints that keep their true values (their parent's lever passes through)
 
+        ends = [[] for _ in range(J)]
+        for e, j in enumerate(sk.end_site_parents.tolist()):
+            ends[j].append(J + e)
+
         def below(j: int) -> list[int]:
-            out = [J + e for e in np.flatnonzero(sk.end_site_parents == j).tolist()]
+            out = list(ends[j])
             for k in kids[j]:
                 out += below(k) if reach[k] <= tiny else [k] + below(k) if held[k] else [k]
             return out
 
+        far: dict[tuple[int, int], float] = {}  # (joint, point): their largest distance over frames
+
         def lever(j: int) -> float:
-            pts = below(j)
-            if not pts or not F:
-                return 0.0
-            v = true_pos[:, pts] - true_pos[:, j:j + 1]
-            return float(np.sqrt(np.sum(v * v, axis=2)).max())
+            for pt in below(j):
+                if (j, pt) not in far:
+                    v = true_pos[:, pt] - true_pos[:, j]
+                    far[j, pt] = float(np.sqrt(np.sum(v * v, axis=1)).max())
+            return max((far[j, pt] for pt in below(j)), default=0.0)
 
         # a joint whose rotation never moves would take a copy of its decoded parent's noise in closed loop: it keeps
         # its true values when its parent's lever reaching through it (to the points below it) gets no longer, so
