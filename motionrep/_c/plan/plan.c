@@ -112,14 +112,18 @@ MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRIC
         ptrdiff_t m = n - a < MR_PLAN_SUB ? n - a : MR_PLAN_SUB;
         const double *MR_RESTRICT y0 = x0 + a, *MR_RESTRICT y1 = x1 + a, *MR_RESTRICT y2 = x2 + a;
         ptrdiff_t near = 0;  /* theta2 not above 2e-6 (or NaN): theta may be 1e-3 or less */
+        ptrdiff_t turned = 0;  /* theta / 2 beyond the first quadrant of mr_sincos (or NaN) */
         for (ptrdiff_t i = 0; i < m; i++) {
             double t2 = mr_axis_angle_theta2(y0[i], y1[i], y2[i]);
             T2[i] = t2;
             T[i] = sqrt(t2);
             near += t2 > 2e-6 ? 0 : 1;
+            turned += mr_sincos_first(0.5 * T[i]) ? 0 : 1;
         }
-        for (ptrdiff_t i = 0; i < m; i++)
+        for (ptrdiff_t i = 0; turned && i < m; i++)
             mr_sincos(0.5 * T[i], &S[i], &C[i]);
+        for (ptrdiff_t i = 0; !turned && i < m; i++)  /* (the same values: mr_sincos_first) */
+            mr_sincos_kernel(0.5 * T[i], &S[i], &C[i]);
         for (ptrdiff_t i = 0; near && i < m; i++) {
             double k = mr_axis_angle_scale(S[i], T[i], T2[i]);
             QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
