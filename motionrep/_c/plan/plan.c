@@ -102,7 +102,9 @@ size_t mr_plan_scratch(const mr_plan *p)
 /* mr_axis_angle's arithmetic (its parts, in its order) in three loops over the n values, so that the CPU has many
  * of them in flight at once (the sum of squares and sqrt; the sine and cosine; the quotient and the products: each
  * a short chain, where the whole conversion is one long chain of dependent operations); and where every angle of
- * a run is well above 1e-3, the quotient alone (mr_axis_angle_scale: the series' two divisions never needed) */
+ * a run is well above 1e-3, the quotient alone (mr_axis_angle_scale: the series' two divisions never needed); and
+ * where every half angle also lies in mr_sincos's first quadrant (mr_sincos_first), its kernels alone (the same
+ * values), with the quotient and the products in their loop (the divisions overlap the next values' kernels) */
 MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1, const double *MR_RESTRICT x2,
                           double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
                           double *MR_RESTRICT QW, ptrdiff_t n)
@@ -119,6 +121,15 @@ MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRIC
             T[i] = sqrt(t2);
             near += t2 > 2e-6 ? 0 : 1;
             turned += mr_sincos_first(0.5 * T[i]) ? 0 : 1;
+        }
+        if (!turned && !near) {  /* the usual case: the kernels, the quotient and the products in one loop */
+            for (ptrdiff_t i = 0; i < m; i++) {
+                double sn, cs;
+                mr_sincos_kernel(0.5 * T[i], &sn, &cs);
+                double k = sn / T[i];
+                QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = cs;
+            }
+            continue;
         }
         for (ptrdiff_t i = 0; turned && i < m; i++)
             mr_sincos(0.5 * T[i], &S[i], &C[i]);
