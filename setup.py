@@ -19,6 +19,9 @@ FLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-fast-math", "-fno-math-er
 #: motionrep's installed C headers (mrkernels.h, sampler.h, pybuf.h)
 INCLUDE = ["motionrep/_c/include"]
 TRANSFORM = "plugins/motionrep_transform/_c"
+#: the shared kernels' headers (an extension that includes them is rebuilt when they change)
+KERNELS = ["motionrep/_c/include/motionrep/mrkernels.h", "motionrep/_c/include/motionrep/sampler.h",
+           "motionrep/_c/include/motionrep/pybuf.h"]
 
 setup(ext_modules=[
     # BVH numbers and writer, FK, rotation conversions and continuity (motionrep.io, motionrep.model)
@@ -32,7 +35,8 @@ setup(ext_modules=[
     # the pose plan and the runtime decoder's loop (motionrep.model.poseplan, motionrep.pipeline.runtime)
     # (numpy's C API: the one-pose path makes its fresh arrays in C)
     Extension("motionrep._cplan", sources=["motionrep/_c/plan/plan.c", "motionrep/_c/plan/module.c"],
-              include_dirs=INCLUDE + ["motionrep/_c/plan", numpy.get_include()], depends=["motionrep/_c/plan/plan.h"],
+              include_dirs=INCLUDE + ["motionrep/_c/plan", numpy.get_include()],
+              depends=["motionrep/_c/plan/plan.h", "motionrep/_c/mr_rotconv.h"] + KERNELS,
               extra_compile_args=FLAGS),
     # the transform payload decoder: mrtransform.h/.c (no Python; an engine can embed it, with mrcoder.c and
     # mrprior3.h for payload versions 2 and 3) and its binding
@@ -46,7 +50,7 @@ setup(ext_modules=[
               depends=[f"{TRANSFORM}/mrcoder.h", f"{TRANSFORM}/mrprior3.h"], extra_compile_args=FLAGS),
     # the svd codec's decoder
     Extension("motionrep_svd._csvd", sources=["plugins/motionrep_svd/_c/module.c"], include_dirs=INCLUDE,
-              extra_compile_args=FLAGS),
+              depends=KERNELS + ["motionrep/_c/mr_rotconv.h"], extra_compile_args=FLAGS),
     # the Fourier codecs' network decoder
     Extension("motionrep_fourier._cfourier", sources=["plugins/motionrep_fourier/_c/module.c"], include_dirs=INCLUDE,
               extra_compile_args=FLAGS),

@@ -131,3 +131,49 @@ def test_real_svd_payloads_decode_in_batches_to_the_arithmetic_written_out(path,
     assert got.rotations.tobytes() == want.tobytes()
     tc = plan.translation_columns[0]
     assert got.root_translation[:, tc >= 0].tobytes() == f[:, tc[tc >= 0]].tobytes()
+
+
+def test_rotation_vectors_about_the_first_quadrant_of_sincos_decode_to_the_one_value_conversion():
+    """The pose plan converts a sub-block's rotation vectors whose half angles all lie in ``mr_sincos``'s first
+    quadrant with its kernels alone (``mr_sincos_first``); every other sub-block, with the whole of ``mr_sincos``.
+    Both give the bits of the core's one-value conversion (``axis_angle_to_quat``), batch by batch: entries always
+    inside, always outside, mixed within a sub-block, and half angles one ulp either side of the quadrant's edge,
+    zero, -0.0, below the series' 1e-3, and several turns; in small batches and in batches streamed past the cache.
+    Bit for bit on purpose (scalar IEEE C without fused multiply-add or fast-math: the same on any x86-64 or aarch64
+    CPU, in a vector lane or alone)."""
+    from motionrep.model.poseplan import AXIS_ANGLE, PosePlan, decode_planned
+    from motionrep.model.rotations import axis_angle_to_quat
+
+    edge = 2 * (0.5 / 0.6366197723675814)  # theta whose half angle is about the quadrant's edge
+    at = [edge]
+    for _ in range(40):  # the largest theta still inside, by the kernel's own arithmetic, and its neighbours
+        inside = (0.5 * np.array(at)) * 0.6366197723675814 + 0.5 < 1.0
+        at.append(np.nextafter(at[-1], np.inf if inside[-1] else -np.inf))
+    edges = np.unique(np.concatenate([at, np.nextafter(at, np.inf), np.nextafter(at, -np.inf)]))
+    inside = (0.5 * edges) * 0.6366197723675814 + 0.5 < 1.0
+    assert inside.any() and not inside.all()  # both sides of the edge are there
+    rng = np.random.default_rng(24)
+    J = 5
+    plan = PosePlan(width=3 * J, num_joints=J, kinds=np.full(J, AXIS_ANGLE, np.int64),
+                    columns=np.concatenate([np.arange(3 * J).reshape(J, 3), np.full((J, 3), -1)], axis=1),
+                    axes=np.full((J, 3), -1, np.int64), joints=np.arange(J, dtype=np.int64),
+                    parents=np.arange(J, dtype=np.int64) - 1, translation_columns=np.zeros((0, 3), np.int64),
+                    translation_values=np.zeros((0, 3)))
+    for T in (1, 2, 3, 63, 64, 65, 200, 8192 + 77):
+        direction = rng.normal(size=(T, J, 3))
+        direction /= np.linalg.norm(direction, axis=2, keepdims=True)
+        theta = np.empty((T, J))
+        theta[:, 0] = rng.random(T) * 0.9 * edge  # always inside
+        theta[:, 1] = edge + rng.random(T) * 20.0  # always outside (several turns too)
+        theta[:, 2] = np.where(rng.random(T) < 0.02, edge * 1.5, rng.random(T) * edge)  # now and then outside
+        theta[:, 3] = rng.choice(edges, T)  # at the edge
+        theta[:, 4] = rng.choice([0.0, 1e-9, 5e-4, 1e-3, 0.3, edge], T)  # zero, the series, inside
+        f = (direction * theta[..., None]).reshape(T, 3 * J)
+        f[::7, 12:15] = 0.0
+        f[3::11, 12] = -0.0
+        f[:, 9] = np.where(theta[:, 3] > 0, theta[:, 3], f[:, 9])  # exactly theta along x: |v| is theta
+        f[:, 10:12] = np.where(theta[:, 3:4] > 0, 0.0, f[:, 10:12])
+        want = axis_angle_to_quat(f.reshape(T, J, 3))
+        got = np.empty((T, J, 4))
+        decode_planned(f, plan, got, None, None)
+        assert got.tobytes() == want.tobytes(), T

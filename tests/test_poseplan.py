@@ -148,6 +148,26 @@ def test_bad_features_are_refused():
         _decode(plan, bad)
 
 
+@pytest.mark.parametrize("T", [1, 7, 8, 9, 16, 21, 64, 67, 130])
+def test_nan_or_infinity_anywhere_in_a_planned_column_is_refused_and_nowhere_else(T):
+    """The finiteness check (sums of x * 0 in eight lanes, then a compare per value for the last few of a column)
+    finds NaN, inf and -inf at every position of every column the plan reads, lane and tail alike; refuses
+    nothing for the largest finite values or for NaN in a column no entry reads."""
+    rng = np.random.default_rng(T)
+    plan = _plan([QUAT, AXIS_ANGLE], [(3, 4, 5, 6), (7, 8, 9)], width=12)
+    f = rng.normal(size=(T, 12))
+    f[:, 10] = np.nan  # read by nothing
+    f[:, 0] = np.where(rng.random(T) < 0.5, 1.7976931348623157e308, -1.7976931348623157e308)  # root translation
+    f[:, 7:10] = np.where(rng.random((T, 3)) < 0.3, 1.7976931348623157e308, f[:, 7:10])
+    _decode(plan, f)  # (the rotation vectors' rotations are NaN: not finite features, nothing to refuse)
+    for column in (0, 1, 2, 3, 6, 7, 9):
+        for i in range(T):
+            bad = f.copy()
+            bad[i, column] = (np.nan, np.inf, -np.inf)[(i + column) % 3]
+            with pytest.raises(ValidationError, match="NaN or infinity"):
+                _decode(plan, bad)
+
+
 # ---- the same bits as the numba kernel this C kernel replaced ---------------------------------------------------
 # Random plans (every kind, world rotations, translations, parents in any order) and features (edge values, NaN,
 # infinity, -0, denormals; batches past the streaming threshold), decoded as float64 and float32 with and without

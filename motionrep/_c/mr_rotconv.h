@@ -54,13 +54,9 @@ static inline double MR_RC(mr_rint_nonneg)(double x)
     return x < two52 ? (x + two52) - two52 : x;
 }
 
-/* (sin x, cos x) of a float64 x to within an ulp: Cody-Waite reduction by pi / 2 (three parts, exact products for
- * |x| < 2**20 pi / 2; beyond, the reduction loses accuracy gracefully but stays bounded), then fdlibm's kernels on
- * [-pi/4, pi/4].  motionrep.jit.sincos, operation for operation. */
-static inline void MR_RC(mr_sincos)(double x, double *sin_out, double *cos_out)
+/* fdlibm's kernels: (sin r, cos r) for r in [-pi/4, pi/4] (the reduced argument of mr_sincos) */
+static inline void MR_RC(mr_sincos_kernel)(double r, double *sin_out, double *cos_out)
 {
-    double n = MR_RC(mr_floor)(x * 0.6366197723675814 + 0.5);
-    double r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21;
     double z = r * r;
     double s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
         -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
@@ -70,7 +66,19 @@ static inline void MR_RC(mr_sincos)(double x, double *sin_out, double *cos_out)
             2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
     double hz = 0.5 * z;
     double w = 1.0 - hz;
-    double c = w + (((1.0 - w) - hz) + tail);
+    *sin_out = s;
+    *cos_out = w + (((1.0 - w) - hz) + tail);
+}
+
+/* (sin x, cos x) of a float64 x to within an ulp: Cody-Waite reduction by pi / 2 (three parts, exact products for
+ * |x| < 2**20 pi / 2; beyond, the reduction loses accuracy gracefully but stays bounded), then fdlibm's kernels on
+ * [-pi/4, pi/4].  motionrep.jit.sincos, operation for operation. */
+static inline void MR_RC(mr_sincos)(double x, double *sin_out, double *cos_out)
+{
+    double n = MR_RC(mr_floor)(x * 0.6366197723675814 + 0.5);
+    double r = ((x - n * 1.57079632673412561417e+00) - n * 6.07710050630396597660e-11) - n * 2.02226624871116645580e-21;
+    double s, c;
+    MR_RC(mr_sincos_kernel)(r, &s, &c);
     double quadrant = n - 4.0 * MR_RC(mr_floor)(n * 0.25);
     int odd = (quadrant == 1.0) | (quadrant == 3.0);
     double s1 = odd ? c : s;
@@ -78,6 +86,15 @@ static inline void MR_RC(mr_sincos)(double x, double *sin_out, double *cos_out)
     int upper = quadrant >= 2.0;
     *sin_out = upper ? -s1 : s1; /* selects, no branch: loops over it vectorise */
     *cos_out = upper ? -c1 : c1;
+}
+
+/* Whether mr_sincos(x) is mr_sincos_kernel(x) exactly: x whose quadrant n = floor(x 2 / pi + 1/2) is 0 (x within
+ * about pi / 4 of 0; not NaN).  Then n is +0.0, each n * c of the reduction is +0.0 and x - +0.0 is x (-0.0 too),
+ * the quadrant is +0.0 - 4 floor(+0.0) = +0.0, and no select changes a value. */
+static inline int MR_RC(mr_sincos_first)(double x)
+{
+    double v = x * 0.6366197723675814 + 0.5;
+    return (v >= 0.0) & (v < 1.0);
 }
 
 /* q = a b, the Hamilton product of two xyzw quaternions (q may be a). */

@@ -102,24 +102,41 @@ size_t mr_plan_scratch(const mr_plan *p)
 /* mr_axis_angle's arithmetic (its parts, in its order) in three loops over the n values, so that the CPU has many
  * of them in flight at once (the sum of squares and sqrt; the sine and cosine; the quotient and the products: each
  * a short chain, where the whole conversion is one long chain of dependent operations); and where every angle of
- * a run is well above 1e-3, the quotient alone (mr_axis_angle_scale: the series' two divisions never needed) */
+ * a run is well above 1e-3, the quotient alone (mr_axis_angle_scale: the series' two divisions never needed); and
+ * where every half angle also lies in mr_sincos's first quadrant (mr_sincos_first), its kernels alone (the same
+ * values), with the quotient and the products in their loop (the divisions overlap the next values' kernels).
+ * `first`: look for that (the one-pose path does not: a pose's few values, one of them turned, and it costs) */
 MR_INLINE void axis_angle(const double *MR_RESTRICT x0, const double *MR_RESTRICT x1, const double *MR_RESTRICT x2,
                           double *MR_RESTRICT QX, double *MR_RESTRICT QY, double *MR_RESTRICT QZ,
-                          double *MR_RESTRICT QW, ptrdiff_t n)
+                          double *MR_RESTRICT QW, ptrdiff_t n, int first)
 {
     double T2[MR_PLAN_SUB], T[MR_PLAN_SUB], S[MR_PLAN_SUB], C[MR_PLAN_SUB];
     for (ptrdiff_t a = 0; a < n; a += MR_PLAN_SUB) {
         ptrdiff_t m = n - a < MR_PLAN_SUB ? n - a : MR_PLAN_SUB;
         const double *MR_RESTRICT y0 = x0 + a, *MR_RESTRICT y1 = x1 + a, *MR_RESTRICT y2 = x2 + a;
         ptrdiff_t near = 0;  /* theta2 not above 2e-6 (or NaN): theta may be 1e-3 or less */
+        ptrdiff_t turned = !first;  /* theta / 2 beyond the first quadrant of mr_sincos (or NaN); or not looked at */
         for (ptrdiff_t i = 0; i < m; i++) {
             double t2 = mr_axis_angle_theta2(y0[i], y1[i], y2[i]);
             T2[i] = t2;
             T[i] = sqrt(t2);
             near += t2 > 2e-6 ? 0 : 1;
+            if (first)
+                turned += mr_sincos_first(0.5 * T[i]) ? 0 : 1;
         }
-        for (ptrdiff_t i = 0; i < m; i++)
+        if (!turned && !near) {  /* the usual case: the kernels, the quotient and the products in one loop */
+            for (ptrdiff_t i = 0; i < m; i++) {
+                double sn, cs;
+                mr_sincos_kernel(0.5 * T[i], &sn, &cs);
+                double k = sn / T[i];
+                QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = cs;
+            }
+            continue;
+        }
+        for (ptrdiff_t i = 0; turned && i < m; i++)
             mr_sincos(0.5 * T[i], &S[i], &C[i]);
+        for (ptrdiff_t i = 0; !turned && i < m; i++)  /* (the same values: mr_sincos_first) */
+            mr_sincos_kernel(0.5 * T[i], &S[i], &C[i]);
         for (ptrdiff_t i = 0; near && i < m; i++) {
             double k = mr_axis_angle_scale(S[i], T[i], T2[i]);
             QX[a + i] = k * y0[i]; QY[a + i] = k * y1[i]; QZ[a + i] = k * y2[i]; QW[a + i] = C[i];
@@ -221,7 +238,7 @@ static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrd
                 in[k][e] = c >= 0 ? X[c * ldx + i] : 0.0;
             }
         if (kind == MR_AXIS_ANGLE) {
-            axis_angle(in[0], in[1], in[2], Q[0], Q[1], Q[2], Q[3], n);
+            axis_angle(in[0], in[1], in[2], Q[0], Q[1], Q[2], Q[3], n, 0);
         } else if (kind == MR_QUAT) {
             *zero += normalized(in[0], in[1], in[2], in[3], Q[0], Q[1], Q[2], Q[3], n);
         } else if (kind == MR_ORTHO6D) {
@@ -265,7 +282,9 @@ static void across_joints(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrd
 }
 
 /* whether a column of the plan's holds NaN or infinity in its first `count` values (each column once, from
- * p->checked when the caller made that list; a few poses: plain loops, no vector set-up per column) */
+ * p->checked when the caller made that list).  x * 0 is NaN exactly where x is NaN or infinite (a signed zero
+ * elsewhere), and a sum of signed zeros is a zero: eight lanes of such sums over every column, looked at once at
+ * the end (with the vector extension; a compare per value otherwise, and for a few poses) */
 MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t count)
 {
     const int64_t *cols[2] = {p->cols, p->tcols};
@@ -276,22 +295,36 @@ MR_INLINE int check_finite_columns(const mr_plan *p, const double *X, ptrdiff_t 
         n[1] = 0;
     }
     int bad = 0;
+#if defined(__GNUC__)
+    typedef double v8d __attribute__((vector_size(64)));
+    v8d zeros = {0.0};
+#endif
     for (int part = 0; part < 2; part++)
         for (ptrdiff_t k = 0; k < n[part]; k++) {
             int64_t c = cols[part][k];
             if (c < 0)
                 continue;
             const double *x = X + c * ldx;
-            if (count < 8) {
-                for (ptrdiff_t i = 0; i < count; i++)
+            ptrdiff_t i = 0;
+            if (count < 8) {  /* a few poses (the one-pose path): plain loops, no vector set-up per column */
+                for (; i < count; i++)
                     bad |= !(fabs(x[i]) < INFINITY);
-            } else {
-                ptrdiff_t found = 0;
-                for (ptrdiff_t i = 0; i < count; i++)
-                    found += fabs(x[i]) < INFINITY ? 0 : 1;
-                bad |= found != 0;
+                continue;
             }
+#if defined(__GNUC__)
+            for (; i + 8 <= count; i += 8) {
+                v8d v;
+                memcpy(&v, x + i, sizeof v);
+                zeros = zeros + v * 0.0;
+            }
+#endif
+            for (; i < count; i++)
+                bad |= !(fabs(x[i]) < INFINITY);
         }
+#if defined(__GNUC__)
+    for (int l = 0; l < 8; l++)
+        bad |= zeros[l] != zeros[l];
+#endif
     return bad;
 }
 
@@ -390,7 +423,7 @@ int mr_plan_run(const mr_plan *p, const double *X, ptrdiff_t ldx, ptrdiff_t coun
                     QX[i] = q[0]; QY[i] = q[1]; QZ[i] = q[2]; QW[i] = q[3];
                 }
             } else if (kind == MR_AXIS_ANGLE) {
-                axis_angle(c[0] + a, c[1] + a, c[2] + a, QX, QY, QZ, QW, n);
+                axis_angle(c[0] + a, c[1] + a, c[2] + a, QX, QY, QZ, QW, n, 1);
             } else if (kind == MR_QUAT) {
                 zero += normalized(c[0] + a, c[1] + a, c[2] + a, c[3] + a, QX, QY, QZ, QW, n);
             } else if (kind == MR_EULER || kind == MR_EULER_DEGREES) {
