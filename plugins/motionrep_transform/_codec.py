@@ -248,8 +248,13 @@ class TransformCodec(Codec):
         errors = _RegionErrors(context, plan.num_frames, plan.region)
         R = plan.regions
 
+        last: list = [None, None]  # the last features measured and their errors
+
         def region_errors(k: NDArray[np.int64]) -> NDArray[np.float64]:
-            return errors(plan.decoded(k, rounding))
+            features = plan.decoded(k, rounding)
+            if features is not last[0]:  # the same array: the same values as the last measured (_Plan.decoded)
+                last[:] = features, errors(features)
+            return last[1].copy()
 
         def passes(k: NDArray[np.int64]) -> NDArray[np.bool_]:
             return region_errors(k) <= bound

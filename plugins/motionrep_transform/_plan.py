@@ -50,6 +50,13 @@ class _Plan:
         # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
         # measured, which the encoder then quantises again
         self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
+        # closed loop: the last quantisation, group by group (targets, coefficients, dequantised coefficients,
+        # synthesised columns), with the chain's run count after it, for the next one to recompute only what changed
+        self._run: tuple[int, list[tuple[NDArray[np.float64], ...]]] | None = None
+        self._serial = 0  # quantisations computed
+        self._same = False  # the last one decoded to the same values as the one before it
+        # the last decoded() and the quantisation it came from: reused while nothing changes
+        self._decoded: tuple[int, NDArray[np.float64]] | None = None
 
     def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
@@ -77,7 +84,10 @@ class _Plan:
         With a chain, group by group: the coefficients of a group are those of its targets given what the decoder
         makes of the integers of the groups before it (each group's columns synthesised alone: the inverse wavelet
         runs column by column, so they have the decoder's values).  The same exponents and rounding as the call
-        before: a copy of its result."""
+        before: a copy of its result.
+
+        Closed loop, after a first quantisation, only what changed since the last one is computed again (the same
+        values as computing it all, :meth:`_quantise`)."""
         key = np.asarray(region_exp, np.int64).tobytes()
         if self._last is not None and self._last[0] == key and self._last[1] == rounding:
             return [q.copy() for q in self._last[2]]
@@ -85,7 +95,14 @@ class _Plan:
         self._last = (key, rounding, [q.copy() for q in out])
         return out
 
-    def _quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
+    def _quantise(self, region_exp: NDArray[np.int64], rounding: float, incremental: bool = True
+                  ) -> list[NDArray[np.int64]]:
+        """The integers of :meth:`quantise`. Closed loop with ``incremental`` and a last run to start from (the
+        chain run by nobody else since), each group computes only what the changes above it reach: its targets in
+        the frames where the decoded columns of the groups before it changed (a frame's targets depend on that
+        frame's decoded values alone: :meth:`FeatureChain.targets <motionrep.pipeline.chain.FeatureChain.targets>`),
+        its coefficients only if any target changed, its synthesis only if a dequantised coefficient changed; the
+        rest is the last run's, the same values (tested against ``incremental=False``)."""
         steps = self._steps(region_exp)
         if self.chain is None:
             return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
@@ -93,19 +110,48 @@ class _Plan:
         all_steps = np.concatenate(steps, axis=0)
         out = np.zeros((self.num_frames, self.num_features), np.int64)
         decoded = np.zeros((self.num_frames, self.num_features))
+        last = self._run[1] if incremental and self._run is not None and self._run[0] == self.chain.runs else None
+        self._run = None
+        changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
+        state = []
         for g, cols in enumerate(self.chain.groups):
-            c = forward_rows(self.chain.targets(g, decoded))
+            if last is None:
+                targets = self.chain.targets(g, decoded)
+                c = forward_rows(targets)
+            else:
+                frames = np.flatnonzero(changed)
+                targets = self.chain.targets(g, decoded, frames, last[g][0])
+                c = forward_rows(targets) if frames.size else last[g][1]
             step = all_steps[:, cols]
             q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
             out[:, cols] = q
             dequantised = q * step
-            decoded[:, cols] = synthesised([dequantised], self.levels) if self.levels else dequantised
+            if last is not None and np.array_equal(dequantised, last[g][2]):
+                values = last[g][3]
+            else:
+                values = synthesised([dequantised], self.levels) if self.levels else dequantised
+                if last is not None:
+                    changed |= np.any(values != last[g][3], axis=1)
+            decoded[:, cols] = values
+            state.append((targets, c, dequantised, values))
+        if self.chain.complete:
+            self._run = (self.chain.runs, state)
+        self._serial += 1
+        self._same = last is not None and not changed.any()
         return np.split(out, np.cumsum([a.shape[0] for a in steps])[:-1], axis=0)
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
         """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
-        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
-        return reconstruct(self.quantised(region_exp, rounding))
+        :func:`reconstruct` of ``self.quantised(k, rounding)``. Closed loop, when the quantisation decoded to the
+        same values as the last one (every group's dequantised coefficients the same), the very array returned
+        last time (the caller may tell by identity that nothing changed; it must not write to it)."""
+        quantised = self.quantised(region_exp, rounding)
+        if self.chain is not None and self._decoded is not None and (
+                self._decoded[0] == self._serial or (self._same and self._decoded[0] == self._serial - 1)):
+            self._decoded = (self._serial, self._decoded[1])
+        else:
+            self._decoded = (self._serial, reconstruct(quantised))
+        return self._decoded[1]
 
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
