@@ -66,6 +66,13 @@ class _Plan:
         """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
         the few distinct ``k`` (rows of one ``k`` share their steps; the same numbers as :func:`steps_of`), each a
         fresh array."""
+        _, table, rows = self._step_rows(region_exp)
+        return [table[r] for r in rows]
+
+    def _step_rows(self, region_exp: NDArray[np.int64]
+                   ) -> tuple[NDArray[np.int64], NDArray[np.float64], list[NDArray[np.int64]]]:
+        """The distinct region exponents ``(m,)`` (sorted), the table ``(m, D)`` of their steps
+        ``2 ** ((b_c + k) / 8)``, and per coefficient array ``(n,)`` the row of the table each of its rows takes."""
         # the windows' minima as indices into the sorted distinct k (order-preserving, so the minimum of the
         # indices is the index of the minimum): one table of steps for every array, its rows those k's
         distinct, index = np.unique(np.asarray(region_exp, np.int64).reshape(-1), return_inverse=True)
@@ -75,8 +82,8 @@ class _Plan:
         for rows, span in zip(self.region_of, self.reach):
             if span not in minima:
                 minima[span] = window_minimum(index.reshape(-1), span)
-            out.append(table[minima[span][rows]])
-        return out
+            out.append(minima[span][rows])
+        return distinct, table, out
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
         """``sign(c) floor(|c| / step + rounding)`` of every coefficient (steps: :meth:`_steps`).
@@ -102,43 +109,67 @@ class _Plan:
         the frames where the decoded columns of the groups before it changed (a frame's targets depend on that
         frame's decoded values alone: :meth:`FeatureChain.targets <motionrep.pipeline.chain.FeatureChain.targets>`),
         its coefficients only if any target changed, its synthesis only if a dequantised coefficient changed; the
-        rest is the last run's, the same values (tested against ``incremental=False``)."""
-        steps = self._steps(region_exp)
+        rest is the last run's, the same values (tested against ``incremental=False``). A group whose coefficients
+        did not change is rounded again only in the rows whose region exponent changed (elementwise: the same
+        bits)."""
         if self.chain is None:
-            return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
-        # the arrays of every level one after the other (storage order), so that a group is one block of columns
-        all_steps = np.concatenate(steps, axis=0)
+            return [_rounded(mag, a, sign, rounding)
+                    for mag, a, sign in zip(self._magnitudes, self._steps(region_exp), self._signs)]
+        distinct, table, row_lists = self._step_rows(region_exp)
+        sizes = [r.size for r in row_lists]
+        # the arrays of every level one after the other (storage order), so that a group is one block of columns:
+        # each coefficient row's row of the table and its region exponent
+        rows = np.concatenate(row_lists)
+        row_k = distinct[rows]
         out = np.zeros((self.num_frames, self.num_features), np.int64)
         decoded = np.zeros((self.num_frames, self.num_features))
-        last = self._run[1] if incremental and self._run is not None and self._run[0] == self.chain.runs else None
+        last = self._run if incremental and self._run is not None and self._run[0] == self.chain.runs else None
         self._run = None
         changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
+        k_rows = None if last is None else np.flatnonzero(row_k != last[1])  # rows whose steps changed
         state = []
         for g, cols in enumerate(self.chain.groups):
-            if last is None:
+            before = None if last is None else last[2][g]
+            if before is None:
                 targets = self.chain.targets(g, decoded)
-                c = forward_rows(targets)
+                fresh = True
             else:
                 frames = np.flatnonzero(changed)
-                targets = self.chain.targets(g, decoded, frames, last[g][0])
-                c = forward_rows(targets) if frames.size else last[g][1]
-            step = all_steps[:, cols]
-            q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+                targets = self.chain.targets(g, decoded, frames, before[0])
+                fresh = frames.size > 0
+            group_table = table[:, cols]
+            if fresh:
+                c = forward_rows(targets)
+                magnitude, sign = np.abs(c), np.sign(c).astype(np.int64)
+                step = group_table[rows]
+                q = _rounded(magnitude, step.copy(), sign, rounding)
+                dequantised = q * step
+                same = before is not None and np.array_equal(dequantised, before[5])
+            else:  # the same coefficients: rounded again where the steps changed
+                c, magnitude, sign, q, dequantised = before[1:6]
+                same = True
+                if k_rows.size:
+                    step = group_table[rows[k_rows]]
+                    qk = _rounded(magnitude[k_rows], step.copy(), sign[k_rows], rounding)
+                    dk = qk * step
+                    same = np.array_equal(dk, dequantised[k_rows])
+                    if not same:
+                        q, dequantised = q.copy(), dequantised.copy()
+                        q[k_rows], dequantised[k_rows] = qk, dk
             out[:, cols] = q
-            dequantised = q * step
-            if last is not None and np.array_equal(dequantised, last[g][2]):
-                values = last[g][3]
+            if same:
+                values = before[6]
             else:
                 values = synthesised([dequantised], self.levels) if self.levels else dequantised
-                if last is not None:
-                    changed |= np.any(values != last[g][3], axis=1)
+                if before is not None:
+                    changed |= np.any(values != before[6], axis=1)
             decoded[:, cols] = values
-            state.append((targets, c, dequantised, values))
+            state.append((targets, c, magnitude, sign, q, dequantised, values))
         if self.chain.complete:
-            self._run = (self.chain.runs, state)
+            self._run = (self.chain.runs, row_k, state)
         self._serial += 1
         self._same = last is not None and not changed.any()
-        return np.split(out, np.cumsum([a.shape[0] for a in steps])[:-1], axis=0)
+        return np.split(out, np.cumsum(sizes)[:-1], axis=0)
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
         """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
