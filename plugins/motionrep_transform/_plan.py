@@ -62,6 +62,25 @@ class _Plan:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
+    def next_exponent(self, region_exp: NDArray[np.int64], region: int) -> int:
+        """The largest exponent below ``region_exp[region] - 1`` at which region ``region`` would set the step of a
+        coefficient that it does not set now (one whose window's other regions hold an exponent below its own):
+        ``m - 1`` for the largest such window minimum ``m``; ``region_exp[region] - 1`` when there is none."""
+        k = np.asarray(region_exp, np.int64)
+        here = int(k[region])
+        others = k.copy()
+        others[region] = np.iinfo(np.int64).max
+        best = None
+        for rows, span in zip(self.region_of, self.reach):
+            near = rows[np.abs(rows - region) <= span]  # the coefficients whose window holds the region
+            if not near.size:
+                continue
+            m = window_minimum(others, span)[near]
+            m = m[m < here]
+            if m.size:
+                best = int(m.max()) if best is None else max(best, int(m.max()))
+        return here - 1 if best is None else min(here - 1, best - 1)
+
     def _steps(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.float64]]:
         """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
         the few distinct ``k`` (rows of one ``k`` share their steps; the same numbers as :func:`steps_of`), each a

@@ -199,3 +199,48 @@ def test_a_chain_run_by_someone_else_makes_the_next_quantisation_whole(walk, mon
     got = inc._quantise(k, 0.45)
     want = whole._quantise(k, 0.45, incremental=False)
     assert all(np.array_equal(a, b) for a, b in zip(got, want))
+
+
+@pytest.mark.parametrize("frames, region", [(64, 4), (200, 16), (37, 8), (9, 16)])
+def test_next_exponent_is_where_a_region_first_sets_another_coefficient(frames, region):
+    """Brute force: lowering region r from e + 1 to e changes the exponents of a set of coefficients that grows
+    as e falls; next_exponent is the largest e below k_r - 1 whose set holds a coefficient that lowering r by one
+    does not change (k_r - 1 when there is none)."""
+    from motionrep_transform._plan import _Plan
+
+    plan = _Plan(np.zeros((frames, 2)), np.zeros(2, np.int64), region)
+    rng = np.random.default_rng(frames)
+    for _ in range(6):
+        k = rng.integers(-6, 7, plan.regions)
+        for r in range(plan.regions):
+            def moved(e):
+                a, b = k.copy(), k.copy()
+                a[r], b[r] = e + 1, e
+                return np.concatenate([(x != y).reshape(-1) for x, y in zip(plan.exponents(a), plan.exponents(b))])
+            now = moved(k[r] - 1)
+            want = next((e for e in range(k[r] - 2, -40, -1) if np.any(moved(e) & ~now)), k[r] - 1)
+            assert plan.next_exponent(k, r) == want, (k, r)
+
+
+def test_settle_jumps_a_region_whose_error_does_not_move():
+    """Region 1's error stays the same until its exponent reaches 3 (a coarse coefficient it sets only from
+    there): lowered one at a time it takes a round per exponent; told where it next sets another coefficient, it
+    goes there once its error did not move: the same exponent for it in fewer rounds, and its neighbours lowered
+    less (after a region's third failure its neighbours are lowered with it)."""
+    from motionrep_transform._codec import TransformCodec
+
+    calls = []
+
+    def errors(k):
+        calls.append(k.copy())
+        e = np.where(k <= np.array([10, 3, 5]), 0.5, 1.5)
+        e[0] = 0.5 if k[0] <= 10 else 1.0 + 0.01 * k[0]  # moves with its exponent
+        return e
+
+    start = np.array([12, 12, 5])
+    slow = TransformCodec._settle(start, errors, 1.0, -50)
+    rounds = len(calls)
+    calls.clear()
+    fast = TransformCodec._settle(start, errors, 1.0, -50, lambda k, r: 3 if r == 1 else int(k[r]) - 1)
+    assert slow[1] == fast[1] == 3 and np.all(fast >= slow) and np.all(errors(fast) <= 1.0)
+    assert fast[0] == 10 and fast[2] == 5 and len(calls) - 1 < rounds
