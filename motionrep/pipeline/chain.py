@@ -283,8 +283,8 @@ class FeatureChain:
             self._posed = 0
             self._incremental = False
         self._last = group
-        if frames is not None and not (self._incremental and previous is not None):
-            frames = None
+        if frames is not None and not (self._incremental and previous is not None and frames.size < len(self._true)):
+            frames = None  # (every frame: as without frames)
         out = self._true[:, cols].copy() if frames is None else previous.copy()
         if frames is not None and not frames.size:  # nothing above changed: the last run's poses and targets
             self._posed = max(self._posed, d)
