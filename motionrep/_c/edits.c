@@ -16,9 +16,7 @@
  *   any joint above still marked from changes let through before;
  * - the frame of the largest change is tried first, where an edit that fails most likely fails, or the frame the
  *   caller names (where the same edit failed in an earlier call; told back for every edit that fails); a failed
- *   edit is undone (a frame that was exact before it gets back the values it had, saved before it was computed:
- *   the values computing it again from the features as they were gives; any other frame is computed again, the
- *   same inputs, the same bits).
+ *   edit is undone (its frames computed again from the features as they were: the same inputs, the same bits).
  *   Which frame comes first does not change whether an edit is accepted: a frame passes on room only where its
  *   computation would pass too, so an edit is accepted exactly when every frame it touches, computed, is within
  *   the bound (but for a rounding of the computed distances across the bound within the room's own margin, never
@@ -224,39 +222,7 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
     return frame_again(s, t, list, n, sites, m);
 }
 
-enum { PATH_ROOM, PATH_EXACT, PATH_SAVED };
-
-/* The values frame_again writes for the joints js[0..nj) and end sites ss[0..ns) of frame t (local and plan world
- * rotations, translation slot, FK rotation and position, distance), copied to buf (save) or back from it (restore):
- * SAVE_JOINT doubles per joint, SAVE_SITE per end site. */
-enum { SAVE_JOINT = 19, SAVE_SITE = 4 };
-
-static void frame_copy(const mr_edits *s, int64_t t, const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns,
-                       double *buf, int restore)
-{
-    const int64_t J = s->J, P = s->J + s->E;
-    double *parts[5];
-    for (int64_t k = 0; k < nj; k++) {
-        const int64_t j = js[k] >> 1, slot = s->slot[j];
-        parts[0] = s->L + (t * J + j) * 4, parts[1] = s->GP + (t * J + j) * 4, parts[2] = s->G + (t * J + j) * 4;
-        parts[3] = s->W + (t * P + j) * 3, parts[4] = s->dist + t * P + j;
-        const int width[5] = {4, 4, 4, 3, 1};
-        for (int p = 0; p < 5; p++) {
-            memcpy(restore ? parts[p] : buf, restore ? buf : parts[p], sizeof(double) * (size_t)width[p]);
-            buf += width[p];
-        }
-        if (slot >= 0)
-            memcpy(restore ? s->T + (t * s->N + slot) * 3 : buf, restore ? buf : s->T + (t * s->N + slot) * 3,
-                   sizeof(double) * 3);
-        buf += 3;
-    }
-    for (int64_t k = 0; k < ns; k++) {
-        const int64_t e = J + ss[k];
-        memcpy(restore ? s->W + (t * P + e) * 3 : buf, restore ? buf : s->W + (t * P + e) * 3, sizeof(double) * 3);
-        memcpy(restore ? s->dist + t * P + e : buf + 3, restore ? buf + 3 : s->dist + t * P + e, sizeof(double));
-        buf += SAVE_SITE;
-    }
-}
+enum { PATH_ROOM, PATH_EXACT };
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
                        int commit, uint8_t *accepted, int64_t *leads, const int64_t *starts, const double *scales)
@@ -274,13 +240,8 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
     int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1));
-    /* per frame of an edit computed exactly from an exact state: that state's values, put back if the edit fails
-     * (the values computing the frame again from the same features gives) */
-    const size_t per_frame = (size_t)(J * SAVE_JOINT + E * SAVE_SITE);
-    double *saved = malloc(sizeof(double) * (L * per_frame + 1));
-    if (!before || !drift || !scaled || !path || !mark || !dirty || !in || !list || !saved) {
+    if (!before || !drift || !scaled || !path || !mark || !dirty || !in || !list) {
         free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
-        free(saved);
         return -1;
     }
     int64_t count = 0;
@@ -338,12 +299,10 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             }
             if (dirty[t]) {
                 ok = !frame_marked(s, t, mark, drift, js, nj, list, list + J, in);
-                path[i] = PATH_EXACT;
             } else {
-                frame_copy(s, t, js, nj, ss, ns, saved + (size_t)i * per_frame, 0);
                 ok = !frame_again(s, t, js, nj, ss, ns);
-                path[i] = PATH_SAVED;
             }
+            path[i] = PATH_EXACT;
             for (int64_t k = 0; k < nj && ok; k++)
                 ok = dist[js[k] >> 1] <= bound;
             for (int64_t k = 0; k < ns && ok; k++)
@@ -355,8 +314,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
                 x[i] = before[i];
                 if (path[i] == PATH_EXACT)
                     frame_again(s, first + i, js, nj, ss, ns);
-                else if (path[i] == PATH_SAVED)
-                    frame_copy(s, first + i, js, nj, ss, ns, saved + (size_t)i * per_frame, 1);
             }
         accepted[e] = (uint8_t)ok;
         if (leads && !ok) /* the frame that failed (the last one checked) */
@@ -367,6 +324,5 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         if (dirty[t])
             frame_marked(s, t, mark, drift, NULL, 0, list, list + J, in);
     free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
-    free(saved);
     return count;
 }
