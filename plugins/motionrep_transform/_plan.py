@@ -159,17 +159,17 @@ class _Plan:
             group_table = table[:, cols]
             if fresh:
                 c = forward_rows(targets)
-                magnitude, sign = np.abs(c), np.sign(c).astype(np.int64)
                 step = group_table[rows]
-                q = _rounded(magnitude, step.copy(), sign, rounding)
+                q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
                 dequantised = q * step
-                same = before is not None and np.array_equal(dequantised, before[5])
+                same = before is not None and np.array_equal(dequantised, before[3])
             else:  # the same coefficients: rounded again where the steps changed
-                c, magnitude, sign, q, dequantised = before[1:6]
+                c, q, dequantised = before[1:4]
                 same = True
                 if k_rows.size:
                     step = group_table[rows[k_rows]]
-                    qk = _rounded(magnitude[k_rows], step.copy(), sign[k_rows], rounding)
+                    ck = c[k_rows]
+                    qk = _rounded(np.abs(ck), step.copy(), np.sign(ck).astype(np.int64), rounding)
                     dk = qk * step
                     same = np.array_equal(dk, dequantised[k_rows])
                     if not same:
@@ -177,13 +177,13 @@ class _Plan:
                         q[k_rows], dequantised[k_rows] = qk, dk
             out[:, cols] = q
             if same:
-                values = before[6]
+                values = before[4]
             else:
                 values = synthesised([dequantised], self.levels) if self.levels else dequantised
                 if before is not None:
-                    changed |= np.any(values != before[6], axis=1)
+                    changed |= np.any(values != before[4], axis=1)
             decoded[:, cols] = values
-            state.append((targets, c, magnitude, sign, q, dequantised, values))
+            state.append((targets, c, q, dequantised, values))
         if self.chain.complete:
             self._run = (self.chain.runs, row_k, state)
         self._serial += 1
