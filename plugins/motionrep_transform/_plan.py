@@ -147,9 +147,10 @@ class _Plan:
         changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
         k_rows = None if last is None else np.flatnonzero(row_k != last[1])  # rows whose steps changed
         state = []
+        everywhere = last is None  # every frame changed (or no last run): the groups from here on computed whole
         for g, cols in enumerate(self.chain.groups):
             before = None if last is None else last[2][g]
-            if before is None:
+            if everywhere:
                 targets = self.chain.targets(g, decoded)
                 fresh = True
             else:
@@ -157,12 +158,12 @@ class _Plan:
                 targets = self.chain.targets(g, decoded, frames, before[0])
                 fresh = frames.size > 0
             group_table = table[:, cols]
-            if fresh:
-                c = forward_rows(targets)
+            if fresh or 2 * k_rows.size > rows.size:  # rounded whole
+                c = forward_rows(targets) if fresh else before[1]
                 step = group_table[rows]
                 q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
                 dequantised = q * step
-                same = before is not None and np.array_equal(dequantised, before[3])
+                same = not everywhere and np.array_equal(dequantised, before[3])
             else:  # the same coefficients: rounded again where the steps changed
                 c, q, dequantised = before[1:4]
                 same = True
@@ -180,8 +181,9 @@ class _Plan:
                 values = before[4]
             else:
                 values = synthesised([dequantised], self.levels) if self.levels else dequantised
-                if before is not None:
+                if not everywhere:
                     changed |= np.any(values != before[4], axis=1)
+                    everywhere = bool(changed.all())
             decoded[:, cols] = values
             state.append((targets, c, q, dequantised, values))
         if self.chain.complete:
