@@ -260,6 +260,7 @@ class TransformCodec(Codec):
             return region_errors(k) <= bound
 
         k0 = int(_log_step(bound))
+        plan.incremental = False  # the bisection changes every region's exponent at every step
         low, high = np.full(R, k0 - _SEARCH_BELOW, np.int64), np.full(R, k0 + _SEARCH_ABOVE, np.int64)
         if plan.chain is None:
             k = largest_passing_each(passes, low, high)
@@ -271,6 +272,7 @@ class TransformCodec(Codec):
                 k[below] = largest_passing_each(lambda v: passes(np.where(below, _spread(v, below), k))[below],
                                                 low[below], start[below] - 1)
         context.progress("bisect", regions=R, evaluations=errors.evaluations, diagnostic=True)
+        plan.incremental = True
         k = self._settle(k, region_errors, bound, low[0] - 1, plan.next_exponent)
         context.progress("settle", regions=R, evaluations=errors.evaluations,
                          step=[float(step_scale(k.min())), float(step_scale(k.max()))], diagnostic=True)

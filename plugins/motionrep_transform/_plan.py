@@ -53,6 +53,10 @@ class _Plan:
         # closed loop: the last quantisation, group by group (targets, coefficients, dequantised coefficients,
         # synthesised columns), with the chain's run count after it, for the next one to recompute only what changed
         self._run: tuple[int, list[tuple[NDArray[np.float64], ...]]] | None = None
+        #: closed loop: quantise() recomputes only what changed since the last quantisation (the same integers);
+        #: false while every quantisation changes every step (the region search's bisection), which saves the
+        #: comparisons
+        self.incremental = True
         self._serial = 0  # quantisations computed
         self._same = False  # the last one decoded to the same values as the one before it
         # the last decoded() and the quantisation it came from: reused while nothing changes
@@ -117,7 +121,7 @@ class _Plan:
         key = np.asarray(region_exp, np.int64).tobytes()
         if self._last is not None and self._last[0] == key and self._last[1] == rounding:
             return [q.copy() for q in self._last[2]]
-        out = self._quantise(region_exp, rounding)
+        out = self._quantise(region_exp, rounding, self.incremental)
         self._last = (key, rounding, [q.copy() for q in out])
         return out
 
