@@ -230,3 +230,103 @@ def test_the_bound_holds_with_still_joints(bound):
     err = np.sqrt(np.sum((forward_kinematics(back).positions - forward_kinematics(m).positions) ** 2, axis=-1))
     assert float(err.max()) <= result.bound
     assert result.bound > 0
+
+
+def _run(chain, decoded, frames_of=None, previous=None):
+    """One run of every group in order (each group decoded as its targets plus a fixed offset, so that the later
+    groups see values the chain did not compute), by frames when ``frames_of(g, out)`` is given."""
+    out = decoded.copy()
+    targets = []
+    for g, cols in enumerate(chain.groups):
+        if frames_of is None:
+            t = chain.targets(g, out)
+        else:
+            t = chain.targets(g, out, frames_of(g, out), previous[g])
+        targets.append(t)
+        out[:, cols] = t + 0.01 * decoded[:, cols]
+    return out, targets
+
+
+def test_targets_by_frames_are_the_targets_of_every_frame(walk):
+    """A run by frames (only the frames whose earlier groups changed since the last run computed, the others
+    taken from it) gives the bits of a run over every frame: each frame's targets depend on that frame alone, by the
+    same arithmetic (compared bit for bit: scalar IEEE C without FMA contraction, as test_chain_kernels)."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    rng = np.random.default_rng(5)
+    first = f.copy()
+    first[:, 3:] += rng.normal(0.0, 0.02, first[:, 3:].shape)
+    before, kept = _run(chain, first)
+    assert chain.complete
+    second = first.copy()
+    rows = np.array([0, 7, 8, 40, walk.num_frames - 1])
+    second[rows, 3:] += 0.03  # these frames change in every group
+    third = first.copy()
+    third[50:53, chain.groups[2]] -= 0.02  # these change from the third group on
+    for changed in (second, third, first):
+        runs = chain.runs
+
+        def frames_of(g, out):
+            done = np.concatenate(chain.groups[:g]) if g else np.zeros(0, np.int64)
+            return np.flatnonzero(np.any(out[:, done] != before[:, done], axis=1))
+
+        got_out, got = _run(chain, changed, frames_of, kept)
+        assert chain.runs == runs + 1 and chain.complete and chain._incremental  # this run went by frames
+        want_out, want = _run(ctx.feature_chain(f), changed)
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b)
+        assert np.array_equal(got_out, want_out)
+        # the chain state is that of the run just done: the next run by frames starts from it
+        before, kept = got_out, got
+
+
+def test_targets_by_frames_fall_back_to_every_frame(walk):
+    """Frames are only a hint: after an incomplete run (or out of order) every frame is computed."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    noisy = f + 0.01
+    _, kept = _run(chain, noisy)
+    chain.targets(0, noisy)  # a run that stops after its first group
+    assert not chain.complete
+    none = np.zeros(0, np.int64)
+    got_out, got = _run(chain, noisy, lambda g, out: none, [np.zeros_like(k) for k in kept])
+    assert not chain._incremental
+    for a, b in zip(got, kept):
+        assert np.array_equal(a, b)  # computed, not the (zero) previous values
+    g = len(chain.groups) - 1
+    assert np.array_equal(chain.targets(g, got_out, none, np.zeros_like(kept[g])), kept[g])  # out of order
+
+
+def test_chain_kernels_by_frames_write_only_those_frames(walk):
+    from motionrep._ccore import chain_pose, chain_targets
+
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    g = 2
+    d = chain._group_depth[g]
+    for depth in range(d):
+        chain._pose(depth, f)
+    want = np.full((walk.num_frames, chain.groups[g].size), 7.0)
+    chain_targets(chain._rot, chain._pos, *chain._at[d], want)
+    frames = np.array([3, 4, 60], np.int64)
+    got = np.full_like(want, 7.0)
+    chain_targets(chain._rot, chain._pos, *chain._at[d], got, frames)
+    assert np.array_equal(got[frames], want[frames])
+    assert np.all(np.delete(got, frames, axis=0) == 7.0)
+    with pytest.raises(ValueError, match="out of range"):
+        chain_targets(chain._rot, chain._pos, *chain._at[d], got, np.array([walk.num_frames], np.int64))
+    rot, pos = chain._rot.copy(), chain._pos.copy()
+    chain._rot[:], chain._pos[:] = 0.0, 0.0
+    chain._pose(0, f, frames)
+    for depth in range(1, d):
+        chain._pose(depth, f, frames)
+    js = np.flatnonzero(walk.skeleton.depths < d)
+    assert np.array_equal(chain._rot[js][:, frames], rot[js][:, frames])
+    assert np.array_equal(chain._pos[js][:, frames], pos[js][:, frames])
+    assert np.all(np.delete(chain._rot[js], frames, axis=1) == 0.0)
+    with pytest.raises(ValueError, match="out of range"):
+        chain_pose(f, np.zeros((1, 1, 4)), js[:1], np.array([-1]), np.full((1, 3), -1), np.zeros((1, 3)),
+                   chain._rot, chain._pos, np.array([-1], np.int64))

@@ -101,11 +101,12 @@ static inline void mr_rotate_add(const double *g, const double *base, double vx,
 /* chain.c: closed-loop targets along the skeleton (motionrep/pipeline/chain.py), joint-major state rot (J, F, 4)
  * and pos (J, F, 3).  mr_chain_pose: the n joints of one depth posed, joints[i] from its parent parents[i] (-1: the
  * root depth) with the local rotation local (F, n, 4) and translation tcols[i] (3 columns of decoded (F, D), -1
- * taking tvals[i]). */
+ * taking tvals[i]).  With frames (m,) (NULL: every frame), only those frames, local then (m, n, 4): the same
+ * arithmetic per frame. */
 typedef struct {
-    int64_t F, D, n;
+    int64_t F, D, n, m;
     const double *decoded, *local, *tvals;
-    const int64_t *joints, *parents, *tcols;
+    const int64_t *joints, *parents, *tcols, *frames;
     double *rot, *pos;
 } mr_chain_pose_args;
 void mr_chain_pose(const mr_chain_pose_args *a);
@@ -114,11 +115,12 @@ void mr_chain_pose(const mr_chain_pose_args *a);
  * position (the parent's plus local_offset (M, F, 3)) at true_pos + lever_vec ((M, F, 3), lever_len (M, F)); written
  * into out (F, C) at columns at[i] (4, or 3 and -1), a quaternion (kind 0) of the sign nearest truth (n, F, 4), a
  * rotation vector (kind 1) on the branch nearest truth's first 3.  Returns -1, or i F + f of a zero-length local
- * rotation of a rotation vector (out then incomplete). */
+ * rotation of a rotation vector (out then incomplete).  With frames (m,) (NULL: every frame), only those frames of
+ * out are written (the same arithmetic per frame). */
 typedef struct {
-    int64_t F, n, C;
+    int64_t F, n, C, m;
     const double *rot, *pos, *true_rot, *local_offset, *true_pos, *lever_vec, *lever_len, *truth;
-    const int64_t *parents, *lever, *kind, *at;
+    const int64_t *parents, *lever, *kind, *at, *frames;
     double *out;
 } mr_chain_targets_args;
 int64_t mr_chain_targets(const mr_chain_targets_args *a);

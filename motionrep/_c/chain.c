@@ -35,14 +35,15 @@ static inline void qapply_add(const double *q, const double *base, const double 
 
 void mr_chain_pose(const mr_chain_pose_args *a)
 {
-    const int64_t F = a->F, D = a->D;
+    const int64_t F = a->F, D = a->D, m = a->frames ? a->m : F;
     for (int64_t i = 0; i < a->n; i++) {
         const int64_t j = a->joints[i], p = a->parents[i];
         const int64_t *tc = a->tcols + 3 * i;
         const double *tv = a->tvals + 3 * i;
         double *rot = a->rot + j * F * 4, *pos = a->pos + j * F * 3;
-        for (int64_t f = 0; f < F; f++) {
-            const double *local = a->local + (f * a->n + i) * 4, *x = a->decoded + f * D;
+        for (int64_t r = 0; r < m; r++) { /* local's row r is frame f (frames[r], or r) */
+            const int64_t f = a->frames ? a->frames[r] : r;
+            const double *local = a->local + (r * a->n + i) * 4, *x = a->decoded + f * D;
             double t[3];
             for (int k = 0; k < 3; k++)
                 t[k] = tc[k] >= 0 ? x[tc[k]] : tv[k];
@@ -62,12 +63,13 @@ void mr_chain_pose(const mr_chain_pose_args *a)
 
 int64_t mr_chain_targets(const mr_chain_targets_args *a)
 {
-    const int64_t F = a->F;
+    const int64_t F = a->F, frames = a->frames ? a->m : F;
     const double two_pi = 2.0 * 3.141592653589793;
     for (int64_t i = 0; i < a->n; i++) {
         const int64_t p = a->parents[i], m = a->lever[i];
         const int64_t *at = a->at + 4 * i;
-        for (int64_t f = 0; f < F; f++) {
+        for (int64_t r = 0; r < frames; r++) {
+            const int64_t f = a->frames ? a->frames[r] : r;
             const double *g = a->rot + (p * F + f) * 4;
             double want[4], local[4], cg[4] = {-g[0], -g[1], -g[2], g[3]};
             for (int k = 0; k < 4; k++)

@@ -596,30 +596,34 @@ static int within(const Py_buffer *b, int64_t low, int64_t high)
     return 1;
 }
 
-PyDoc_STRVAR(chain_pose_doc, "chain_pose(decoded, local, joints, parents, tcols, tvals, rot, pos)\n--\n\n"
+PyDoc_STRVAR(chain_pose_doc, "chain_pose(decoded, local, joints, parents, tcols, tvals, rot, pos, frames=None)\n--\n\n"
                              "One depth's joints posed (motionrep.pipeline.chain): decoded (F, D), local (F, n, 4), "
                              "joints, parents (n,) int64\n(-1: the root depth), tcols (n, 3) int64 (-1: tvals), "
-                             "tvals (n, 3); rot (J, F, 4) and pos (J, F, 3) written in place.");
+                             "tvals (n, 3); rot (J, F, 4) and pos (J, F, 3) written in place.\nWith frames (m,) int64 "
+                             "(distinct frames), only those frames, local then (m, n, 4) (row r: frame frames[r]).");
 
 static PyObject *py_chain_pose(PyObject *self, PyObject *args)
 {
-    PyObject *o[8];
-    if (!PyArg_ParseTuple(args, "OOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7]))
+    PyObject *o[9];
+    o[8] = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOOOOOO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
         return NULL;
     buffers bs = {.n = 0};
-    Py_buffer *x, *local, *js, *par, *tc, *tv, *rot, *pos;
+    Py_buffer *x, *local, *js, *par, *tc, *tv, *rot, *pos, *fr = NULL;
     if (!(x = get(&bs, o[0], "decoded", 'd', 2, 0)) || !(local = get(&bs, o[1], "local", 'd', 3, 0))
         || !(js = get(&bs, o[2], "joints", 'q', 1, 0)) || !(par = get(&bs, o[3], "parents", 'q', 1, 0))
         || !(tc = get(&bs, o[4], "tcols", 'q', 2, 0)) || !(tv = get(&bs, o[5], "tvals", 'd', 2, 0))
-        || !(rot = get(&bs, o[6], "rot", 'd', 3, 1)) || !(pos = get(&bs, o[7], "pos", 'd', 3, 1))) {
+        || !(rot = get(&bs, o[6], "rot", 'd', 3, 1)) || !(pos = get(&bs, o[7], "pos", 'd', 3, 1))
+        || (o[8] != Py_None && !(fr = get(&bs, o[8], "frames", 'q', 1, 0)))) {
         release(&bs);
         return NULL;
     }
-    mr_chain_pose_args a = {.F = dim(x, 0), .D = dim(x, 1), .n = dim(js, 0), .decoded = x->buf, .local = local->buf,
-                            .tvals = tv->buf, .joints = js->buf, .parents = par->buf, .tcols = tc->buf,
-                            .rot = rot->buf, .pos = pos->buf};
+    mr_chain_pose_args a = {.F = dim(x, 0), .D = dim(x, 1), .n = dim(js, 0), .m = fr ? dim(fr, 0) : dim(x, 0),
+                            .decoded = x->buf, .local = local->buf, .tvals = tv->buf, .joints = js->buf,
+                            .parents = par->buf, .tcols = tc->buf, .frames = fr ? fr->buf : NULL, .rot = rot->buf,
+                            .pos = pos->buf};
     int64_t J = dim(rot, 0);
-    if (dim(local, 0) != a.F || dim(local, 1) != a.n || dim(local, 2) != 4 || dim(par, 0) != a.n
+    if ((fr && !within(fr, 0, a.F)) || dim(local, 0) != a.m || dim(local, 1) != a.n || dim(local, 2) != 4 || dim(par, 0) != a.n
         || dim(tc, 0) != a.n || dim(tc, 1) != 3 || dim(tv, 0) != a.n || dim(tv, 1) != 3 || dim(rot, 1) != a.F
         || dim(rot, 2) != 4 || dim(pos, 0) != J || dim(pos, 1) != a.F || dim(pos, 2) != 3 || !within(js, 0, J)
         || !within(par, -1, J) || !within(tc, -1, a.D))
@@ -633,26 +637,29 @@ static PyObject *py_chain_pose(PyObject *self, PyObject *args)
 
 PyDoc_STRVAR(chain_targets_doc,
              "chain_targets(rot, pos, parents, true_rot, lever, local_offset, true_pos, lever_vec, lever_len, kind, "
-             "at, truth, out) -> index\n--\n\n"
+             "at, truth, out, frames=None) -> index\n--\n\n"
              "One depth's closed-loop targets (motionrep.pipeline.chain) into out (F, C): rot (J, F, 4), pos (J, F, "
              "3), parents,\nlever, kind (n,) int64, true_rot, truth (n, F, 4), local_offset, true_pos, lever_vec (M, "
-             "F, 3), lever_len (M, F), at (n, 4)\nint64: -1, or i F + f of a zero-length rotation (out incomplete).");
+             "F, 3), lever_len (M, F), at (n, 4)\nint64: -1, or i F + f of a zero-length rotation (out incomplete). With "
+             "frames (m,) int64, only those frames of out.");
 
 static PyObject *py_chain_targets(PyObject *self, PyObject *args)
 {
-    PyObject *o[13];
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9],
-                          &o[10], &o[11], &o[12]))
+    PyObject *o[14];
+    o[13] = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13]))
         return NULL;
     buffers bs = {.n = 0};
-    Py_buffer *rot, *pos, *par, *trot, *lev, *loff, *tpos, *lvec, *llen, *kind, *at, *truth, *out;
+    Py_buffer *rot, *pos, *par, *trot, *lev, *loff, *tpos, *lvec, *llen, *kind, *at, *truth, *out, *fr = NULL;
     if (!(rot = get(&bs, o[0], "rot", 'd', 3, 0)) || !(pos = get(&bs, o[1], "pos", 'd', 3, 0))
         || !(par = get(&bs, o[2], "parents", 'q', 1, 0)) || !(trot = get(&bs, o[3], "true_rot", 'd', 3, 0))
         || !(lev = get(&bs, o[4], "lever", 'q', 1, 0)) || !(loff = get(&bs, o[5], "local_offset", 'd', 3, 0))
         || !(tpos = get(&bs, o[6], "true_pos", 'd', 3, 0)) || !(lvec = get(&bs, o[7], "lever_vec", 'd', 3, 0))
         || !(llen = get(&bs, o[8], "lever_len", 'd', 2, 0)) || !(kind = get(&bs, o[9], "kind", 'q', 1, 0))
         || !(at = get(&bs, o[10], "at", 'q', 2, 0)) || !(truth = get(&bs, o[11], "truth", 'd', 3, 0))
-        || !(out = get(&bs, o[12], "out", 'd', 2, 1))) {
+        || !(out = get(&bs, o[12], "out", 'd', 2, 1))
+        || (o[13] != Py_None && !(fr = get(&bs, o[13], "frames", 'q', 1, 0)))) {
         release(&bs);
         return NULL;
     }
@@ -660,7 +667,7 @@ static PyObject *py_chain_targets(PyObject *self, PyObject *args)
                                .pos = pos->buf, .true_rot = trot->buf, .local_offset = loff->buf, .true_pos = tpos->buf,
                                .lever_vec = lvec->buf, .lever_len = llen->buf, .truth = truth->buf,
                                .parents = par->buf, .lever = lev->buf, .kind = kind->buf, .at = at->buf,
-                               .out = out->buf};
+                               .out = out->buf, .m = fr ? dim(fr, 0) : dim(out, 0), .frames = fr ? fr->buf : NULL};
     int64_t J = dim(rot, 0), M = dim(loff, 0), F = a.F, n = a.n;
     int shapes = dim(rot, 1) == F && dim(rot, 2) == 4 && dim(pos, 0) == J && dim(pos, 1) == F && dim(pos, 2) == 3
                  && dim(trot, 0) == n && dim(trot, 1) == F && dim(trot, 2) == 4 && dim(lev, 0) == n
@@ -668,7 +675,7 @@ static PyObject *py_chain_targets(PyObject *self, PyObject *args)
                  && dim(tpos, 2) == 3 && dim(lvec, 0) == M && dim(lvec, 1) == F && dim(lvec, 2) == 3
                  && dim(llen, 0) == M && dim(llen, 1) == F && dim(kind, 0) == n && dim(at, 0) == n && dim(at, 1) == 4
                  && dim(truth, 0) == n && dim(truth, 1) == F && dim(truth, 2) == 4;
-    if (!shapes || !within(par, 0, J) || !within(lev, -1, M) || !within(kind, 0, 2))
+    if (!shapes || (fr && !within(fr, 0, F)) || !within(par, 0, J) || !within(lev, -1, M) || !within(kind, 0, 2))
         return fail(&bs, "chain_targets: shapes or indices out of range");
     const int64_t *k = kind->buf, *c = at->buf;
     for (int64_t i = 0; i < n; i++)

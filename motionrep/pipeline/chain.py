@@ -244,23 +244,33 @@ class FeatureChain:
         self._pos = np.zeros((J, F, 3))
         self._posed = 0  # depths posed from the decoded features of the current run (targets' state)
         self._last = -1  # the last group targets() was called for
+        self._run_ok = False  # the current run (targets of group 0, 1, ... in order) has posed every frame it needed
+        self._incremental = False  # the current run may go by frames: the last one went through every group, ok
+        self.runs = 0  # runs started (calls for group 0): a caller going by frames checks that no other run came between
+
+    @property
+    def complete(self) -> bool:
+        """Whether the last run went through every group in order, every frame posed (no quaternion of zero length):
+        the next run may go by frames (:meth:`targets`)."""
+        return self._run_ok and self._last == len(self.groups) - 1
 
     @staticmethod
     def supports(plan: PosePlan | None) -> bool:
         """Whether a chain can be built for ``plan``: every rotation entry a local quaternion or rotation vector."""
         return plan is not None and bool(np.all(np.isin(plan.kinds, (QUAT, AXIS_ANGLE))))
 
-    def _pose(self, d: int, decoded: NDArray[np.float64]) -> None:
+    def _pose(self, d: int, decoded: NDArray[np.float64], frames: NDArray[np.int64] | None = None) -> None:
         """Global rotations and positions of the joints of depth ``d`` from ``decoded`` (the decoder's conversions;
-        their parents' already posed)."""
+        their parents' already posed), in every frame or only in ``frames``."""
         js, parents, conv, tcols, tvals = self._levels[d]
         decoded = np.ascontiguousarray(decoded, dtype=np.float64)
-        F = decoded.shape[0]
-        local = np.zeros((F, js.size, 4))
+        rows = decoded if frames is None else decoded[frames]
+        local = np.zeros((rows.shape[0], js.size, 4))
         local[..., 3] = 1.0
         for kind, cols, place in conv:
-            (quat_columns_normalized if kind == QUAT else axis_angle_columns_to_quat)(decoded, cols, place, local)
-        chain_pose(decoded, local, js, parents, tcols, tvals, self._rot, self._pos)  # compiled: motionrep/_c/chain.c
+            (quat_columns_normalized if kind == QUAT else axis_angle_columns_to_quat)(rows, cols, place, local)
+        # compiled: motionrep/_c/chain.c
+        chain_pose(decoded, local, js, parents, tcols, tvals, self._rot, self._pos, frames)
 
     def _fk(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F, J + E, 3)`` positions and ``(F, J + E, 4)`` global rotations of ``features`` (the decoder's
@@ -284,7 +294,8 @@ class FeatureChain:
         shift = dist.max(axis=2) if dist.shape[2] else np.zeros((D, n))
         return (shift / h[:, None]).T
 
-    def targets(self, group: int, decoded: NDArray[np.float64]) -> NDArray[np.float64]:
+    def targets(self, group: int, decoded: NDArray[np.float64], frames: NDArray[np.int64] | None = None,
+                previous: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """``(F, n_g)`` the values to quantise for the columns of ``groups[group]``, given ``decoded`` ``(F, D)``
         whose columns of the earlier groups hold what the decoder will make of them (the others are not read);
         where those do not decode (a quaternion of zero length), the true values.
@@ -292,24 +303,43 @@ class FeatureChain:
         A translation column's target is its true value; a rotation block's is the feedback's (module docstring),
         a rotation vector on the branch ``(theta + 2 pi k) n`` nearest the true features, a quaternion of the
         sign nearest them.
+
+        A run is one call per group, in order from group 0. With ``frames`` (increasing int64) and ``previous``
+        ``(F, n_g)``, the caller states that ``decoded``'s columns of the earlier groups differ from the last run's
+        only in ``frames``, and ``previous`` holds this group's targets of that run: then only those frames are
+        computed and the others taken from ``previous``, the same values as computing every frame (a frame's
+        targets and poses depend on that frame's decoded values alone, by the same arithmetic). The chain computes
+        every frame instead when the last run did not go through every group (or met a quaternion of zero length)
+        or this call is not the next group of the current run; :attr:`runs` counts the runs, so that a caller can
+        tell that nobody else ran the chain in between.
         """
         cols = self.groups[group]
-        out = self._true[:, cols].copy()
         d = self._group_depth[group]
-        if group != self._last + 1:  # not the next group of the current run: pose from the start
+        if group == 0:  # a run starts
+            self._incremental = self.complete
+            self._run_ok = True
+            self.runs += 1
             self._posed = 0
+        elif group != self._last + 1:  # not the next group of the current run: pose from the start
+            self._posed = 0
+            self._incremental = False
         self._last = group
-        if group == 0:
-            self._posed = 0
+        if frames is not None and not (self._incremental and previous is not None and frames.size < len(self._true)):
+            frames = None  # (every frame: as without frames)
+        out = self._true[:, cols].copy() if frames is None else previous.copy()
+        if frames is not None and not frames.size:  # nothing above changed: the last run's poses and targets
+            self._posed = max(self._posed, d)
+            return out
         try:
             while self._posed < d:  # the joints above depth d, as the decoder poses them
-                self._pose(self._posed, decoded)
+                self._pose(self._posed, decoded, frames)
                 self._posed += 1
         except ValidationError:  # a decoded quaternion of zero length (a huge step): open loop for this run
-            self._posed, self._last = 0, -2
-            return out
+            self._posed, self._last, self._run_ok = 0, -2, False
+            return self._true[:, cols].copy()
         if d not in self._at:
             return out
-        if chain_targets(self._rot, self._pos, *self._at[d], out) >= 0:  # compiled: motionrep/_c/chain.c
+        if chain_targets(self._rot, self._pos, *self._at[d], out, frames) >= 0:  # compiled: motionrep/_c/chain.c
+            self._run_ok = False
             raise ValidationError("cannot convert a quaternion of zero length to a rotation vector")
         return out

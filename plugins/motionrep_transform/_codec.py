@@ -248,13 +248,19 @@ class TransformCodec(Codec):
         errors = _RegionErrors(context, plan.num_frames, plan.region)
         R = plan.regions
 
+        last: list = [None, None]  # the last features measured and their errors
+
         def region_errors(k: NDArray[np.int64]) -> NDArray[np.float64]:
-            return errors(plan.decoded(k, rounding))
+            features = plan.decoded(k, rounding)
+            if features is not last[0]:  # the same array: the same values as the last measured (_Plan.decoded)
+                last[:] = features, errors(features)
+            return last[1].copy()
 
         def passes(k: NDArray[np.int64]) -> NDArray[np.bool_]:
             return region_errors(k) <= bound
 
         k0 = int(_log_step(bound))
+        plan.incremental = False  # the bisection changes every region's exponent at every step
         low, high = np.full(R, k0 - _SEARCH_BELOW, np.int64), np.full(R, k0 + _SEARCH_ABOVE, np.int64)
         if plan.chain is None:
             k = largest_passing_each(passes, low, high)
@@ -266,7 +272,8 @@ class TransformCodec(Codec):
                 k[below] = largest_passing_each(lambda v: passes(np.where(below, _spread(v, below), k))[below],
                                                 low[below], start[below] - 1)
         context.progress("bisect", regions=R, evaluations=errors.evaluations, diagnostic=True)
-        k = self._settle(k, region_errors, bound, low[0] - 1)
+        plan.incremental = True
+        k = self._settle(k, region_errors, bound, low[0] - 1, plan.next_exponent)
         context.progress("settle", regions=R, evaluations=errors.evaluations,
                          step=[float(step_scale(k.min())), float(step_scale(k.max()))], diagnostic=True)
         return k
@@ -312,18 +319,27 @@ class TransformCodec(Codec):
         return replace(quantised, coefficients=coefficients)
 
     @staticmethod
-    def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int) -> NDArray[np.int64]:
+    def _settle(k: NDArray[np.int64], region_errors, bound: float, floor: int, next_exponent=None
+                ) -> NDArray[np.int64]:
         """Lower the exponents of regions over the bound (and, after a region failed three times, its
-        neighbours') until every region passes; if that does not converge, one exponent for all."""
+        neighbours') until every region passes; if that does not converge, one exponent for all. With
+        ``next_exponent`` (:meth:`_Plan.next_exponent`), a region whose error did not change at all when it was
+        lowered goes straight to the next exponent at which a coefficient it did not yet set would change."""
         k = k.copy()
         fails = np.zeros(k.size, np.int64)
+        e_before, bad_before = None, np.zeros(k.size, bool)
         for _ in range(_SETTLE_ROUNDS):
             e = region_errors(k)
             bad = e > bound
             if not bad.any():
                 return k
             fails += bad
-            k[bad] -= 1
+            lowered = k - 1
+            if next_exponent is not None and e_before is not None:
+                for r in np.flatnonzero(bad & bad_before & (e == e_before)).tolist():
+                    lowered[r] = min(lowered[r], next_exponent(k, r))
+            e_before, bad_before = e, bad
+            k[bad] = lowered[bad]
             stuck = bad & (fails > 2)
             k[1:][stuck[:-1]] -= 1
             k[:-1][stuck[1:]] -= 1

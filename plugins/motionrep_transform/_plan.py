@@ -50,15 +50,52 @@ class _Plan:
         # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
         # measured, which the encoder then quantises again
         self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
+        # closed loop: the last quantisation, group by group (targets, coefficients, dequantised coefficients,
+        # synthesised columns), with the chain's run count after it, for the next one to recompute only what changed
+        self._run: tuple[int, list[tuple[NDArray[np.float64], ...]]] | None = None
+        #: closed loop: quantise() recomputes only what changed since the last quantisation (the same integers);
+        #: false while every quantisation changes every step (the region search's bisection), which saves the
+        #: comparisons
+        self.incremental = True
+        self._serial = 0  # quantisations computed
+        self._same = False  # the last one decoded to the same values as the one before it
+        # the last decoded() and the quantisation it came from: reused while nothing changes
+        self._decoded: tuple[int, NDArray[np.float64]] | None = None
 
     def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
         return coefficient_exponents(region_exp, self.region_of, self.reach, self.feature_exp)
 
+    def next_exponent(self, region_exp: NDArray[np.int64], region: int) -> int:
+        """The largest exponent below ``region_exp[region] - 1`` at which region ``region`` would set the step of a
+        coefficient that it does not set now (one whose window's other regions hold an exponent below its own):
+        ``m - 1`` for the largest such window minimum ``m``; ``region_exp[region] - 1`` when there is none."""
+        k = np.asarray(region_exp, np.int64)
+        here = int(k[region])
+        others = k.copy()
+        others[region] = np.iinfo(np.int64).max
+        best = None
+        for rows, span in zip(self.region_of, self.reach):
+            near = rows[np.abs(rows - region) <= span]  # the coefficients whose window holds the region
+            if not near.size:
+                continue
+            m = window_minimum(others, span)[near]
+            m = m[m < here]
+            if m.size:
+                best = int(m.max()) if best is None else max(best, int(m.max()))
+        return here - 1 if best is None else min(here - 1, best - 1)
+
     def _steps(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.float64]]:
         """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
         the few distinct ``k`` (rows of one ``k`` share their steps; the same numbers as :func:`steps_of`), each a
         fresh array."""
+        _, table, rows = self._step_rows(region_exp)
+        return [table[r] for r in rows]
+
+    def _step_rows(self, region_exp: NDArray[np.int64]
+                   ) -> tuple[NDArray[np.int64], NDArray[np.float64], list[NDArray[np.int64]]]:
+        """The distinct region exponents ``(m,)`` (sorted), the table ``(m, D)`` of their steps
+        ``2 ** ((b_c + k) / 8)``, and per coefficient array ``(n,)`` the row of the table each of its rows takes."""
         # the windows' minima as indices into the sorted distinct k (order-preserving, so the minimum of the
         # indices is the index of the minimum): one table of steps for every array, its rows those k's
         distinct, index = np.unique(np.asarray(region_exp, np.int64).reshape(-1), return_inverse=True)
@@ -68,8 +105,8 @@ class _Plan:
         for rows, span in zip(self.region_of, self.reach):
             if span not in minima:
                 minima[span] = window_minimum(index.reshape(-1), span)
-            out.append(table[minima[span][rows]])
-        return out
+            out.append(minima[span][rows])
+        return distinct, table, out
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
         """``sign(c) floor(|c| / step + rounding)`` of every coefficient (steps: :meth:`_steps`).
@@ -77,35 +114,100 @@ class _Plan:
         With a chain, group by group: the coefficients of a group are those of its targets given what the decoder
         makes of the integers of the groups before it (each group's columns synthesised alone: the inverse wavelet
         runs column by column, so they have the decoder's values).  The same exponents and rounding as the call
-        before: a copy of its result."""
+        before: a copy of its result.
+
+        Closed loop, after a first quantisation, only what changed since the last one is computed again (the same
+        values as computing it all, :meth:`_quantise`)."""
         key = np.asarray(region_exp, np.int64).tobytes()
         if self._last is not None and self._last[0] == key and self._last[1] == rounding:
             return [q.copy() for q in self._last[2]]
-        out = self._quantise(region_exp, rounding)
+        out = self._quantise(region_exp, rounding, self.incremental)
         self._last = (key, rounding, [q.copy() for q in out])
         return out
 
-    def _quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
-        steps = self._steps(region_exp)
+    def _quantise(self, region_exp: NDArray[np.int64], rounding: float, incremental: bool = True
+                  ) -> list[NDArray[np.int64]]:
+        """The integers of :meth:`quantise`. Closed loop with ``incremental`` and a last run to start from (the
+        chain run by nobody else since), each group computes only what the changes above it reach: its targets in
+        the frames where the decoded columns of the groups before it changed (a frame's targets depend on that
+        frame's decoded values alone: :meth:`FeatureChain.targets <motionrep.pipeline.chain.FeatureChain.targets>`),
+        its coefficients only if any target changed, its synthesis only if a dequantised coefficient changed; the
+        rest is the last run's, the same values (tested against ``incremental=False``). A group whose coefficients
+        did not change is rounded again only in the rows whose region exponent changed (elementwise: the same
+        bits)."""
         if self.chain is None:
-            return [_rounded(mag, a, sign, rounding) for mag, a, sign in zip(self._magnitudes, steps, self._signs)]
-        # the arrays of every level one after the other (storage order), so that a group is one block of columns
-        all_steps = np.concatenate(steps, axis=0)
+            return [_rounded(mag, a, sign, rounding)
+                    for mag, a, sign in zip(self._magnitudes, self._steps(region_exp), self._signs)]
+        distinct, table, row_lists = self._step_rows(region_exp)
+        sizes = [r.size for r in row_lists]
+        # the arrays of every level one after the other (storage order), so that a group is one block of columns:
+        # each coefficient row's row of the table and its region exponent
+        rows = np.concatenate(row_lists)
+        row_k = distinct[rows]
         out = np.zeros((self.num_frames, self.num_features), np.int64)
         decoded = np.zeros((self.num_frames, self.num_features))
+        last = self._run if incremental and self._run is not None and self._run[0] == self.chain.runs else None
+        self._run = None
+        changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
+        k_rows = None if last is None else np.flatnonzero(row_k != last[1])  # rows whose steps changed
+        state = []
+        everywhere = last is None  # every frame changed (or no last run): the groups from here on computed whole
         for g, cols in enumerate(self.chain.groups):
-            c = forward_rows(self.chain.targets(g, decoded))
-            step = all_steps[:, cols]
-            q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+            before = None if last is None else last[2][g]
+            if everywhere:
+                targets = self.chain.targets(g, decoded)
+                fresh = True
+            else:
+                frames = np.flatnonzero(changed)
+                targets = self.chain.targets(g, decoded, frames, before[0])
+                fresh = frames.size > 0
+            group_table = table[:, cols]
+            if fresh or 2 * k_rows.size > rows.size:  # rounded whole
+                c = forward_rows(targets) if fresh else before[1]
+                step = group_table[rows]
+                q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+                dequantised = q * step
+                same = not everywhere and np.array_equal(dequantised, before[3])
+            else:  # the same coefficients: rounded again where the steps changed
+                c, q, dequantised = before[1:4]
+                same = True
+                if k_rows.size:
+                    step = group_table[rows[k_rows]]
+                    ck = c[k_rows]
+                    qk = _rounded(np.abs(ck), step.copy(), np.sign(ck).astype(np.int64), rounding)
+                    dk = qk * step
+                    same = np.array_equal(dk, dequantised[k_rows])
+                    if not same:
+                        q, dequantised = q.copy(), dequantised.copy()
+                        q[k_rows], dequantised[k_rows] = qk, dk
             out[:, cols] = q
-            dequantised = q * step
-            decoded[:, cols] = synthesised([dequantised], self.levels) if self.levels else dequantised
-        return np.split(out, np.cumsum([a.shape[0] for a in steps])[:-1], axis=0)
+            if same:
+                values = before[4]
+            else:
+                values = synthesised([dequantised], self.levels) if self.levels else dequantised
+                if not everywhere:
+                    changed |= np.any(values != before[4], axis=1)
+                    everywhere = bool(changed.all())
+            decoded[:, cols] = values
+            state.append((targets, c, q, dequantised, values))
+        if self.chain.complete:
+            self._run = (self.chain.runs, row_k, state)
+        self._serial += 1
+        self._same = last is not None and not changed.any()
+        return np.split(out, np.cumsum(sizes)[:-1], axis=0)
 
     def decoded(self, region_exp: NDArray[np.int64], rounding: float) -> NDArray[np.float64]:
         """``(F, D)`` features the payload of region exponents ``k`` decodes to: the decoder's own
-        :func:`reconstruct` of ``self.quantised(k, rounding)``."""
-        return reconstruct(self.quantised(region_exp, rounding))
+        :func:`reconstruct` of ``self.quantised(k, rounding)``. Closed loop, when the quantisation decoded to the
+        same values as the last one (every group's dequantised coefficients the same), the very array returned
+        last time (the caller may tell by identity that nothing changed; it must not write to it)."""
+        quantised = self.quantised(region_exp, rounding)
+        if self.chain is not None and self._decoded is not None and (
+                self._decoded[0] == self._serial or (self._same and self._decoded[0] == self._serial - 1)):
+            self._decoded = (self._serial, self._decoded[1])
+        else:
+            self._decoded = (self._serial, reconstruct(quantised))
+        return self._decoded[1]
 
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,

@@ -97,9 +97,9 @@ def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
     calls = []
     targets = FeatureChain.targets
 
-    def spy(self, group, decoded):
+    def spy(self, group, decoded, *rest):
         calls.append(group)
-        return targets(self, group, decoded)
+        return targets(self, group, decoded, *rest)
 
     monkeypatch.setattr(FeatureChain, "targets", spy)
     compress_motion(walk, "transform", max_error="1%")
@@ -128,3 +128,119 @@ def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkey
     assert narrow.report.max_error_percent <= 2.0
     assert max_joint_error(walk, decompress(narrow.data)).max_error_percent <= 2.0
     assert abs(len(narrow.data) - len(full.data)) < 0.05 * len(full.data)
+
+
+def _plans(motion, region=16):
+    """Two plans of ``motion``'s features in closed loop (each its own chain), and the rounding."""
+    from motionrep_transform._codec import _chain, _sensitivity, feature_exponents
+    from motionrep_transform._plan import _Plan
+
+    codec, rep = get_codec("transform"), get_representation("root-quat-axis-angle")
+    ctx = MotionContext(motion, rep, codec, codec.parse_params({}), 1.0, 0, None)
+    f = rep.to_features(motion)
+    out = []
+    for _ in range(2):
+        chain = _chain(ctx, f)
+        exp = feature_exponents(_sensitivity(ctx, f, rep.weights(motion), chain)[0])
+        out.append(_Plan(f, exp, region, chain))
+    return out
+
+
+@pytest.mark.parametrize("frames", [1, 2, 3, 15, 16, 17, 200])
+def test_incremental_quantisation_is_the_whole_quantisation(frames):
+    """Closed loop, each quantisation after the first recomputes only what changed since the last (the frames
+    whose decoded parents changed, the groups whose coefficients changed): the same integers and decoded values,
+    bit for bit, as quantising the whole clip (the same code on the same numbers), over a settle-like sequence of
+    exponents (one region lowered, several, none, the same exponents again, all); clips of 1-3 frames (no
+    wavelet levels), of one region, and longer."""
+    motion = synthetic_motion(humanoid_skeleton(), frames=frames, fps=60, seed=2)
+    inc, whole = _plans(motion)
+    assert inc.chain is not None
+    rng = np.random.default_rng(frames)
+    k = np.full(inc.regions, -12, np.int64)
+    sequence = [k.copy()]
+    for step in range(14):
+        k = k.copy()
+        if step % 5 == 4:
+            k -= 3  # every region
+        elif step % 5 != 2:  # (2: the same exponents again)
+            k[rng.integers(0, inc.regions, size=1 + step % 3)] -= 1 + step % 2
+        sequence.append(k)
+    for k in sequence:
+        got = inc._quantise(k, 0.45)
+        want = whole._quantise(k, 0.45, incremental=False)
+        assert all(np.array_equal(a, b) for a, b in zip(got, want))
+        # every group's targets, coefficients, integers, dequantised coefficients and decoded columns
+        assert np.array_equal(inc._run[1], whole._run[1])
+        assert all(np.array_equal(a, b) for x, y in zip(inc._run[2], whole._run[2]) for a, b in zip(x, y))
+        d = inc.decoded(k, 0.45)
+        assert np.array_equal(d, whole.decoded(k, 0.45))
+
+
+def test_decoded_is_the_same_array_only_while_nothing_changes(walk):
+    inc, _ = _plans(walk)
+    k = np.full(inc.regions, 4, np.int64)
+    a = inc.decoded(k, 0.45)
+    assert inc.decoded(k, 0.45) is a  # the same exponents
+    inc.quantise(k - 1, 0.45)  # a quantisation that changes the values, not through decoded()
+    b = inc.decoded(k, 0.45)
+    assert b is not a and np.array_equal(b, a)
+    assert not np.array_equal(inc.decoded(k - 2, 0.45), a)
+
+
+def test_a_chain_run_by_someone_else_makes_the_next_quantisation_whole(walk, monkeypatch):
+    inc, whole = _plans(walk)
+    k = np.full(inc.regions, 4, np.int64)
+    inc._quantise(k, 0.45)
+    noisy = inc.chain._true + 0.02
+    for g in range(len(inc.chain.groups)):
+        inc.chain.targets(g, noisy)
+    k[3] -= 2
+    got = inc._quantise(k, 0.45)
+    want = whole._quantise(k, 0.45, incremental=False)
+    assert all(np.array_equal(a, b) for a, b in zip(got, want))
+
+
+@pytest.mark.parametrize("frames, region", [(64, 4), (200, 16), (37, 8), (9, 16)])
+def test_next_exponent_is_where_a_region_first_sets_another_coefficient(frames, region):
+    """Brute force: lowering region r from e + 1 to e changes the exponents of a set of coefficients that grows
+    as e falls; next_exponent is the largest e below k_r - 1 whose set holds a coefficient that lowering r by one
+    does not change (k_r - 1 when there is none)."""
+    from motionrep_transform._plan import _Plan
+
+    plan = _Plan(np.zeros((frames, 2)), np.zeros(2, np.int64), region)
+    rng = np.random.default_rng(frames)
+    for _ in range(6):
+        k = rng.integers(-6, 7, plan.regions)
+        for r in range(plan.regions):
+            def moved(e):
+                a, b = k.copy(), k.copy()
+                a[r], b[r] = e + 1, e
+                return np.concatenate([(x != y).reshape(-1) for x, y in zip(plan.exponents(a), plan.exponents(b))])
+            now = moved(k[r] - 1)
+            want = next((e for e in range(k[r] - 2, -40, -1) if np.any(moved(e) & ~now)), k[r] - 1)
+            assert plan.next_exponent(k, r) == want, (k, r)
+
+
+def test_settle_jumps_a_region_whose_error_does_not_move():
+    """Region 1's error stays the same until its exponent reaches 3 (a coarse coefficient it sets only from
+    there): lowered one at a time it takes a round per exponent; told where it next sets another coefficient, it
+    goes there once its error did not move: the same exponent for it in fewer rounds, and its neighbours lowered
+    less (after a region's third failure its neighbours are lowered with it)."""
+    from motionrep_transform._codec import TransformCodec
+
+    calls = []
+
+    def errors(k):
+        calls.append(k.copy())
+        e = np.where(k <= np.array([10, 3, 5]), 0.5, 1.5)
+        e[0] = 0.5 if k[0] <= 10 else 1.0 + 0.01 * k[0]  # moves with its exponent
+        return e
+
+    start = np.array([12, 12, 5])
+    slow = TransformCodec._settle(start, errors, 1.0, -50)
+    rounds = len(calls)
+    calls.clear()
+    fast = TransformCodec._settle(start, errors, 1.0, -50, lambda k, r: 3 if r == 1 else int(k[r]) - 1)
+    assert slow[1] == fast[1] == 3 and np.all(fast >= slow) and np.all(errors(fast) <= 1.0)
+    assert fast[0] == 10 and fast[2] == 5 and len(calls) - 1 < rounds
