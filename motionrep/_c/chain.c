@@ -75,10 +75,10 @@ int64_t mr_chain_targets(const mr_chain_targets_args *a)
             for (int k = 0; k < 4; k++)
                 want[k] = a->true_rot[(i * F + f) * 4 + k];
             if (m >= 0) { /* position feedback: turn the true rotation to point, from here, at the true point */
-                const int64_t r = m * F + f;
-                const double *av = a->lever_vec + 3 * r, *tp = a->true_pos + 3 * r, na = a->lever_len[r];
+                const int64_t l = m * F + f; /* the lever point's row */
+                const double *av = a->lever_vec + 3 * l, *tp = a->true_pos + 3 * l, na = a->lever_len[l];
                 double here[3], b[3], turn[4], turned[4];
-                qapply_add(g, a->pos + (a->parents[i] * F + f) * 3, a->local_offset + 3 * r, here);
+                qapply_add(g, a->pos + (p * F + f) * 3, a->local_offset + 3 * l, here);
                 for (int k = 0; k < 3; k++)
                     b[k] = (av[k] + tp[k]) - here[k];
                 double nb = sqrt((b[0] * b[0] + b[1] * b[1]) + b[2] * b[2]);

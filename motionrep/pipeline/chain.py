@@ -151,11 +151,12 @@ class FeatureChain:
         far: dict[tuple[int, int], float] = {}  # (joint, point): their largest distance over frames
 
         def lever(j: int) -> float:
-            for pt in below(j):
+            points = below(j)
+            for pt in points:
                 if (j, pt) not in far:
                     v = true_pos[:, pt] - true_pos[:, j]
                     far[j, pt] = float(np.sqrt(np.sum(v * v, axis=1)).max())
-            return max((far[j, pt] for pt in below(j)), default=0.0)
+            return max((far[j, pt] for pt in points), default=0.0)
 
         # a joint whose rotation never moves would take a copy of its decoded parent's noise in closed loop: it keeps
         # its true values when its parent's lever reaching through it (to the points below it) gets no longer, so

@@ -165,7 +165,7 @@ class _Plan:
             if fresh or 2 * k_rows.size > rows.size:  # rounded whole
                 c = forward_rows(targets) if fresh else before[1]
                 step = group_table[rows]
-                q = _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+                q = _rounded_coefficients(c, step, rounding)
                 dequantised = q * step
                 same = not everywhere and np.array_equal(dequantised, before[3])
             else:  # the same coefficients: rounded again where the steps changed
@@ -173,8 +173,7 @@ class _Plan:
                 same = True
                 if k_rows.size:
                     step = group_table[rows[k_rows]]
-                    ck = c[k_rows]
-                    qk = _rounded(np.abs(ck), step.copy(), np.sign(ck).astype(np.int64), rounding)
+                    qk = _rounded_coefficients(c[k_rows], step, rounding)
                     dk = qk * step
                     same = np.array_equal(dk, dequantised[k_rows])
                     if not same:
@@ -212,6 +211,11 @@ class _Plan:
     def quantised(self, region_exp: NDArray[np.int64], rounding: float) -> Quantised:
         return Quantised(self.num_frames, self.num_features, self.region, self.feature_exp,
                          np.asarray(region_exp, np.int64), self.quantise(region_exp, rounding))
+
+
+def _rounded_coefficients(c: NDArray[np.float64], step: NDArray[np.float64], rounding: float) -> NDArray[np.int64]:
+    """``sign(c) floor(|c| / step + rounding)`` of coefficients ``c`` (``step`` is left as it is)."""
+    return _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
 
 
 def _rounded(magnitude: NDArray[np.float64], step: NDArray[np.float64], sign: NDArray[np.int64],
