@@ -111,6 +111,29 @@ def test_sensitivities_count_the_points_directly_below(walk):
     np.testing.assert_allclose(closed[:, :3], opened[:, :3])  # the root's translation moves everything
 
 
+def test_sensitivity_is_the_largest_move_of_the_lever_points(walk):
+    """The sensitivity measures only the lever points of each feature: the same numbers as measuring every point
+    and keeping the lever points' largest move (0 for a feature without any; compared bit for bit: the same
+    elementwise numpy arithmetic on this machine, max is exact)."""
+    from motionrep.pipeline.chain import sensitivity_samples
+
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    chain.lever_points[5] = False  # a feature that moves none of its lever points
+    chain.lever_points[7, :] = False
+    chain.lever_points[7, -1] = True  # one point only
+    x, moved, h = sensitivity_samples(f)
+    D, n = moved.shape[:2]
+    base = ctx._positions(x)
+    pos = ctx._positions(moved.reshape(D * n, D)).reshape(D, n, base.shape[1], 3)
+    every = np.sqrt(np.sum((pos - base[None]) ** 2, axis=-1))  # (D, n, points)
+    expected = (np.where(chain.lever_points[:, None, :], every, 0.0).max(axis=2) / h[:, None]).T
+    got = chain.sensitivity(f)
+    assert np.array_equal(got, expected)
+    assert np.all(got[:, 5] == 0.0) and np.all(got[:, 7] == every[7, :, -1] / h[7])
+
+
 def test_a_child_at_its_parent_passes_the_lever_on():
     """A joint whose only child sits at the joint itself gets the lever of that child's children (else its steps
     would be unbounded: a root whose only child is at the root)."""

@@ -291,8 +291,17 @@ class FeatureChain:
         D, n = moved.shape[:2]
         base = self._positions(x)
         pos = self._positions(moved.reshape(D * n, D)).reshape(D, n, base.shape[1], 3)
-        dist = np.where(self.lever_points[:, None, :], np.sqrt(np.sum((pos - base[None]) ** 2, axis=-1)), 0.0)
-        shift = dist.max(axis=2) if dist.shape[2] else np.zeros((D, n))
+        # the distances of the lever points only, (K, n) for the K (feature, point) pairs in row order, and per
+        # feature their largest (0 for a feature without lever points; the distances are >= 0)
+        feature, point = np.nonzero(self.lever_points)
+        d = pos[feature, :, point] - base[:, point].transpose(1, 0, 2)
+        dist = np.sqrt(np.sum(d * d, axis=-1))
+        shift = np.zeros((D, n))
+        counts = np.bincount(feature, minlength=D)
+        has = counts > 0
+        if has.any():
+            starts = np.cumsum(counts) - counts
+            shift[has] = np.maximum.reduceat(dist, starts[has], axis=0)
         return (shift / h[:, None]).T
 
     def targets(self, group: int, decoded: NDArray[np.float64], frames: NDArray[np.int64] | None = None,
