@@ -60,10 +60,10 @@ class FeatureEdits:
         self._shape = (F, D, J, E, N)
         self._plan = plan.packed()
         self._layout, self.moved_points, lip = _layout(F, D, skeleton, plan)
-        flat = [np.flatnonzero(self.moved_points[c]) for c in range(D)]  # the kernel's cjoints, then csites
+        # each column's factors of the points it moves, in the order of the kernel's cjoints, then csites (row
+        # by row: boolean indexing walks the rows in order)
         self._geom = np.concatenate([skeleton.offsets.reshape(-1), skeleton.end_site_offsets.reshape(-1),
-                                     *[lip[c, p[p < J]] for c, p in enumerate(flat)],
-                                     *[lip[c, p[p >= J]] for c, p in enumerate(flat)]])
+                                     lip[:, :J][self.moved_points[:, :J]], lip[:, J:][self.moved_points[:, J:]]])
         sizes = [D * F, F * J * 4, F * J * 4, F * N * 3, F * J * 4, F * (J + E) * 3, F * (J + E) * 3, F * (J + E)]
         self._state = np.empty(sum(sizes))
         bounds = np.cumsum([0] + sizes)
@@ -178,13 +178,15 @@ def _layout(F: int, D: int, skeleton: Skeleton, plan: PosePlan
             moved[c] |= below[j]
     site_parents = np.asarray(skeleton.end_site_parents, np.int64)
     sites = moved[:, site_parents] if E else np.zeros((D, 0), bool)
-    cjoints = [np.flatnonzero(moved[c]) * 2 + decoded[c, moved[c]] for c in range(D)]
-    csites = [np.flatnonzero(sites[c]) for c in range(D)]
-    cstart = np.concatenate([[0], np.cumsum([x.size for x in cjoints])])
-    sstart = np.concatenate([[0], np.cumsum([x.size for x in csites])])
+    # per column (row by row), the joints it moves (2 j, + 1 where its entry is decoded again) and its end sites
+    c, j = np.nonzero(moved)
+    cjoints = 2 * j + decoded[c, j]
+    csites = np.nonzero(sites)[1]
+    cstart = np.concatenate([[0], np.cumsum(moved.sum(axis=1))])
+    sstart = np.concatenate([[0], np.cumsum(sites.sum(axis=1))])
     kind, lip = _reach_bounds(D, skeleton, plan, below, slot)
     layout = np.concatenate([[F, J, E, D, N, int(world)], parents, slot, site_parents, entry, kind, cstart, sstart,
-                             *cjoints, *csites]).astype(np.int64)
+                             cjoints, csites]).astype(np.int64)
     return layout, np.concatenate([moved, sites], axis=1), lip
 
 
