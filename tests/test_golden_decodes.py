@@ -6,6 +6,10 @@ Compared bit for bit on purpose: decoding is scalar IEEE C compiled without fuse
 (setup.py) and numpy element-wise arithmetic, no BLAS, so its values are the same on any x86-64 or aarch64 CPU.
 The files are stored rather than encoded again because encoding (the svd codec's LAPACK) may differ between
 machines in the last bits.
+
+One intended change since (golden.json's ``remade``): the svd decoder blends the frames it decodes instead of
+decoding interpolated coefficients at every time (2026-12-07, issue 24), so the svd files' digests at times between
+frames were made again; their frames (``features_frames``) and ``decompress`` kept the numba decoders' digests.
 """
 
 from __future__ import annotations

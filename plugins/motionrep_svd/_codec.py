@@ -6,10 +6,10 @@ is stored as ``coefficients = U_r S_r`` ``(F, r)`` and ``basis = V_r^T / s`` ``(
 ``Y ~ mean + coefficients @ basis``.  Weighting makes the truncation minimise the same weighted L2 error as the
 Fourier codecs' loss.
 
-Decoding at normalised times ``t``: the coefficient rows are interpolated linearly between frames
-(frame ``i`` at ``t = i / (F - 1)``), then ``mean + c(t) @ basis``, in one C loop (:class:`SVDDecoder`,
-``_c/module.c``): in float32 (the payload's own precision) for payload version 2, in float64 for version 1, whose
-files were measured in float64 when they were written.
+Decoding (:class:`SVDDecoder`, ``_c/module.c``): preparing a decoder decodes every frame ``i`` at its time
+``t = i / (F - 1)``, the coefficient rows interpolated there, then ``mean + c(t) @ basis``; a time then blends its
+two frames linearly.  In float32 (the payload's own precision) for payload version 2, in float64 for version 1,
+whose files were measured in float64 when they were written.
 """
 
 from __future__ import annotations
@@ -122,13 +122,13 @@ class SVDCodec(Codec):
         return f"rank={info['rank']}" if "rank" in info else super().describe(info, detail)
 
     def check_payload(self, payload: Payload, num_frames: int) -> None:
-        """The payload's coefficient rows (one per frame) must be the clip's frames; the work (frames x rank x
-        features) is the size of what it stores times the frame count, checked like every codec's."""
+        """The payload's coefficient rows (one per frame) must be the clip's frames; the work (frames x (rank + 1) x
+        features: every frame decoded when the decoder is prepared, and held) checked like every codec's."""
         coeff = np.asarray(payload.arrays.get("coefficients", np.zeros((0, 0))))
         mean = np.asarray(payload.arrays.get("mean", np.zeros(0)))
         if coeff.ndim == 2:
             check_frames(coeff.shape[0], num_frames, "svd payload (coefficient rows)")
-            check_decode_work(int(num_frames) * int(coeff.shape[1]) * int(mean.size), payload,
+            check_decode_work(int(num_frames) * (int(coeff.shape[1]) + 1) * int(mean.size), payload,
                               f"svd payload of rank {coeff.shape[1]}")
 
     def decoder(self, payload: Payload) -> "SVDDecoder":
@@ -139,10 +139,14 @@ class SVDCodec(Codec):
 
 
 class SVDDecoder(CompiledDecoder):
-    """An ``svd`` payload checked and converted once, ready to decode any number of times: one C pass per block of
-    times (``_c/module.c``), in ``dtype`` (float32 for payload version 2, float64 for version 1): the coefficient
-    rows interpolated linearly at each time, then ``mean + c(t) @ basis``, each sum in a fixed order (the mean
-    first, then the rank components in order), so a time decodes to the same bits alone or in a batch.
+    """An ``svd`` payload checked and decoded once, ready to sample any number of times (``_c/module.c``), in
+    ``dtype`` (float32 for payload version 2, float64 for version 1).  Preparing decodes every frame at its time
+    ``i / (F - 1)``: the coefficient rows interpolated linearly there, then ``mean + c(t) @ basis``, each sum in a
+    fixed order (the mean first, then the rank components in order), the arithmetic the decoder used at every time
+    before 2026-12-07, so each frame has its bits of then (``(F, D)`` values held: ``4 F D`` bytes in float32).  A
+    time then blends its two frames, ``R_j (1 - a) + R_(j+1) a`` in ``dtype`` (``a`` rounded to it); a time that is
+    a frame's time, or whose fraction rounds to 0 or 1, gives that frame's values, and a feature constant over the
+    clip its mean.  A time decodes to the same bits alone or in a batch.
 
     Attributes:
         width, kernel, kernel_args: the decoder (``Codec.decoder``): ``kernel(times, out, *kernel_args)`` writes

@@ -6,9 +6,12 @@
  *   Decoder.sampler                               the C sampler motionrep.open calls (motionrep/sampler.h)
  *   sample(times, out, decoder)                   the features at times (T,) into a feature-major out (D, >= T)
  *
- * The arithmetic of the numba kernel it replaces, in the arrays' dtype: the coefficient rows interpolated linearly
- * at each time (clamped to [0, 1]), then mean + c(t) @ basis, each sum in a fixed order (mean first, then the
- * components in order; motionrep/mrkernels.h), so a time decodes to the same bits alone or in a batch. */
+ * Preparing a decoder decodes every frame: at frame i's time, i / (F - 1), the arithmetic of the numba kernel the
+ * decoder replaced, in the arrays' dtype (the coefficient rows interpolated linearly at the time, then
+ * mean + c(t) @ basis, each sum in a fixed order: mean first, then the components in order; motionrep/mrkernels.h:
+ * direct_f32, direct_f64).  Sampling then blends each time's two frames, R_j (1 - a) + R_{j+1} a in the dtype (the
+ * fraction a rounded to it); a time that is a frame's time gives that frame exactly, and a feature constant over
+ * the clip its mean.  A time decodes to the same bits alone or in a batch. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
@@ -32,6 +35,10 @@ typedef struct {
     size_t L;
     const void *units_t, *units_mean;
     const ptrdiff_t *rows, *consts;
+    /* the prepared decoder: the features of every frame (F, D), frame-major in the dtype; consts_ok: every
+     * coefficient finite and far from overflowing, so that the features of zero weights are their means */
+    const void *frames;
+    int consts_ok;
 } svd_arrays;
 
 /* C[k * ROWS + i] = R0[i][k] RE[i] + R1[i][k] FR[i] for i < m, k < r: a block's interpolated coefficients (each
@@ -158,8 +165,89 @@ INTERPOLATE(interpolate_f64, double, int64_t)
         return 0;                                                                                                  \
     }
 
-SVD_KERNEL(sample_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32, interpolate_f32)
-SVD_KERNEL(sample_f64, double, mr_affine_block_f64_to, mr_affine_one_f64, interpolate_f64)
+SVD_KERNEL(direct_f32, float, mr_affine_block_f32_f64, mr_affine_one_f32, interpolate_f32)
+SVD_KERNEL(direct_f64, double, mr_affine_block_f64_to, mr_affine_one_f64, interpolate_f64)
+
+#define CHUNK 64 /* features blended together (a block's values stay in the CPU cache, on the stack) */
+
+/* The sampler of a prepared decoder: out[d * ldo + i] = R0[d] RE + R1[d] FR of time i in T, widened, where (R0, R1)
+ * are the time's frame j and its successor (j = floor(t (F - 1)), the last pair for t = 1), FR the fraction
+ * between them rounded to T and RE = 1 - FR; a time equal to frame k's time k / (F - 1), or whose fraction in T is
+ * 0 or 1, takes its frame alone (R0 = R1 = that frame, RE = 1, FR = 0: the frame's values exactly); the features
+ * of zero weights are written as their means when consts_ok. interpolate_* blends (each value the one
+ * product-and-sum of the scalar loop, in T without FMA: the same bits for a time alone or in a block). */
+#define FRAMES_KERNEL(NAME, T, INTERPOLATE)                                                                        \
+    MR_CLONES static int NAME(const void *state, const double *times, size_t count, double *out, size_t ldo)       \
+    {                                                                                                              \
+        const svd_arrays *s = state;                                                                               \
+        const size_t F = s->F, D = s->D;                                                                           \
+        const T *frames = s->frames, *mean = s->mean;                                                              \
+        const T *R0[ROWS], *R1[ROWS], *P0[ROWS], *P1[ROWS];                                                        \
+        T RE[ROWS], FR[ROWS], C[CHUNK * ROWS];                                                                     \
+        for (size_t a = 0; a < count; a += ROWS) {                                                                 \
+            size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
+            for (size_t i = 0; i < m; i++) {                                                                       \
+                double t = MR_PYMIN(MR_PYMAX(times[a + i], 0.0), 1.0);                                             \
+                t = t != t ? 0.0 : t; /* NaN (never from motionrep): the first frame */                            \
+                double pos = t * (double)(F - 1);                                                                  \
+                int64_t last = F >= 2 ? (int64_t)F - 2 : 0, j = (int64_t)floor(pos);                               \
+                j = j < last ? j : last;                                                                           \
+                T frac = (T)(pos - (double)j);                                                                     \
+                T rest = (T)1.0 - frac;                                                                            \
+                size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
+                size_t k = F >= 2 ? (size_t)floor(pos + 0.5) : 0; /* the nearest frame */                         \
+                k = k < F - 1 ? k : F - 1;                                                                         \
+                int on = F < 2 || (double)k / (double)(F - 1) == t;                                                \
+                size_t alone = on ? k : frac == (T)0 ? (size_t)j : rest == (T)0 ? k1 : F;                        \
+                if (alone < F) {                                                                                   \
+                    R0[i] = R1[i] = frames + alone * D;                                                            \
+                    RE[i] = (T)1, FR[i] = (T)0;                                                                    \
+                } else {                                                                                           \
+                    R0[i] = frames + (size_t)j * D, R1[i] = frames + k1 * D;                                       \
+                    RE[i] = rest, FR[i] = frac;                                                                    \
+                }                                                                                                  \
+            }                                                                                                      \
+            for (size_t d0 = 0; d0 < D; d0 += CHUNK) {                                                             \
+                size_t w = D - d0 < CHUNK ? D - d0 : CHUNK;                                                        \
+                for (size_t i = 0; i < m; i++)                                                                     \
+                    P0[i] = R0[i] + d0, P1[i] = R1[i] + d0;                                                        \
+                INTERPOLATE(P0, P1, RE, FR, m, w, C);                                                              \
+                for (size_t d = 0; d < w; d++)                                                                     \
+                    for (size_t i = 0; i < m; i++)                                                                 \
+                        out[(d0 + d) * ldo + a + i] = (double)C[d * ROWS + i];                                     \
+            }                                                                                                      \
+            for (size_t e = 0; s->consts_ok && e < D - s->L; e++) /* constant: their means, exactly */            \
+                for (size_t i = 0; i < m; i++)                                                                     \
+                    out[(size_t)s->consts[e] * ldo + a + i] = (double)mean[s->consts[e]];                          \
+        }                                                                                                          \
+        return 0;                                                                                                  \
+    }
+
+FRAMES_KERNEL(sample_f32, float, interpolate_f32)
+FRAMES_KERNEL(sample_f64, double, interpolate_f64)
+
+/* frames (F, D), frame-major in T: every frame decoded by DIRECT at its time i / (F - 1) (ROWS at a time through
+ * tmp, D x ROWS doubles; the values are T's, widened, so narrowing them back is exact) */
+#define PREPARE(NAME, T, DIRECT)                                                                                   \
+    static int NAME(const svd_arrays *s, T *frames, double *tmp)                                                   \
+    {                                                                                                              \
+        const size_t F = s->F, D = s->D;                                                                           \
+        double times[ROWS];                                                                                        \
+        for (size_t b = 0; b < F; b += ROWS) {                                                                     \
+            size_t m = F - b < ROWS ? F - b : ROWS;                                                                \
+            for (size_t i = 0; i < m; i++)                                                                         \
+                times[i] = F >= 2 ? (double)(b + i) / (double)(F - 1) : 0.0;                                       \
+            if (DIRECT(s, times, m, tmp, ROWS))                                                                    \
+                return 1;                                                                                          \
+            for (size_t i = 0; i < m; i++)                                                                         \
+                for (size_t d = 0; d < D; d++)                                                                     \
+                    frames[(b + i) * D + d] = (T)tmp[d * ROWS + i];                                                \
+        }                                                                                                          \
+        return 0;                                                                                                  \
+    }
+
+PREPARE(prepare_f32, float, direct_f32)
+PREPARE(prepare_f64, double, direct_f64)
 
 /* ---- Decoder -------------------------------------------------------------------------------------------- */
 
@@ -225,6 +313,7 @@ typedef struct {
     void *basis_t, *units_mean; /* the arrays' units_t, and units_mean when some feature has zero weights */
     ptrdiff_t *rows;           /* the arrays' rows (D), then each feature's unit (D) and runs (D) */
     unsigned char *constant;   /* (D): the features of zero weights (ZERO_WEIGHTS) */
+    void *frames;              /* (F, D): every frame decoded (PREPARE) */
     svd_arrays arrays;
     mr_sampler sampler;
 } DecoderObject;
@@ -235,6 +324,7 @@ static void Decoder_dealloc(DecoderObject *self)
         if (self->views[k].obj)
             PyBuffer_Release(&self->views[k]);
     free(self->basis_t);  /* (one allocation: basis_t, units_mean, rows, constant) */
+    free(self->frames);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -295,8 +385,28 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
         transpose_f32(basis, r, D, at, self->basis_t);
     else
         transpose_f64(basis, r, D, at, self->basis_t);
+    /* every coefficient below 1e37 in magnitude (float32; 1e306 for float64): c_i (1 - a) + c_{i+1} a cannot
+     * overflow, so the features of zero weights decode to their means at every time */
+    size_t nc = (size_t)(F * r);
+    int finite = !nconst || !(code == 'f' ? outside_f32(self->views[0].buf, nc) : outside_f64(self->views[0].buf, nc));
     self->arrays = (svd_arrays){(size_t)F, (size_t)r, (size_t)D, self->views[0].buf, mean, basis, L, self->basis_t,
-                                nconst ? self->units_mean : mean, self->rows, self->rows ? self->rows + L : NULL};
+                                nconst ? self->units_mean : mean, self->rows, self->rows ? self->rows + L : NULL,
+                                NULL, finite};
+    double *tmp = malloc(sizeof(double) * nD * ROWS);
+    self->frames = malloc(item * (size_t)F * nD);
+    if (!tmp || !self->frames) {
+        free(tmp);
+        PyErr_NoMemory();
+        return -1;
+    }
+    int failed = code == 'f' ? prepare_f32(&self->arrays, self->frames, tmp)
+                             : prepare_f64(&self->arrays, self->frames, tmp);
+    free(tmp);
+    if (failed) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    self->arrays.frames = self->frames;
     self->sampler = (mr_sampler){MR_SAMPLER_ABI, (size_t)D, code == 'f' ? sample_f32 : sample_f64, &self->arrays, 0};
     return 0;
 }
@@ -313,12 +423,8 @@ static PyObject *Decoder_constant_get(DecoderObject *self, void *closure)
         PyErr_SetString(PyExc_ValueError, "Decoder is not initialised");
         return NULL;
     }
-    size_t D = self->arrays.D, nc = self->arrays.F * self->arrays.r;
-    /* those features are constant when every interpolated coefficient is finite: every coefficient below 1e37
-     * (float32; 1e306 for float64) in magnitude, so that c_i (1 - a) + c_{i+1} a cannot overflow */
-    int finite = self->arrays.L == D
-                 || !(mr_format_is(&self->views[1], 'f') ? outside_f32(self->arrays.coeff, nc)
-                                                         : outside_f64(self->arrays.coeff, nc));
+    size_t D = self->arrays.D;
+    int finite = self->arrays.consts_ok; /* those features are constant when every coefficient is (Decoder_init) */
     PyObject *out = PyList_New((Py_ssize_t)D);
     for (size_t d = 0; out && d < D; d++) {
         double v = !(finite && self->constant[d]) ? NAN

@@ -8,7 +8,10 @@ decoders: commit 22eeb6c, and for the transform payloads of version 2 (``-v2``) 
     /work/main/.venv/bin/python tests/data/golden/make_golden.py [--only transform --tag v2]
 
 ``--only`` makes the cases whose name holds that text, ``--tag`` adds ``-TAG`` to their names; the other files
-and their digests are kept.
+and their digests are kept.  ``--stored`` (with ``--only``) encodes nothing: the digests of the stored files
+whose name holds that text are made again with this checkout's decoders, and ``remade`` records the date, the
+``--reason`` and which digests changed (for an intended change of what a decoder gives; the svd decoder's values between frames
+since it blends decoded frames, 2026-12-07: the frames themselves and ``decompress`` kept their digests).
 
 The encodings are stored, not redone by the test: the svd codec's SVD (LAPACK) may differ in the last bits between
 machines, its decoding may not.
@@ -110,11 +113,25 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--only", default="")
     parser.add_argument("--tag", default="")
+    parser.add_argument("--stored", action="store_true")
+    parser.add_argument("--reason", default="")
     args = parser.parse_args()
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__import__("motionrep").__file__).parent).stdout.strip()
     path = HERE / "golden.json"
     golden = json.loads(path.read_text()) if path.exists() and args.only else {"files": {}, "made_with": {}}
+    if args.stored:
+        if not args.only or not args.reason:
+            parser.error("--stored needs --only and --reason")
+        for name in sorted(n for n in golden["files"] if args.only in n):
+            now = decodes((HERE / f"{name}.mrc").read_bytes())
+            changed = sorted(k for k in now if now[k] != golden["files"][name].get(k))
+            golden.setdefault("remade", {})[name] = {"date": __import__("time").strftime("%Y-%m-%d"),
+                                                     "reason": args.reason, "changed": changed}
+            golden["files"][name] = now
+            print(name, "changed:", ", ".join(changed) or "nothing")
+        path.write_text(json.dumps(golden, indent=1) + "\n")
+        return
     for name, container in cases():
         if args.only not in name:
             continue
