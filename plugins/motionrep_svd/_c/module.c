@@ -41,6 +41,20 @@ typedef struct {
     int consts_ok;
 } svd_arrays;
 
+/* A time's place among the F frames: t, the time clamped to [0, 1] (NaN, never from motionrep: the first frame);
+ * j, its frame (floor of t (F - 1), the last but one frame for t = 1), k1 the next one (j itself for one frame);
+ * returns the position t (F - 1). */
+static inline double position(double time, size_t F, double *t, int64_t *j, size_t *k1)
+{
+    double u = MR_PYMIN(MR_PYMAX(time, 0.0), 1.0);
+    u = u != u ? 0.0 : u;
+    double pos = u * (double)(F - 1);
+    int64_t last = F >= 2 ? (int64_t)F - 2 : 0, at = (int64_t)floor(pos);
+    at = at < last ? at : last;
+    *t = u, *j = at, *k1 = (size_t)at + 1 < F - 1 ? (size_t)at + 1 : F - 1;
+    return pos;
+}
+
 /* C[k * ROWS + i] = R0[i][k] RE[i] + R1[i][k] FR[i] for i < m, k < r: a block's interpolated coefficients (each
  * value the one product-and-sum of the kernel's one-time path, so the same bits), made eight times by eight
  * coefficients at a time: the rows read along k, then turned with shuffles (which move values, exactly) so that
@@ -123,14 +137,12 @@ INTERPOLATE(interpolate_f64, double, int64_t)
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
             for (size_t i = 0; i < m; i++) {                                                                       \
-                double t = MR_PYMIN(MR_PYMAX(times[a + i], 0.0), 1.0);                                             \
-                t = t != t ? 0.0 : t; /* NaN (never from motionrep): the first frame */                            \
-                double pos = t * (double)(F - 1);                                                                  \
-                int64_t last = F >= 2 ? (int64_t)F - 2 : 0, j = (int64_t)floor(pos);                              \
-                j = j < last ? j : last;                                                                           \
+                double t;                                                                                          \
+                int64_t j;                                                                                         \
+                size_t k1;                                                                                         \
+                double pos = position(times[a + i], F, &t, &j, &k1);                                               \
                 T frac = (T)(pos - (double)j);                                                                     \
                 T rest = (T)1.0 - frac;                                                                            \
-                size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
                 const T *r0 = coeff + (size_t)j * r, *r1 = coeff + k1 * r;                                         \
                 R0[i] = r0; R1[i] = r1; RE[i] = rest; FR[i] = frac;                                                \
                 for (size_t k = 0; stride == 1 && k < r; k++) /* one time: c1 */                                   \
@@ -187,14 +199,12 @@ SVD_KERNEL(direct_f64, double, mr_affine_block_f64_to, mr_affine_one_f64, interp
         for (size_t a = 0; a < count; a += ROWS) {                                                                 \
             size_t m = count - a < ROWS ? count - a : ROWS;                                                        \
             for (size_t i = 0; i < m; i++) {                                                                       \
-                double t = MR_PYMIN(MR_PYMAX(times[a + i], 0.0), 1.0);                                             \
-                t = t != t ? 0.0 : t; /* NaN (never from motionrep): the first frame */                            \
-                double pos = t * (double)(F - 1);                                                                  \
-                int64_t last = F >= 2 ? (int64_t)F - 2 : 0, j = (int64_t)floor(pos);                               \
-                j = j < last ? j : last;                                                                           \
+                double t;                                                                                          \
+                int64_t j;                                                                                         \
+                size_t k1;                                                                                         \
+                double pos = position(times[a + i], F, &t, &j, &k1);                                               \
                 T frac = (T)(pos - (double)j);                                                                     \
                 T rest = (T)1.0 - frac;                                                                            \
-                size_t k1 = (size_t)j + 1 < F - 1 ? (size_t)j + 1 : F - 1;                                         \
                 size_t k = F >= 2 ? (size_t)floor(pos + 0.5) : 0; /* the nearest frame */                         \
                 k = k < F - 1 ? k : F - 1;                                                                         \
                 int on = F < 2 || (double)k / (double)(F - 1) == t;                                                \

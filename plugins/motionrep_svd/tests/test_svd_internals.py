@@ -18,18 +18,21 @@ def test_an_uninitialised_decoder_refuses_to_sample():
         _csvd.sample(np.zeros(2), np.zeros((3, 2)), empty)
 
 
+def _places(F, times, dtype):
+    """Each time's place among ``F`` frames as the decoder finds it: the clamped time ``t``, its position
+    ``t (F - 1)``, frame ``j`` and the next ``k1``, the fraction between them in ``dtype`` and one minus it."""
+    t = np.clip(times, 0.0, 1.0)
+    pos = t * float(F - 1)
+    j = np.minimum(np.floor(pos), max(F - 2, 0)).astype(np.int64)
+    frac = (pos - j).astype(dtype)
+    return t, pos, j, np.minimum(j + 1, F - 1), frac, dtype.type(1.0) - frac
+
+
 def _direct(coeff, mean, basis, times):
     """The arithmetic a decoder decodes each frame with, written out in numpy, one IEEE operation at a time in the
     C code's order (numpy's elementwise + and * are single IEEE operations, never fused): coefficient rows
     interpolated at each time, then the mean plus each component in order."""
-    T = coeff.dtype.type
-    F = coeff.shape[0]
-    t = np.clip(times, 0.0, 1.0)
-    pos = t * float(F - 1)
-    j = np.minimum(np.floor(pos), max(F - 2, 0)).astype(np.int64)
-    frac = (pos - j).astype(coeff.dtype)
-    rest = T(1.0) - frac
-    k1 = np.minimum(j + 1, F - 1)
+    _, _, j, k1, frac, rest = _places(coeff.shape[0], times, coeff.dtype)
     with np.errstate(invalid="ignore", over="ignore"):  # inf * 0.0 is NaN, as in C
         c = coeff[j] * rest[:, None] + coeff[k1] * frac[:, None]
         y = np.broadcast_to(mean, (times.size, mean.size)).copy()
@@ -47,12 +50,7 @@ def _reference(coeff, mean, basis, times):
     T = coeff.dtype.type
     F = coeff.shape[0]
     frames = _direct(coeff, mean, basis, np.arange(F) / (F - 1) if F > 1 else np.zeros(1))
-    t = np.clip(times, 0.0, 1.0)
-    pos = t * float(F - 1)
-    j = np.minimum(np.floor(pos), max(F - 2, 0)).astype(np.int64)
-    frac = (pos - j).astype(coeff.dtype)
-    rest = T(1.0) - frac
-    k1 = np.minimum(j + 1, F - 1)
+    t, pos, j, k1, frac, rest = _places(F, times, coeff.dtype)
     k = np.minimum(np.floor(pos + 0.5), F - 1).astype(np.int64) if F > 1 else np.zeros(t.size, np.int64)
     on = np.ones(t.size, bool) if F < 2 else k / (F - 1) == t
     alone = np.where(on, k, np.where(frac == 0, j, np.where(rest == 0, k1, -1)))
