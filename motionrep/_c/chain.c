@@ -33,32 +33,17 @@ static inline void qapply_add(const double *q, const double *base, const double 
         o[k] = base[k] + ((v[k] + q[3] * t[k]) + s[k]);
 }
 
-void mr_chain_pose(const mr_chain_pose_args *a)
+#define MR_IMPL "chain_impl.h"
+#include "mr_twice.h"
+
+/* The AVX2 copy where mr_simd says so (the same bits: chain_impl.h). */
+int64_t mr_chain_pose(const mr_chain_pose_args *a)
 {
-    const int64_t F = a->F, D = a->D, m = a->frames ? a->m : F;
-    for (int64_t i = 0; i < a->n; i++) {
-        const int64_t j = a->joints[i], p = a->parents[i];
-        const int64_t *tc = a->tcols + 3 * i;
-        const double *tv = a->tvals + 3 * i;
-        double *rot = a->rot + j * F * 4, *pos = a->pos + j * F * 3;
-        for (int64_t r = 0; r < m; r++) { /* local's row r is frame f (frames[r], or r) */
-            const int64_t f = a->frames ? a->frames[r] : r;
-            const double *local = a->local + (r * a->n + i) * 4, *x = a->decoded + f * D;
-            double t[3];
-            for (int k = 0; k < 3; k++)
-                t[k] = tc[k] >= 0 ? x[tc[k]] : tv[k];
-            if (p < 0) {
-                for (int k = 0; k < 4; k++)
-                    rot[4 * f + k] = local[k];
-                for (int k = 0; k < 3; k++)
-                    pos[3 * f + k] = t[k];
-            } else {
-                const double *g = a->rot + (p * F + f) * 4;
-                qmul(g, local, rot + 4 * f);
-                qapply_add(g, a->pos + (p * F + f) * 3, t, pos + 3 * f);
-            }
-        }
-    }
+#if MR_HAVE_AVX2
+    if (mr_simd == MR_SIMD_AVX2)
+        return chain_pose_avx2(a);
+#endif
+    return chain_pose_baseline(a);
 }
 
 int64_t mr_chain_targets(const mr_chain_targets_args *a)
