@@ -9,6 +9,8 @@
  *                                encoder's analysis)
  *   sample(times, out, frames)   the features at times into a feature-major out (D, >= T): a decoder's kernel
  *   integers(data, segments) -> (values, exhausted)   the integer coding alone (tests: against constriction)
+ *   rounded(c, table, rows, cols, rounding, q, dq, subset, compare) -> status   the encoder's rounding of
+ *                                coefficients to integers and their dequantised values (_plan.py)
  *
  * Frames: the decoded features of every frame; a (D, F) float64 buffer, rows(times, out) into (T, D), and
  * `sampler`, the capsule motionrep.open calls (motionrep/sampler.h).  A damaged payload raises
@@ -16,6 +18,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
 
 #include "motionrep/sampler.h"
@@ -349,6 +352,73 @@ static PyObject *py_sample(PyObject *mod, PyObject *args)
     return mr_run_sampler(&((FramesObject *)of)->sampler, ot, oo);
 }
 
+static PyObject *py_rounded(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    PyObject *oc, *ot, *orows, *ocols, *oq, *odq, *osub = Py_None;
+    double rounding;
+    int compare = 0;
+    if (!PyArg_ParseTuple(args, "OOOOdOO|Op", &oc, &ot, &orows, &ocols, &rounding, &oq, &odq, &osub, &compare))
+        return NULL;
+    Py_buffer b[7];
+    int held = 0, result = 0;
+    const Py_ssize_t any2[2] = {-1, -1}, any1[1] = {-1};
+    if (mr_get_buffer(oc, &b[held], 'd', 2, any2, 0, "c") < 0)
+        goto done;
+    held++;
+    const Py_ssize_t n = b[0].shape[0], m = b[0].shape[1], nm[2] = {n, m}, nrows[1] = {n}, mcols[1] = {m};
+    if (mr_get_buffer(ot, &b[held], 'd', 2, any2, 0, "table") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(orows, &b[held], 'q', 1, nrows, 0, "rows") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(ocols, &b[held], 'q', 1, mcols, 0, "cols") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(oq, &b[held], 'q', 2, nm, 1, "q") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(odq, &b[held], 'd', 2, nm, 1, "dq") < 0)
+        goto done;
+    held++;
+    if (osub != Py_None) {
+        if (mr_get_buffer(osub, &b[held], 'q', 1, any1, 0, "subset") < 0)
+            goto done;
+        held++;
+    }
+    const Py_ssize_t K = b[1].shape[0], W = b[1].shape[1], count = osub != Py_None ? b[6].shape[0] : n;
+    const int64_t *rows = b[2].buf, *cols = b[3].buf, *sub = osub != Py_None ? b[6].buf : NULL;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++)
+        ok &= rows[i] >= 0 && rows[i] < K;
+    for (Py_ssize_t j = 0; j < m; j++)
+        ok &= cols[j] >= 0 && cols[j] < W;
+    for (Py_ssize_t i = 0; sub && i < count; i++)
+        ok &= sub[i] >= 0 && sub[i] < n;
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "rounded: rows, cols or subset out of range");
+        goto done;
+    }
+    double *work = malloc(((size_t)K * (size_t)m + 256 * (size_t)m + 1) * sizeof(double));
+    if (!work) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    result = mrt_round(b[0].buf, m, b[1].buf, K, W, rows, cols, rounding, b[4].buf, b[5].buf, sub, count, compare,
+                       work);
+    Py_END_ALLOW_THREADS
+    free(work);
+    while (held)
+        PyBuffer_Release(&b[--held]);
+    return PyLong_FromLong(result);
+done:
+    while (held)
+        PyBuffer_Release(&b[--held]);
+    return NULL;
+}
+
 /* segments: a sequence of (bits, 0, count) raw fields or (zero, decay, count) model-coded integers, the first
  * element negative for raw: (-bits, 0, count) */
 static PyObject *py_integers(PyObject *mod, PyObject *args)
@@ -448,6 +518,10 @@ static PyMethodDef functions[] = {
      "forward(values, out): the forward wavelet of (F, D) samples, the coefficients in inverse's layout (the "
      "encoder's)"},
     {"sample", py_sample, METH_VARARGS, "sample(times, out, frames): the features at times, feature-major"},
+    {"rounded", py_rounded, METH_VARARGS,
+     "rounded(c, table, rows, cols, rounding, q, dq, subset=None, compare=False) -> status: the encoder's rounding "
+     "of (n, m) coefficients c into q (int64) and dq (their dequantised values), steps table[rows][:, cols]; -1: "
+     "a value too large to code; with compare, 1 when dq is unchanged"},
     {"integers", py_integers, METH_VARARGS, "integers(data, segments) -> (int64 bytes, maybe_exhausted)"},
     {NULL, NULL, 0, NULL}};
 

@@ -1388,3 +1388,61 @@ void mrt_sample_rows(const mrt_frames *f, const double *times, size_t count, dou
         }
     }
 }
+
+/* sa[i] = sign(x) floor(|x| / st + rounding) as a float64 (+0.0 where either is zero, as the int64 product is 0,
+ * whose float64 is +0.0), d[i] = sa st, for i < N; whether each floor is below `limit`, and *same &= every new d
+ * equal (==) to the old.  One loop of selects: it vectorises. */
+static inline int round_run(const double *restrict x, const double *restrict st, int64_t N, double rounding,
+                            double *restrict sa, double *restrict d, int *same)
+{
+    const double limit = 4611686018427387904.0; /* 2**62: an integer-valued a is <= 2**62 - 1 iff a < 2**62 */
+    int small = 1, equal = 1;
+    for (int64_t i = 0; i < N; i++) {
+        const double v = x[i], a = floor(fabs(v) / st[i] + rounding);
+        small &= a < limit;
+        const double s = (v < 0.0 ? -a : v > 0.0 ? a : 0.0) + 0.0;
+        const double e = s * st[i];
+        equal &= e == d[i];
+        sa[i] = s;
+        d[i] = e;
+    }
+    *same &= equal;
+    return small;
+}
+
+#define MRT_ROUND_ROWS 128 /* rows rounded together (mrt_round's work) */
+
+/* mrt_round (mrtransform.h): the group's steps gathered once per distinct row of the table; every row, by blocks of
+ * MRT_ROUND_ROWS rows laid out as one run of values (their steps copied beside them), or the subset's rows one by
+ * one; the signed magnitude kept as a float64 (an integer below 2**62: exact), converted to int64 after. */
+MRT_CLONES int mrt_round(const double *c, int64_t m, const double *table, int64_t K, int64_t width,
+                         const int64_t *rows, const int64_t *cols, double rounding, int64_t *q, double *dq,
+                         const int64_t *subset, int64_t count, int compare, double *work)
+{
+    double *steps = work, *S = work + K * m, *A = S + MRT_ROUND_ROWS * m;
+    for (int64_t k = 0; k < K; k++)
+        for (int64_t j = 0; j < m; j++)
+            steps[k * m + j] = table[k * width + cols[j]];
+    int same = 1;
+    if (!subset) {
+        for (int64_t r0 = 0; r0 < count; r0 += MRT_ROUND_ROWS) {
+            const int64_t nb = count - r0 < MRT_ROUND_ROWS ? count - r0 : MRT_ROUND_ROWS, N = nb * m;
+            for (int64_t r = 0; r < nb; r++)
+                memcpy(S + r * m, steps + rows[r0 + r] * m, (size_t)m * sizeof(double));
+            if (!round_run(c + r0 * m, S, N, rounding, A, dq + r0 * m, &same))
+                return -1;
+            int64_t *qr = q + r0 * m;
+            for (int64_t i = 0; i < N; i++)
+                qr[i] = (int64_t)A[i];
+        }
+    } else {
+        for (int64_t s = 0; s < count; s++) {
+            const int64_t r = subset[s];
+            if (!round_run(c + r * m, steps + rows[r] * m, m, rounding, A, dq + r * m, &same))
+                return -1;
+            for (int64_t j = 0; j < m; j++)
+                q[r * m + j] = (int64_t)A[j];
+        }
+    }
+    return compare && same;
+}
