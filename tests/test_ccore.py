@@ -323,6 +323,16 @@ def test_the_avx2_and_baseline_copies_give_the_same_bits():
                                   np.array([-1, 0]), np.array([[7, 8, 9], [-1, 10, -1]]), np.ones((2, 3)), st,
                                   np.zeros((2, F, 3)), frames)
                 h.update(st.tobytes())
+            rot = rng.normal(size=(2, F, 4)) * 0.5  # and the closed loop's targets (rotation vectors, levers)
+            true_rot, truth = rng.normal(size=(3, F, 4)), rng.normal(size=(3, F, 4)) * 3.0
+            true_rot[1, :1] *= 1e-5
+            lever = [rng.normal(size=(1, F, 3)) for _ in range(3)]
+            out = np.zeros((F, 11))
+            assert _ccore.chain_targets(rot, rng.normal(size=(2, F, 3)), np.array([0, 1, 1]), true_rot,
+                                        np.array([0, -1, -1]), *lever, np.sqrt(np.sum(lever[2] ** 2, axis=-1)),
+                                        np.array([1, 0, 1]), np.array([[0, 1, 2, -1], [3, 4, 5, 6], [7, 8, 9, -1]]),
+                                        truth, out, None if F < 100 else np.arange(1, F, 2)) == -1
+            h.update(out.tobytes())
         print(_ccore.simd, h.hexdigest())
     """
     runs = []

@@ -123,9 +123,10 @@ def _depth(rng, F=37, J=7, n=5):
 
 
 def test_targets_kernel_is_the_numpy_code_bit_for_bit():
+    """Clips of 37 frames, 150 (blocks of 64 frames and a remainder) and one; the degenerate levers."""
     rng = np.random.default_rng(5)
-    for _ in range(4):
-        args = _depth(rng)
+    for F in (37, 150, 5, 37):
+        args = _depth(rng, F)
         F = args[0].shape[1]
         got, want = np.full((F, 18), 7.0), np.full((F, 18), 7.0)
         assert chain_targets(*args, got) == -1
@@ -137,6 +138,31 @@ def test_targets_kernel_is_the_numpy_code_bit_for_bit():
     chain_targets(*plain, unturned)
     np.testing.assert_array_equal(got[:5, :12], unturned[:5, :12])
     assert np.all(got[5:, :12] != unturned[5:, :12])
+    one = [x[:, :1] if k in (0, 1, 3, 5, 6, 7, 8, 11) else x for k, x in enumerate(_depth(rng, 150))]
+    one = [np.ascontiguousarray(x) for x in one]
+    got, want = np.full((1, 18), 7.0), np.full((1, 18), 7.0)
+    assert chain_targets(*one, got) == -1
+    _reference_targets(*one, want)
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+
+
+def test_targets_kernel_finds_the_first_local_rotation_of_zero_length():
+    """A rotation vector's local rotation of zero length (its true rotation zero) returns ``i F + f`` of the first
+    (joints in turn, frames in order, across blocks of frames and with a frames index)."""
+    rng = np.random.default_rng(9)
+    F = 150
+    args = list(_depth(rng, F))
+    true_rot = args[3].copy()
+    true_rot[4, [100, 7]] = 0.0
+    true_rot[3, 130] = 0.0
+    args[3] = true_rot
+    out = np.zeros((F, 18))
+    assert chain_targets(*args, out) == 3 * F + 130
+    assert chain_targets(*args, out, np.array([7, 100, 120], np.int64)) == 4 * F + 7
+    assert chain_targets(*args, out, np.array([8, 99], np.int64)) == -1
+    true_rot[3, 130], true_rot[4, [100, 7]] = 0.5, 0.5
+    true_rot[0, 3] = 0.0  # a quaternion target of zero length is no error: it is written as it is
+    assert chain_targets(*args, out) == -1 and np.all(out[3, :4] == 0.0)
 
 
 def _reference_local(decoded, kinds, rcols):

@@ -72,3 +72,100 @@ static int64_t MR_FN(chain_pose)(const mr_chain_pose_args *a)
     }
     return bad;
 }
+
+/* mr_chain_targets (ccore.h): per joint, per block of frames, the local rotations in one loop, then (a quaternion)
+ * the sign nearest the true one, or (a rotation vector) mr_rotvec_unit in one loop, libm's atan2 and sin in a
+ * scalar one, the branch nearest the true one in a third: the loops without calls vectorise.  Every value is the
+ * arithmetic of the frame-by-frame loop this replaced (tests/test_chain_kernels.py: numpy's, bit for bit). */
+static int64_t MR_FN(chain_targets)(const mr_chain_targets_args *a)
+{
+    const int64_t F = a->F, frames = a->frames ? a->m : F;
+    const double two_pi = 2.0 * 3.141592653589793;
+    double L[4 * MR_CHAIN_BLOCK], U[4 * MR_CHAIN_BLOCK], S[MR_CHAIN_BLOCK];
+    double *L0 = L, *L1 = L + MR_CHAIN_BLOCK, *L2 = L + 2 * MR_CHAIN_BLOCK, *L3 = L + 3 * MR_CHAIN_BLOCK;
+    double *U0 = U, *U1 = U + MR_CHAIN_BLOCK, *U2 = U + 2 * MR_CHAIN_BLOCK, *U3 = U + 3 * MR_CHAIN_BLOCK;
+    int ok[MR_CHAIN_BLOCK];
+    for (int64_t i = 0; i < a->n; i++) {
+        const int64_t p = a->parents[i], m = a->lever[i];
+        const int64_t *at = a->at + 4 * i;
+        for (int64_t r0 = 0; r0 < frames; r0 += MR_CHAIN_BLOCK) {
+            const int64_t nb = frames - r0 < MR_CHAIN_BLOCK ? frames - r0 : MR_CHAIN_BLOCK;
+            const int64_t *fr = a->frames ? a->frames + r0 : NULL;
+            for (int64_t r = 0; r < nb; r++) { /* the local rotation giving the (turned) true one */
+                const int64_t f = fr ? fr[r] : r0 + r;
+                const double *g = a->rot + (p * F + f) * 4;
+                double want[4], local[4], cg[4] = {-g[0], -g[1], -g[2], g[3]};
+                for (int k = 0; k < 4; k++)
+                    want[k] = a->true_rot[(i * F + f) * 4 + k];
+                if (m >= 0) { /* position feedback: turn the true rotation to point, from here, at the true point */
+                    const int64_t l = m * F + f; /* the lever point's row */
+                    const double *av = a->lever_vec + 3 * l, *tp = a->true_pos + 3 * l, na = a->lever_len[l];
+                    double here[3], b[3], turn[4], turned[4];
+                    qapply_add(g, a->pos + (p * F + f) * 3, a->local_offset + 3 * l, here);
+                    for (int k = 0; k < 3; k++)
+                        b[k] = (av[k] + tp[k]) - here[k];
+                    double nb_ = sqrt((b[0] * b[0] + b[1] * b[1]) + b[2] * b[2]);
+                    cross(av, b, turn);
+                    turn[3] = na * nb_ + ((av[0] * b[0] + av[1] * b[1]) + av[2] * b[2]);
+                    double size = sqrt(((turn[0] * turn[0] + turn[1] * turn[1]) + turn[2] * turn[2])
+                                       + turn[3] * turn[3]);
+                    double floor_ = na * nb_;
+                    floor_ = floor_ < 1e-300 ? 1e-300 : floor_; /* numpy's maximum: a NaN stays NaN */
+                    int turns = size > 1e-12 * floor_; /* else no turn (selects: the division's value unused) */
+                    for (int k = 0; k < 4; k++)
+                        turn[k] = turns ? turn[k] / size : (k == 3 ? 1.0 : 0.0);
+                    qmul(turn, want, turned);
+                    for (int k = 0; k < 4; k++)
+                        want[k] = turned[k];
+                }
+                qmul(cg, want, local);
+                L0[r] = local[0], L1[r] = local[1], L2[r] = local[2], L3[r] = local[3];
+            }
+            if (a->kind[i] == 0) { /* a quaternion: the sign nearest the true one */
+                for (int64_t r = 0; r < nb; r++) {
+                    const int64_t f = fr ? fr[r] : r0 + r;
+                    const double *near = a->truth + (i * F + f) * 4;
+                    double *o = a->out + f * a->C;
+                    double dot = ((L0[r] * near[0] + L1[r] * near[1]) + L2[r] * near[2]) + L3[r] * near[3];
+                    int flip = dot < 0;
+                    o[at[0]] = flip ? -L0[r] : L0[r];
+                    o[at[1]] = flip ? -L1[r] : L1[r];
+                    o[at[2]] = flip ? -L2[r] : L2[r];
+                    o[at[3]] = flip ? -L3[r] : L3[r];
+                }
+                continue;
+            }
+            /* a rotation vector (mr_quat_to_axis_angle's steps), on the branch (theta + 2 pi k) n nearest the true
+             * one */
+            int all = 1;
+            for (int64_t r = 0; r < nb; r++) {
+                double u[4];
+                ok[r] = MR_FN(mr_rotvec_unit)(L0[r], L1[r], L2[r], L3[r], u);
+                all &= ok[r];
+                U0[r] = u[0], U1[r] = u[1], U2[r] = u[2], U3[r] = u[3];
+                S[r] = sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]);
+            }
+            if (!all)
+                for (int64_t r = 0; r < nb; r++)
+                    if (!ok[r])
+                        return i * F + (fr ? fr[r] : r0 + r);
+            for (int64_t r = 0; r < nb; r++) /* libm: one at a time */
+                S[r] = MR_FN(mr_rotvec_scale)(2.0 * atan2(S[r], U3[r]));
+            for (int64_t r = 0; r < nb; r++) {
+                const int64_t f = fr ? fr[r] : r0 + r;
+                const double *near = a->truth + (i * F + f) * 4;
+                double *o = a->out + f * a->C;
+                double v0 = S[r] * U0[r], v1 = S[r] * U1[r], v2 = S[r] * U2[r];
+                double theta = sqrt((v0 * v0 + v1 * v1) + v2 * v2);
+                int some = theta > 1e-12;
+                double d = some ? theta : 1.0, n0 = v0 / d, n1 = v1 / d, n2 = v2 / d;
+                double turns = rint((((n0 * near[0] + n1 * near[1]) + n2 * near[2]) - theta) / two_pi);
+                double scale = theta + two_pi * turns;
+                o[at[0]] = some ? n0 * scale : 0.0;
+                o[at[1]] = some ? n1 * scale : 0.0;
+                o[at[2]] = some ? n2 * scale : 0.0;
+            }
+        }
+    }
+    return -1;
+}
