@@ -126,6 +126,7 @@ class FeatureChain:
         self.groups = [np.array(sorted(c for j in range(J) if depth[j] == d for c in cols_of[j]), np.int64)
                        for d in depths]
         self._group_depth = depths
+        self._true_groups = [np.ascontiguousarray(self._true[:, c]) for c in self.groups]  # each group's true values
         # points directly below each joint: its end sites and child joints, a child at the joint itself passing on
         # to its own (over frames, the longest local offset: translated joints move)
         local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
@@ -311,7 +312,6 @@ class FeatureChain:
         or this call is not the next group of the current run; :attr:`runs` counts the runs, so that a caller can
         tell that nobody else ran the chain in between.
         """
-        cols = self.groups[group]
         d = self._group_depth[group]
         if group == 0:  # a run starts
             self._incremental = self.complete
@@ -324,7 +324,7 @@ class FeatureChain:
         self._last = group
         if frames is not None and not (self._incremental and previous is not None and frames.size < len(self._true)):
             frames = None  # (every frame: as without frames)
-        out = self._true[:, cols].copy() if frames is None else previous.copy()
+        out = self._true_groups[group].copy() if frames is None else previous.copy()
         if frames is not None and not frames.size:  # nothing above changed: the last run's poses and targets
             self._posed = max(self._posed, d)
             return out
@@ -334,7 +334,7 @@ class FeatureChain:
                 self._posed += 1
         except ValidationError:  # a decoded quaternion of zero length (a huge step): open loop for this run
             self._posed, self._last, self._run_ok = 0, -2, False
-            return self._true[:, cols].copy()
+            return self._true_groups[group].copy()
         if d not in self._at:
             return out
         if chain_targets(self._rot, self._pos, *self._at[d], out, frames) >= 0:  # compiled: motionrep/_c/chain.c
