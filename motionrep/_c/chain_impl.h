@@ -73,37 +73,59 @@ static int64_t MR_FN(chain_pose)(const mr_chain_pose_args *a)
     return bad;
 }
 
-/* mr_chain_targets (ccore.h): per joint, per block of frames, the local rotations in one loop, then (a quaternion)
- * the sign nearest the true one, or (a rotation vector) mr_rotvec_unit in one loop, libm's atan2 and sin in a
- * scalar one, the branch nearest the true one in a third: the loops without calls vectorise.  Every value is the
- * arithmetic of the frame-by-frame loop this replaced (tests/test_chain_kernels.py: numpy's, bit for bit). */
+/* mr_chain_targets (ccore.h): per joint, per block of frames, the inputs of the block's frames gathered into rows
+ * of their own (a loop of loads), then the local rotations in one loop, then (a quaternion) the sign nearest the
+ * true one, or (a rotation vector) mr_rotvec_unit in one loop, libm's atan2 and sin in a scalar one, the branch
+ * nearest the true one in a third, and the results written to their columns: the loops without calls or gathers
+ * vectorise.  Every value is the arithmetic of the frame-by-frame loop this replaced (tests/test_chain_kernels.py:
+ * numpy's, bit for bit). */
 static int64_t MR_FN(chain_targets)(const mr_chain_targets_args *a)
 {
+    enum { CG0, CW0 = 4, CT0 = 8, CP0 = 12, CO0 = 15, CA0 = 18, CTP0 = 21, CNA = 24, CIN }; /* rows of in */
     const int64_t F = a->F, frames = a->frames ? a->m : F;
     const double two_pi = 2.0 * 3.141592653589793;
-    double L[4 * MR_CHAIN_BLOCK], U[4 * MR_CHAIN_BLOCK], S[MR_CHAIN_BLOCK];
-    double *L0 = L, *L1 = L + MR_CHAIN_BLOCK, *L2 = L + 2 * MR_CHAIN_BLOCK, *L3 = L + 3 * MR_CHAIN_BLOCK;
-    double *U0 = U, *U1 = U + MR_CHAIN_BLOCK, *U2 = U + 2 * MR_CHAIN_BLOCK, *U3 = U + 3 * MR_CHAIN_BLOCK;
-    int ok[MR_CHAIN_BLOCK];
+    enum { B = MR_CHAIN_BLOCK };
+    double in[CIN * B]; /* per input, its B values: parent rotation, true rotation, truth, parent position, local
+                         * offset, lever vector, true point, lever length */
+    double L[4 * B], U[4 * B], S[B], O[4 * B];
+    double *L0 = L, *L1 = L + B, *L2 = L + 2 * B, *L3 = L + 3 * B;
+    double *U0 = U, *U1 = U + B, *U2 = U + 2 * B, *U3 = U + 3 * B;
+    int ok[B];
     for (int64_t i = 0; i < a->n; i++) {
-        const int64_t p = a->parents[i], m = a->lever[i];
+        const int64_t p = a->parents[i], m = a->lever[i], kind = a->kind[i];
         const int64_t *at = a->at + 4 * i;
-        for (int64_t r0 = 0; r0 < frames; r0 += MR_CHAIN_BLOCK) {
-            const int64_t nb = frames - r0 < MR_CHAIN_BLOCK ? frames - r0 : MR_CHAIN_BLOCK;
+        for (int64_t r0 = 0; r0 < frames; r0 += B) {
+            const int64_t nb = frames - r0 < B ? frames - r0 : B;
             const int64_t *fr = a->frames ? a->frames + r0 : NULL;
-            for (int64_t r = 0; r < nb; r++) { /* the local rotation giving the (turned) true one */
+            for (int64_t r = 0; r < nb; r++) { /* gather */
                 const int64_t f = fr ? fr[r] : r0 + r;
-                const double *g = a->rot + (p * F + f) * 4;
-                double want[4], local[4], cg[4] = {-g[0], -g[1], -g[2], g[3]};
+                const double *g = a->rot + (p * F + f) * 4, *w = a->true_rot + (i * F + f) * 4;
+                const double *t = a->truth + (i * F + f) * 4;
                 for (int k = 0; k < 4; k++)
-                    want[k] = a->true_rot[(i * F + f) * 4 + k];
-                if (m >= 0) { /* position feedback: turn the true rotation to point, from here, at the true point */
+                    in[(CG0 + k) * B + r] = g[k], in[(CW0 + k) * B + r] = w[k], in[(CT0 + k) * B + r] = t[k];
+                if (m >= 0) {
                     const int64_t l = m * F + f; /* the lever point's row */
-                    const double *av = a->lever_vec + 3 * l, *tp = a->true_pos + 3 * l, na = a->lever_len[l];
-                    double here[3], b[3], turn[4], turned[4];
-                    qapply_add(g, a->pos + (p * F + f) * 3, a->local_offset + 3 * l, here);
+                    const double *pp = a->pos + (p * F + f) * 3, *lo = a->local_offset + 3 * l;
+                    const double *av = a->lever_vec + 3 * l, *tp = a->true_pos + 3 * l;
                     for (int k = 0; k < 3; k++)
-                        b[k] = (av[k] + tp[k]) - here[k];
+                        in[(CP0 + k) * B + r] = pp[k], in[(CO0 + k) * B + r] = lo[k], in[(CA0 + k) * B + r] = av[k],
+                        in[(CTP0 + k) * B + r] = tp[k];
+                    in[CNA * B + r] = a->lever_len[l];
+                }
+            }
+            for (int64_t r = 0; r < nb; r++) { /* the local rotation giving the (turned) true one */
+                double g[4], want[4], local[4];
+                for (int k = 0; k < 4; k++)
+                    g[k] = in[(CG0 + k) * B + r], want[k] = in[(CW0 + k) * B + r];
+                double cg[4] = {-g[0], -g[1], -g[2], g[3]};
+                if (m >= 0) { /* position feedback: turn the true rotation to point, from here, at the true point */
+                    double pp[3], lo[3], av[3], b[3], here[3], turn[4], turned[4];
+                    for (int k = 0; k < 3; k++)
+                        pp[k] = in[(CP0 + k) * B + r], lo[k] = in[(CO0 + k) * B + r], av[k] = in[(CA0 + k) * B + r];
+                    const double na = in[CNA * B + r];
+                    qapply_add(g, pp, lo, here);
+                    for (int k = 0; k < 3; k++)
+                        b[k] = (av[k] + in[(CTP0 + k) * B + r]) - here[k];
                     double nb_ = sqrt((b[0] * b[0] + b[1] * b[1]) + b[2] * b[2]);
                     cross(av, b, turn);
                     turn[3] = na * nb_ + ((av[0] * b[0] + av[1] * b[1]) + av[2] * b[2]);
@@ -121,49 +143,51 @@ static int64_t MR_FN(chain_targets)(const mr_chain_targets_args *a)
                 qmul(cg, want, local);
                 L0[r] = local[0], L1[r] = local[1], L2[r] = local[2], L3[r] = local[3];
             }
-            if (a->kind[i] == 0) { /* a quaternion: the sign nearest the true one */
+            int width = 4;
+            if (kind == 0) { /* a quaternion: the sign nearest the true one */
+                const double *T0 = in + CT0 * B, *T1 = T0 + B, *T2 = T0 + 2 * B, *T3 = T0 + 3 * B;
                 for (int64_t r = 0; r < nb; r++) {
-                    const int64_t f = fr ? fr[r] : r0 + r;
-                    const double *near = a->truth + (i * F + f) * 4;
-                    double *o = a->out + f * a->C;
-                    double dot = ((L0[r] * near[0] + L1[r] * near[1]) + L2[r] * near[2]) + L3[r] * near[3];
+                    double dot = ((L0[r] * T0[r] + L1[r] * T1[r]) + L2[r] * T2[r]) + L3[r] * T3[r];
                     int flip = dot < 0;
-                    o[at[0]] = flip ? -L0[r] : L0[r];
-                    o[at[1]] = flip ? -L1[r] : L1[r];
-                    o[at[2]] = flip ? -L2[r] : L2[r];
-                    o[at[3]] = flip ? -L3[r] : L3[r];
+                    O[r] = flip ? -L0[r] : L0[r];
+                    O[B + r] = flip ? -L1[r] : L1[r];
+                    O[2 * B + r] = flip ? -L2[r] : L2[r];
+                    O[3 * B + r] = flip ? -L3[r] : L3[r];
                 }
-                continue;
+            } else { /* a rotation vector (mr_quat_to_axis_angle's steps), on the branch (theta + 2 pi k) n nearest
+                      * the true one */
+                width = 3;
+                int all = 1;
+                for (int64_t r = 0; r < nb; r++) {
+                    double u[4];
+                    ok[r] = MR_FN(mr_rotvec_unit)(L0[r], L1[r], L2[r], L3[r], u);
+                    all &= ok[r];
+                    U0[r] = u[0], U1[r] = u[1], U2[r] = u[2], U3[r] = u[3];
+                    S[r] = sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]);
+                }
+                if (!all)
+                    for (int64_t r = 0; r < nb; r++)
+                        if (!ok[r])
+                            return i * F + (fr ? fr[r] : r0 + r);
+                for (int64_t r = 0; r < nb; r++) /* libm: one at a time */
+                    S[r] = MR_FN(mr_rotvec_scale)(2.0 * atan2(S[r], U3[r]));
+                const double *T0 = in + CT0 * B, *T1 = T0 + B, *T2 = T0 + 2 * B;
+                for (int64_t r = 0; r < nb; r++) {
+                    double v0 = S[r] * U0[r], v1 = S[r] * U1[r], v2 = S[r] * U2[r];
+                    double theta = sqrt((v0 * v0 + v1 * v1) + v2 * v2);
+                    int some = theta > 1e-12;
+                    double d = some ? theta : 1.0, n0 = v0 / d, n1 = v1 / d, n2 = v2 / d;
+                    double turns = rint((((n0 * T0[r] + n1 * T1[r]) + n2 * T2[r]) - theta) / two_pi);
+                    double scale = theta + two_pi * turns;
+                    O[r] = some ? n0 * scale : 0.0;
+                    O[B + r] = some ? n1 * scale : 0.0;
+                    O[2 * B + r] = some ? n2 * scale : 0.0;
+                }
             }
-            /* a rotation vector (mr_quat_to_axis_angle's steps), on the branch (theta + 2 pi k) n nearest the true
-             * one */
-            int all = 1;
-            for (int64_t r = 0; r < nb; r++) {
-                double u[4];
-                ok[r] = MR_FN(mr_rotvec_unit)(L0[r], L1[r], L2[r], L3[r], u);
-                all &= ok[r];
-                U0[r] = u[0], U1[r] = u[1], U2[r] = u[2], U3[r] = u[3];
-                S[r] = sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]);
-            }
-            if (!all)
-                for (int64_t r = 0; r < nb; r++)
-                    if (!ok[r])
-                        return i * F + (fr ? fr[r] : r0 + r);
-            for (int64_t r = 0; r < nb; r++) /* libm: one at a time */
-                S[r] = MR_FN(mr_rotvec_scale)(2.0 * atan2(S[r], U3[r]));
-            for (int64_t r = 0; r < nb; r++) {
-                const int64_t f = fr ? fr[r] : r0 + r;
-                const double *near = a->truth + (i * F + f) * 4;
-                double *o = a->out + f * a->C;
-                double v0 = S[r] * U0[r], v1 = S[r] * U1[r], v2 = S[r] * U2[r];
-                double theta = sqrt((v0 * v0 + v1 * v1) + v2 * v2);
-                int some = theta > 1e-12;
-                double d = some ? theta : 1.0, n0 = v0 / d, n1 = v1 / d, n2 = v2 / d;
-                double turns = rint((((n0 * near[0] + n1 * near[1]) + n2 * near[2]) - theta) / two_pi);
-                double scale = theta + two_pi * turns;
-                o[at[0]] = some ? n0 * scale : 0.0;
-                o[at[1]] = some ? n1 * scale : 0.0;
-                o[at[2]] = some ? n2 * scale : 0.0;
+            for (int64_t r = 0; r < nb; r++) { /* scatter */
+                double *o = a->out + (fr ? fr[r] : r0 + r) * a->C;
+                for (int k = 0; k < width; k++)
+                    o[at[k]] = O[k * B + r];
             }
         }
     }
