@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from motionrep.errors import BoundNotMetError, naming
 from motionrep.plugin.coding import MAX_MAGNITUDE, step_scale
 
+from ._cdecode import put_columns, rounded
 from ._decoder import reconstruct, synthesised
 from ._stream import Quantised
 from ._wavelet import coefficient_frames, forward, forward_rows, num_levels
@@ -47,9 +48,16 @@ class _Plan:
         # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
         # measured, which the encoder then quantises again
         self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
-        # closed loop: the last quantisation, group by group (targets, coefficients, dequantised coefficients,
-        # synthesised columns), with the chain's run count after it, for the next one to recompute only what changed
+        # closed loop: the last quantisation, group by group (targets, coefficients, integers, dequantised
+        # coefficients; its synthesised columns in self._work), with the chain's run count after it, for the next one
+        # to recompute only what changed
         self._run: tuple[int, list[tuple[NDArray[np.float64], ...]]] | None = None
+        # closed loop: (F, D) what the decoder makes of the last quantisation, group by group (each run writes every
+        # group's columns before the next group's targets read them; a run after a complete one rewrites only the
+        # groups whose dequantised coefficients changed)
+        self._work = np.zeros((self.num_frames, self.num_features)) if chain is not None else None
+        # closed loop: the columns in no group (features the plan fixes), quantised to 0 (their steps unused)
+        self._outside = None if chain is None else np.setdiff1d(self._all, np.concatenate([self._all[:0], *chain.groups]))
         #: closed loop: quantise() recomputes only what changed since the last quantisation (the same integers);
         #: false while every quantisation changes every step (the region search's bisection), which saves the
         #: comparisons
@@ -139,8 +147,10 @@ class _Plan:
         # each coefficient row's row of the table and its region exponent
         rows = np.concatenate(row_lists)
         row_k = distinct[rows]
-        out = np.zeros((self.num_frames, self.num_features), np.int64)
-        decoded = np.zeros((self.num_frames, self.num_features))
+        out = np.empty((self.num_frames, self.num_features), np.int64)  # (every group writes its columns)
+        if self._outside.size:
+            out[:, self._outside] = 0
+        decoded = self._work
         last = self._run if incremental and self._run is not None and self._run[0] == self.chain.runs else None
         self._run = None
         changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
@@ -164,17 +174,12 @@ class _Plan:
             else:  # the same coefficients: rounded again where the steps changed
                 c, q, dequantised = before[1:4]
                 same = not k_rows.size or _round(c, table, rows, cols, rounding, q, dequantised, k_rows, True)
-            out[:, cols] = q
-            if same:
-                values = before[4]
-            else:
-                # (a copy without levels: the next run rounds into dequantised in place)
-                values = synthesised([dequantised], self.levels) if self.levels else dequantised.copy()
-                if not everywhere:
-                    changed |= np.any(values != before[4], axis=1)
-                    everywhere = bool(changed.all())
-            decoded[:, cols] = values
-            state.append((targets, c, q, dequantised, values))
+            put_columns(q, out, cols)
+            if not same:  # (else decoded's columns hold the last run's values, the same)
+                values = synthesised([dequantised], self.levels) if self.levels else dequantised
+                put_columns(values, decoded, cols, None if everywhere else changed.view(np.uint8))
+                everywhere = everywhere or bool(changed.all())
+            state.append((targets, c, q, dequantised))
         if self.chain.complete:
             self._run = (self.chain.runs, row_k, state)
         self._serial += 1
@@ -209,8 +214,6 @@ def _round(c: NDArray[np.float64], table: NDArray[np.float64], rows: NDArray[np.
 
     Raises:
         BoundNotMetError: a step so small that an integer exceeds :data:`MAX_MAGNITUDE`."""
-    from ._cdecode import rounded
-
     status = rounded(c, table, rows, cols, rounding, q, dequantised, subset, compare)
     if status < 0:
         raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "

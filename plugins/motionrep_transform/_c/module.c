@@ -9,6 +9,7 @@
  *                                encoder's analysis)
  *   sample(times, out, frames)   the features at times into a feature-major out (D, >= T): a decoder's kernel
  *   integers(data, segments) -> (values, exhausted)   the integer coding alone (tests: against constriction)
+ *   put_columns(src, dst, cols, changed)   dst[:, cols] = src, marking the rows that changed (_plan.py)
  *   rounded(c, table, rows, cols, rounding, q, dq, subset, compare) -> status   the encoder's rounding of
  *                                coefficients to integers and their dequantised values (_plan.py)
  *
@@ -419,6 +420,80 @@ done:
     return NULL;
 }
 
+/* dst[:, cols] = src for (F, m) src and (F, D) dst of one 8-byte type (float64 or int64), copied as they are; with
+ * changed (F,) uint8 (float64 only), changed[i] = 1 where a value of row i differs (!=, as numpy's: -0.0 == 0.0)
+ * from the one it overwrites. */
+static PyObject *py_put_columns(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    PyObject *osrc, *odst, *ocols, *ochanged = Py_None;
+    if (!PyArg_ParseTuple(args, "OOO|O", &osrc, &odst, &ocols, &ochanged))
+        return NULL;
+    Py_buffer src, dst, cols, changed;
+    const Py_ssize_t any2[2] = {-1, -1};
+    int f64 = mr_format_is_buffer_of(osrc, 'd');
+    char code = f64 ? 'd' : 'q';
+    if (mr_get_buffer(osrc, &src, code, 2, any2, 0, "src") < 0)
+        return NULL;
+    const Py_ssize_t F = src.shape[0], m = src.shape[1], rows[2] = {F, -1}, ms[1] = {m}, fs[1] = {F};
+    if (mr_get_buffer(odst, &dst, code, 2, rows, 1, "dst") < 0) {
+        PyBuffer_Release(&src);
+        return NULL;
+    }
+    if (mr_get_buffer(ocols, &cols, 'q', 1, ms, 0, "cols") < 0) {
+        PyBuffer_Release(&src);
+        PyBuffer_Release(&dst);
+        return NULL;
+    }
+    int have = ochanged != Py_None;
+    if (have && (!f64 || mr_get_buffer(ochanged, &changed, 'B', 1, fs, 1, "changed") < 0)) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "put_columns: changed is for float64 values");
+        PyBuffer_Release(&src);
+        PyBuffer_Release(&dst);
+        PyBuffer_Release(&cols);
+        return NULL;
+    }
+    const Py_ssize_t D = dst.shape[1];
+    const int64_t *c = cols.buf;
+    int ok = 1;
+    for (Py_ssize_t j = 0; j < m; j++)
+        ok &= c[j] >= 0 && c[j] < D;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS
+        if (have) {
+            const double *s = src.buf;
+            double *d = dst.buf;
+            uint8_t *ch = changed.buf;
+            for (Py_ssize_t i = 0; i < F; i++) {
+                int differ = 0;
+                for (Py_ssize_t j = 0; j < m; j++) {
+                    differ |= s[i * m + j] != d[i * D + c[j]];
+                    d[i * D + c[j]] = s[i * m + j];
+                }
+                ch[i] |= (uint8_t)differ;
+            }
+        } else {
+            const uint64_t *s = src.buf;
+            uint64_t *d = dst.buf;
+            for (Py_ssize_t i = 0; i < F; i++)
+                for (Py_ssize_t j = 0; j < m; j++)
+                    d[i * D + c[j]] = s[i * m + j];
+        }
+        Py_END_ALLOW_THREADS
+    } else {
+        PyErr_SetString(PyExc_ValueError, "put_columns: cols outside dst");
+    }
+    if (have)
+        PyBuffer_Release(&changed);
+    PyBuffer_Release(&src);
+    PyBuffer_Release(&dst);
+    PyBuffer_Release(&cols);
+    if (!ok)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 /* segments: a sequence of (bits, 0, count) raw fields or (zero, decay, count) model-coded integers, the first
  * element negative for raw: (-bits, 0, count) */
 static PyObject *py_integers(PyObject *mod, PyObject *args)
@@ -518,6 +593,9 @@ static PyMethodDef functions[] = {
      "forward(values, out): the forward wavelet of (F, D) samples, the coefficients in inverse's layout (the "
      "encoder's)"},
     {"sample", py_sample, METH_VARARGS, "sample(times, out, frames): the features at times, feature-major"},
+    {"put_columns", py_put_columns, METH_VARARGS,
+     "put_columns(src, dst, cols, changed=None): dst[:, cols] = src (float64 or int64); with changed (F,) uint8, "
+     "changed[i] |= any value of row i differs from the one it overwrites (float64)"},
     {"rounded", py_rounded, METH_VARARGS,
      "rounded(c, table, rows, cols, rounding, q, dq, subset=None, compare=False) -> status: the encoder's rounding "
      "of (n, m) coefficients c into q (int64) and dq (their dequantised values), steps table[rows][:, cols]; -1: "

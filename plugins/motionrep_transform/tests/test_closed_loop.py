@@ -288,3 +288,36 @@ def test_the_compiled_rounding_is_numpys_arithmetic_bit_for_bit():
                np.empty((2, 2)))
     _round(huge, np.full((1, 2), 1.0), np.zeros(2, np.int64), np.arange(2), 0.0, np.empty((2, 2), np.int64),
            np.empty((2, 2)))  # 2 ** 61 <= MAX_MAGNITUDE
+
+
+def test_put_columns_is_numpys_column_assignment():
+    """``_cdecode.put_columns`` (the closed loop's writes of a group's integers and decoded columns) against numpy's
+    ``dst[:, cols] = src`` and, for the rows that changed, ``np.any(src != dst[:, cols], axis=1)`` (a float
+    comparison: -0.0 equals 0.0, NaN differs from itself); one row, and refusals."""
+    from motionrep_transform._cdecode import put_columns
+
+    rng = np.random.default_rng(4)
+    for F in (1, 50):
+        cols = np.array([7, 2, 5], np.int64)
+        dst = rng.normal(size=(F, 9))
+        src = dst[:, cols].copy()
+        src[F // 2, 1] += 1.0
+        src[0, 0] = -dst[0, 7] if dst[0, 7] == 0.0 else src[0, 0]
+        dst[-1, 2] = 0.0
+        src[-1, 1] = -0.0
+        if F > 2:
+            dst[1, 5], src[1, 2] = np.nan, np.nan
+        want, want_changed = dst.copy(), np.zeros(F, bool)
+        want_changed |= np.any(src != want[:, cols], axis=1)
+        want[:, cols] = src
+        changed = np.zeros(F, bool)
+        put_columns(src, dst, cols, changed.view(np.uint8))
+        assert np.array_equal(dst.view(np.int64), want.view(np.int64)) and np.array_equal(changed, want_changed)
+        ints, q = np.zeros((F, 9), np.int64), rng.integers(-9, 9, (F, 3))
+        put_columns(q, ints, cols)
+        assert np.array_equal(ints[:, cols], q) and not ints[:, [0, 1, 3, 4, 6, 8]].any()
+    with pytest.raises(ValueError):
+        put_columns(np.zeros((2, 1)), np.zeros((2, 3)), np.array([3], np.int64))
+    with pytest.raises(ValueError):
+        put_columns(np.zeros((2, 1), np.int64), np.zeros((2, 3), np.int64), np.array([0], np.int64),
+                    np.zeros(2, np.uint8))  # changed only for float64
