@@ -8,7 +8,8 @@
 #define MR_CHAIN_BLOCK 64 /* frames converted together: a joint's inputs and local rotations for them in L1 */
 
 /* mr_chain_pose (ccore.h): per joint, per block of frames, the local rotations converted in one loop over the
- * block (mr_rotconv.h's conversions, selects and no calls: it vectorises), then the block posed. */
+ * block (mr_rotconv.h's conversions, selects and no calls: it vectorises), then the block's inputs gathered into
+ * rows of their own, posed in one loop (it vectorises), and written to the state. */
 static int64_t MR_FN(chain_pose)(const mr_chain_pose_args *a)
 {
     const int64_t F = a->F, D = a->D, m = a->frames ? a->m : F;
@@ -50,23 +51,48 @@ static int64_t MR_FN(chain_pose)(const mr_chain_pose_args *a)
                 for (int64_t r = 0; r < mb; r++)
                     QX[r] = 0.0, QY[r] = 0.0, QZ[r] = 0.0, QW[r] = 1.0;
             }
-            for (int64_t r = 0; r < mb; r++) {
+            double G[7 * MR_CHAIN_BLOCK], T[3 * MR_CHAIN_BLOCK], R[7 * MR_CHAIN_BLOCK]; /* rotation, position */
+            for (int64_t r = 0; r < mb; r++) { /* gather: the translation, the parent's pose */
                 const int64_t f = fr ? fr[r] : r0 + r;
                 const double *x = a->decoded + f * D;
-                const double local[4] = {QX[r], QY[r], QZ[r], QW[r]};
-                double t[3];
                 for (int k = 0; k < 3; k++)
-                    t[k] = tc[k] >= 0 ? x[tc[k]] : tv[k];
+                    T[k * MR_CHAIN_BLOCK + r] = tc[k] >= 0 ? x[tc[k]] : tv[k];
+                if (p >= 0) {
+                    const double *g = a->rot + (p * F + f) * 4, *gp = a->pos + (p * F + f) * 3;
+                    for (int k = 0; k < 4; k++)
+                        G[k * MR_CHAIN_BLOCK + r] = g[k];
+                    for (int k = 0; k < 3; k++)
+                        G[(4 + k) * MR_CHAIN_BLOCK + r] = gp[k];
+                }
+            }
+            for (int64_t r = 0; r < mb; r++) { /* posed (a loop that vectorises) */
+                const double local[4] = {QX[r], QY[r], QZ[r], QW[r]};
+                double t[3], out[7];
+                for (int k = 0; k < 3; k++)
+                    t[k] = T[k * MR_CHAIN_BLOCK + r];
                 if (p < 0) {
                     for (int k = 0; k < 4; k++)
-                        rot[4 * f + k] = local[k];
+                        out[k] = local[k];
                     for (int k = 0; k < 3; k++)
-                        pos[3 * f + k] = t[k];
+                        out[4 + k] = t[k];
                 } else {
-                    const double *g = a->rot + (p * F + f) * 4;
-                    qmul(g, local, rot + 4 * f);
-                    qapply_add(g, a->pos + (p * F + f) * 3, t, pos + 3 * f);
+                    double g[4], gp[3];
+                    for (int k = 0; k < 4; k++)
+                        g[k] = G[k * MR_CHAIN_BLOCK + r];
+                    for (int k = 0; k < 3; k++)
+                        gp[k] = G[(4 + k) * MR_CHAIN_BLOCK + r];
+                    qmul(g, local, out);
+                    qapply_add(g, gp, t, out + 4);
                 }
+                for (int k = 0; k < 7; k++)
+                    R[k * MR_CHAIN_BLOCK + r] = out[k];
+            }
+            for (int64_t r = 0; r < mb; r++) { /* scatter */
+                const int64_t f = fr ? fr[r] : r0 + r;
+                for (int k = 0; k < 4; k++)
+                    rot[4 * f + k] = R[k * MR_CHAIN_BLOCK + r];
+                for (int k = 0; k < 3; k++)
+                    pos[3 * f + k] = R[(4 + k) * MR_CHAIN_BLOCK + r];
             }
         }
     }
