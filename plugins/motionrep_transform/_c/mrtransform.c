@@ -947,7 +947,7 @@ static inline __attribute__((always_inline)) void synthesise_block(double *const
  * them; tmp holds sizes' total): the encoder's analysis, not used by decoding.  The lifting steps of
  * _wavelet.forward, operation for operation (d[i] + a (s[i] + s[min(i + 1, ns - 1)]), s[i] + a (d[max(i - 1, 0)] +
  * d[min(i, nd - 1)]), then the subbands scaled): the numpy forward's bits. */
-void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
+MRT_CLONES void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
 {
     uint64_t n = 0;
     for (int l = 0; l <= levels; l++)
@@ -961,14 +961,20 @@ void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
         }
         if (ns > nd)
             s[nd] = x[2 * nd];
-        for (int k = 0; k < 4; k++) {
+        for (int k = 0; k < 4; k++) { /* the ends peeled off (as lift's): the inner loops vectorise */
             double a = STEPS[k];
-            if (k % 2 == 0) {
-                for (uint64_t i = 0; i < nd; i++)
-                    d[i] = d[i] + a * (s[i] + s[i + 1 < ns ? i + 1 : ns - 1]);
-            } else {
-                for (uint64_t i = 0; i < ns; i++)
-                    s[i] = s[i] + a * (d[i ? i - 1 : 0] + d[i < nd ? i : nd - 1]);
+            if (k % 2 == 0) { /* d[i] += a (s[i] + s[min(i + 1, ns - 1)]) */
+                uint64_t inner = ns > nd ? nd : nd - 1;
+                for (uint64_t i = 0; i < inner; i++)
+                    d[i] = d[i] + a * (s[i] + s[i + 1]);
+                if (inner < nd)
+                    d[nd - 1] = d[nd - 1] + a * (s[nd - 1] + s[ns - 1]);
+            } else { /* s[i] += a (d[max(i - 1, 0)] + d[min(i, nd - 1)]) */
+                s[0] = s[0] + a * (d[0] + d[0]);
+                for (uint64_t i = 1; i < nd; i++)
+                    s[i] = s[i] + a * (d[i - 1] + d[i]);
+                if (ns > nd)
+                    s[nd] = s[nd] + a * (d[nd - 1] + d[nd - 1]);
             }
         }
         for (uint64_t i = 0; i < ns; i++)
