@@ -4,18 +4,21 @@ against ``motionrep.model.rotations``' column conversions, which chain.py called
 
 Compared bit for bit: the kernels are scalar IEEE arithmetic compiled without FMA contraction or fast-math
 (setup.py), in numpy's operation order (left to right, sums over the last axis ``((x0 + x1) + x2) + x3``), with the
-same libm ``sqrt`` / ``rint`` and the core's own quaternion-to-rotation-vector conversion; numpy's elementwise
+same libm ``sqrt`` / ``rint`` / ``atan2`` (the rotation vector as scipy's, but ``angle / sin(angle / 2)`` taken as
+``angle / s``, ``s`` the normalised quaternion's vector length: no libm ``sin``); numpy's elementwise
 arithmetic and these sums are IEEE operations in that order too, on any CPU (no BLAS), so equal bits are the
 contract, not an accident of this machine."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
 
 from motionrep._ccore import chain_pose, chain_targets
 from motionrep.model.kinematics import forward_kinematics
-from motionrep.model.rotations import axis_angle_columns_to_quat, quat_columns_normalized, quat_to_axis_angle
+from motionrep.model.rotations import axis_angle_columns_to_quat, quat_columns_normalized
 from motionrep.model.synthetic import chain_skeleton, synthetic_motion
 from motionrep.pipeline.evaluate import MotionContext
 from motionrep.plugin.registry import get_codec, get_representation
@@ -44,6 +47,23 @@ def _qapply(q, v):
     u, w = q[..., :3], q[..., 3:]
     t = 2.0 * _cross(u, v)
     return v + w * t + _cross(u, t)
+
+
+def _rotation_vector(q):
+    """The targets' rotation vector of quaternions ``(..., 4)``: scipy's steps (normalised, the canonical sign, angle
+    ``2 atan2(s, w)`` with libm's atan2 through Python's math, the series below 1e-3) but ``angle / s`` for
+    ``angle / sin(angle / 2)``, ``s`` the length of the normalised x, y, z (chain.c: no libm sin)."""
+    n = np.sqrt(((q[..., 0] * q[..., 0] + q[..., 1] * q[..., 1]) + q[..., 2] * q[..., 2]) + q[..., 3] * q[..., 3])
+    u = q / n[..., None]
+    x, y, z, w = u[..., 0], u[..., 1], u[..., 2], u[..., 3]
+    flip = (w < 0) | ((w == 0) & ((x < 0) | ((x == 0) & ((y < 0) | ((y == 0) & (z < 0))))))
+    u = np.where(flip[..., None], -u, u)
+    s = np.sqrt((u[..., 0] * u[..., 0] + u[..., 1] * u[..., 1]) + u[..., 2] * u[..., 2])
+    angle = 2.0 * np.array([math.atan2(a, b) for a, b in zip(s.ravel(), u[..., 3].ravel())]).reshape(s.shape)
+    a2 = angle * angle
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(angle <= 1e-3, (2.0 + a2 / 12.0) + 7.0 * a2 * a2 / 2880.0, angle / s)
+    return scale[..., None] * u[..., :3]
 
 
 def _nearest_branch(v, near):
@@ -90,7 +110,7 @@ def _reference_targets(rot, pos, parents, true_rot, lever, local_offset, true_po
             v = np.where(np.sum(q * near, axis=2, keepdims=True) < 0, -q, q)
             out[:, at[rows]] = v.transpose(1, 0, 2)
         else:
-            v = _nearest_branch(quat_to_axis_angle(local[rows]), truth[rows, :, :3])
+            v = _nearest_branch(_rotation_vector(local[rows]), truth[rows, :, :3])
             out[:, at[rows, :3]] = v.transpose(1, 0, 2)
 
 

@@ -2,9 +2,10 @@
  * from the decoded features, and one depth's targets, over whole blocks (joint-major arrays, no Python per joint).
  * Every value is numpy's of chain.py's former elementwise code, operation for operation in the order numpy evaluated
  * it (left to right; sums over the last axis ((x0 + x1) + x2) + x3), with the same libm calls (sqrt, rint, and
- * the quaternion to rotation vector of mr_rotconv.h, rotations.c's): scalar IEEE arithmetic compiled without FMA
- * contraction or fast-math (setup.py), so the targets, and the payloads quantised from them, are the same bits on
- * every CPU.  The loops are chain_impl.h's, compiled for the x86-64 baseline and for AVX2 (the same bits). */
+ * the quaternion to rotation vector of mr_rotconv.h, rotations.c's, but for its sin(angle / 2), taken as the
+ * normalised quaternion's vector length: IEEE operations, no libm sin): scalar IEEE arithmetic compiled without
+ * FMA contraction or fast-math (setup.py), so the targets, and the payloads quantised from them, are the same bits
+ * on every CPU.  The loops are chain_impl.h's, compiled for the x86-64 baseline and for AVX2 (the same bits). */
 #include <math.h>
 
 #include "ccore.h"

@@ -101,10 +101,10 @@ static int64_t MR_FN(chain_pose)(const mr_chain_pose_args *a)
 
 /* mr_chain_targets (ccore.h): per joint, per block of frames, the inputs of the block's frames gathered into rows
  * of their own (a loop of loads), then the local rotations in one loop, then (a quaternion) the sign nearest the
- * true one, or (a rotation vector) mr_rotvec_unit in one loop, libm's atan2 and sin in a scalar one, the branch
- * nearest the true one in a third, and the results written to their columns: the loops without calls or gathers
- * vectorise.  Every value is the arithmetic of the frame-by-frame loop this replaced (tests/test_chain_kernels.py:
- * numpy's, bit for bit). */
+ * true one, or (a rotation vector) mr_rotvec_unit in one loop, libm's atan2 in a scalar one, the scale
+ * (mr_rotvec_scale_sine: angle / s for scipy's angle / sin(angle / 2)) and the branch nearest the true one in
+ * others, and the results written to their columns: the loops without calls or gathers vectorise.  Every value is
+ * the arithmetic of tests/test_chain_kernels.py's numpy reference, bit for bit. */
 static int64_t MR_FN(chain_targets)(const mr_chain_targets_args *a)
 {
     enum { CG0, CW0 = 4, CT0 = 8, CP0 = 12, CO0 = 15, CA0 = 18, CTP0 = 21, CNA = 24, CIN }; /* rows of in */
@@ -195,8 +195,11 @@ static int64_t MR_FN(chain_targets)(const mr_chain_targets_args *a)
                     for (int64_t r = 0; r < nb; r++)
                         if (!ok[r])
                             return i * F + (fr ? fr[r] : r0 + r);
+                double angle[B];
                 for (int64_t r = 0; r < nb; r++) /* libm: one at a time */
-                    S[r] = MR_FN(mr_rotvec_scale)(2.0 * atan2(S[r], U3[r]));
+                    angle[r] = 2.0 * atan2(S[r], U3[r]);
+                for (int64_t r = 0; r < nb; r++) /* sin(angle / 2) is S (the unit quaternion's): no libm sin */
+                    S[r] = MR_FN(mr_rotvec_scale_sine)(angle[r], S[r]);
                 const double *T0 = in + CT0 * B, *T1 = T0 + B, *T2 = T0 + 2 * B;
                 for (int64_t r = 0; r < nb; r++) {
                     double v0 = S[r] * U0[r], v1 = S[r] * U1[r], v2 = S[r] * U2[r];
