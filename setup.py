@@ -30,7 +30,7 @@ setup(ext_modules=[
                        "motionrep/_c/fk.c", "motionrep/_c/rotations.c", "motionrep/_c/edits.c",
                        "motionrep/_c/euler.c", "motionrep/_c/chain.c"],
               depends=["motionrep/_c/ccore.h", "motionrep/_c/mr_rotconv.h", "motionrep/_c/rotations_impl.h",
-                       "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
+                       "motionrep/_c/chain_impl.h", "motionrep/_c/fk_impl.h", "motionrep/_c/mr_twice.h"],
               extra_compile_args=FLAGS),
     # the pose plan and the runtime decoder's loop (motionrep.model.poseplan, motionrep.pipeline.runtime)
     # (numpy's C API: the one-pose path makes its fresh arrays in C)

@@ -289,7 +289,7 @@ def test_fk_bit_for_bit(dtype):
 
 
 def test_the_avx2_and_baseline_copies_give_the_same_bits():
-    """The conversions' and FK's loops are compiled twice (the x86-64 baseline and AVX2, chosen when the module
+    """The conversions', FK's and the closed loop's pose's loops are compiled twice (the x86-64 baseline and AVX2, chosen when the module
     loads; ``MOTIONREP_CCORE_BASELINE=1`` forces the baseline): the same IEEE operations, so the same bits."""
     if _ccore.simd == "baseline":
         pytest.skip("this CPU (or build) has only the baseline copy: nothing to compare")
@@ -315,6 +315,24 @@ def test_the_avx2_and_baseline_copies_give_the_same_bits():
             rot = random_unit_quaternions((F, sk.num_joints), seed=F) * 1.0001
             pos, out = fk_arrays(sk, rot, rng.normal(size=(F, 3)), np.zeros((F, 0, 3)), True)
             h.update(pos.tobytes() + out.tobytes())
+        for F in (1, 70, 203):  # the closed loop's pose (chain.c): its conversions by blocks of frames
+            x, st = rng.normal(size=(F, 11)) * 3.0, np.zeros((2, F, 4))
+            x[:1, 4:7] *= 1e-5
+            for frames in (None, np.arange(0, F, 3)):
+                _ccore.chain_pose(x, np.array([0, 1]), np.array([[0, 1, 2, 3], [4, 5, 6, 0]]), np.array([0, 1]),
+                                  np.array([-1, 0]), np.array([[7, 8, 9], [-1, 10, -1]]), np.ones((2, 3)), st,
+                                  np.zeros((2, F, 3)), frames)
+                h.update(st.tobytes())
+            rot = rng.normal(size=(2, F, 4)) * 0.5  # and the closed loop's targets (rotation vectors, levers)
+            true_rot, truth = rng.normal(size=(3, F, 4)), rng.normal(size=(3, F, 4)) * 3.0
+            true_rot[1, :1] *= 1e-5
+            lever = [rng.normal(size=(1, F, 3)) for _ in range(3)]
+            out = np.zeros((F, 11))
+            assert _ccore.chain_targets(rot, rng.normal(size=(2, F, 3)), np.array([0, 1, 1]), true_rot,
+                                        np.array([0, -1, -1]), *lever, np.sqrt(np.sum(lever[2] ** 2, axis=-1)),
+                                        np.array([1, 0, 1]), np.array([[0, 1, 2, -1], [3, 4, 5, 6], [7, 8, 9, -1]]),
+                                        truth, out, None if F < 100 else np.arange(1, F, 2)) == -1
+            h.update(out.tobytes())
         print(_ccore.simd, h.hexdigest())
     """
     runs = []

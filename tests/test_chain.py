@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motionrep.errors import ValidationError
+
 from motionrep.model.kinematics import forward_kinematics
 from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 from motionrep.pipeline.evaluate import MotionContext
@@ -351,5 +353,20 @@ def test_chain_kernels_by_frames_write_only_those_frames(walk):
     assert np.array_equal(chain._pos[js][:, frames], pos[js][:, frames])
     assert np.all(np.delete(chain._rot[js], frames, axis=1) == 0.0)
     with pytest.raises(ValueError, match="out of range"):
-        chain_pose(f, np.zeros((1, 1, 4)), js[:1], np.array([-1]), np.full((1, 3), -1), np.zeros((1, 3)),
-                   chain._rot, chain._pos, np.array([-1], np.int64))
+        chain_pose(f, np.array([-1]), np.zeros((1, 4), np.int64), js[:1], np.array([-1]), np.full((1, 3), -1),
+                   np.zeros((1, 3)), chain._rot, chain._pos, np.array([-1], np.int64))
+
+
+def test_a_decoded_quaternion_of_zero_length_leaves_the_run_open_loop(walk):
+    """The root's decoded quaternion of zero length in one frame: posing it raises ValidationError, the run's later
+    groups take their true values, and the next run computes every frame."""
+    ctx, rep = _context(walk)
+    f = rep.to_features(walk)
+    chain = ctx.feature_chain(f)
+    bad = f.copy()
+    bad[5, chain._levels[0][3][0]] = 0.0  # the root's quaternion columns
+    with pytest.raises(ValidationError, match="zero"):
+        chain._pose(0, bad)
+    assert np.array_equal(chain.targets(0, bad), f[:, chain.groups[0]])
+    assert np.array_equal(chain.targets(1, bad), f[:, chain.groups[1]])
+    assert not chain.complete

@@ -100,16 +100,18 @@ static inline void mr_rotate_add(const double *g, const double *base, double vx,
 
 /* chain.c: closed-loop targets along the skeleton (motionrep/pipeline/chain.py), joint-major state rot (J, F, 4)
  * and pos (J, F, 3).  mr_chain_pose: the n joints of one depth posed, joints[i] from its parent parents[i] (-1: the
- * root depth) with the local rotation local (F, n, 4) and translation tcols[i] (3 columns of decoded (F, D), -1
- * taking tvals[i]).  With frames (m,) (NULL: every frame), only those frames, local then (m, n, 4): the same
- * arithmetic per frame. */
+ * root depth) with the local rotation of decoded (F, D)'s columns rcols[i] (kinds[i] 0: a quaternion, normalised;
+ * 1: a rotation vector, its first 3; -1: none, the identity), mr_rotconv.h's conversions, and the translation
+ * tcols[i] (3 columns of decoded, -1 taking tvals[i]).  With frames (m,) (NULL: every frame), only those frames:
+ * the same arithmetic per frame.  Returns the number of quaternions of zero or non-finite length (their joints'
+ * rows then hold inf or nan). */
 typedef struct {
     int64_t F, D, n, m;
-    const double *decoded, *local, *tvals;
-    const int64_t *joints, *parents, *tcols, *frames;
+    const double *decoded, *tvals;
+    const int64_t *kinds, *rcols, *joints, *parents, *tcols, *frames;
     double *rot, *pos;
 } mr_chain_pose_args;
-void mr_chain_pose(const mr_chain_pose_args *a);
+int64_t mr_chain_pose(const mr_chain_pose_args *a);
 /* mr_chain_targets: for the n joints of one depth (parents[i]), the local rotation giving true_rot (n, F, 4) under
  * the decoded parent, turned first (lever[i] = m >= 0: position feedback) to point from the joint's decoded
  * position (the parent's plus local_offset (M, F, 3)) at true_pos + lever_vec ((M, F, 3), lever_len (M, F)); written

@@ -2,8 +2,10 @@
  * from the decoded features, and one depth's targets, over whole blocks (joint-major arrays, no Python per joint).
  * Every value is numpy's of chain.py's former elementwise code, operation for operation in the order numpy evaluated
  * it (left to right; sums over the last axis ((x0 + x1) + x2) + x3), with the same libm calls (sqrt, rint, and
- * rotations.c's quaternion to rotation vector): scalar IEEE arithmetic compiled without FMA contraction or
- * fast-math (setup.py), so the targets, and the payloads quantised from them, are the same bits on every CPU. */
+ * the quaternion to rotation vector of mr_rotconv.h, rotations.c's, but for its sin(angle / 2), taken as the
+ * normalised quaternion's vector length: IEEE operations, no libm sin): scalar IEEE arithmetic compiled without
+ * FMA contraction or fast-math (setup.py), so the targets, and the payloads quantised from them, are the same bits
+ * on every CPU.  The loops are chain_impl.h's, compiled for the x86-64 baseline and for AVX2 (the same bits). */
 #include <math.h>
 
 #include "ccore.h"
@@ -33,91 +35,24 @@ static inline void qapply_add(const double *q, const double *base, const double 
         o[k] = base[k] + ((v[k] + q[3] * t[k]) + s[k]);
 }
 
-void mr_chain_pose(const mr_chain_pose_args *a)
+#define MR_IMPL "chain_impl.h"
+#include "mr_twice.h"
+
+/* The AVX2 copies where mr_simd says so (the same bits: chain_impl.h). */
+int64_t mr_chain_pose(const mr_chain_pose_args *a)
 {
-    const int64_t F = a->F, D = a->D, m = a->frames ? a->m : F;
-    for (int64_t i = 0; i < a->n; i++) {
-        const int64_t j = a->joints[i], p = a->parents[i];
-        const int64_t *tc = a->tcols + 3 * i;
-        const double *tv = a->tvals + 3 * i;
-        double *rot = a->rot + j * F * 4, *pos = a->pos + j * F * 3;
-        for (int64_t r = 0; r < m; r++) { /* local's row r is frame f (frames[r], or r) */
-            const int64_t f = a->frames ? a->frames[r] : r;
-            const double *local = a->local + (r * a->n + i) * 4, *x = a->decoded + f * D;
-            double t[3];
-            for (int k = 0; k < 3; k++)
-                t[k] = tc[k] >= 0 ? x[tc[k]] : tv[k];
-            if (p < 0) {
-                for (int k = 0; k < 4; k++)
-                    rot[4 * f + k] = local[k];
-                for (int k = 0; k < 3; k++)
-                    pos[3 * f + k] = t[k];
-            } else {
-                const double *g = a->rot + (p * F + f) * 4;
-                qmul(g, local, rot + 4 * f);
-                qapply_add(g, a->pos + (p * F + f) * 3, t, pos + 3 * f);
-            }
-        }
-    }
+#if MR_HAVE_AVX2
+    if (mr_simd == MR_SIMD_AVX2)
+        return chain_pose_avx2(a);
+#endif
+    return chain_pose_baseline(a);
 }
 
 int64_t mr_chain_targets(const mr_chain_targets_args *a)
 {
-    const int64_t F = a->F, frames = a->frames ? a->m : F;
-    const double two_pi = 2.0 * 3.141592653589793;
-    for (int64_t i = 0; i < a->n; i++) {
-        const int64_t p = a->parents[i], m = a->lever[i];
-        const int64_t *at = a->at + 4 * i;
-        for (int64_t r = 0; r < frames; r++) {
-            const int64_t f = a->frames ? a->frames[r] : r;
-            const double *g = a->rot + (p * F + f) * 4;
-            double want[4], local[4], cg[4] = {-g[0], -g[1], -g[2], g[3]};
-            for (int k = 0; k < 4; k++)
-                want[k] = a->true_rot[(i * F + f) * 4 + k];
-            if (m >= 0) { /* position feedback: turn the true rotation to point, from here, at the true point */
-                const int64_t l = m * F + f; /* the lever point's row */
-                const double *av = a->lever_vec + 3 * l, *tp = a->true_pos + 3 * l, na = a->lever_len[l];
-                double here[3], b[3], turn[4], turned[4];
-                qapply_add(g, a->pos + (p * F + f) * 3, a->local_offset + 3 * l, here);
-                for (int k = 0; k < 3; k++)
-                    b[k] = (av[k] + tp[k]) - here[k];
-                double nb = sqrt((b[0] * b[0] + b[1] * b[1]) + b[2] * b[2]);
-                cross(av, b, turn);
-                turn[3] = na * nb + ((av[0] * b[0] + av[1] * b[1]) + av[2] * b[2]);
-                double size = sqrt(((turn[0] * turn[0] + turn[1] * turn[1]) + turn[2] * turn[2]) + turn[3] * turn[3]);
-                double floor_ = na * nb;
-                if (floor_ < 1e-300) /* numpy's maximum: a NaN stays NaN */
-                    floor_ = 1e-300;
-                if (size > 1e-12 * floor_) {
-                    for (int k = 0; k < 4; k++)
-                        turn[k] = turn[k] / size;
-                } else {
-                    turn[0] = turn[1] = turn[2] = 0.0, turn[3] = 1.0;
-                }
-                qmul(turn, want, turned);
-                for (int k = 0; k < 4; k++)
-                    want[k] = turned[k];
-            }
-            qmul(cg, want, local);
-            const double *near = a->truth + (i * F + f) * 4;
-            double *o = a->out + f * a->C;
-            if (a->kind[i] == 0) { /* a quaternion: the sign nearest the true one */
-                double dot = ((local[0] * near[0] + local[1] * near[1]) + local[2] * near[2]) + local[3] * near[3];
-                for (int k = 0; k < 4; k++)
-                    o[at[k]] = dot < 0 ? -local[k] : local[k];
-            } else { /* a rotation vector: the branch (theta + 2 pi k) n nearest the true one */
-                double v[3];
-                if (mr_quat_to_axis_angle(local, 1, v) >= 0)
-                    return i * F + f;
-                double theta = sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2]);
-                int ok = theta > 1e-12;
-                double d = ok ? theta : 1.0, n[3] = {v[0] / d, v[1] / d, v[2] / d};
-                double turns = rint((((n[0] * near[0] + n[1] * near[1]) + n[2] * near[2]) - theta) / two_pi);
-                double scale = theta + two_pi * turns;
-                for (int k = 0; k < 3; k++)
-                    o[at[k]] = ok ? n[k] * scale : 0.0;
-            }
-        }
-    }
-    return -1;
+#if MR_HAVE_AVX2
+    if (mr_simd == MR_SIMD_AVX2)
+        return chain_targets_avx2(a);
+#endif
+    return chain_targets_baseline(a);
 }

@@ -596,43 +596,53 @@ static int within(const Py_buffer *b, int64_t low, int64_t high)
     return 1;
 }
 
-PyDoc_STRVAR(chain_pose_doc, "chain_pose(decoded, local, joints, parents, tcols, tvals, rot, pos, frames=None)\n--\n\n"
-                             "One depth's joints posed (motionrep.pipeline.chain): decoded (F, D), local (F, n, 4), "
-                             "joints, parents (n,) int64\n(-1: the root depth), tcols (n, 3) int64 (-1: tvals), "
-                             "tvals (n, 3); rot (J, F, 4) and pos (J, F, 3) written in place.\nWith frames (m,) int64 "
-                             "(distinct frames), only those frames, local then (m, n, 4) (row r: frame frames[r]).");
+PyDoc_STRVAR(chain_pose_doc, "chain_pose(decoded, kinds, rcols, joints, parents, tcols, tvals, rot, pos, frames=None) "
+                             "-> bad\n--\n\n"
+                             "One depth's joints posed (motionrep.pipeline.chain): decoded (F, D), kinds (n,) int64 "
+                             "(0: a quaternion in\nrcols[i], 1: a rotation vector in its first 3, -1: the identity), "
+                             "rcols (n, 4) int64, joints, parents (n,) int64\n(-1: the root depth), tcols (n, 3) int64 "
+                             "(-1: tvals), tvals (n, 3); rot (J, F, 4) and pos (J, F, 3) written in place.\nWith frames "
+                             "(m,) int64 (distinct frames), only those frames.  Returns the number of quaternions of "
+                             "zero or\nnon-finite length.");
 
 static PyObject *py_chain_pose(PyObject *self, PyObject *args)
 {
-    PyObject *o[9];
-    o[8] = Py_None;
-    if (!PyArg_ParseTuple(args, "OOOOOOOO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
+    PyObject *o[10];
+    o[9] = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOO|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9]))
         return NULL;
     buffers bs = {.n = 0};
-    Py_buffer *x, *local, *js, *par, *tc, *tv, *rot, *pos, *fr = NULL;
-    if (!(x = get(&bs, o[0], "decoded", 'd', 2, 0)) || !(local = get(&bs, o[1], "local", 'd', 3, 0))
-        || !(js = get(&bs, o[2], "joints", 'q', 1, 0)) || !(par = get(&bs, o[3], "parents", 'q', 1, 0))
-        || !(tc = get(&bs, o[4], "tcols", 'q', 2, 0)) || !(tv = get(&bs, o[5], "tvals", 'd', 2, 0))
-        || !(rot = get(&bs, o[6], "rot", 'd', 3, 1)) || !(pos = get(&bs, o[7], "pos", 'd', 3, 1))
-        || (o[8] != Py_None && !(fr = get(&bs, o[8], "frames", 'q', 1, 0)))) {
+    Py_buffer *x, *kinds, *rcols, *js, *par, *tc, *tv, *rot, *pos, *fr = NULL;
+    if (!(x = get(&bs, o[0], "decoded", 'd', 2, 0)) || !(kinds = get(&bs, o[1], "kinds", 'q', 1, 0))
+        || !(rcols = get(&bs, o[2], "rcols", 'q', 2, 0)) || !(js = get(&bs, o[3], "joints", 'q', 1, 0))
+        || !(par = get(&bs, o[4], "parents", 'q', 1, 0)) || !(tc = get(&bs, o[5], "tcols", 'q', 2, 0))
+        || !(tv = get(&bs, o[6], "tvals", 'd', 2, 0)) || !(rot = get(&bs, o[7], "rot", 'd', 3, 1))
+        || !(pos = get(&bs, o[8], "pos", 'd', 3, 1))
+        || (o[9] != Py_None && !(fr = get(&bs, o[9], "frames", 'q', 1, 0)))) {
         release(&bs);
         return NULL;
     }
     mr_chain_pose_args a = {.F = dim(x, 0), .D = dim(x, 1), .n = dim(js, 0), .m = fr ? dim(fr, 0) : dim(x, 0),
-                            .decoded = x->buf, .local = local->buf, .tvals = tv->buf, .joints = js->buf,
-                            .parents = par->buf, .tcols = tc->buf, .frames = fr ? fr->buf : NULL, .rot = rot->buf,
-                            .pos = pos->buf};
+                            .decoded = x->buf, .tvals = tv->buf, .kinds = kinds->buf, .rcols = rcols->buf,
+                            .joints = js->buf, .parents = par->buf, .tcols = tc->buf, .frames = fr ? fr->buf : NULL,
+                            .rot = rot->buf, .pos = pos->buf};
     int64_t J = dim(rot, 0);
-    if ((fr && !within(fr, 0, a.F)) || dim(local, 0) != a.m || dim(local, 1) != a.n || dim(local, 2) != 4 || dim(par, 0) != a.n
-        || dim(tc, 0) != a.n || dim(tc, 1) != 3 || dim(tv, 0) != a.n || dim(tv, 1) != 3 || dim(rot, 1) != a.F
-        || dim(rot, 2) != 4 || dim(pos, 0) != J || dim(pos, 1) != a.F || dim(pos, 2) != 3 || !within(js, 0, J)
-        || !within(par, -1, J) || !within(tc, -1, a.D))
+    if ((fr && !within(fr, 0, a.F)) || dim(kinds, 0) != a.n || dim(rcols, 0) != a.n || dim(rcols, 1) != 4
+        || dim(par, 0) != a.n || dim(tc, 0) != a.n || dim(tc, 1) != 3 || dim(tv, 0) != a.n || dim(tv, 1) != 3
+        || dim(rot, 1) != a.F || dim(rot, 2) != 4 || dim(pos, 0) != J || dim(pos, 1) != a.F || dim(pos, 2) != 3
+        || !within(js, 0, J) || !within(par, -1, J) || !within(tc, -1, a.D) || !within(kinds, -1, 2))
         return fail(&bs, "chain_pose: shapes or indices out of range");
+    const int64_t *k = kinds->buf, *c = rcols->buf;
+    for (int64_t i = 0; i < a.n; i++)
+        for (int w = 0; w < (k[i] == 0 ? 4 : k[i] == 1 ? 3 : 0); w++)
+            if (c[4 * i + w] < 0 || c[4 * i + w] >= a.D)
+                return fail(&bs, "chain_pose: rcols outside decoded's columns");
+    int64_t bad;
     Py_BEGIN_ALLOW_THREADS
-    mr_chain_pose(&a);
+    bad = mr_chain_pose(&a);
     Py_END_ALLOW_THREADS
     release(&bs);
-    Py_RETURN_NONE;
+    return PyLong_FromLongLong(bad);
 }
 
 PyDoc_STRVAR(chain_targets_doc,

@@ -212,6 +212,43 @@ static inline int MR_RC(mr_ortho6d)(double a1x, double a1y, double a1z, double a
     return (n1 >= 1e-12) & (n2 >= 1e-12) & (n2 < INFINITY);
 }
 
+/* The rotation vector of quaternion (qx, qy, qz, qw), as scipy's Rotation.from_quat(q).as_rotvec() (rotations.c's
+ * mr_quat_to_axis_angle, and the closed loop's targets), in two steps around libm's atan2 and sin:
+ * mr_rotvec_unit: u = the quaternion normalised by its length and made canonical (w > 0, or w = 0 and the first
+ * non-zero of x, y, z positive; selects, no branch); 0 if the length is zero or NaN (u then inf or nan), else 1.
+ * mr_rotvec_scale: with angle = 2 atan2(|u's x, y, z|, u's w), the factor that takes u's x, y, z to the rotation
+ * vector, angle / sin(angle / 2), or its series 2 + a^2 / 12 + 7 a^4 / 2880 (mr_rotvec_series) at angles <= 1e-3. */
+static inline int MR_RC(mr_rotvec_unit)(double qx, double qy, double qz, double qw, double *u)
+{
+    double norm = sqrt(((qx * qx + qy * qy) + qz * qz) + qw * qw);
+    double x = qx / norm, y = qy / norm, z = qz / norm, w = qw / norm;
+    int flip = (w < 0.0) | ((w == 0.0) & ((x < 0.0) | ((x == 0.0) & ((y < 0.0) | ((y == 0.0) & (z < 0.0))))));
+    u[0] = flip ? -x : x;
+    u[1] = flip ? -y : y;
+    u[2] = flip ? -z : z;
+    u[3] = flip ? -w : w;
+    return (norm != 0.0) & (norm == norm);
+}
+
+static inline double MR_RC(mr_rotvec_series)(double angle)
+{
+    double a2 = angle * angle;
+    return (2.0 + a2 / 12.0) + 7.0 * a2 * a2 / 2880.0;
+}
+
+static inline double MR_RC(mr_rotvec_scale)(double angle)
+{
+    return angle <= 1e-3 ? MR_RC(mr_rotvec_series)(angle) : angle / sin(angle / 2.0);
+}
+
+/* mr_rotvec_scale with sin(angle / 2) taken as `sine`, the length of mr_rotvec_unit's x, y, z (their exact value
+ * for the unit quaternion; within a few ulps of libm's sin(angle / 2) here): IEEE operations only, no libm call
+ * (the closed loop's targets; not scipy's bits). */
+static inline double MR_RC(mr_rotvec_scale_sine)(double angle, double sine)
+{
+    return angle <= 1e-3 ? MR_RC(mr_rotvec_series)(angle) : angle / sine;
+}
+
 #ifdef MR_RC_PLAIN
 #undef MR_RC
 #undef MR_RC_PLAIN

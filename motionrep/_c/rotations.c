@@ -70,22 +70,12 @@ int64_t mr_quat_to_axis_angle(const double *quat, int64_t n, double *out)
 {
     for (int64_t r = 0; r < n; r++) {
         const double *p = quat + 4 * r;
-        double norm = sqrt(((p[0] * p[0] + p[1] * p[1]) + p[2] * p[2]) + p[3] * p[3]);
-        if (norm == 0.0 || isnan(norm))
+        double u[4];
+        if (!mr_rotvec_unit(p[0], p[1], p[2], p[3], u))
             return r;
-        double x = p[0] / norm, y = p[1] / norm, z = p[2] / norm, w = p[3] / norm;
-        /* scipy's canonical sign: w > 0, or w == 0 and the first non-zero of x, y, z positive */
-        if (w < 0.0 || (w == 0.0 && (x < 0.0 || (x == 0.0 && (y < 0.0 || (y == 0.0 && z < 0.0))))))
-            x = -x, y = -y, z = -z, w = -w;
-        double angle = 2.0 * atan2(sqrt((x * x + y * y) + z * z), w), scale;
-        if (angle <= 1e-3) {
-            double a2 = angle * angle;
-            scale = (2.0 + a2 / 12.0) + 7.0 * a2 * a2 / 2880.0;
-        } else {
-            scale = angle / sin(angle / 2.0);
-        }
+        double scale = mr_rotvec_scale(2.0 * atan2(sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]), u[3]));
         double *o = out + 3 * r;
-        o[0] = scale * x, o[1] = scale * y, o[2] = scale * z;
+        o[0] = scale * u[0], o[1] = scale * u[1], o[2] = scale * u[2];
     }
     return -1;
 }

@@ -45,7 +45,6 @@ from ..errors import ValidationError
 from ..model._pose import Skeleton
 from ..model.kinematics import fk_arrays
 from ..model.poseplan import AXIS_ANGLE, QUAT, PosePlan, decode_planned
-from ..model.rotations import axis_angle_columns_to_quat, quat_columns_normalized
 from ..plugin.representation import empty_poses
 
 __all__ = ["FeatureChain", "sensitivity_samples", "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
@@ -127,6 +126,7 @@ class FeatureChain:
         self.groups = [np.array(sorted(c for j in range(J) if depth[j] == d for c in cols_of[j]), np.int64)
                        for d in depths]
         self._group_depth = depths
+        self._true_groups = [np.ascontiguousarray(self._true[:, c]) for c in self.groups]  # each group's true values
         # points directly below each joint: its end sites and child joints, a child at the joint itself passing on
         # to its own (over frames, the longest local offset: translated joints move)
         local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
@@ -220,26 +220,28 @@ class FeatureChain:
                            np.ascontiguousarray(local[:, js_a[i]].transpose(1, 0, 2)),
                            np.ascontiguousarray(true_pos[:, js_a[i]].transpose(1, 0, 2)), a,
                            np.sqrt(np.sum(a * a, axis=-1)), (kinds != QUAT).astype(np.int64), at, truth)
-        # per depth, how the decoder poses its joints: quaternion and rotation-vector entries (columns, the joint's
-        # place among the depth's joints), each joint's local translation (an OFFSET, or columns where the plan has
-        # them: -1 for a fixed axis, whose value the plan holds)
+        # per depth, how the decoder poses its joints: each joint's rotation entry (kind 0 a quaternion, 1 a rotation
+        # vector, -1 none: the identity; its columns) and local translation (an OFFSET, or columns where the plan
+        # has them: -1 for a fixed axis, whose value the plan holds)
         self._levels = []
         for d in range(int(depth.max()) + 1 if J else 0):
             js = np.flatnonzero(depth == d)
             place = {j: i for i, j in enumerate(js.tolist())}
-            conv = []
-            for kind, width in ((QUAT, 4), (AXIS_ANGLE, 3)):
-                mine = [(plan.columns[entry_of[j], :width], place[j]) for j in js.tolist()
-                        if j in entry_of and plan.kinds[entry_of[j]] == kind]
-                if mine:
-                    conv.append((kind, np.array([m[0] for m in mine], np.int64), np.array([m[1] for m in mine])))
+            kinds = np.full(js.size, -1, np.int64)
+            rcols = np.zeros((js.size, 4), np.int64)
+            for i, j in enumerate(js.tolist()):
+                if j in entry_of:
+                    kinds[i] = 0 if plan.kinds[entry_of[j]] == QUAT else 1
+                    width = 4 if kinds[i] == 0 else 3
+                    rcols[i, :width] = plan.columns[entry_of[j], :width]
             tcols = np.full((js.size, 3), -1, np.int64)
             tvals = sk.offsets[js].astype(np.float64)
             for row, j in enumerate(translated):
                 if j in place:
                     tcols[place[j]] = plan.translation_columns[row]
                     tvals[place[j]] = np.where(plan.translation_columns[row] >= 0, 0.0, plan.translation_values[row])
-            self._levels.append((js, sk.parents[js] if d else np.full(js.size, -1, np.int64), conv, tcols, tvals))
+            self._levels.append((js, sk.parents[js] if d else np.full(js.size, -1, np.int64), kinds, rcols, tcols,
+                                 tvals))
         # the decoded state, joint-major ((J, F, 4), (J, F, 3)): a depth's parents are gathered as whole blocks
         self._rot = np.zeros((J, F, 4))
         self._pos = np.zeros((J, F, 3))
@@ -263,15 +265,11 @@ class FeatureChain:
     def _pose(self, d: int, decoded: NDArray[np.float64], frames: NDArray[np.int64] | None = None) -> None:
         """Global rotations and positions of the joints of depth ``d`` from ``decoded`` (the decoder's conversions;
         their parents' already posed), in every frame or only in ``frames``."""
-        js, parents, conv, tcols, tvals = self._levels[d]
-        decoded = np.ascontiguousarray(decoded, dtype=np.float64)
-        rows = decoded if frames is None else decoded[frames]
-        local = np.zeros((rows.shape[0], js.size, 4))
-        local[..., 3] = 1.0
-        for kind, cols, place in conv:
-            (quat_columns_normalized if kind == QUAT else axis_angle_columns_to_quat)(rows, cols, place, local)
-        # compiled: motionrep/_c/chain.c
-        chain_pose(decoded, local, js, parents, tcols, tvals, self._rot, self._pos, frames)
+        js, parents, kinds, rcols, tcols, tvals = self._levels[d]
+        # compiled: motionrep/_c/chain.c (the conversions of motionrep/_c/mr_rotconv.h, as the decoder's)
+        if chain_pose(np.ascontiguousarray(decoded, dtype=np.float64), kinds, rcols, js, parents, tcols, tvals,
+                      self._rot, self._pos, frames):
+            raise ValidationError("cannot normalise a quaternion of zero or non-finite length")
 
     def _fk(self, features: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F, J + E, 3)`` positions and ``(F, J + E, 4)`` global rotations of ``features`` (the decoder's
@@ -323,7 +321,6 @@ class FeatureChain:
         or this call is not the next group of the current run; :attr:`runs` counts the runs, so that a caller can
         tell that nobody else ran the chain in between.
         """
-        cols = self.groups[group]
         d = self._group_depth[group]
         if group == 0:  # a run starts
             self._incremental = self.complete
@@ -336,7 +333,7 @@ class FeatureChain:
         self._last = group
         if frames is not None and not (self._incremental and previous is not None and frames.size < len(self._true)):
             frames = None  # (every frame: as without frames)
-        out = self._true[:, cols].copy() if frames is None else previous.copy()
+        out = self._true_groups[group].copy() if frames is None else previous.copy()
         if frames is not None and not frames.size:  # nothing above changed: the last run's poses and targets
             self._posed = max(self._posed, d)
             return out
@@ -346,7 +343,7 @@ class FeatureChain:
                 self._posed += 1
         except ValidationError:  # a decoded quaternion of zero length (a huge step): open loop for this run
             self._posed, self._last, self._run_ok = 0, -2, False
-            return self._true[:, cols].copy()
+            return self._true_groups[group].copy()
         if d not in self._at:
             return out
         if chain_targets(self._rot, self._pos, *self._at[d], out, frames) >= 0:  # compiled: motionrep/_c/chain.c

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from motionrep.errors import BoundNotMetError, naming
 from motionrep.plugin.coding import MAX_MAGNITUDE, step_scale
 
+from ._cdecode import put_columns, rounded
 from ._decoder import reconstruct, synthesised
 from ._stream import Quantised
 from ._wavelet import coefficient_frames, forward, forward_rows, num_levels
@@ -38,21 +39,25 @@ class _Plan:
         spans = [self.levels] + list(range(self.levels, 0, -1))
         self.region_of = [np.minimum(f // region, self.regions - 1) for f in frames]
         self.reach = [int(math.ceil(_REACH * 2 ** j / region)) for j in spans]
-        # open loop: the coefficients of the features, and what every quantisation of the bisection reads, |c| and
-        # sign(c) (as integers), computed once (in closed loop each quantisation transforms its groups' targets)
+        # open loop: the coefficients of the features, computed once (in closed loop each quantisation transforms
+        # its groups' targets)
         self.coefficients: list[NDArray[np.float64]] = []
-        self._magnitudes: list[NDArray[np.float64]] = []
-        self._signs: list[NDArray[np.int64]] = []
         if chain is None:
             self.coefficients = forward(features, self.levels) if self.levels else [features.copy()]
-            self._magnitudes = [np.abs(c) for c in self.coefficients]
-            self._signs = [np.sign(c).astype(np.int64) for c in self.coefficients]
+        self._all = np.arange(self.num_features, dtype=np.int64)  # every column of the table of steps
         # the last quantisation (region exponents, rounding) -> integers: the search ends on the exponents it last
         # measured, which the encoder then quantises again
         self._last: tuple[bytes, float, list[NDArray[np.int64]]] | None = None
-        # closed loop: the last quantisation, group by group (targets, coefficients, dequantised coefficients,
-        # synthesised columns), with the chain's run count after it, for the next one to recompute only what changed
+        # closed loop: the last quantisation, group by group (targets, coefficients, integers, dequantised
+        # coefficients; its synthesised columns in self._work), with the chain's run count after it, for the next one
+        # to recompute only what changed
         self._run: tuple[int, list[tuple[NDArray[np.float64], ...]]] | None = None
+        # closed loop: (F, D) what the decoder makes of the last quantisation, group by group (each run writes every
+        # group's columns before the next group's targets read them; a run after a complete one rewrites only the
+        # groups whose dequantised coefficients changed)
+        self._work = np.zeros((self.num_frames, self.num_features)) if chain is not None else None
+        # closed loop: the columns in no group (features the plan fixes), quantised to 0 (their steps unused)
+        self._outside = None if chain is None else np.setdiff1d(self._all, np.concatenate([self._all[:0], *chain.groups]))
         #: closed loop: quantise() recomputes only what changed since the last quantisation (the same integers);
         #: false while every quantisation changes every step (the region search's bisection), which saves the
         #: comparisons
@@ -85,13 +90,6 @@ class _Plan:
                 best = int(m.max()) if best is None else max(best, int(m.max()))
         return here - 1 if best is None else min(here - 1, best - 1)
 
-    def _steps(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.float64]]:
-        """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
-        the few distinct ``k`` (rows of one ``k`` share their steps; the same numbers as :func:`steps_of`), each a
-        fresh array."""
-        _, table, rows = self._step_rows(region_exp)
-        return [table[r] for r in rows]
-
     def _step_rows(self, region_exp: NDArray[np.int64]
                    ) -> tuple[NDArray[np.int64], NDArray[np.float64], list[NDArray[np.int64]]]:
         """The distinct region exponents ``(m,)`` (sorted), the table ``(m, D)`` of their steps
@@ -109,7 +107,8 @@ class _Plan:
         return distinct, table, out
 
     def quantise(self, region_exp: NDArray[np.int64], rounding: float) -> list[NDArray[np.int64]]:
-        """``sign(c) floor(|c| / step + rounding)`` of every coefficient (steps: :meth:`_steps`).
+        """``sign(c) floor(|c| / step + rounding)`` of every coefficient (its step ``2 ** ((b_c + k) / 8)``,
+        :meth:`exponents`, from :meth:`_step_rows`' table: the same numbers as :func:`steps_of`).
 
         With a chain, group by group: the coefficients of a group are those of its targets given what the decoder
         makes of the integers of the groups before it (each group's columns synthesised alone: the inverse wavelet
@@ -135,17 +134,23 @@ class _Plan:
         rest is the last run's, the same values (tested against ``incremental=False``). A group whose coefficients
         did not change is rounded again only in the rows whose region exponent changed (elementwise: the same
         bits)."""
-        if self.chain is None:
-            return [_rounded(mag, a, sign, rounding)
-                    for mag, a, sign in zip(self._magnitudes, self._steps(region_exp), self._signs)]
         distinct, table, row_lists = self._step_rows(region_exp)
+        if self.chain is None:
+            out = []
+            for c, rows in zip(self.coefficients, row_lists):
+                q = np.empty(c.shape, np.int64)
+                _round(c, table, rows, self._all, rounding, q, np.empty(c.shape))
+                out.append(q)
+            return out
         sizes = [r.size for r in row_lists]
         # the arrays of every level one after the other (storage order), so that a group is one block of columns:
         # each coefficient row's row of the table and its region exponent
         rows = np.concatenate(row_lists)
         row_k = distinct[rows]
-        out = np.zeros((self.num_frames, self.num_features), np.int64)
-        decoded = np.zeros((self.num_frames, self.num_features))
+        out = np.empty((self.num_frames, self.num_features), np.int64)  # (every group writes its columns)
+        if self._outside.size:
+            out[:, self._outside] = 0
+        decoded = self._work
         last = self._run if incremental and self._run is not None and self._run[0] == self.chain.runs else None
         self._run = None
         changed = np.zeros(self.num_frames, bool)  # frames whose decoded values changed since the last run
@@ -161,34 +166,20 @@ class _Plan:
                 frames = np.flatnonzero(changed)
                 targets = self.chain.targets(g, decoded, frames, before[0])
                 fresh = frames.size > 0
-            group_table = table[:, cols]
             if fresh or 2 * k_rows.size > rows.size:  # rounded whole
                 c = forward_rows(targets) if fresh else before[1]
-                step = group_table[rows]
-                q = _rounded_coefficients(c, step, rounding)
-                dequantised = q * step
-                same = not everywhere and np.array_equal(dequantised, before[3])
+                # into the last run's arrays (dropped with it: self._run is None until this run completes), comparing
+                q, dequantised = (np.empty(c.shape, np.int64), np.empty(c.shape)) if before is None else before[2:4]
+                same = _round(c, table, rows, cols, rounding, q, dequantised, None, not everywhere)
             else:  # the same coefficients: rounded again where the steps changed
                 c, q, dequantised = before[1:4]
-                same = True
-                if k_rows.size:
-                    step = group_table[rows[k_rows]]
-                    qk = _rounded_coefficients(c[k_rows], step, rounding)
-                    dk = qk * step
-                    same = np.array_equal(dk, dequantised[k_rows])
-                    if not same:
-                        q, dequantised = q.copy(), dequantised.copy()
-                        q[k_rows], dequantised[k_rows] = qk, dk
-            out[:, cols] = q
-            if same:
-                values = before[4]
-            else:
+                same = not k_rows.size or _round(c, table, rows, cols, rounding, q, dequantised, k_rows, True)
+            put_columns(q, out, cols)
+            if not same:  # (else decoded's columns hold the last run's values, the same)
                 values = synthesised([dequantised], self.levels) if self.levels else dequantised
-                if not everywhere:
-                    changed |= np.any(values != before[4], axis=1)
-                    everywhere = bool(changed.all())
-            decoded[:, cols] = values
-            state.append((targets, c, q, dequantised, values))
+                put_columns(values, decoded, cols, None if everywhere else changed.view(np.uint8))
+                everywhere = everywhere or bool(changed.all())
+            state.append((targets, c, q, dequantised))
         if self.chain.complete:
             self._run = (self.chain.runs, row_k, state)
         self._serial += 1
@@ -213,24 +204,21 @@ class _Plan:
                          np.asarray(region_exp, np.int64), self.quantise(region_exp, rounding))
 
 
-def _rounded_coefficients(c: NDArray[np.float64], step: NDArray[np.float64], rounding: float) -> NDArray[np.int64]:
-    """``sign(c) floor(|c| / step + rounding)`` of coefficients ``c`` (``step`` is left as it is)."""
-    return _rounded(np.abs(c), step.copy(), np.sign(c).astype(np.int64), rounding)
+def _round(c: NDArray[np.float64], table: NDArray[np.float64], rows: NDArray[np.int64], cols: NDArray[np.int64],
+           rounding: float, q: NDArray[np.int64], dequantised: NDArray[np.float64],
+           subset: NDArray[np.int64] | None = None, compare: bool = False) -> bool:
+    """``q = sign(c) floor(|c| / step + rounding)`` and ``dequantised = q step`` of coefficients ``c`` ``(n, m)``,
+    ``step = table[rows][:, cols]``, in the rows ``subset`` (or every row), written into ``q`` and ``dequantised``
+    (compiled: ``_c/module.c``'s ``rounded``, numpy's elementwise arithmetic in one pass). Returns, with
+    ``compare``, whether every value written to ``dequantised`` equals the one it replaced.
 
-
-def _rounded(magnitude: NDArray[np.float64], step: NDArray[np.float64], sign: NDArray[np.int64],
-             rounding: float) -> NDArray[np.int64]:
-    """``sign floor(magnitude / step + rounding)`` (``step`` is overwritten)."""
-    a = step
-    np.divide(magnitude, a, out=a)
-    a += rounding
-    np.floor(a, out=a)
-    if a.size and not float(a.max()) <= MAX_MAGNITUDE:
+    Raises:
+        BoundNotMetError: a step so small that an integer exceeds :data:`MAX_MAGNITUDE`."""
+    status = rounded(c, table, rows, cols, rounding, q, dequantised, subset, compare)
+    if status < 0:
         raise naming(BoundNotMetError("transform: the bound needs steps too small to code; give a larger "
                                       "max_error", None, None), "max_error")
-    q = a.astype(np.int64)
-    q *= sign
-    return q
+    return status == 1
 
 
 def steps_of(exponents: list[NDArray[np.int64]]) -> list[NDArray[np.float64]]:

@@ -88,7 +88,8 @@ def inverse(coefficients: list[NDArray[np.float64]]) -> NDArray[np.float64]:
     (``_c/mrtransform.c``, ``mrt_inverse``), the one the payloads are decoded with."""
     from ._cdecode import inverse as c_inverse
 
-    values = np.ascontiguousarray(np.concatenate(coefficients, axis=0), dtype=np.float64)
+    joined = coefficients[0] if len(coefficients) == 1 else np.concatenate(coefficients, axis=0)
+    values = np.ascontiguousarray(joined, dtype=np.float64)  # (read only)
     out = np.empty_like(values)
     c_inverse(values, out)
     return out

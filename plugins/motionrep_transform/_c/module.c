@@ -9,6 +9,9 @@
  *                                encoder's analysis)
  *   sample(times, out, frames)   the features at times into a feature-major out (D, >= T): a decoder's kernel
  *   integers(data, segments) -> (values, exhausted)   the integer coding alone (tests: against constriction)
+ *   put_columns(src, dst, cols, changed)   dst[:, cols] = src, marking the rows that changed (_plan.py)
+ *   rounded(c, table, rows, cols, rounding, q, dq, subset, compare) -> status   the encoder's rounding of
+ *                                coefficients to integers and their dequantised values (_plan.py)
  *
  * Frames: the decoded features of every frame; a (D, F) float64 buffer, rows(times, out) into (T, D), and
  * `sampler`, the capsule motionrep.open calls (motionrep/sampler.h).  A damaged payload raises
@@ -16,6 +19,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
 
 #include "motionrep/sampler.h"
@@ -349,6 +353,147 @@ static PyObject *py_sample(PyObject *mod, PyObject *args)
     return mr_run_sampler(&((FramesObject *)of)->sampler, ot, oo);
 }
 
+static PyObject *py_rounded(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    PyObject *oc, *ot, *orows, *ocols, *oq, *odq, *osub = Py_None;
+    double rounding;
+    int compare = 0;
+    if (!PyArg_ParseTuple(args, "OOOOdOO|Op", &oc, &ot, &orows, &ocols, &rounding, &oq, &odq, &osub, &compare))
+        return NULL;
+    Py_buffer b[7];
+    int held = 0, result = 0;
+    const Py_ssize_t any2[2] = {-1, -1}, any1[1] = {-1};
+    if (mr_get_buffer(oc, &b[held], 'd', 2, any2, 0, "c") < 0)
+        goto done;
+    held++;
+    const Py_ssize_t n = b[0].shape[0], m = b[0].shape[1], nm[2] = {n, m}, nrows[1] = {n}, mcols[1] = {m};
+    if (mr_get_buffer(ot, &b[held], 'd', 2, any2, 0, "table") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(orows, &b[held], 'q', 1, nrows, 0, "rows") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(ocols, &b[held], 'q', 1, mcols, 0, "cols") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(oq, &b[held], 'q', 2, nm, 1, "q") < 0)
+        goto done;
+    held++;
+    if (mr_get_buffer(odq, &b[held], 'd', 2, nm, 1, "dq") < 0)
+        goto done;
+    held++;
+    if (osub != Py_None) {
+        if (mr_get_buffer(osub, &b[held], 'q', 1, any1, 0, "subset") < 0)
+            goto done;
+        held++;
+    }
+    const Py_ssize_t K = b[1].shape[0], W = b[1].shape[1], count = osub != Py_None ? b[6].shape[0] : n;
+    const int64_t *rows = b[2].buf, *cols = b[3].buf, *sub = osub != Py_None ? b[6].buf : NULL;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++)
+        ok &= rows[i] >= 0 && rows[i] < K;
+    for (Py_ssize_t j = 0; j < m; j++)
+        ok &= cols[j] >= 0 && cols[j] < W;
+    for (Py_ssize_t i = 0; sub && i < count; i++)
+        ok &= sub[i] >= 0 && sub[i] < n;
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "rounded: rows, cols or subset out of range");
+        goto done;
+    }
+    double *work = malloc(((size_t)K * (size_t)m + 256 * (size_t)m + 1) * sizeof(double));
+    if (!work) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    result = mrt_round(b[0].buf, m, b[1].buf, K, W, rows, cols, rounding, b[4].buf, b[5].buf, sub, count, compare,
+                       work);
+    Py_END_ALLOW_THREADS
+    free(work);
+    while (held)
+        PyBuffer_Release(&b[--held]);
+    return PyLong_FromLong(result);
+done:
+    while (held)
+        PyBuffer_Release(&b[--held]);
+    return NULL;
+}
+
+/* dst[:, cols] = src for (F, m) src and (F, D) dst of one 8-byte type (float64 or int64), copied as they are; with
+ * changed (F,) uint8 (float64 only), changed[i] = 1 where a value of row i differs (!=, as numpy's: -0.0 == 0.0)
+ * from the one it overwrites. */
+static PyObject *py_put_columns(PyObject *mod, PyObject *args)
+{
+    (void)mod;
+    PyObject *osrc, *odst, *ocols, *ochanged = Py_None;
+    if (!PyArg_ParseTuple(args, "OOO|O", &osrc, &odst, &ocols, &ochanged))
+        return NULL;
+    Py_buffer src, dst, cols, changed;
+    const Py_ssize_t any2[2] = {-1, -1};
+    int f64 = mr_format_is_buffer_of(osrc, 'd');
+    char code = f64 ? 'd' : 'q';
+    if (mr_get_buffer(osrc, &src, code, 2, any2, 0, "src") < 0)
+        return NULL;
+    const Py_ssize_t F = src.shape[0], m = src.shape[1], rows[2] = {F, -1}, ms[1] = {m}, fs[1] = {F};
+    if (mr_get_buffer(odst, &dst, code, 2, rows, 1, "dst") < 0) {
+        PyBuffer_Release(&src);
+        return NULL;
+    }
+    if (mr_get_buffer(ocols, &cols, 'q', 1, ms, 0, "cols") < 0) {
+        PyBuffer_Release(&src);
+        PyBuffer_Release(&dst);
+        return NULL;
+    }
+    int have = ochanged != Py_None;
+    if (have && (!f64 || mr_get_buffer(ochanged, &changed, 'B', 1, fs, 1, "changed") < 0)) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "put_columns: changed is for float64 values");
+        PyBuffer_Release(&src);
+        PyBuffer_Release(&dst);
+        PyBuffer_Release(&cols);
+        return NULL;
+    }
+    const Py_ssize_t D = dst.shape[1];
+    const int64_t *c = cols.buf;
+    int ok = 1;
+    for (Py_ssize_t j = 0; j < m; j++)
+        ok &= c[j] >= 0 && c[j] < D;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS
+        if (have) {
+            const double *s = src.buf;
+            double *d = dst.buf;
+            uint8_t *ch = changed.buf;
+            for (Py_ssize_t i = 0; i < F; i++) {
+                int differ = 0;
+                for (Py_ssize_t j = 0; j < m; j++) {
+                    differ |= s[i * m + j] != d[i * D + c[j]];
+                    d[i * D + c[j]] = s[i * m + j];
+                }
+                ch[i] |= (uint8_t)differ;
+            }
+        } else {
+            const uint64_t *s = src.buf;
+            uint64_t *d = dst.buf;
+            for (Py_ssize_t i = 0; i < F; i++)
+                for (Py_ssize_t j = 0; j < m; j++)
+                    d[i * D + c[j]] = s[i * m + j];
+        }
+        Py_END_ALLOW_THREADS
+    } else {
+        PyErr_SetString(PyExc_ValueError, "put_columns: cols outside dst");
+    }
+    if (have)
+        PyBuffer_Release(&changed);
+    PyBuffer_Release(&src);
+    PyBuffer_Release(&dst);
+    PyBuffer_Release(&cols);
+    if (!ok)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 /* segments: a sequence of (bits, 0, count) raw fields or (zero, decay, count) model-coded integers, the first
  * element negative for raw: (-bits, 0, count) */
 static PyObject *py_integers(PyObject *mod, PyObject *args)
@@ -448,6 +593,13 @@ static PyMethodDef functions[] = {
      "forward(values, out): the forward wavelet of (F, D) samples, the coefficients in inverse's layout (the "
      "encoder's)"},
     {"sample", py_sample, METH_VARARGS, "sample(times, out, frames): the features at times, feature-major"},
+    {"put_columns", py_put_columns, METH_VARARGS,
+     "put_columns(src, dst, cols, changed=None): dst[:, cols] = src (float64 or int64); with changed (F,) uint8, "
+     "changed[i] |= any value of row i differs from the one it overwrites (float64)"},
+    {"rounded", py_rounded, METH_VARARGS,
+     "rounded(c, table, rows, cols, rounding, q, dq, subset=None, compare=False) -> status: the encoder's rounding "
+     "of (n, m) coefficients c into q (int64) and dq (their dequantised values), steps table[rows][:, cols]; -1: "
+     "a value too large to code; with compare, 1 when dq is unchanged"},
     {"integers", py_integers, METH_VARARGS, "integers(data, segments) -> (int64 bytes, maybe_exhausted)"},
     {NULL, NULL, 0, NULL}};
 

@@ -947,7 +947,7 @@ static inline __attribute__((always_inline)) void synthesise_block(double *const
  * them; tmp holds sizes' total): the encoder's analysis, not used by decoding.  The lifting steps of
  * _wavelet.forward, operation for operation (d[i] + a (s[i] + s[min(i + 1, ns - 1)]), s[i] + a (d[max(i - 1, 0)] +
  * d[min(i, nd - 1)]), then the subbands scaled): the numpy forward's bits. */
-void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
+MRT_CLONES void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
 {
     uint64_t n = 0;
     for (int l = 0; l <= levels; l++)
@@ -961,14 +961,20 @@ void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp)
         }
         if (ns > nd)
             s[nd] = x[2 * nd];
-        for (int k = 0; k < 4; k++) {
+        for (int k = 0; k < 4; k++) { /* the ends peeled off (as lift's): the inner loops vectorise */
             double a = STEPS[k];
-            if (k % 2 == 0) {
-                for (uint64_t i = 0; i < nd; i++)
-                    d[i] = d[i] + a * (s[i] + s[i + 1 < ns ? i + 1 : ns - 1]);
-            } else {
-                for (uint64_t i = 0; i < ns; i++)
-                    s[i] = s[i] + a * (d[i ? i - 1 : 0] + d[i < nd ? i : nd - 1]);
+            if (k % 2 == 0) { /* d[i] += a (s[i] + s[min(i + 1, ns - 1)]) */
+                uint64_t inner = ns > nd ? nd : nd - 1;
+                for (uint64_t i = 0; i < inner; i++)
+                    d[i] = d[i] + a * (s[i] + s[i + 1]);
+                if (inner < nd)
+                    d[nd - 1] = d[nd - 1] + a * (s[nd - 1] + s[ns - 1]);
+            } else { /* s[i] += a (d[max(i - 1, 0)] + d[min(i, nd - 1)]) */
+                s[0] = s[0] + a * (d[0] + d[0]);
+                for (uint64_t i = 1; i < nd; i++)
+                    s[i] = s[i] + a * (d[i - 1] + d[i]);
+                if (ns > nd)
+                    s[nd] = s[nd] + a * (d[nd - 1] + d[nd - 1]);
             }
         }
         for (uint64_t i = 0; i < ns; i++)
@@ -1387,4 +1393,62 @@ void mrt_sample_rows(const mrt_frames *f, const double *times, size_t count, dou
             }
         }
     }
+}
+
+/* sa[i] = sign(x) floor(|x| / st + rounding) as a float64 (+0.0 where either is zero, as the int64 product is 0,
+ * whose float64 is +0.0), d[i] = sa st, for i < N; whether each floor is below `limit`, and *same &= every new d
+ * equal (==) to the old.  One loop of selects: it vectorises. */
+static inline int round_run(const double *restrict x, const double *restrict st, int64_t N, double rounding,
+                            double *restrict sa, double *restrict d, int *same)
+{
+    const double limit = 4611686018427387904.0; /* 2**62: an integer-valued a is <= 2**62 - 1 iff a < 2**62 */
+    int small = 1, equal = 1;
+    for (int64_t i = 0; i < N; i++) {
+        const double v = x[i], a = floor(fabs(v) / st[i] + rounding);
+        small &= a < limit;
+        const double s = (v < 0.0 ? -a : v > 0.0 ? a : 0.0) + 0.0;
+        const double e = s * st[i];
+        equal &= e == d[i];
+        sa[i] = s;
+        d[i] = e;
+    }
+    *same &= equal;
+    return small;
+}
+
+#define MRT_ROUND_ROWS 128 /* rows rounded together (mrt_round's work) */
+
+/* mrt_round (mrtransform.h): the group's steps gathered once per distinct row of the table; every row, by blocks of
+ * MRT_ROUND_ROWS rows laid out as one run of values (their steps copied beside them), or the subset's rows one by
+ * one; the signed magnitude kept as a float64 (an integer below 2**62: exact), converted to int64 after. */
+MRT_CLONES int mrt_round(const double *c, int64_t m, const double *table, int64_t K, int64_t width,
+                         const int64_t *rows, const int64_t *cols, double rounding, int64_t *q, double *dq,
+                         const int64_t *subset, int64_t count, int compare, double *work)
+{
+    double *steps = work, *S = work + K * m, *A = S + MRT_ROUND_ROWS * m;
+    for (int64_t k = 0; k < K; k++)
+        for (int64_t j = 0; j < m; j++)
+            steps[k * m + j] = table[k * width + cols[j]];
+    int same = 1;
+    if (!subset) {
+        for (int64_t r0 = 0; r0 < count; r0 += MRT_ROUND_ROWS) {
+            const int64_t nb = count - r0 < MRT_ROUND_ROWS ? count - r0 : MRT_ROUND_ROWS, N = nb * m;
+            for (int64_t r = 0; r < nb; r++)
+                memcpy(S + r * m, steps + rows[r0 + r] * m, (size_t)m * sizeof(double));
+            if (!round_run(c + r0 * m, S, N, rounding, A, dq + r0 * m, &same))
+                return -1;
+            int64_t *qr = q + r0 * m;
+            for (int64_t i = 0; i < N; i++)
+                qr[i] = (int64_t)A[i];
+        }
+    } else {
+        for (int64_t s = 0; s < count; s++) {
+            const int64_t r = subset[s];
+            if (!round_run(c + r * m, steps + rows[r] * m, m, rounding, A, dq + r * m, &same))
+                return -1;
+            for (int64_t j = 0; j < m; j++)
+                q[r * m + j] = (int64_t)A[j];
+        }
+    }
+    return compare && same;
 }

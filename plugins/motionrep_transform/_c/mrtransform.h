@@ -103,6 +103,16 @@ void mrt_inverse(double *x, const uint64_t *sizes, int levels, double *tmp);
 /* The forward transform of x (in place, into mrt_inverse's layout; tmp holds sizes' total): the encoder's. */
 void mrt_forward(double *x, const uint64_t *sizes, int levels, double *tmp);
 
+/* The encoder's rounding (motionrep_transform/_plan.py): for the rows r of c (n, m) (subset[0 .. count), or every
+ * row: subset NULL, count n), q[r, j] = sign(c) floor(|c| / step + rounding), step = table[rows[r] * width +
+ * cols[j]] (table K x width), and dq[r, j] = q step (q as a float64), numpy's elementwise IEEE operations in that
+ * order.  work: K m + 256 m doubles.  Returns -1 when a floor is not below 2**62 (an integer above MAX_MAGNITUDE = 2**62
+ * - 1, or NaN: q and dq then incomplete); else, with compare, 1 when every dq written equals (==) the value it
+ * overwrote, 0 when one differs (0 without compare). */
+int mrt_round(const double *c, int64_t m, const double *table, int64_t K, int64_t width, const int64_t *rows,
+              const int64_t *cols, double rounding, int64_t *q, double *dq, const int64_t *subset, int64_t count,
+              int compare, double *work);
+
 /* The number of wavelet levels of F frames and the row counts of the coefficient arrays (sizes[0..levels]). */
 int mrt_levels(uint64_t frames, uint64_t *sizes);
 

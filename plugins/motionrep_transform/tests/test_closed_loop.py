@@ -244,3 +244,80 @@ def test_settle_jumps_a_region_whose_error_does_not_move():
     fast = TransformCodec._settle(start, errors, 1.0, -50, lambda k, r: 3 if r == 1 else int(k[r]) - 1)
     assert slow[1] == fast[1] == 3 and np.all(fast >= slow) and np.all(errors(fast) <= 1.0)
     assert fast[0] == 10 and fast[2] == 5 and len(calls) - 1 < rounds
+
+
+def _numpy_round(c, step, rounding):
+    """The numpy arithmetic the compiled rounding replaced: ``sign(c) floor(|c| / step + rounding)`` and ``q step``."""
+    a = np.floor(np.abs(c) / step + rounding)
+    q = a.astype(np.int64) * np.sign(c).astype(np.int64)
+    return q, q * step
+
+
+def test_the_compiled_rounding_is_numpys_arithmetic_bit_for_bit():
+    """``_plan._round`` (``_c/mrtransform.c``'s ``mrt_round``: scalar IEEE operations without FMA contraction, in
+    numpy's order, so the same bits on every CPU) against numpy: every row (blocks of 128 and a remainder), a subset
+    of rows, one row; zeros of either sign, halves, whether the dequantised values changed, and a step too small."""
+    from motionrep.errors import BoundNotMetError
+    from motionrep_transform._plan import _round
+
+    rng = np.random.default_rng(3)
+    for n, m in ((1, 1), (1, 7), (130, 5), (300, 12)):
+        c = rng.normal(size=(n, m)) * 10.0 ** rng.integers(-6, 3, (n, m))
+        c.flat[::7] = 0.0
+        c.flat[3::11] = -0.0
+        table = 2.0 ** (rng.integers(-60, 8, (9, 20)) / 8)
+        rows = rng.integers(0, 9, n)
+        cols = rng.choice(20, m, replace=False).astype(np.int64)
+        c.flat[5::13] = (rng.integers(-9, 9, c.flat[5::13].size) + 0.5) * table[rows][:, cols].flat[5::13]
+        for rounding in (0.5, 0.3125):
+            want_q, want_d = _numpy_round(c, table[rows][:, cols], rounding)
+            q, d = np.full((n, m), 7, np.int64), np.full((n, m), 7.0)
+            assert not _round(c, table, rows, cols, rounding, q, d, None, True)  # every value changed
+            assert np.array_equal(q, want_q) and np.array_equal(d.view(np.int64), want_d.view(np.int64))
+            assert _round(c, table, rows, cols, rounding, q, d, None, True)  # the same again
+            assert not _round(c, table, rows, cols, rounding, q, d)  # (without compare)
+            subset = np.unique(rng.integers(0, n, max(1, n // 3)))
+            q2, d2 = np.full((n, m), 7, np.int64), np.full((n, m), 7.0)
+            _round(c, table, rows, cols, rounding, q2, d2, subset)
+            assert np.array_equal(q2[subset], want_q[subset]) and np.array_equal(d2[subset], want_d[subset])
+            assert np.all(np.delete(q2, subset, axis=0) == 7) and np.all(np.delete(d2, subset, axis=0) == 7.0)
+        assert np.array_equal(np.signbit(d), np.zeros_like(d, bool) | (q < 0))  # no -0.0 where q is 0
+    huge = np.array([[1.0, 2.0 ** 61], [3.0, 4.0]])
+    with pytest.raises(BoundNotMetError):
+        _round(huge, np.full((1, 2), 0.25), np.zeros(2, np.int64), np.arange(2), 0.5, np.empty((2, 2), np.int64),
+               np.empty((2, 2)))
+    _round(huge, np.full((1, 2), 1.0), np.zeros(2, np.int64), np.arange(2), 0.0, np.empty((2, 2), np.int64),
+           np.empty((2, 2)))  # 2 ** 61 <= MAX_MAGNITUDE
+
+
+def test_put_columns_is_numpys_column_assignment():
+    """``_cdecode.put_columns`` (the closed loop's writes of a group's integers and decoded columns) against numpy's
+    ``dst[:, cols] = src`` and, for the rows that changed, ``np.any(src != dst[:, cols], axis=1)`` (a float
+    comparison: -0.0 equals 0.0, NaN differs from itself); one row, and refusals."""
+    from motionrep_transform._cdecode import put_columns
+
+    rng = np.random.default_rng(4)
+    for F in (1, 50):
+        cols = np.array([7, 2, 5], np.int64)
+        dst = rng.normal(size=(F, 9))
+        src = dst[:, cols].copy()
+        src[F // 2, 1] += 1.0
+        src[0, 0] = -dst[0, 7] if dst[0, 7] == 0.0 else src[0, 0]
+        dst[-1, 2] = 0.0
+        src[-1, 1] = -0.0
+        if F > 2:
+            dst[1, 5], src[1, 2] = np.nan, np.nan
+        want, want_changed = dst.copy(), np.zeros(F, bool)
+        want_changed |= np.any(src != want[:, cols], axis=1)
+        want[:, cols] = src
+        changed = np.zeros(F, bool)
+        put_columns(src, dst, cols, changed.view(np.uint8))
+        assert np.array_equal(dst.view(np.int64), want.view(np.int64)) and np.array_equal(changed, want_changed)
+        ints, q = np.zeros((F, 9), np.int64), rng.integers(-9, 9, (F, 3))
+        put_columns(q, ints, cols)
+        assert np.array_equal(ints[:, cols], q) and not ints[:, [0, 1, 3, 4, 6, 8]].any()
+    with pytest.raises(ValueError):
+        put_columns(np.zeros((2, 1)), np.zeros((2, 3)), np.array([3], np.int64))
+    with pytest.raises(ValueError):
+        put_columns(np.zeros((2, 1), np.int64), np.zeros((2, 3), np.int64), np.array([0], np.int64),
+                    np.zeros(2, np.uint8))  # changed only for float64
