@@ -23,9 +23,7 @@
  *   room were not touched).  Which frames come first does not change whether an edit is accepted: a frame passes
  *   on room only where its computation would pass too, so an edit is accepted exactly when every frame it
  *   touches, computed, is within the bound (but for a rounding of the computed distances across the bound within
- *   the room's own margin, never seen).  The room test first compares the frame's largest distance with drift
- *   over every point (kept per frame, TOP) with the bound: where that leaves room, the same decision without
- *   reading the distances of the points moved.
+ *   the room's own margin, never seen).
  *
  * Every frame still marked is computed when the call ends, so the state is then exact again. The arithmetic is
  * the pose plan's (motionrep/model/poseplan.py, through mr_rotconv.h), FK's (fk.c: the same operations in the same
@@ -228,14 +226,6 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
 }
 
 enum { PATH_ROOM, PATH_EXACT, PATH_PENDING };
-/* TOP: the room test without reading the points' distances.  Per frame the call keeps top[t] >= the rounded
- * dist + drift of every point (the largest, over the whole frame, when first needed; not known again once the
- * frame is computed).  If top[t] + move far <= bound (far: the largest factor of the points the edit moves), the
- * room test passes for every point: dist + drift <= top and move l <= move far, and IEEE addition and
- * multiplication are monotonic, so each point's rounded (dist + drift) + move l is at most the rounded
- * top + move far: the same decision as testing each point.  When changes let through on room add move l <=
- * move far to drifts, (top + move far) (1 + 2^-40) stays above each new rounded sum (two roundings of relative
- * 2^-53 each, far below 2^-40; every quantity non-negative). */
 enum { PICKS = 4 }; /* frames without room computed in order of their overshoot, the rest in order */
 
 /* Frame t computed with the features as they are, for the points of the column (joints js, end sites ss): 1 if
@@ -269,16 +259,12 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     const size_t L = (size_t)(longest ? longest : 1);
     double *before = malloc(sizeof(double) * L), *drift = calloc((size_t)(F * P + 1), sizeof(double));
     double *moves = malloc(sizeof(double) * L), *over = malloc(sizeof(double) * L);
-    /* per frame, at least the largest distance with drift of any point (-1: not known; see TOP) */
-    double *top = malloc(sizeof(double) * (size_t)(F + 1));
-    for (int64_t t = 0; t < F && top; t++)
-        top[t] = -1.0;
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
     int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1)), *pend = malloc(sizeof(int64_t) * L);
-    if (!before || !drift || !moves || !over || !path || !mark || !dirty || !in || !list || !pend || !top) {
+    if (!before || !drift || !moves || !over || !path || !mark || !dirty || !in || !list || !pend) {
         free(before), free(drift), free(moves), free(over), free(path), free(mark), free(dirty), free(in), free(list);
-        free(pend), free(top);
+        free(pend);
         return -1;
     }
     int64_t count = 0;
@@ -296,11 +282,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
         const double *jl = s->lip + s->cstart[c], *sl = s->lip + s->cstart[s->D] + s->sstart[c];
         double *x = s->X + c * F + first;
         int ok = 1;
-        double far = 0.0; /* the largest factor of the points it moves */
-        for (int64_t k = 0; k < nj; k++)
-            far = jl[k] > far ? jl[k] : far;
-        for (int64_t k = 0; k < ns; k++)
-            far = sl[k] > far ? sl[k] : far;
         /* the frame the caller names first (where the same edit failed before), else the frame of the largest
          * change (where an edit that fails most likely fails): checked first; then every other frame's room test,
          * and the frames without room computed, those whose room test went furthest over the bound first */
@@ -320,15 +301,7 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             /* room enough for every point it moves: as far as the point may be, plus as far as it may move */
             int room = move < INFINITY;
             double worst = INFINITY;
-            if (room && top[t] < 0.0) { /* the frame's largest distance with drift, over every point */
-                double v = 0.0;
-                for (int64_t p = 0; p < P; p++)
-                    v = dist[p] + dr[p] > v ? dist[p] + dr[p] : v;
-                top[t] = v;
-            }
-            if (room && top[t] + move * far <= bound) {
-                worst = -INFINITY; /* room for every point it moves, its distances not read (TOP) */
-            } else if (room) {
+            if (room) {
                 worst = -INFINITY;
                 for (int64_t k = 0; k < nj; k++) {
                     const double v = dist[js[k] >> 1] + dr[js[k] >> 1] + move * jl[k];
@@ -345,7 +318,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
                 path[i] = PATH_ROOM;
             } else if (done == 0) {
                 path[i] = PATH_EXACT;
-                top[t] = -1.0;
                 if (!(ok = frame_within(s, t, mark, drift, dirty, js, nj, ss, ns, bound, list, in)))
                     failed = i;
             } else {
@@ -367,7 +339,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
             }
             const int64_t i = pend[k];
             path[i] = PATH_EXACT;
-            top[first + i] = -1.0;
             if (!(ok = frame_within(s, first + i, mark, drift, dirty, js, nj, ss, ns, bound, list, in)))
                 failed = i;
         }
@@ -385,8 +356,6 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
                     for (int64_t k = 0; k < ns; k++)
                         dr[J + ss[k]] += move * sl[k];
                     dirty[t] = 1;
-                    if (top[t] >= 0.0) /* still at least every point's distance with drift (TOP) */
-                        top[t] = (top[t] + move * far) * (1.0 + 0x1p-40);
                 }
         if (!ok || !commit)
             for (int64_t k = 0; k < done; k++) { /* undone: the frames computed with it computed again */
