@@ -206,6 +206,39 @@ def test_one_call_decides_as_the_edits_one_by_one(name):
 
 
 @pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
+def test_one_call_decides_as_measuring_each_candidate_whole(name):
+    """One call of many edits (small ones let through on room, large ones whose frames without room are computed
+    in the kernel's order, closest to the bound first, most failing at some frame other than the first) against
+    measuring every candidate whole in numpy, edit after edit on the state the accepted ones left: the same
+    decisions, and the same final state bit for bit (scalar IEEE C without fused multiply-add, as the module's
+    other bitwise tests)."""
+    m = 300
+    ctx, f, rng, bound, (cols, firsts, counts, deltas) = _mixed_edits(name, 17, m)
+    edits = ctx.feature_edits(f)
+    leads = np.full(m, -1, np.int64)
+    got = edits.apply(cols, firsts, counts, deltas, bound, leads=leads)
+    state = f.copy()
+    start = np.concatenate([[0], np.cumsum(counts)])
+    expect, later = [], 0
+    for e in range(m):
+        trial = state.copy()
+        rows = np.arange(firsts[e], firsts[e] + counts[e])
+        trial[rows, cols[e]] = trial[rows, cols[e]] + deltas[start[e]:start[e + 1]]
+        dist = ctx.evaluator._distances(ctx._positions(trial), None)[rows][:, edits.moved_points[cols[e]]]
+        over = np.any(dist > bound, axis=1)
+        expect.append(not over.any())
+        if over.any():  # the frame told back is one where the edit fails
+            assert over[leads[e]], e
+            later += int(leads[e] != np.argmax(np.abs(deltas[start[e]:start[e + 1]])))
+        else:
+            state = trial
+    assert got.tolist() == expect and 0.2 * m < sum(expect) < 0.8 * m and later > 10
+    assert np.array_equal(_bits(edits.features), _bits(state))
+    assert np.array_equal(_bits(edits.point_errors()),
+                          _bits(ctx.evaluator._distances(ctx._positions(edits.features.copy()), None)))
+
+
+@pytest.mark.parametrize("name", ["root-quat-axis-angle", "euler"])
 def test_the_frame_checked_first_changes_no_decision(name):
     """``leads`` names the frame of each edit to check first: any choice decides every edit as the default (the
     frame of the largest change) and leaves the same state, bit for bit; where an edit fails it is set to a frame

@@ -8,19 +8,22 @@
  *   translation moves its points by the change, a rotation vector or Euler angle turns the subtree by at most the
  *   change, a quaternion by at most 2 asin(change / |q|); times the bones' length from the joint down to the
  *   point) plus how far the point already is from the reference (and may have drifted, see below) stays within
- *   the bound, the frame passes without any computation: each point's drift grows by its bound and the joints
- *   are marked to compute later;
+ *   the bound, the frame passes without any computation: once the edit is accepted, each point's drift grows by
+ *   its bound and the joints are marked to compute later;
  * - else the frame is computed again, only what the column moves: the plan entry that reads it (every entry of
  *   the subtree for a plan of world rotations, whose local rotations depend on their parent's), the FK of the
  *   subtree (its parent's world rotation and position kept), its end sites and their distances, and with them
  *   any joint above still marked from changes let through before;
- * - the frame of the largest change is tried first, where an edit that fails most likely fails, or the frame the
- *   caller names (where the same edit failed in an earlier call; told back for every edit that fails); a failed
- *   edit is undone (its frames computed again from the features as they were: the same inputs, the same bits).
- *   Which frame comes first does not change whether an edit is accepted: a frame passes on room only where its
- *   computation would pass too, so an edit is accepted exactly when every frame it touches, computed, is within
- *   the bound (but for a rounding of the computed distances across the bound within the room's own margin, never
- *   seen).
+ * - the frame of the largest change is checked first, where an edit that fails most likely fails, or the frame
+ *   the caller names (where the same edit failed in an earlier call; told back for every edit that fails); then
+ *   every other frame's room test, and the frames without room are computed, those whose room test went furthest
+ *   over the bound first (where the edit most likely fails: an edit that fails is mostly found so in the first
+ *   frame computed, not after computing and undoing every frame before it); a failed edit is undone (its frames
+ *   computed again from the features as they were: the same inputs, the same bits; the frames let through on
+ *   room were not touched).  Which frames come first does not change whether an edit is accepted: a frame passes
+ *   on room only where its computation would pass too, so an edit is accepted exactly when every frame it
+ *   touches, computed, is within the bound (but for a rounding of the computed distances across the bound within
+ *   the room's own margin, never seen).
  *
  * Every frame still marked is computed when the call ends, so the state is then exact again. The arithmetic is
  * the pose plan's (motionrep/model/poseplan.py, through mr_rotconv.h), FK's (fk.c: the same operations in the same
@@ -222,7 +225,24 @@ static int frame_marked(const mr_edits *s, int64_t t, uint8_t *mark, double *dri
     return frame_again(s, t, list, n, sites, m);
 }
 
-enum { PATH_ROOM, PATH_EXACT };
+enum { PATH_ROOM, PATH_EXACT, PATH_PENDING };
+enum { PICKS = 4 }; /* frames without room computed in order of their overshoot, the rest in order */
+
+/* Frame t computed with the features as they are, for the points of the column (joints js, end sites ss): 1 if
+ * every one of them is within the bound. */
+static int frame_within(const mr_edits *s, int64_t t, uint8_t *mark, double *drift, uint8_t *dirty,
+                        const int64_t *js, int64_t nj, const int64_t *ss, int64_t ns, double bound, int64_t *list,
+                        uint8_t *in)
+{
+    const int64_t J = s->J;
+    const double *dist = s->dist + t * (J + s->E);
+    int ok = dirty[t] ? !frame_marked(s, t, mark, drift, js, nj, list, list + J, in) : !frame_again(s, t, js, nj, ss, ns);
+    for (int64_t k = 0; k < nj && ok; k++)
+        ok = dist[js[k] >> 1] <= bound;
+    for (int64_t k = 0; k < ns && ok; k++)
+        ok = dist[J + ss[k]] <= bound;
+    return ok;
+}
 
 int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const double *deltas, double bound,
                        int commit, uint8_t *accepted, int64_t *leads, const int64_t *starts, const double *scales)
@@ -231,98 +251,129 @@ int64_t mr_edits_apply(const mr_edits *s, const int64_t *edits, int64_t m, const
     int64_t longest = 0;
     for (int64_t e = 0; e < m; e++)
         longest = edits[3 * e + 2] > longest ? edits[3 * e + 2] : longest;
-    /* per frame of an edit: the feature's value before it and how the frame was checked; per frame and point:
-     * drift, a bound on how far the point may be from where the state has it (changes let through on room alone
-     * are computed only when a frame must be, or when the call ends), and per joint what is to compute again */
+    /* per frame of an edit: the feature's value before it, how the frame is checked, how far the change may move
+     * a point per unit of its factor, and for the frames to compute, how far over the bound the room test went;
+     * per frame and point: drift, a bound on how far the point may be from where the state has it (changes let
+     * through on room alone are computed only when a frame must be, or when the call ends), and per joint what is
+     * to compute again */
     const size_t L = (size_t)(longest ? longest : 1);
     double *before = malloc(sizeof(double) * L), *drift = calloc((size_t)(F * P + 1), sizeof(double));
-    double *scaled = malloc(sizeof(double) * L);
+    double *moves = malloc(sizeof(double) * L), *over = malloc(sizeof(double) * L);
     uint8_t *path = malloc(L), *mark = calloc((size_t)(F * J + 1), 1), *dirty = calloc((size_t)F + 1, 1);
     uint8_t *in = malloc((size_t)J + 1);
-    int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1));
-    if (!before || !drift || !scaled || !path || !mark || !dirty || !in || !list) {
-        free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
+    int64_t *list = malloc(sizeof(int64_t) * (size_t)(J + E + 1)), *pend = malloc(sizeof(int64_t) * L);
+    if (!before || !drift || !moves || !over || !path || !mark || !dirty || !in || !list || !pend) {
+        free(before), free(drift), free(moves), free(over), free(path), free(mark), free(dirty), free(in), free(list);
+        free(pend);
         return -1;
     }
     int64_t count = 0;
     const double *next = deltas;
     for (int64_t e = 0; e < m; e++) {
         const int64_t c = edits[3 * e], first = edits[3 * e + 1], n = edits[3 * e + 2];
-        const double *d = next;
-        if (starts) { /* the edit's values: its scale times its stretch of the shared values */
-            for (int64_t i = 0; i < n; i++)
-                scaled[i] = deltas[starts[e] + i] * scales[e];
-            d = scaled;
-        } else {
+        /* the edit's values: d[i], or its scale times its stretch of the shared values (each product formed where
+         * its frame is checked) */
+        const double *d = starts ? deltas + starts[e] : next, scale = starts ? scales[e] : 1.0;
+        if (!starts)
             next += n;
-        }
+#define DELTA(i) (starts ? d[i] * scale : d[i])
         const int64_t *js = s->cjoints + s->cstart[c], *ss = s->csites + s->sstart[c];
         const int64_t nj = s->cstart[c + 1] - s->cstart[c], ns = s->sstart[c + 1] - s->sstart[c];
         const double *jl = s->lip + s->cstart[c], *sl = s->lip + s->cstart[s->D] + s->sstart[c];
         double *x = s->X + c * F + first;
         int ok = 1;
         /* the frame the caller names first (where the same edit failed before), else the frame of the largest
-         * change (where an edit that fails most likely fails), then the others in order */
-        int64_t peak = 0;
+         * change (where an edit that fails most likely fails): checked first; then every other frame's room test,
+         * and the frames without room computed, those whose room test went furthest over the bound first */
+        int64_t peak = 0, failed = -1, np = 0, done = 0;
         if (leads && leads[e] >= 0 && leads[e] < n)
             peak = leads[e];
         else
             for (int64_t i = 1; i < n; i++)
-                peak = fabs(d[i]) > fabs(d[peak]) ? i : peak;
-        int64_t done = 0;
+                peak = fabs(DELTA(i)) > fabs(DELTA(peak)) ? i : peak;
         for (; done < n && ok; done++) {
             const int64_t i = done == 0 ? peak : done <= peak ? done - 1 : done;
             const int64_t t = first + i;
-            double *dist = s->dist + t * P, *dr = drift + t * P;
+            const double *dist = s->dist + t * P, *dr = drift + t * P;
             before[i] = x[i];
-            x[i] = x[i] + d[i];
+            x[i] = x[i] + DELTA(i);
             const double move = commit ? reach(s, c, t, before[i], x[i]) : INFINITY;
             /* room enough for every point it moves: as far as the point may be, plus as far as it may move */
             int room = move < INFINITY;
-            for (int64_t k = 0; k < nj && room; k++) {
-                const int64_t j = js[k] >> 1;
-                room = dist[j] + dr[j] + move * jl[k] <= bound;
-            }
-            for (int64_t k = 0; k < ns && room; k++)
-                room = dist[J + ss[k]] + dr[J + ss[k]] + move * sl[k] <= bound;
-            if (room) { /* whatever the change does: computed later */
-                uint8_t *mk = mark + t * J;
+            double worst = INFINITY;
+            if (room) {
+                worst = -INFINITY;
                 for (int64_t k = 0; k < nj; k++) {
-                    mk[js[k] >> 1] |= (uint8_t)(2 | (js[k] & 1));
-                    dr[js[k] >> 1] += move * jl[k];
+                    const double v = dist[js[k] >> 1] + dr[js[k] >> 1] + move * jl[k];
+                    worst = v > worst ? v : worst;
                 }
-                for (int64_t k = 0; k < ns; k++)
-                    dr[J + ss[k]] += move * sl[k];
-                dirty[t] = 1;
+                for (int64_t k = 0; k < ns; k++) {
+                    const double v = dist[J + ss[k]] + dr[J + ss[k]] + move * sl[k];
+                    worst = v > worst ? v : worst;
+                }
+                room = worst <= bound;
+            }
+            moves[i] = move;
+            if (room) { /* whatever the change does: computed later, if the edit is accepted */
                 path[i] = PATH_ROOM;
-                continue;
-            }
-            if (dirty[t]) {
-                ok = !frame_marked(s, t, mark, drift, js, nj, list, list + J, in);
+            } else if (done == 0) {
+                path[i] = PATH_EXACT;
+                if (!(ok = frame_within(s, t, mark, drift, dirty, js, nj, ss, ns, bound, list, in)))
+                    failed = i;
             } else {
-                ok = !frame_again(s, t, js, nj, ss, ns);
+                path[i] = PATH_PENDING;
+                pend[np] = i;
+                over[np++] = worst;
             }
-            path[i] = PATH_EXACT;
-            for (int64_t k = 0; k < nj && ok; k++)
-                ok = dist[js[k] >> 1] <= bound;
-            for (int64_t k = 0; k < ns && ok; k++)
-                ok = dist[J + ss[k]] <= bound;
         }
+        for (int64_t k = 0; k < np && ok; k++) {
+            if (k < PICKS) { /* the furthest over (the first of equals) moved to k, the others kept in order */
+                int64_t a = k;
+                for (int64_t b = k + 1; b < np; b++)
+                    a = over[b] > over[a] ? b : a;
+                const int64_t i = pend[a];
+                const double v = over[a];
+                for (int64_t b = a; b > k; b--)
+                    pend[b] = pend[b - 1], over[b] = over[b - 1];
+                pend[k] = i, over[k] = v;
+            }
+            const int64_t i = pend[k];
+            path[i] = PATH_EXACT;
+            if (!(ok = frame_within(s, first + i, mark, drift, dirty, js, nj, ss, ns, bound, list, in)))
+                failed = i;
+        }
+        if (ok && commit) /* the frames let through on room: their points' drift grows, their joints marked */
+            for (int64_t i = 0; i < n; i++)
+                if (path[i] == PATH_ROOM) {
+                    const int64_t t = first + i;
+                    const double move = moves[i];
+                    double *dr = drift + t * P;
+                    uint8_t *mk = mark + t * J;
+                    for (int64_t k = 0; k < nj; k++) {
+                        mk[js[k] >> 1] |= (uint8_t)(2 | (js[k] & 1));
+                        dr[js[k] >> 1] += move * jl[k];
+                    }
+                    for (int64_t k = 0; k < ns; k++)
+                        dr[J + ss[k]] += move * sl[k];
+                    dirty[t] = 1;
+                }
         if (!ok || !commit)
-            for (int64_t k = 0; k < done; k++) { /* a frame let through on room keeps its (larger) drift */
+            for (int64_t k = 0; k < done; k++) { /* undone: the frames computed with it computed again */
                 const int64_t i = k == 0 ? peak : k <= peak ? k - 1 : k;
                 x[i] = before[i];
                 if (path[i] == PATH_EXACT)
                     frame_again(s, first + i, js, nj, ss, ns);
             }
+#undef DELTA
         accepted[e] = (uint8_t)ok;
-        if (leads && !ok) /* the frame that failed (the last one checked) */
-            leads[e] = done == 1 ? peak : done - 1 <= peak ? done - 2 : done - 1;
+        if (leads && !ok) /* the frame that failed */
+            leads[e] = failed;
         count += ok;
     }
     for (int64_t t = 0; t < F; t++) /* the state exact again */
         if (dirty[t])
             frame_marked(s, t, mark, drift, NULL, 0, list, list + J, in);
-    free(before), free(drift), free(scaled), free(path), free(mark), free(dirty), free(in), free(list);
+    free(before), free(drift), free(moves), free(over), free(path), free(mark), free(dirty), free(in), free(list);
+    free(pend);
     return count;
 }
