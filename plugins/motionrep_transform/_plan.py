@@ -70,20 +70,29 @@ class _Plan:
         """The largest exponent below ``region_exp[region] - 1`` at which region ``region`` would set the step of a
         coefficient that it does not set now (one whose window's other regions hold an exponent below its own):
         ``m - 1`` for the largest such window minimum ``m``; ``region_exp[region] - 1`` when there is none."""
-        k = np.asarray(region_exp, np.int64)
-        here = int(k[region])
-        others = k.copy()
+        here = int(region_exp[region])
+        m = self._window_minima(region_exp, region)
+        m = m[m < here]
+        return here - 1 if not m.size else min(here - 1, int(m.max()) - 1)
+
+    def first_change(self, region_exp: NDArray[np.int64], region: int) -> int:
+        """The largest exponent below ``region_exp[region]`` at which region ``region`` changes the step of any
+        coefficient: ``region_exp[region] - 1`` when it sets one now (a coefficient whose window's other regions
+        hold nothing below its exponent), else :meth:`next_exponent` (the exponents in between change no step)."""
+        here = int(region_exp[region])
+        m = self._window_minima(region_exp, region)
+        return here - 1 if not m.size or int(m.max()) >= here else int(m.max()) - 1
+
+    def _window_minima(self, region_exp: NDArray[np.int64], region: int) -> NDArray[np.int64]:
+        """The minimum of the other regions' exponents over the window of every coefficient that reaches region
+        ``region`` (a window of no other region: the int64 maximum), all arrays together."""
+        others = np.asarray(region_exp, np.int64).copy()
         others[region] = np.iinfo(np.int64).max
-        best = None
+        out = [np.zeros(0, np.int64)]
         for rows, span in zip(self.region_of, self.reach):
             near = rows[np.abs(rows - region) <= span]  # the coefficients whose window holds the region
-            if not near.size:
-                continue
-            m = window_minimum(others, span)[near]
-            m = m[m < here]
-            if m.size:
-                best = int(m.max()) if best is None else max(best, int(m.max()))
-        return here - 1 if best is None else min(here - 1, best - 1)
+            out.append(window_minimum(others, span)[near])
+        return np.concatenate(out)
 
     def _steps(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.float64]]:
         """``(n, D)`` step of every coefficient, ``2 ** ((b_c + k) / 8)`` (:meth:`exponents`) taken from a table of
