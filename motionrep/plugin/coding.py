@@ -809,9 +809,9 @@ def largest_passing_each(passes: Callable[[NDArray[np.int64]], NDArray[np.bool_]
 
     ``passes(indices)`` tests a whole ``(n,)`` vector of indices in one call (for example one quantisation and
     one evaluation of every segment of a clip) and returns ``(n,)`` booleans.  Bisects each entry within its own
-    ``[low, high]``.  With ``test_ends=False`` neither end is tested (two calls fewer): ``high`` is taken to fail
-    and ``low`` to pass, so each entry ends in ``[low, high - 1]``, and an entry that ends at ``low`` was never
-    seen to pass (the caller tests it).
+    ``[low, high]`` (``low`` is tested only when some entry fails at ``high``).  With ``test_ends=False`` neither
+    end is tested (two calls fewer): ``high`` is taken to fail and ``low`` to pass, so each entry ends in
+    ``[low, high - 1]``, and an entry that ends at ``low`` was never seen to pass (the caller tests it).
 
     Returns:
         ``(n,)`` indices: each the largest one seen to pass, or ``low - 1`` where not even ``low`` passed (the
@@ -824,6 +824,8 @@ def largest_passing_each(passes: Callable[[NDArray[np.int64]], NDArray[np.bool_]
         raise ParameterError("low and high must be (n,) integer vectors with low <= high")
     if test_ends:
         ok_high = np.asarray(passes(hi), dtype=bool)
+        if ok_high.all():  # every entry passes at its high end: low decides nothing
+            return hi
         ok_low = np.asarray(passes(lo), dtype=bool)
     else:
         ok_high, ok_low = np.zeros(lo.shape, bool), np.ones(lo.shape, bool)
