@@ -109,8 +109,8 @@ def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
 
 def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkeypatch):
     """The closed loop's bisection starts in a narrower window; a region that fails even at its low end is bisected
-    again below it (here every region: a window of the top two exponents only), and the payload meets the bound
-    at about the full window's bytes."""
+    again below it (here every region: a window of the full window's top exponent only), and the payload meets the
+    bound at about the full window's bytes."""
     import motionrep_transform._codec as codec_module
 
     full = compress_motion(walk, "transform", max_error="2%")
@@ -123,11 +123,35 @@ def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkey
     largest = codec_module.largest_passing_each
     monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
     monkeypatch.setattr(codec_module, "_WARM_BELOW", 1 - codec_module._SEARCH_ABOVE)
+    monkeypatch.setattr(codec_module, "_WARM_ABOVE", codec_module._SEARCH_ABOVE)
     narrow = compress_motion(walk, "transform", max_error="2%")
     assert len(windows) == 2 and windows[1][0] == windows[0][0] and windows[1][1] < windows[0][1] - 1
     assert narrow.report.max_error_percent <= 2.0
     assert max_joint_error(walk, decompress(narrow.data)).max_error_percent <= 2.0
     assert abs(len(narrow.data) - len(full.data)) < 0.05 * len(full.data)
+
+
+def test_closed_loop_bisects_an_octave_either_side_of_the_bound(walk, monkeypatch):
+    """Closed loop, the region exponents are bisected over [k0 - 8, k0 + 8) around the bound's exponent k0, neither
+    end tested: four whole-clip measurements, and no region above k0 + 7 (the regions that would pass above it, here
+    most of the walk's at 2 %, are at k0 + 7; the full window took them to k0 + 23)."""
+    import motionrep_transform._codec as codec_module
+
+    calls = []
+
+    def recorded(passes, low, high, **options):
+        def counted(k):
+            calls[-1] += 1
+            return passes(k)
+        calls.append(0)
+        return largest(counted, low, high, **options)
+
+    largest = codec_module.largest_passing_each
+    monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
+    result = compress_motion(walk, "transform", max_error="2%")
+    k0 = int(codec_module._log_step(0.02 * result.report.height))
+    exponents = unpack(np.asarray(result.container.arrays["data"]).tobytes()).region_exponents
+    assert calls[0] == 4 and exponents.max() == k0 + 7 and np.sum(exponents == k0 + 7) > exponents.size // 2
 
 
 def _plans(motion, region=16):
