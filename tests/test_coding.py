@@ -197,6 +197,37 @@ def test_largest_passing_each_in_lockstep():
         largest_passing_each(passes, [0, 0], [1])
 
 
+def test_largest_passing_each_tests_low_only_when_an_entry_fails_high():
+    """Every entry passes at its high end: one call, the high ends; one fails there: low is tested next."""
+    seen = []
+
+    def passes(idx):
+        seen.append(idx.copy())
+        return idx <= 5
+
+    np.testing.assert_array_equal(largest_passing_each(passes, [-10, -3], [4, 5]), [4, 5])
+    assert len(seen) == 1
+    seen.clear()
+    np.testing.assert_array_equal(largest_passing_each(passes, [-10, -3], [4, 9]), [4, 5])
+    np.testing.assert_array_equal(seen[1], [-10, -3])
+
+
+def test_largest_passing_each_without_testing_the_ends():
+    """test_ends=False: neither low nor high is ever tested (high taken to fail, low to pass), two calls fewer;
+    an entry that never passes ends at low, one whose limit is at or above high at high - 1."""
+    limits = np.array([3, -200, 50, 7, -10])
+    seen = []
+
+    def passes(idx):
+        seen.append(idx.copy())
+        return idx <= limits
+
+    out = largest_passing_each(passes, [-10] * 5, [10] * 5, test_ends=False)
+    np.testing.assert_array_equal(out, [3, -10, 9, 7, -10])
+    assert len(seen) == 5  # a range of 20 bisected: 5 steps, no test of either end
+    assert all(np.all((s > -10) | (out == -10)) and np.all(s < 10) for s in seen)
+
+
 def test_matrices_golden_bytes_layouts_and_round_trip():
     matrices = golden_matrices()
     assert [fit_matrix_model(m).layout for m in matrices] == [1, 2, 0, 0, 0]

@@ -804,24 +804,31 @@ def largest_passing(passes: Callable[[int], bool], low: int, high: int) -> int |
 
 
 def largest_passing_each(passes: Callable[[NDArray[np.int64]], NDArray[np.bool_]], low: ArrayLike,
-                         high: ArrayLike) -> NDArray[np.int64]:
+                         high: ArrayLike, *, test_ends: bool = True) -> NDArray[np.int64]:
     """:func:`largest_passing` for many independent indices at once, in lockstep.
 
     ``passes(indices)`` tests a whole ``(n,)`` vector of indices in one call (for example one quantisation and
     one evaluation of every segment of a clip) and returns ``(n,)`` booleans.  Bisects each entry within its own
-    ``[low, high]``.
+    ``[low, high]`` (``low`` is tested only when some entry fails at ``high``).  With ``test_ends=False`` neither
+    end is tested (two calls fewer): ``high`` is taken to fail and ``low`` to pass, so each entry ends in
+    ``[low, high - 1]``, and an entry that ends at ``low`` was never seen to pass (the caller tests it).
 
     Returns:
         ``(n,)`` indices: each the largest one seen to pass, or ``low - 1`` where not even ``low`` passed (the
-        caller decides what to do there).  When the entries are not quite independent (a segment's result
-        depends a little on its neighbours'), test the final vector again.
+        caller decides what to do there; with ``test_ends=False``: ``low``).  When the entries are not quite
+        independent (a segment's result depends a little on its neighbours'), test the final vector again.
     """
     lo = np.asarray(low, dtype=np.int64).copy()
     hi = np.asarray(high, dtype=np.int64).copy()
     if lo.shape != hi.shape or lo.ndim != 1 or np.any(hi < lo):
         raise ParameterError("low and high must be (n,) integer vectors with low <= high")
-    ok_high = np.asarray(passes(hi), dtype=bool)
-    ok_low = np.asarray(passes(lo), dtype=bool)
+    if test_ends:
+        ok_high = np.asarray(passes(hi), dtype=bool)
+        if ok_high.all():  # every entry passes at its high end: low decides nothing
+            return hi
+        ok_low = np.asarray(passes(lo), dtype=bool)
+    else:
+        ok_high, ok_low = np.zeros(lo.shape, bool), np.ones(lo.shape, bool)
     best = np.where(ok_high, hi, np.where(ok_low, lo, lo - 1))
     active = ~ok_high & ok_low
     lo_a, hi_a = lo.copy(), hi.copy()  # for active entries: lo passes, hi fails

@@ -66,6 +66,9 @@ class _Plan:
         self._same = False  # the last one decoded to the same values as the one before it
         # the last decoded() and the quantisation it came from: reused while nothing changes
         self._decoded: tuple[int, NDArray[np.float64]] | None = None
+        # first_change: the window minima of the last region exponents asked about, per reach
+        self._minima: tuple[bytes, dict[int, NDArray[np.int64]]] = (b"", {})
+        self._regions_of: list[NDArray[np.int64]] | None = None
 
     def exponents(self, region_exp: NDArray[np.int64]) -> list[NDArray[np.int64]]:
         """``(n, D)`` step exponent of every coefficient for region exponents ``k``."""
@@ -75,20 +78,48 @@ class _Plan:
         """The largest exponent below ``region_exp[region] - 1`` at which region ``region`` would set the step of a
         coefficient that it does not set now (one whose window's other regions hold an exponent below its own):
         ``m - 1`` for the largest such window minimum ``m``; ``region_exp[region] - 1`` when there is none."""
+        here = int(region_exp[region])
+        m = self._window_minima(region_exp, region)
+        m = m[m < here]
+        return here - 1 if not m.size else min(here - 1, int(m.max()) - 1)
+
+    def first_change(self, region_exp: NDArray[np.int64], region: int) -> int:
+        """The largest exponent below ``region_exp[region]`` at which region ``region`` changes the step of any
+        coefficient: ``region_exp[region] - 1`` when it sets one now (a coefficient whose window's other regions
+        hold nothing below its exponent), else :meth:`next_exponent` (the exponents in between change no step)."""
         k = np.asarray(region_exp, np.int64)
         here = int(k[region])
-        others = k.copy()
+        # it sets a coefficient when a window that holds it has its exponent as the minimum (the minima of all
+        # windows computed once for the exponents of a settling round, which asks about each region over the bound)
+        key = k.tobytes()
+        if self._minima[0] != key:
+            self._minima = (key, {})
+        minima = self._minima[1]
+        for near, span in self._near(region):
+            if span not in minima:
+                minima[span] = window_minimum(k, span)
+            if near.size and int(minima[span][near].max()) >= here:
+                return here - 1
+        m = self._window_minima(k, region)
+        return here - 1 if not m.size or int(m.max()) >= here else int(m.max()) - 1
+
+    def _window_minima(self, region_exp: NDArray[np.int64], region: int) -> NDArray[np.int64]:
+        """The minimum of the other regions' exponents over the window of every coefficient that reaches region
+        ``region`` (a window of no other region: the int64 maximum), all arrays together."""
+        others = np.asarray(region_exp, np.int64).copy()
         others[region] = np.iinfo(np.int64).max
-        best = None
-        for rows, span in zip(self.region_of, self.reach):
-            near = rows[np.abs(rows - region) <= span]  # the coefficients whose window holds the region
-            if not near.size:
-                continue
-            m = window_minimum(others, span)[near]
-            m = m[m < here]
-            if m.size:
-                best = int(m.max()) if best is None else max(best, int(m.max()))
-        return here - 1 if best is None else min(here - 1, best - 1)
+        out = [np.zeros(0, np.int64)]
+        for near, span in self._near(region):
+            out.append(window_minimum(others, span)[near])
+        return np.concatenate(out)
+
+    def _near(self, region: int) -> list[tuple[NDArray[np.int64], int]]:
+        """Per coefficient array, the regions of its coefficients whose window holds region ``region`` (each
+        region once: coefficients of one region share their window) and the array's reach."""
+        if self._regions_of is None:  # the distinct regions of every array's coefficients, sorted
+            self._regions_of = [np.unique(rows) for rows in self.region_of]
+        return [(present[np.searchsorted(present, region - span):np.searchsorted(present, region + span, "right")],
+                 span) for present, span in zip(self._regions_of, self.reach)]
 
     def _step_rows(self, region_exp: NDArray[np.int64]
                    ) -> tuple[NDArray[np.int64], NDArray[np.float64], list[NDArray[np.int64]]]:

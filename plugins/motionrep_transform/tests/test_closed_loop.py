@@ -109,25 +109,49 @@ def test_closed_loop_quantises_the_groups_in_turn(walk, monkeypatch):
 
 def test_regions_below_the_closed_loop_window_are_searched_below_it(walk, monkeypatch):
     """The closed loop's bisection starts in a narrower window; a region that fails even at its low end is bisected
-    again below it (here every region: a window of the top two exponents only), and the payload meets the bound
-    at about the full window's bytes."""
+    again below it (here every region: a window of the full window's top exponent only), and the payload meets the
+    bound at about the full window's bytes."""
     import motionrep_transform._codec as codec_module
 
     full = compress_motion(walk, "transform", max_error="2%")
     windows = []
 
-    def recorded(passes, low, high):
+    def recorded(passes, low, high, **options):
         windows.append((np.asarray(low).size, int(np.max(high))))
-        return largest(passes, low, high)
+        return largest(passes, low, high, **options)
 
     largest = codec_module.largest_passing_each
     monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
     monkeypatch.setattr(codec_module, "_WARM_BELOW", 1 - codec_module._SEARCH_ABOVE)
+    monkeypatch.setattr(codec_module, "_WARM_ABOVE", codec_module._SEARCH_ABOVE)
     narrow = compress_motion(walk, "transform", max_error="2%")
     assert len(windows) == 2 and windows[1][0] == windows[0][0] and windows[1][1] < windows[0][1] - 1
     assert narrow.report.max_error_percent <= 2.0
     assert max_joint_error(walk, decompress(narrow.data)).max_error_percent <= 2.0
     assert abs(len(narrow.data) - len(full.data)) < 0.05 * len(full.data)
+
+
+def test_closed_loop_bisects_an_octave_either_side_of_the_bound(walk, monkeypatch):
+    """Closed loop, the region exponents are bisected over [k0 - 8, k0 + 8) around the bound's exponent k0, neither
+    end tested: four whole-clip measurements, and no region above k0 + 7 (the regions that would pass above it, here
+    most of the walk's at 2 %, are at k0 + 7; the full window took them to k0 + 23)."""
+    import motionrep_transform._codec as codec_module
+
+    calls = []
+
+    def recorded(passes, low, high, **options):
+        def counted(k):
+            calls[-1] += 1
+            return passes(k)
+        calls.append(0)
+        return largest(counted, low, high, **options)
+
+    largest = codec_module.largest_passing_each
+    monkeypatch.setattr(codec_module, "largest_passing_each", recorded)
+    result = compress_motion(walk, "transform", max_error="2%")
+    k0 = int(codec_module._log_step(0.02 * result.report.height))
+    exponents = unpack(np.asarray(result.container.arrays["data"]).tobytes()).region_exponents
+    assert calls[0] == 4 and exponents.max() == k0 + 7 and np.sum(exponents == k0 + 7) > exponents.size // 2
 
 
 def _plans(motion, region=16):
@@ -220,6 +244,59 @@ def test_next_exponent_is_where_a_region_first_sets_another_coefficient(frames, 
             now = moved(k[r] - 1)
             want = next((e for e in range(k[r] - 2, -40, -1) if np.any(moved(e) & ~now)), k[r] - 1)
             assert plan.next_exponent(k, r) == want, (k, r)
+
+
+@pytest.mark.parametrize("frames, region", [(64, 4), (200, 16), (37, 8), (9, 16)])
+def test_first_change_is_the_largest_exponent_that_changes_a_step(frames, region):
+    """Brute force: first_change is the largest e below k_r at which region r, lowered from k_r to e, changes the
+    exponent of any coefficient (k_r - 1 when lowering it by one does; with one region, always)."""
+    from motionrep_transform._plan import _Plan
+
+    plan = _Plan(np.zeros((frames, 2)), np.zeros(2, np.int64), region)
+    rng = np.random.default_rng(frames + 1)
+    seen = set()
+    for _ in range(6):
+        k = rng.integers(-6, 7, plan.regions)
+        now = plan.exponents(k)
+        for r in range(plan.regions):
+            def changes(e):
+                a = k.copy()
+                a[r] = e
+                return any(np.any(x != y) for x, y in zip(plan.exponents(a), now))
+            want = next((e for e in range(k[r] - 1, -40, -1) if changes(e)), None)
+            assert plan.first_change(k, r) == want, (k, r)
+            seen.add(want < k[r] - 1)
+    assert seen == {True, False} or plan.regions == 1
+
+
+def test_settle_lowers_a_region_to_where_it_changes_a_step():
+    """Region 1's error stays the same until its exponent reaches 3, because above that it changes no step at all
+    (first_change says so): told, it goes to 3 at its first failure, one round before the rule that waits to see
+    the same error twice, and ends at the same exponents."""
+    from motionrep_transform._codec import TransformCodec
+
+    calls = []
+
+    def errors(k):
+        calls.append(k.copy())
+        e = np.where(k <= np.array([11, 3, 5]), 0.5, 1.5)
+        e[0] = 0.5 if k[0] <= 11 else 1.0 + 0.01 * k[0]
+        return e
+
+    def next_exponent(k, r):
+        return 3 if r == 1 else int(k[r]) - 1
+
+    def first_change(k, r):
+        return 3 if r == 1 and k[r] > 3 else int(k[r]) - 1
+
+    start = np.array([12, 12, 5])
+    waits = TransformCodec._settle(start, errors, 1.0, -50, next_exponent)
+    rounds = len(calls)
+    calls.clear()
+    told = TransformCodec._settle(start, errors, 1.0, -50, next_exponent, first_change)
+    np.testing.assert_array_equal(told, waits)
+    assert told[1] == 3 and len(calls) == rounds - 1
+    assert calls[1][1] == 3  # the second round measures region 1 at 3 already
 
 
 def test_settle_jumps_a_region_whose_error_does_not_move():
