@@ -47,7 +47,7 @@ from . import _stream2
 from ._decoder import STREAMS, TransformDecoder, interpolate_rows, reconstruct, synthesised, unpack
 from ._greedy import MIN_SAVING, spend_slack_exact
 from ._plan import _Plan, coefficient_exponents, steps_of, window_minimum  # noqa: F401 (tests import them here)
-from ._slack import frame_sensitivity, reduction_savings, spend_slack
+from ._slack import detail_savings, frame_sensitivity, spend_slack
 from ._stream import COEFFICIENT_WORK, MAX_EXPONENT, Quantised
 from ._wavelet import coefficient_frames
 
@@ -307,7 +307,7 @@ class TransformCodec(Codec):
         if edits is not None:
             coefficients, figures = spend_slack_exact(
                 quantised.coefficients, steps, plan.levels, edits, bound * (1.0 - _EDIT_MARGIN),
-                lambda values: reduction_savings(values, plan.levels), passes=_PASSES if slack is None else slack,
+                lambda values, flat: detail_savings(values, plan.levels, flat), passes=_PASSES if slack is None else slack,
                 min_saving=MIN_SAVING)
             # the edits keep the features as a sum of changes; the decoder's are the inverse wavelet's, which
             # differ in the last bits: what the decoder makes of the result is measured again (within the margin,

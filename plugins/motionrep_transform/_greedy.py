@@ -93,7 +93,8 @@ def synthesis(num_frames: int, levels: int) -> tuple[list[NDArray[np.int64]], li
 
 
 def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], levels: int, edits,
-                      bound: float, savings_of: Callable[[list[NDArray[np.int64]]], list[NDArray[np.float64]]],
+                      bound: float,
+                      savings_of: Callable[[list[NDArray[np.int64]], NDArray[np.int64]], NDArray[np.float64]],
                       passes: int, min_saving: float = 0.0) -> tuple[list[NDArray[np.int64]], dict]:
     """Move non-zero detail coefficients one step towards zero, each where every point it moves stays within
     ``bound`` (measured by ``edits``, the context's feature edits of the features ``q`` decodes to).
@@ -105,8 +106,8 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
         edits: :class:`motionrep.pipeline.edits.FeatureEdits` of the features of ``q``; left holding the features
             of the result.
         bound: the bound.
-        savings_of: integer arrays -> per array the bits a move of each coefficient would save (positive where it
-            may move).
+        savings_of: (integer arrays, their detail arrays concatenated in storage order) -> the bits a move of each
+            detail coefficient would save, in that order (positive where it may move; :func:`._slack.detail_savings`).
         passes: rounds over every coefficient, each with the savings of the integers the last left.
         min_saving: moves whose savings are at most this are not tried.
 
@@ -132,7 +133,7 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
     failed_at = np.full(flat.size, -1, np.int64)
     floor = max(min_saving, 0.0)
     for _ in range(passes):
-        value = np.concatenate([s.reshape(-1) for s in savings_of(current)[1:]])
+        value = savings_of(current, flat)
         at = np.flatnonzero((flat != 0) & (value > floor))
         if not at.size:
             break

@@ -45,7 +45,7 @@ from motionrep.plugin.coding import NUM_TOKENS, Model, _fit_tables, _probabiliti
 
 from ._stream import MAX_ZERO, _approx_steps, _context_ids, _passes
 
-__all__ = ["reduction_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
+__all__ = ["reduction_savings", "detail_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
 #: Thresholds of the ladder: index ``i`` >= 1 is ``top * 2 ** (-(i - 1) / 2)`` (index 0: nothing moves).
 LADDER = 15
@@ -86,13 +86,26 @@ def _fit_counts(counts: NDArray[np.int64], wanted: NDArray[np.int64] | None = No
     zero = np.full(n, MAX_ZERO, np.int64)
     decay = np.zeros(n, np.int64)
     z = np.argmin(zb[None, :, 0] * counts[:, 0, None] + zb[None, :, 1] * nonzero[:, None], axis=1)
-    # eight contexts at a time: their (8, 256, tokens) products stay in the cache (all at once they do not)
-    d = np.concatenate([np.argmin((tail_bits[None, :, :] * counts[k:k + 8, None, 1:]).sum(axis=2), axis=1)
-                        for k in range(0, rows.size, 8)] + [np.zeros(0, np.int64)])
+    d = np.argmin(_tail_costs(counts[:, 1:], tail_bits), axis=1) if rows.size else np.zeros(0, np.int64)
     d[nonzero == 0] = 0
     z[counts.sum(axis=1) == 0] = MAX_ZERO  # fit_model of no values
     zero[rows], decay[rows] = z, d
     return zero, decay
+
+
+def _tail_costs(counts: NDArray[np.float64], tail_bits: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(n, 256)``: for each row of ``(n, NUM_TOKENS - 1)`` non-zero token counts, the bits of its tokens under
+    each decay index, ``(tail_bits[None] * counts[:, None]).sum(axis=2)``, the same float64 bits: only the tokens
+    up to the last counted one, rounded up to eight, are multiplied and added (numpy adds a contiguous axis in
+    eight interleaved partial sums, then the rest in order: the products left out, of zero counts, only ever
+    added an exact zero)."""
+    used = np.flatnonzero(counts.any(axis=0))
+    full = counts.shape[1]
+    width = full if not used.size else min(full, max(8, -(-(int(used[-1]) + 1) // 8) * 8))
+    tail, counts = tail_bits[None, :, :width], counts[:, None, :width]
+    # eight rows at a time: their (8, 256, width) products stay in the cache (all at once they do not)
+    return np.concatenate([(tail * counts[k:k + 8]).sum(axis=2) for k in range(0, counts.shape[0], 8)]
+                          + [np.zeros((0, tail_bits.shape[0]))])
 
 
 def _code_length_of(table: NDArray[np.float64], rows: NDArray[np.int64], magnitudes: NDArray[np.int64]
@@ -117,20 +130,29 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     approximation, which is not moved). The contexts of the neighbours are taken as they are (a zero more
     usually makes them cheaper too, so the real saving is somewhat larger). Every context's model is fitted at
     once (:func:`_fit_each`); the token counts of the zeros (most coefficients) are counted without their
-    tokens (the same counts)."""
+    tokens (the same counts). The detail arrays' savings are views of :func:`detail_savings`."""
     details = coefficients[1:levels + 1] if levels else []
     sizes = [c.size for c in details]
-    total = sum(sizes)
-    flat = np.zeros(total)
+    flat = detail_savings(coefficients, levels)
     out = [np.zeros(coefficients[0].shape)] + [part.reshape(c.shape)
                                                 for part, c in zip(np.split(flat, np.cumsum(sizes)[:-1]), details)]
-    out += [np.zeros(c.shape) for c in coefficients[levels + 1:]]
+    return out + [np.zeros(c.shape) for c in coefficients[levels + 1:]]
+
+
+def detail_savings(coefficients: list[NDArray[np.int64]], levels: int,
+                   values: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
+    """:func:`reduction_savings` of the detail arrays ``coefficients[1:levels + 1]``, one after the other in
+    storage order (level, row, column), as one ``(total,)`` array. ``values``: those arrays so concatenated, if
+    the caller holds them (not copied again)."""
+    details = coefficients[1:levels + 1] if levels else []
+    total = sum(c.size for c in details)
+    flat = np.zeros(total)
     if not total:
-        return out
-    val = np.concatenate([c.reshape(-1) for c in details])
+        return flat
+    val = np.concatenate([c.reshape(-1) for c in details]) if values is None else values
     moved = np.flatnonzero(val)
     if not moved.size:
-        return out
+        return flat
     mags = [_approx_steps(coefficients[0])] + [np.abs(c) for c in details]
     ctx = np.empty(total, np.int64)
     _context_ids(mags, levels, ctx)
@@ -146,7 +168,7 @@ def reduction_savings(coefficients: list[NDArray[np.int64]], levels: int) -> lis
     table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])
     mag = np.abs(v)
     flat[moved] = _code_length_of(table, rows, mag) - _code_length_of(table, rows, mag - 1)
-    return out
+    return flat
 
 
 def frame_sensitivity(samples: NDArray[np.float64], num_frames: int) -> NDArray[np.float64]:

@@ -63,16 +63,18 @@ def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int6
     coarsest detail level, the approximation's differences at the same position; otherwise the detail level
     above at ``i // 2``."""
     n = magnitudes[index].shape[0]
+    a = magnitudes[0] if index == 1 else magnitudes[index - 1]  # [0]: |A[i + 1] - A[i]|, last repeated (the caller)
+    m = a.shape[0]
+    if not m:
+        return np.zeros((n,) + a.shape[1:], np.int64)
+    # the sum at each row of the coarser array (whole numbers: exact in any order), then row i takes row
+    # min(i, m - 1) (index 1) or min(i // 2, m - 1)
+    s = np.multiply(a, 2, dtype=np.int64)
+    s[1:] += a[:-1]
+    s[:-1] += a[1:]
     if index == 1:
-        a = magnitudes[0]  # here: |A[i + 1] - A[i]|, last repeated (set by the caller)
-        at = np.arange(n)
-    else:
-        a = magnitudes[index - 1]
-        at = np.arange(n) // 2
-    at = np.minimum(at, a.shape[0] - 1)
-    pad = np.zeros((a.shape[0] + 2,) + a.shape[1:], np.int64)
-    pad[1:-1] = a
-    return 2 * pad[at + 1] + pad[at] + pad[at + 2]
+        return s[:n] if n <= m else s[np.minimum(np.arange(n), m - 1)]
+    return np.repeat(s, 2, axis=0)[:n] if n <= 2 * m else s[np.minimum(np.arange(n) // 2, m - 1)]
 
 
 def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int64]) -> None:

@@ -15,8 +15,9 @@ from motionrep.plugin.coding import NUM_TOKENS, Model, _probabilities
 from motionrep_transform._codec import window_minimum
 from motionrep_transform._slack import (_bisect_each, _code_length_of, _code_lengths, _fit_each, frame_sensitivity,
                                        reduction_savings)
-from motionrep_transform._stream import MAX_ZERO, _approx_steps, _fit, _parents, _passes
-from transform_reference_v1 import _contexts
+from motionrep_transform._stream import MAX_ZERO, _approx_steps, _fit, _passes
+from motionrep_transform._stream import _parents as _parents_now
+from transform_reference_v1 import _contexts, _parents
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, level_sizes, num_levels
 
@@ -93,6 +94,21 @@ def test_savings_are_those_of_the_pass_by_pass_formulation_bit_for_bit(frames):
             assert len(got) == len(want)
             for g, w in zip(got, want):
                 assert g.shape == w.shape and g.dtype == w.dtype and g.tobytes() == w.tobytes(), (density, scale)
+
+
+def test_parents_are_those_of_the_padded_gather():
+    """``_stream._parents`` (sums on the coarser array, then rows repeated) gives the same integers as the first
+    formulation (a zero-padded copy gathered at every row), for the approximation's differences and the detail
+    levels, levels of equal, shorter, twice and more than twice the coarser one's rows (the last row repeated),
+    an empty coarser array; whole numbers: exact."""
+    rng = np.random.default_rng(7)
+    for m in (0, 1, 2, 3, 8, 33):
+        for n in sorted({0, 1, max(m - 1, 0), m, m + 1, max(2 * m - 1, 0), 2 * m, 2 * m + 1, 3 * m + 2}):
+            coarse, fine = (np.abs(rng.integers(-70, 70, size=(rows, 4))) for rows in (m, n))
+            for index, mags in ((1, [coarse, fine]), (2, [coarse[:1], coarse, fine])):
+                got, want = _parents_now(mags, index), _parents(mags, index)
+                assert got.dtype == want.dtype == np.int64 and got.shape == want.shape, (m, n, index)
+                assert np.array_equal(got, want), (m, n, index)
 
 
 def test_every_context_is_fitted_as_one_at_a_time():
@@ -189,3 +205,51 @@ def test_without_frame_errors_nothing_is_searched():
     inner0 = MotionContext(m, rep, codec, codec.parse_params({"slack": 0}), 0.02 * 1.7, 0, None)
     b = codec.encode(rep.to_features(m), rep.weights(m), without(inner0, "frame_errors"))
     assert a.arrays["data"].tobytes() == b.arrays["data"].tobytes()
+
+
+def _fit_counts_every_token(counts):
+    """:func:`._slack._fit_counts` as it was until 0a46dc9 (every token's product summed): the reference."""
+    from motionrep.plugin.coding import _fit_tables
+
+    n = counts.shape[0]
+    counts = counts.astype(np.float64)
+    nonzero = counts.sum(axis=1) - counts[:, 0]
+    zero_bits, tail_bits = _fit_tables()
+    zb = zero_bits[:MAX_ZERO + 1]
+    z = np.argmin(zb[None, :, 0] * counts[:, 0, None] + zb[None, :, 1] * nonzero[:, None], axis=1)
+    d = np.concatenate([np.argmin((tail_bits[None, :, :] * counts[k:k + 8, None, 1:]).sum(axis=2), axis=1)
+                        for k in range(0, n, 8)] + [np.zeros(0, np.int64)])
+    d[nonzero == 0] = 0
+    z[counts.sum(axis=1) == 0] = MAX_ZERO
+    return z, d
+
+
+@pytest.mark.parametrize("last", [0, 1, 6, 7, 8, 9, 15, 16, 17, 23, 24, 40, 63, 64, 71, 72])
+def test_fits_summing_only_the_tokens_counted_are_those_of_every_token(last):
+    """:func:`_fit_counts` sums the products of the tokens up to the last one counted (rounded up to eight,
+    :func:`_tail_costs`): the same float64 sums, bit for bit, and the same indices as summing all
+    ``NUM_TOKENS - 1`` (numpy adds a contiguous axis in eight interleaved
+    partial sums, so the products of zero counts left out only added exact zeros). Counts of every spread, from
+    one to millions, contexts of zeros only and of no values. A numpy that summed in another order fails here."""
+    from motionrep.plugin.coding import _fit_tables
+    from motionrep_transform._slack import _fit_counts, _tail_costs
+
+    rng = np.random.default_rng(last)
+    for trial in range(6):
+        n = int(rng.integers(1, 40))
+        counts = np.zeros((n, NUM_TOKENS), np.int64)
+        scale = 10.0 ** rng.integers(0, 7)
+        width = last + 2  # tokens 0 .. last + 1: the tail's columns 0 .. last
+        counts[:, :width] = np.rint(rng.exponential(scale, size=(n, width)) * (rng.random((n, width)) < 0.6))
+        counts[0] = 0
+        if n > 1:
+            counts[1, 1:] = 0
+        tail_bits = _fit_tables()[1]
+        every = (tail_bits[None, :, :] * counts[:, None, 1:].astype(np.float64)).sum(axis=2)
+        assert _tail_costs(counts[:, 1:].astype(np.float64), tail_bits).tobytes() == every.tobytes(), (last, trial)
+        want = _fit_counts_every_token(counts)
+        got = _fit_counts(counts)
+        assert got[0].tolist() == want[0].tolist() and got[1].tolist() == want[1].tolist(), (last, trial)
+        some = np.flatnonzero(rng.random(n) < 0.5)
+        part = _fit_counts(counts, some)
+        assert part[0][some].tolist() == want[0][some].tolist() and part[1][some].tolist() == want[1][some].tolist()

@@ -14,10 +14,27 @@ from motionrep.errors import PayloadError
 from motionrep.plugin.coding import IntegerDecoder, Model, max_values, step_scale
 from motionrep_transform._codec import coefficient_exponents
 from motionrep_transform._stream import (_CONTEXTS, _SIZES, MAX_EXPONENT, MAX_ZERO, Quantised, _approx_steps,
-                                         _grouped, _parents, _passes)
+                                         _grouped, _passes)
 from motionrep_transform._wavelet import _STEPS, _HIGH, _LOW, coefficient_frames, level_sizes, num_levels
 
 _REACH = 3
+
+
+def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int64]:
+    """``2 p + p_left + p_right`` for each coefficient of array ``index`` (1..L) from the coarser level, as
+    ``motionrep_transform._stream`` formed it until 0a46dc9 (gathered from a zero-padded copy): the oracle its
+    faster formulation is tested against (``test_slack``)."""
+    n = magnitudes[index].shape[0]
+    if index == 1:
+        a = magnitudes[0]  # here: |A[i + 1] - A[i]|, last repeated (set by the caller)
+        at = np.arange(n)
+    else:
+        a = magnitudes[index - 1]
+        at = np.arange(n) // 2
+    at = np.minimum(at, a.shape[0] - 1)
+    pad = np.zeros((a.shape[0] + 2,) + a.shape[1:], np.int64)
+    pad[1:-1] = a
+    return 2 * pad[at + 1] + pad[at] + pad[at + 2]
 
 
 # the wavelet's mirrored neighbours, as the plugin's numpy code had them
