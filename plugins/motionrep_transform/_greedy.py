@@ -127,7 +127,8 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
     ends = np.cumsum([c.size for c in current[1:]])[:-1]
     current[1:] = [part.reshape(c.shape) for part, c in zip(np.split(flat, ends), current[1:])]
     step_of = np.concatenate([s.reshape(-1) for s in steps[1:]])
-    first_of, count_of, start_of = (np.concatenate([np.repeat(x, D) for x in xs[1:]]) for xs in (firsts, counts, starts))
+    # per detail row (the arrays' rows one after the other: coefficient i is in row i // D, every array D wide)
+    first_of, count_of, start_of = (np.concatenate(xs[1:]) for xs in (firsts, counts, starts))
     # per coefficient, the frame (from its synthesis function's first) where its move last failed, -1 if none:
     # the kernel checks it first when the move is tried again (the same decisions, fewer frames computed)
     failed_at = np.full(flat.size, -1, np.int64)
@@ -141,7 +142,8 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
         sign = np.sign(flat[at])
         leads = failed_at[at]
         # each move's deltas: its synthesis function's values times -sign(q) step, formed by the kernel
-        accepted = edits.apply(at % D, first_of[at], count_of[at], pool, bound, leads=leads, starts=start_of[at],
+        row = at // D
+        accepted = edits.apply(at % D, first_of[row], count_of[row], pool, bound, leads=leads, starts=start_of[row],
                                scales=-sign * step_of[at])
         figures["tried"] += int(at.size)
         figures["moved"] += int(accepted.sum())

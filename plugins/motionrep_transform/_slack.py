@@ -161,8 +161,9 @@ def detail_savings(coefficients: list[NDArray[np.int64]], levels: int,
     v = val[moved]
     tokens, _, _ = _tokenize(v)
     counts = np.bincount(rows * NUM_TOKENS + tokens, minlength=n * NUM_TOKENS).reshape(n, NUM_TOKENS)
-    counts[:, 0] = np.bincount(ctx, minlength=n) - counts.sum(axis=1)  # token 0: the zeros, and only they
-    used = np.unique(rows)
+    moving = counts.sum(axis=1)  # per context, its non-zero coefficients (tokens >= 1)
+    counts[:, 0] = np.bincount(ctx, minlength=n) - moving  # token 0: the zeros, and only they
+    used = np.flatnonzero(moving)  # the contexts of coefficients that may move, increasing (np.unique(rows))
     zero, decay = _fit_counts(counts, used)  # only the contexts of coefficients that may move
     table = np.zeros((zero.size, NUM_TOKENS))
     table[used] = np.stack([_probabilities(int(zero[k]), int(decay[k])) for k in used])

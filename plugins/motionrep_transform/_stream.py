@@ -58,30 +58,36 @@ class Quantised:
     coefficients: list[NDArray[np.int64]]
 
 
-def _parents(magnitudes: list[NDArray[np.int64]], index: int) -> NDArray[np.int64]:
-    """``2 p + p_left + p_right`` for each coefficient of array ``index`` (1..L) from the coarser level: for the
-    coarsest detail level, the approximation's differences at the same position; otherwise the detail level
-    above at ``i // 2``."""
+def _parent_rows(magnitudes: list[NDArray[np.int64]], index: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``2 p + p_left + p_right`` for each coefficient of array ``index`` (1..L) from the coarser level, of its
+    even rows and of its odd rows (read-only: they may be views of one array): for the coarsest detail level, the
+    approximation's differences at the same position; otherwise the detail level above at ``i // 2`` (both past
+    the coarser array's end: its last row)."""
     n = magnitudes[index].shape[0]
     a = magnitudes[0] if index == 1 else magnitudes[index - 1]  # [0]: |A[i + 1] - A[i]|, last repeated (the caller)
-    m = a.shape[0]
+    m, even, odd = a.shape[0], (n + 1) // 2, n // 2
     if not m:
-        return np.zeros((n,) + a.shape[1:], np.int64)
-    # the sum at each row of the coarser array (whole numbers: exact in any order), then row i takes row
-    # min(i, m - 1) (index 1) or min(i // 2, m - 1)
+        return np.zeros((even,) + a.shape[1:], np.int64), np.zeros((odd,) + a.shape[1:], np.int64)
+    # the sum at each row of the coarser array (whole numbers: exact in any order), then the rows that take it
     s = np.multiply(a, 2, dtype=np.int64)
     s[1:] += a[:-1]
     s[:-1] += a[1:]
     if index == 1:
-        return s[:n] if n <= m else s[np.minimum(np.arange(n), m - 1)]
-    return np.repeat(s, 2, axis=0)[:n] if n <= 2 * m else s[np.minimum(np.arange(n) // 2, m - 1)]
+        if n <= m:
+            return s[0:n:2], s[1:n:2]
+        at = np.minimum(np.arange(n), m - 1)
+        return s[at[0::2]], s[at[1::2]]
+    if even <= m:
+        return s[:even], s[:odd]
+    at = np.minimum(np.arange(even), m - 1)
+    return s[at], s[at[:odd]]
 
 
 def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int64]) -> None:
     """The context of every detail coefficient, written into ``out`` (the detail arrays' elements in storage
     order, one after the other): for each pass, the bit length (capped) of the parents' sum
-    (:func:`_parents`), plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from the level's even rows (already
-    known to the decoder); both passes of a level at once. ``mags``: the magnitudes, ``mags[0]`` the
+    (:func:`_parent_rows`), plus, in the odd pass, ``2 (|q[i - 1]| + |q[i + 1]|)`` from the level's even rows
+    (already known to the decoder); both passes of a level at once. ``mags``: the magnitudes, ``mags[0]`` the
     approximation's steps (:func:`_approx_steps`)."""
     start = 0
     for index, odd, group in _passes(levels):
@@ -89,16 +95,19 @@ def _context_ids(mags: list[NDArray[np.int64]], levels: int, out: NDArray[np.int
             continue
         level = mags[index]
         n = level.shape[0]
-        s = _parents(mags, index)
+        even_parents, odd_parents = _parent_rows(mags, index)
         k = n // 2  # odd rows: their even neighbours at this level (the last one's right: 0 past the end)
         t = level[0:2 * k:2].copy()
         right = level[2::2]
         t[:right.shape[0]] += right
         t *= 2
-        s[1::2] += t
+        t += odd_parents
         # the bit length of the sum, capped at _SIZES - 1 (reached at 64), of the pass's model group: a table
-        np.minimum(s, _CAP, out=s)
-        s[1::2] += _CAP + 1
+        # (even rows: 0 .. _CAP, odd rows: _CAP + 1 .. 2 _CAP + 1)
+        s = np.empty(level.shape, np.int64)
+        np.minimum(even_parents, _CAP, out=s[0::2])
+        np.minimum(t, _CAP, out=t)
+        np.add(t, _CAP + 1, out=s[1::2])
         np.take(_SIZE_TABLES[group], s, out=out[start:start + level.size].reshape(level.shape), mode="clip")
         start += level.size
 

@@ -16,7 +16,7 @@ from motionrep_transform._codec import window_minimum
 from motionrep_transform._slack import (_bisect_each, _code_length_of, _code_lengths, _fit_each, frame_sensitivity,
                                        reduction_savings)
 from motionrep_transform._stream import MAX_ZERO, _approx_steps, _fit, _passes
-from motionrep_transform._stream import _parents as _parents_now
+from motionrep_transform._stream import _parent_rows
 from transform_reference_v1 import _contexts, _parents
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import forward, level_sizes, num_levels
@@ -97,8 +97,9 @@ def test_savings_are_those_of_the_pass_by_pass_formulation_bit_for_bit(frames):
 
 
 def test_parents_are_those_of_the_padded_gather():
-    """``_stream._parents`` (sums on the coarser array, then rows repeated) gives the same integers as the first
-    formulation (a zero-padded copy gathered at every row), for the approximation's differences and the detail
+    """``_stream._parent_rows`` (sums on the coarser array, then the even and the odd rows that take them) gives
+    the same integers as the first formulation (a zero-padded copy gathered at every row, the rows interleaved),
+    for the approximation's differences and the detail
     levels, levels of equal, shorter, twice and more than twice the coarser one's rows (the last row repeated),
     an empty coarser array; whole numbers: exact."""
     rng = np.random.default_rng(7)
@@ -106,9 +107,10 @@ def test_parents_are_those_of_the_padded_gather():
         for n in sorted({0, 1, max(m - 1, 0), m, m + 1, max(2 * m - 1, 0), 2 * m, 2 * m + 1, 3 * m + 2}):
             coarse, fine = (np.abs(rng.integers(-70, 70, size=(rows, 4))) for rows in (m, n))
             for index, mags in ((1, [coarse, fine]), (2, [coarse[:1], coarse, fine])):
-                got, want = _parents_now(mags, index), _parents(mags, index)
-                assert got.dtype == want.dtype == np.int64 and got.shape == want.shape, (m, n, index)
-                assert np.array_equal(got, want), (m, n, index)
+                (even, odd), want = _parent_rows(mags, index), _parents(mags, index)
+                for got, rows in ((even, want[0::2]), (odd, want[1::2])):
+                    assert got.dtype == np.int64 and got.shape == rows.shape, (m, n, index)
+                    assert np.array_equal(got, rows), (m, n, index)
 
 
 def test_every_context_is_fitted_as_one_at_a_time():
