@@ -370,3 +370,28 @@ def test_a_decoded_quaternion_of_zero_length_leaves_the_run_open_loop(walk):
     assert np.array_equal(chain.targets(0, bad), f[:, chain.groups[0]])
     assert np.array_equal(chain.targets(1, bad), f[:, chain.groups[1]])
     assert not chain.complete
+
+
+def test_whole_array_lengths_are_those_of_one_joint_at_a_time():
+    """The chain's set-up measures its bones and levers for many joints at once (``_longest``, ``_distances``):
+    the same float64 bits as one joint (or pair) at a time, as it measured them until 0a46dc9, and as over every
+    frame for the joints that are not translated. Elementwise IEEE operations and sums of three in order: bitwise
+    on any machine."""
+    from motionrep.pipeline.chain import _distances, _longest
+
+    rng = np.random.default_rng(3)
+    F, J, P = 37, 6, 9
+    pos = rng.normal(scale=10.0 ** rng.integers(-3, 4, size=(1, P, 1)), size=(F, P, 3))
+    joints, points = np.array([0, 1, 1, 4, 5, 2]), np.array([3, 2, 8, 7, 6, 6])
+    v, dist = _distances(pos, joints, points)
+    for k, (j, p) in enumerate(zip(joints, points)):
+        alone = pos[:, p] - pos[:, j]
+        assert v[:, k].tobytes() == alone.tobytes()
+        assert dist[:, k].tobytes() == np.sqrt(np.sum(alone * alone, axis=1)).tobytes()
+        assert float(dist[:, k].max()) == float(np.sqrt(np.sum(alone * alone, axis=1)).max())
+    offsets = rng.normal(scale=20.0, size=(J, 3))
+    for translated in (np.zeros(0, np.int64), np.array([2, 4])):
+        local = np.broadcast_to(offsets, (F, J, 3)).copy()
+        local[:, translated] = rng.normal(scale=5.0, size=(F, translated.size, 3))
+        want = np.sqrt(np.sum(local ** 2, axis=2)).max(axis=0)
+        assert _longest(local, translated).tobytes() == want.tobytes()

@@ -83,6 +83,25 @@ def sensitivity_samples(features: ArrayLike) -> tuple[NDArray[np.float64], NDArr
     return x, moved, h
 
 
+def _longest(local: NDArray[np.float64], translated: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``(J,)`` each joint's longest local offset over the frames of ``(F, J, 3)`` ``local`` (F >= 1), where
+    only the ``translated`` joints differ between frames: the others' from the first frame alone (the same
+    values as over every frame: each length is the same elementwise operations on the same numbers)."""
+    reach = np.sqrt(np.sum(local[:1] ** 2, axis=2))[0]
+    if translated.size:
+        reach[translated] = np.sqrt(np.sum(local[:, translated] ** 2, axis=2)).max(axis=0)
+    return reach
+
+
+def _distances(pos: NDArray[np.float64], joints: NDArray[np.int64], points: NDArray[np.int64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(F, k, 3)`` the vectors from ``pos[:, joints]`` to ``pos[:, points]`` and ``(F, k)`` their lengths, all
+    pairs at once: each the same float64 bits as ``v = pos[:, p] - pos[:, j]``, ``np.sqrt(np.sum(v * v,
+    axis=1))`` alone (elementwise operations, each length's three squares added in order)."""
+    v = pos[:, points] - pos[:, joints]
+    return v, np.sqrt(np.sum(v * v, axis=2))
+
+
 class FeatureChain:
     """The depth groups of a clip's feature columns and their closed-loop targets.
 
@@ -132,7 +151,7 @@ class FeatureChain:
         local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
         if sk.translated_joints.size:
             local[:, sk.translated_joints] = self._poses.joint_translations
-        reach = np.sqrt(np.sum(local ** 2, axis=2)).max(axis=0) if F else np.zeros(J)
+        reach = _longest(local, sk.translated_joints) if F else np.zeros(J)
         tiny = _COINCIDENT * (float(reach[1:].max()) if J > 1 else 1.0)
         kids = sk.children
         opened = [len(kids[j]) > MAX_CHILDREN for j in range(J)]
@@ -152,21 +171,21 @@ class FeatureChain:
 
         def lever(j: int) -> float:
             points = below(j)
-            for pt in points:
-                if (j, pt) not in far:
-                    v = true_pos[:, pt] - true_pos[:, j]
-                    far[j, pt] = float(np.sqrt(np.sum(v * v, axis=1)).max())
+            missing = [pt for pt in points if (j, pt) not in far]
+            if missing:  # their distances at once
+                _, dist = _distances(true_pos, np.full(len(missing), j, np.int64), np.array(missing, np.int64))
+                far.update(zip([(j, pt) for pt in missing], dist.max(axis=0).tolist()))
             return max((far[j, pt] for pt in points), default=0.0)
 
         # a joint whose rotation never moves would take a copy of its decoded parent's noise in closed loop: it keeps
         # its true values when its parent's lever reaching through it (to the points below it) gets no longer, so
         # that the parent's steps stay as they were; deepest first, so a held joint's own held children count
+        spread = np.ptp(self._true, axis=0) if F else np.zeros(D)  # each feature's range over the clip
         for j in sorted(range(1, J), key=lambda j: (-int(depth[j]), j)):
             if j not in entry_of or opened[sk.parents[j]] or not F:
                 continue
             rows = [c for c in plan.columns[entry_of[j]].tolist() if c >= 0]
-            x = self._true[:, rows]
-            if float(np.ptp(x, axis=0).max()) > _STILL:  # its rotation moves
+            if float(spread[rows].max()) > _STILL:  # its rotation moves
                 continue
             p = int(sk.parents[j])
             before = lever(p)
@@ -197,12 +216,14 @@ class FeatureChain:
             cols = [plan.columns[entry_of[j], :w] for j, w in zip(js, width)]
             lever = np.zeros((F, len(js), 3))
             pointed = np.zeros(len(js), bool)
-            for i, j in enumerate(js):
-                pts = list(kids[j]) + [J + e for e in np.flatnonzero(sk.end_site_parents == j).tolist()]
-                if len(pts) == 1:
-                    v = true_pos[:, pts[0]] - true_pos[:, j]
-                    if F and float(np.sqrt(np.sum(v * v, axis=1)).min()) > tiny:
-                        lever[:, i], pointed[i] = v, True
+            single = [(i, j, pts[0]) for i, j in enumerate(js)
+                      for pts in [list(kids[j]) + [J + e for e in np.flatnonzero(sk.end_site_parents == j).tolist()]]
+                      if len(pts) == 1]
+            if F and single:  # the levers of the joints with one point below, at once (each as it would be alone)
+                i1, j1, p1 = (np.array(x, np.int64) for x in zip(*single))
+                v, dist = _distances(true_pos, j1, p1)
+                far_enough = dist.min(axis=0) > tiny
+                lever[:, i1[far_enough]], pointed[i1[far_enough]] = v[:, far_enough], True
             js_a = np.array(js, np.int64)
             i = np.flatnonzero(pointed)
             lever_of = np.full(len(js), -1, np.int64)
