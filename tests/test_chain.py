@@ -395,3 +395,22 @@ def test_whole_array_lengths_are_those_of_one_joint_at_a_time():
         local[:, translated] = rng.normal(scale=5.0, size=(F, translated.size, 3))
         want = np.sqrt(np.sum(local ** 2, axis=2)).max(axis=0)
         assert _longest(local, translated).tobytes() == want.tobytes()
+
+
+def test_sensitivity_copies_feature_major_are_the_transposed_copies(walk):
+    """The sensitivity's moved copies built feature-major (``moved_by_feature``, handed to the plan's decode
+    without transposing) are the same float64 bits as the copies transposed, and the chain's and the context's
+    sensitivities are those of the copies decoded pose-major (the same additions and the same decode: bitwise)."""
+    from motionrep.pipeline.chain import FeatureChain, moved_by_feature, sensitivity_samples
+
+    context, rep = _context(walk)
+    features = rep.to_features(walk)
+    x, moved, h = sensitivity_samples(features)
+    D, n = moved.shape[:2]
+    X = moved_by_feature(x, h)
+    assert X.flags.c_contiguous and X.tobytes() == np.ascontiguousarray(moved.reshape(D * n, D).T).tobytes()
+    chain = context.feature_chain(features)
+    pose_major = FeatureChain(features, walk.skeleton, context._plan, context._positions)
+    assert chain.sensitivity(features).tobytes() == pose_major.sensitivity(features).tobytes()
+    want = context._positions(moved.reshape(D * n, D))
+    assert context._positions_by_feature(X, D * n).tobytes() == want.tobytes()

@@ -47,7 +47,7 @@ from ..model.kinematics import fk_arrays
 from ..model.poseplan import AXIS_ANGLE, QUAT, PosePlan, decode_planned
 from ..plugin.representation import empty_poses
 
-__all__ = ["FeatureChain", "sensitivity_samples", "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
+__all__ = ["FeatureChain", "sensitivity_samples", "moved_by_feature", "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
 
 #: :func:`sensitivity_samples` samples at most this many frames, and at most ``SENSITIVITY_BUDGET / D`` of them (but
 #: at least 8) for ``D`` features, since it decodes ``D`` copies of each.
@@ -102,6 +102,16 @@ def _distances(pos: NDArray[np.float64], joints: NDArray[np.int64], points: NDAr
     return v, np.sqrt(np.sum(v * v, axis=2))
 
 
+def moved_by_feature(x: NDArray[np.float64], h: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`sensitivity_samples`'s ``moved`` copies feature-major, ``(D, D n)`` C-contiguous (copy ``c`` in
+    columns ``c n .. c n + n - 1``): ``np.ascontiguousarray(moved.reshape(D * n, D).T)``, the same additions,
+    without transposing the copies."""
+    n, D = x.shape
+    X = np.tile(x.T, (1, D))
+    X.reshape(D, D, n)[np.arange(D), np.arange(D)] += h[:, None]
+    return X
+
+
 class FeatureChain:
     """The depth groups of a clip's feature columns and their closed-loop targets.
 
@@ -112,6 +122,8 @@ class FeatureChain:
             must be a local quaternion or rotation vector (:meth:`supports`).
         positions: ``(T, D)`` features -> ``(T, J + E, 3)`` FK positions (the context's), for
             :meth:`sensitivity`.
+        positions_by_feature: ``((D, T) feature-major C-contiguous features, T)`` -> the same positions (the
+            context's), if it offers them: :meth:`sensitivity` then hands its copies over without transposing them.
 
     Raises:
         ValidationError: features that do not decode (not finite, a zero-length quaternion).
@@ -124,11 +136,13 @@ class FeatureChain:
         held: ``(J,)`` bool, the joints whose rotation never moves that keep their true values (module docstring).
     """
 
-    def __init__(self, features: ArrayLike, skeleton: Skeleton, plan: PosePlan, positions: Positions):
+    def __init__(self, features: ArrayLike, skeleton: Skeleton, plan: PosePlan, positions: Positions,
+                 positions_by_feature: Callable[[NDArray[np.float64], int], NDArray[np.float64]] | None = None):
         self._true = np.array(features, dtype=np.float64)
         F, D = self._true.shape
         sk, J, E = skeleton, skeleton.num_joints, skeleton.num_end_sites
         self._skeleton, self._plan, self._positions = sk, plan, positions
+        self._positions_by_feature = positions_by_feature
         depth = np.asarray(sk.depths, np.int64)
         self._poses = empty_poses(sk, F)
         true_pos, true_rot = self._fk(self._true)
@@ -309,7 +323,11 @@ class FeatureChain:
         x, moved, h = sensitivity_samples(features)
         D, n = moved.shape[:2]
         base = self._positions(x)
-        pos = self._positions(moved.reshape(D * n, D)).reshape(D, n, base.shape[1], 3)
+        if self._positions_by_feature is None:
+            pos = self._positions(moved.reshape(D * n, D))
+        else:
+            pos = self._positions_by_feature(moved_by_feature(x, h), D * n)
+        pos = pos.reshape(D, n, base.shape[1], 3)
         # the distances of the lever points only, (K, n) for the K (feature, point) pairs in row order, and per
         # feature their largest (0 for a feature without lever points; the distances are >= 0)
         feature, point = np.nonzero(self.lever_points)

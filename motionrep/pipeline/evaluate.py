@@ -27,14 +27,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..model._pose import Motion, Skeleton
-from ..model.poseplan import decode_planned
+from ..model.poseplan import decode_feature_major, decode_planned
 from ..plugin.codec import Payload, frame_times
 from ..plugin.representation import empty_poses
 from ..errors import ValidationError, naming
 from .._ccore import max_distances
 from ..model.kinematics import character_height, fk_arrays, global_positions, point_names
 from ..model.ops import fixed_axes, fixed_axes_restored
-from .chain import SENSITIVITY_BUDGET, SENSITIVITY_FRAMES, FeatureChain, sensitivity_samples  # noqa: F401 (public here too)
+from .chain import (SENSITIVITY_BUDGET, SENSITIVITY_FRAMES, FeatureChain, moved_by_feature,  # noqa: F401 (public
+                    sensitivity_samples)  # here too)
 from .edits import FeatureEdits
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
 
@@ -326,7 +327,7 @@ class MotionContext:
         plan or with rotation blocks other than local quaternions and rotation vectors."""
         if not FeatureChain.supports(self._plan):
             return None
-        return FeatureChain(features, self.motion.skeleton, self._plan, self._positions)
+        return FeatureChain(features, self.motion.skeleton, self._plan, self._positions, self._positions_by_feature)
 
     def feature_sensitivity(self, features: ArrayLike) -> NDArray[np.float64]:
         """``(n, D)``: for ``n`` frames sampled evenly (:data:`SENSITIVITY_FRAMES`, fewer for wide features:
@@ -340,7 +341,10 @@ class MotionContext:
         x, moved, h = sensitivity_samples(features)
         D, n = moved.shape[:2]
         base = self._positions(x)
-        pos = self._positions(moved.reshape(D * n, D))
+        if self._plan is None:
+            pos = self._positions(moved.reshape(D * n, D))
+        else:  # the copies feature-major, as the plan decodes them (not transposed)
+            pos = self._positions_by_feature(moved_by_feature(x, h), D * n)
         shift = Evaluator._max_distances(pos, base).reshape(D, n)
         return (shift / h[:, None]).T
 
@@ -363,6 +367,14 @@ class MotionContext:
         poses = empty_poses(sk, f.shape[0])
         decode_planned(f, plan, poses.rotations, poses.root_translation, poses.joint_translations)
         return fk_arrays(sk, poses.rotations, poses.root_translation, poses.joint_translations)[0]
+
+    def _positions_by_feature(self, X: NDArray[np.float64], count: int) -> NDArray[np.float64]:
+        """:meth:`_positions` of the ``count`` poses of feature-major ``(D, count)`` C-contiguous float64 ``X``
+        (:func:`motionrep.model.poseplan.decode_feature_major`; a representation with a pose plan only)."""
+        self.evaluations += 1
+        poses = empty_poses(self.motion.skeleton, count)
+        decode_feature_major(X, count, self._plan, poses.rotations, poses.root_translation, poses.joint_translations)
+        return fk_arrays(self.motion.skeleton, poses.rotations, poses.root_translation, poses.joint_translations)[0]
 
     def _decoded(self, features: ArrayLike) -> Motion:
         """Candidate features as the valid motion they decode to (counted in ``evaluations``)."""
