@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from motionrep.plugin.coding import NUM_TOKENS, Model, _fit_tables, _probabilities, _tokenize
 
-from ._stream import MAX_ZERO, _approx_steps, _context_ids, _passes
+from ._stream import _CAP, MAX_ZERO, _approx_steps, _context_ids, _passes
 
 __all__ = ["reduction_savings", "detail_savings", "frame_sensitivity", "sliding_max", "spend_slack", "LADDER"]
 
@@ -153,7 +153,10 @@ def detail_savings(coefficients: list[NDArray[np.int64]], levels: int,
     moved = np.flatnonzero(val)
     if not moved.size:
         return flat
-    mags = [_approx_steps(coefficients[0])] + [np.abs(c) for c in details]
+    # the contexts only see the parents' sums capped at _CAP (sums of magnitudes, each >= 0): the magnitudes capped
+    # at _CAP give the same capped sums, in int16 (a quarter of the memory to go through)
+    mags = [np.minimum(_approx_steps(coefficients[0]), _CAP).astype(np.int16)]
+    mags += [np.abs(np.clip(c, -_CAP, _CAP).astype(np.int16)) for c in details]
     ctx = np.empty(total, np.int64)
     _context_ids(mags, levels, ctx)
     n = int(ctx.max()) + 1

@@ -69,7 +69,7 @@ def _parent_rows(magnitudes: list[NDArray[np.int64]], index: int) -> tuple[NDArr
     if not m:
         return np.zeros((even,) + a.shape[1:], np.int64), np.zeros((odd,) + a.shape[1:], np.int64)
     # the sum at each row of the coarser array (whole numbers: exact in any order), then the rows that take it
-    s = np.multiply(a, 2, dtype=np.int64)
+    s = a * 2  # int64 (or int16 magnitudes capped at _CAP: the sums stay below 2 ** 10)
     s[1:] += a[:-1]
     s[:-1] += a[1:]
     if index == 1:
