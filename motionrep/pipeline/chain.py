@@ -47,7 +47,8 @@ from ..model.kinematics import fk_arrays
 from ..model.poseplan import AXIS_ANGLE, QUAT, PosePlan, decode_planned
 from ..plugin.representation import empty_poses
 
-__all__ = ["FeatureChain", "sensitivity_samples", "sensitivity_steps", "moved_by_feature", "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
+__all__ = ["FeatureChain", "sensitivity_samples", "sensitivity_steps", "moved_by_feature", "moved_positions",
+           "SENSITIVITY_FRAMES", "SENSITIVITY_BUDGET"]
 
 #: :func:`sensitivity_samples` samples at most this many frames, and at most ``SENSITIVITY_BUDGET / D`` of them (but
 #: at least 8) for ``D`` features, since it decodes ``D`` copies of each.
@@ -77,6 +78,19 @@ def sensitivity_samples(features: ArrayLike) -> tuple[NDArray[np.float64], NDArr
     moved = np.repeat(x[None], D, axis=0)  # (D, n, D): copy c has feature c moved by h_c
     moved[np.arange(D), :, np.arange(D)] += h[:, None]
     return x, moved, h
+
+
+def moved_positions(x: NDArray[np.float64], h: NDArray[np.float64], positions: Positions,
+                    positions_by_feature: Callable[[NDArray[np.float64], int], NDArray[np.float64]] | None = None
+                    ) -> NDArray[np.float64]:
+    """``(D n, J + E, 3)`` the positions of :func:`sensitivity_samples`' moved copies of ``x`` ``(n, D)`` (steps
+    ``h``, :func:`sensitivity_steps`), copy after copy: through ``positions_by_feature`` (feature-major, as a pose
+    plan decodes them: neither transposed nor made twice) when given, else through ``positions`` (pose-major, the
+    same values transposed)."""
+    n, D = x.shape
+    if positions_by_feature is not None:
+        return positions_by_feature(moved_by_feature(x, h), D * n)
+    return positions(np.ascontiguousarray(moved_by_feature(x, h).T))
 
 
 def _longest(local: NDArray[np.float64], translated: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -330,11 +344,7 @@ class FeatureChain:
         x, h = sensitivity_steps(features)
         n, D = x.shape
         base = self._positions(x)
-        if self._positions_by_feature is None:
-            pos = self._positions(sensitivity_samples(features)[1].reshape(D * n, D))
-        else:  # the copies feature-major, as the plan decodes them (neither transposed nor made twice)
-            pos = self._positions_by_feature(moved_by_feature(x, h), D * n)
-        pos = pos.reshape(D, n, base.shape[1], 3)
+        pos = moved_positions(x, h, self._positions, self._positions_by_feature).reshape(D, n, base.shape[1], 3)
         # the distances of the lever points only, (K, n) for the K (feature, point) pairs in row order, and per
         # feature their largest (0 for a feature without lever points; the distances are >= 0)
         feature, point = np.nonzero(self.lever_points)

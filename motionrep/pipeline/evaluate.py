@@ -34,7 +34,7 @@ from ..errors import ValidationError, naming
 from .._ccore import max_distances
 from ..model.kinematics import character_height, fk_arrays, global_positions, point_names
 from ..model.ops import fixed_axes, fixed_axes_restored
-from .chain import (SENSITIVITY_BUDGET, SENSITIVITY_FRAMES, FeatureChain, moved_by_feature,  # noqa: F401 (public
+from .chain import (SENSITIVITY_BUDGET, SENSITIVITY_FRAMES, FeatureChain, moved_positions,  # noqa: F401 (public
                     sensitivity_samples, sensitivity_steps)  # here too)
 from .edits import FeatureEdits
 from .pairing import STRICT, MatchOptions, compared_points, skeleton_difference  # skeleton_difference: public here too
@@ -341,10 +341,7 @@ class MotionContext:
         x, h = sensitivity_steps(features)
         n, D = x.shape
         base = self._positions(x)
-        if self._plan is None:
-            pos = self._positions(sensitivity_samples(features)[1].reshape(D * n, D))
-        else:  # the copies feature-major, as the plan decodes them (neither transposed nor made twice)
-            pos = self._positions_by_feature(moved_by_feature(x, h), D * n)
+        pos = moved_positions(x, h, self._positions, None if self._plan is None else self._positions_by_feature)
         shift = Evaluator._max_distances(pos, base).reshape(D, n)
         return (shift / h[:, None]).T
 
