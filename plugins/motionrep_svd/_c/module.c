@@ -424,8 +424,8 @@ static int Decoder_init(DecoderObject *self, PyObject *args, PyObject *kw)
 static PyTypeObject DecoderType;
 MR_SAMPLER_BINDING(Decoder, DecoderObject, DecoderType)
 
-/* constant: a list of D floats, each feature's value where it is constant over the clip, NaN where not (computed
- * on request: motionrep.open asks, preparing a payload does not) */
+/* constant: a list of D floats, each feature's value where it is constant over the clip, NaN where not (whether the
+ * coefficients allow it, consts_ok, is found when the decoder is prepared: its sampler writes those means too) */
 static PyObject *Decoder_constant_get(DecoderObject *self, void *closure)
 {
     (void)closure;
