@@ -92,6 +92,27 @@ def synthesis(num_frames: int, levels: int) -> tuple[list[NDArray[np.int64]], li
     return firsts, counts, starts, np.concatenate(pool) if pool else np.zeros(0)
 
 
+def _peaks(rows: int, counts: NDArray[np.int64], starts: NDArray[np.int64], pool: NDArray[np.float64]
+           ) -> NDArray[np.int64]:
+    """``(rows,)`` the offset of the largest ``|value|`` (the first of equals) of each row's synthesis function
+    ``pool[start : start + count]`` (0 for a row of no values)."""
+    out = np.zeros(rows, np.int64)
+    has = np.flatnonzero(counts > 0)
+    if not has.size:
+        return out
+    segments, where = np.unique(np.stack([starts[has], counts[has]], axis=1), axis=0, return_inverse=True)
+    first, count = segments[:, 0], segments[:, 1]
+    index = np.repeat(first - np.cumsum(np.concatenate([[0], count[:-1]])), count) + np.arange(count.sum())
+    values = np.abs(pool[index])
+    ends = np.cumsum(count) - count
+    largest = np.maximum.reduceat(values, ends)
+    offsets = np.arange(count.sum()) - np.repeat(ends, count)
+    # the first offset of each segment whose value is its largest
+    at = np.where(values == np.repeat(largest, count), offsets, np.iinfo(np.int64).max)
+    out[has] = np.minimum.reduceat(at, ends)[where.reshape(-1)]
+    return out
+
+
 def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64]], levels: int, edits,
                       bound: float,
                       savings_of: Callable[[list[NDArray[np.int64]], NDArray[np.int64]], NDArray[np.float64]],
@@ -129,9 +150,11 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
     step_of = np.concatenate([s.reshape(-1) for s in steps[1:]])
     # per detail row (the arrays' rows one after the other: coefficient i is in row i // D, every array D wide)
     first_of, count_of, start_of = (np.concatenate(xs[1:]) for xs in (firsts, counts, starts))
-    # per coefficient, the frame (from its synthesis function's first) where its move last failed, -1 if none:
-    # the kernel checks it first when the move is tried again (the same decisions, fewer frames computed)
-    failed_at = np.full(flat.size, -1, np.int64)
+    # per coefficient, the frame (from its synthesis function's first) the kernel checks first: where its move last
+    # failed (where it most likely fails again), else its synthesis function's largest value (the kernel's own
+    # choice, found here once per row instead of at every try; the frame checked first changes no decision)
+    peak_of = _peaks(first_of.size, count_of, start_of, pool)
+    failed_at = np.repeat(peak_of, D)
     floor = max(min_saving, 0.0)
     for _ in range(passes):
         value = savings_of(current, flat)
@@ -149,6 +172,6 @@ def spend_slack_exact(q: list[NDArray[np.int64]], steps: list[NDArray[np.float64
         figures["moved"] += int(accepted.sum())
         if not accepted.any():
             break
-        failed_at[at] = np.where(accepted, -1, leads)
+        failed_at[at] = np.where(accepted, peak_of[row], leads)
         flat[at[accepted]] -= sign[accepted]
     return current, figures

@@ -9,7 +9,7 @@ from motionrep.model.synthetic import humanoid_skeleton, synthetic_motion
 from motionrep.pipeline.compress import compress_motion, decompress
 from motionrep.pipeline.evaluate import MotionContext, max_joint_error
 from motionrep.plugin.registry import get_codec, get_representation
-from motionrep_transform._greedy import synthesis
+from motionrep_transform._greedy import _peaks, synthesis
 from motionrep_transform._stream2 import unpack
 from motionrep_transform._wavelet import inverse, level_sizes, num_levels
 
@@ -112,23 +112,43 @@ def test_the_default_slack_is_five_passes_with_feature_edits(walk):
 
 @pytest.mark.parametrize("bound", ["0.3%", "1%", "4%"])
 def test_failed_moves_checked_first_where_they_failed_decide_as_before(walk, monkeypatch, bound):
-    """The search tells the kernel where each move that failed did fail, and the kernel checks that frame first
-    when the move is tried again (``leads``): the same moves are accepted as when every move starts at its
-    largest change, so the payload is the same."""
+    """The search tells the kernel which frame to check first (``leads``): where each move that failed did fail,
+    else its synthesis function's largest value (found once per row, not at every try). The same moves are
+    accepted as when the kernel starts every move at its largest change itself, so the payload is the same."""
     from motionrep.pipeline.edits import FeatureEdits
 
     apply = FeatureEdits.apply
-    named = []
+    named, tries = [], []
 
     def encode(keep):
-        def patched(self, *args, leads=None, **kwargs):
-            if leads is not None:
-                named.append(int(np.sum(leads >= 0)))
-            return apply(self, *args, leads=leads if keep else None, **kwargs)
+        def patched(self, columns, firsts, counts, deltas, bound, *args, leads=None, starts=None, **kwargs):
+            if leads is not None and keep:
+                named.append(leads.copy())
+                tries.append((np.asarray(counts).copy(), np.asarray(starts).copy(), np.asarray(deltas)))
+            return apply(self, columns, firsts, counts, deltas, bound, *args, leads=leads if keep else None,
+                         starts=starts, **kwargs)
 
         monkeypatch.setattr(FeatureEdits, "apply", patched)
         return compress_motion(walk, "transform", max_error=bound).container.arrays["data"].tobytes()
 
     led = encode(True)
-    assert len(named) > 1 and named[0] == 0 and sum(named) > 0  # later passes name the frames that failed
+    assert len(named) > 1 and all((leads >= 0).all() for leads in named)
+    counts, starts, pool = tries[0]  # the first pass: every move starts at its largest value
+    peaks = [int(np.argmax(np.abs(pool[a:a + n]))) for a, n in zip(starts, counts)]
+    assert named[0].tolist() == peaks
     assert led == encode(False)
+
+
+@pytest.mark.parametrize("frames", [1, 2, 9, 65, 517, 1247])
+def test_each_rows_peak_is_its_largest_value_the_first_of_equals(frames):
+    levels = num_levels(frames)
+    firsts, counts, starts, pool = synthesis(frames, levels)
+    if len(counts) < 2:
+        return
+    count = np.concatenate(counts[1:])
+    start = np.concatenate(starts[1:])
+    expect = [int(np.argmax(np.abs(pool[a:a + n]))) if n else 0 for a, n in zip(start, count)]
+    assert _peaks(count.size, count, start, pool).tolist() == expect
+    # ties: the first of equal values
+    flat = np.array([1.0, -3.0, 3.0, 0.5, 2.0, 2.0])
+    assert _peaks(3, np.array([3, 3, 0]), np.array([0, 3, 0]), flat).tolist() == [1, 1, 0]
