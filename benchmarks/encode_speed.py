@@ -4,6 +4,7 @@
 Usage::
 
     python benchmarks/encode_speed.py [--base REV ...] [--rounds 3] [--repeat 5] [--clip cmu/bvh11/131_01]
+                                      [--frames A:B]
 
 For this checkout and each ``--base`` revision (``git archive`` of its ``motionrep/`` and ``plugins/`` first on
 ``PYTHONPATH``, its compiled extensions built in place from its own sources by its ``setup.py``, so that a base
@@ -46,11 +47,25 @@ def cmu31() -> list[Path]:
     return [p for p in sorted((DATA / "cmu").rglob("*.bvh")) if read(p).num_joints == 31]
 
 
-def child(clip: str, repeat: int, into: Path) -> None:
+def clip_motion(clip: str, frames: str | None):
+    """The clip, or with ``frames`` ``A:B`` its frames ``A .. B - 1`` (a window of the issue's length, 1247 frames,
+    out of a longer clip)."""
+    from motionrep.io import read
+
+    motion = read(DATA / f"{clip}.bvh")
+    if frames:
+        first, end = (int(v) for v in frames.split(":", 1))
+        if not 0 <= first < end <= motion.num_frames:
+            raise SystemExit(f"--frames {frames}: need 0 <= A < B <= {motion.num_frames} (the clip's frames)")
+        motion = motion.frames(slice(first, end))
+    return motion
+
+
+def child(clip: str, repeat: int, into: Path, frames: str | None = None) -> None:
     from motionrep.io import read
     from motionrep.pipeline.compress import compress_motion
 
-    motion = read(DATA / f"{clip}.bvh")
+    motion = clip_motion(clip, frames)
     compress_motion(motion, "transform", max_error="2%")  # warm: compiled code loaded
     wall, cpu = [], []
     for _ in range(repeat):
@@ -73,14 +88,13 @@ def child(clip: str, repeat: int, into: Path) -> None:
                                 "digests": digests}))
 
 
-def profile(clip: str) -> None:
+def profile(clip: str, frames: str | None = None) -> None:
     import cProfile
     import pstats
 
-    from motionrep.io import read
     from motionrep.pipeline.compress import compress_motion
 
-    motion = read(DATA / f"{clip}.bvh")
+    motion = clip_motion(clip, frames)
     compress_motion(motion, "transform", max_error="2%")
     pr = cProfile.Profile()
     pr.enable()
@@ -111,19 +125,27 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--clip", default="cmu/bvh11/131_01")
+    parser.add_argument("--frames", help="A:B, only the clip's frames A .. B - 1 (say 600:1847 of "
+                                         "cmu/fairmotion/01_01: 1247 frames, the issue's length)")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--profile", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.frames and not args.child and not args.profile:
+        try:
+            clip_motion(args.clip, args.frames)
+        except ValueError:
+            parser.error(f"--frames {args.frames}: give A:B, two whole numbers")
     if args.child:
-        child(args.clip, args.repeat, Path(args.child))
+        child(args.clip, args.repeat, Path(args.child), args.frames)
         return 0
     if args.profile:
-        profile(args.clip)
+        profile(args.clip, args.frames)
         return 0
     head = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True,
                           text=True).stdout.strip()
     load = os.getloadavg()
-    print(f"transform encode of {args.clip} at 2 %, best of {args.repeat} over {args.rounds} alternating rounds; "
+    window = f" frames {args.frames}" if args.frames else ""
+    print(f"transform encode of {args.clip}{window} at 2 %, best of {args.repeat} over {args.rounds} alternating rounds; "
           f"load {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} ({os.cpu_count()} CPUs)")
     results: dict[str, list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp_name:
@@ -144,7 +166,8 @@ def main() -> int:
                 env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(root / "plugins")]))
                 out = tmp / f"{r}-{len(results.get(name, []))}.json"
                 subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", str(out), "--clip",
-                                args.clip, "--repeat", str(args.repeat)], check=True, env=env,
+                                args.clip, "--repeat", str(args.repeat)]
+                               + (["--frames", args.frames] if args.frames else []), check=True, env=env,
                                cwd=tempfile.gettempdir())
                 results.setdefault(name, []).append(json.loads(out.read_text()))
     names = list(results)
@@ -164,7 +187,8 @@ def main() -> int:
                 print(f"  {key}: {values}")
     load = os.getloadavg()
     print(f"load at the end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
-    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--profile", "--clip", args.clip], check=True,
+    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--profile", "--clip", args.clip]
+                   + (["--frames", args.frames] if args.frames else []), check=True,
                    env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), str(REPO / "plugins")])),
                    cwd=tempfile.gettempdir())
     return 0 if same else 1
